@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages pmgkit builds against. Idempotent: packages already present are
+# left alone, and apt is not touched at all when nothing is missing.
+set -euo pipefail
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev            # dense/sparse linear algebra, the public vector type
+  libsuitesparse-dev       # CHOLMOD (supernodal sparse Cholesky)
+  libopenblas0-pthread     # BLAS for CHOLMOD's supernodes (about 3x the reference BLAS)
+  libhypre-dev             # BoomerAMG baseline (brings OpenMPI)
+  catch2                   # unit tests (v2)
+  libbenchmark-dev         # Google Benchmark
+  libcli11-dev             # command-line parsing for the pmg tool
+  nlohmann-json3-dev       # JSON (scene files, reports)
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "setup: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,82 @@
+// pmg/sparse/bcsr.hpp — block compressed sparse row with dense 3x3 blocks (elasticity: one block per
+// pair of coupled nodes, three displacement components each).
+//
+// Block k occupies values[9k .. 9k+9), row-major inside the block. One column index per block
+// cuts index traffic to 4 bytes per 9 values: SpMV moves ~8.4 bytes per scalar nonzero instead of
+// CSR's 12, which is where its speed over scalar CSR comes from.
+#pragma once
+
+#include "pmg/sparse/csr.hpp"
+
+#include <Eigen/Dense>
+
+#include <memory>
+#include <vector>
+
+namespace pmg {
+
+using Block3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+struct BlockTriplet {
+  index_t row;  ///< block row
+  index_t col;  ///< block column
+  Block3 value;
+};
+
+/// Pattern of a block matrix: the same arrays as CsrPattern, counted in blocks.
+using BlockPattern = CsrPattern;
+
+class Bcsr final : public LinearOperator {
+ public:
+  static constexpr int kBlock = 3;
+  static constexpr int kBlockSize = kBlock * kBlock;
+
+  Bcsr() : pattern_(std::make_shared<BlockPattern>()) {}
+  Bcsr(std::shared_ptr<const BlockPattern> pattern, std::vector<double> values);
+
+  /// Duplicates are summed.
+  static Bcsr from_block_triplets(index_t block_rows, index_t block_cols,
+                                  const std::vector<BlockTriplet>& triplets);
+  /// Every 3x3 block of A holding at least one pattern entry becomes a stored block (missing
+  /// entries of such a block are stored zeros). A's sizes must be multiples of 3.
+  static Bcsr from_csr(const Csr& A);
+  /// Scalar CSR with all 9 entries of every block (explicit zeros kept).
+  Csr to_csr() const;
+
+  index_t rows() const override { return kBlock * pattern_->rows; }
+  index_t cols() const override { return kBlock * pattern_->cols; }
+  index_t block_rows() const { return pattern_->rows; }
+  index_t block_cols() const { return pattern_->cols; }
+  offset_t num_blocks() const { return pattern_->nnz(); }
+
+  const BlockPattern& pattern() const { return *pattern_; }
+  const std::shared_ptr<const BlockPattern>& shared_pattern() const { return pattern_; }
+  const std::vector<double>& values() const { return values_; }
+  std::vector<double>& values() { return values_; }
+
+  Eigen::Map<Block3> block(offset_t k) { return Eigen::Map<Block3>(values_.data() + kBlockSize * k); }
+  Eigen::Map<const Block3> block(offset_t k) const {
+    return Eigen::Map<const Block3>(values_.data() + kBlockSize * k);
+  }
+  /// Position of block (I, J), or -1. Use it once to build an assembly map, then write values().
+  offset_t find_block(index_t I, index_t J) const { return pattern_->find(I, J); }
+
+  /// Overwrites the values from a scalar matrix whose entries all lie in stored blocks.
+  void set_values(const Csr& A);
+
+  /// Raw kernel: y = A x. OpenMP parallel over block rows.
+  void multiply(const double* x, double* y) const;
+  /// Diagonal blocks (zero where a block row has none), 9 doubles each.
+  std::vector<double> diagonal_blocks() const;
+  Vector diagonal() const;
+
+ private:
+  void apply_impl(const Vector& x, Vector& y) const override;
+  double apply_dot_impl(const Vector& x, Vector& y) const override;
+  void residual_impl(const Vector& b, const Vector& x, Vector& r) const override;
+
+  std::shared_ptr<const BlockPattern> pattern_;
+  std::vector<double> values_;
+};
+
+}  // namespace pmg

@@ -1,0 +1,157 @@
+// Internal: the stopping logic shared by pcg() and mcg(), so both methods decide identically.
+#pragma once
+
+#include "pmg/sparse/krylov.hpp"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace pmg::detail {
+
+class ConvergenceTracker {
+ public:
+  ConvergenceTracker(const char* method, const KrylovParams& p, SolveMonitor* m)
+      : method_(method), p_(p), monitor_(m) {
+    if (!(p.rel_tol >= 0.0)) throw InputError(std::string(method) + ": rel_tol must be >= 0");
+    if (p.max_iterations < 0) throw InputError(std::string(method) + ": max_iterations < 0");
+    if (p.check_every < 1) throw InputError(std::string(method) + ": check_every must be >= 1");
+    if (monitor_) monitor_->start();
+  }
+
+  /// Initial residual norm; returns false if there is nothing to do (r0 = 0).
+  bool start(double r0_norm) {
+    r0_ = r0_norm;
+    if (!std::isfinite(r0_norm)) {
+      fail(SolveStatus::non_finite, "initial residual is not finite (NaN/Inf in A, b or x0)");
+      return false;
+    }
+    if (monitor_) monitor_->record(0, r0_norm > 0 ? 1.0 : 0.0);
+    if (r0_norm == 0.0) {
+      result_.status = SolveStatus::converged;
+      result_.rel_residual = result_.true_rel_residual = 0.0;
+      done_ = true;
+      return false;
+    }
+    result_.rel_residual = 1.0;
+    return true;
+  }
+
+  double r0() const { return r0_; }
+  bool done() const { return done_; }
+
+  /// A curvature or scalar that must be positive (p^T A p, r^T z).
+  bool check_positive(double value, const char* what, int it) {
+    if (!std::isfinite(value)) {
+      fail(SolveStatus::non_finite, std::string(what) + " is not finite at iteration " +
+                                        std::to_string(it));
+      return false;
+    }
+    if (value <= 0.0) {
+      fail(SolveStatus::breakdown, std::string(what) + " = " + fmt(value) + " <= 0 at iteration " +
+                                       std::to_string(it) + ": not symmetric positive definite");
+      return false;
+    }
+    return true;
+  }
+
+  /// Records iteration it with recursive residual norm r_norm. Returns true when the recursive
+  /// residual meets the tolerance (the caller then checks the true residual).
+  bool after_iteration(int it, double r_norm) {
+    const double rel = r_norm / r0_;
+    result_.iterations = it;
+    result_.rel_residual = rel;
+    if (monitor_) monitor_->record(it, rel);
+    if (!std::isfinite(rel)) {
+      fail(SolveStatus::non_finite, "residual became NaN/Inf at iteration " + std::to_string(it));
+      return false;
+    }
+    if (rel > p_.divergence_limit) {
+      fail(SolveStatus::diverged, "relative residual " + fmt(rel) + " exceeds the divergence limit " +
+                                      fmt(p_.divergence_limit) + " at iteration " +
+                                      std::to_string(it));
+      return false;
+    }
+    if (rel < p_.stagnation_factor * reference_) {
+      reference_ = rel;
+      last_progress_ = it;
+    } else if (p_.stagnation_window > 0 && it - last_progress_ >= p_.stagnation_window) {
+      fail(SolveStatus::stagnated, "no progress in " + std::to_string(p_.stagnation_window) +
+                                       " iterations (relative residual " + fmt(rel) + ")");
+      return false;
+    }
+    if (p_.fixed_iterations) {
+      if (rel == 0.0) finish_converged(0.0);
+      else if (it >= p_.max_iterations) {
+        result_.status = SolveStatus::completed;
+        result_.true_rel_residual = std::numeric_limits<double>::quiet_NaN();
+        done_ = true;
+      }
+      return false;
+    }
+    if (rel <= p_.rel_tol) return true;
+    if (it >= p_.max_iterations)
+      fail(SolveStatus::iteration_limit, "relative residual " + fmt(rel) + " after " +
+                                             std::to_string(it) + " iterations, tolerance " +
+                                             fmt(p_.rel_tol));
+    return false;
+  }
+
+  /// Verdict on the true residual after the recursive one converged: true = converged (done);
+  /// false = the caller replaces its residual by the true one and goes on (at most twice).
+  bool accept_true_residual(double true_norm) {
+    const double rel = true_norm / r0_;
+    // The recursive and the true residual differ by rounding; allow that much above tol.
+    if (rel <= 2.0 * p_.rel_tol) {
+      finish_converged(rel);
+      return true;
+    }
+    if (++replacements_ > 2) {
+      fail(SolveStatus::stagnated, "true relative residual " + fmt(rel) + " stays above the tolerance " +
+                                       fmt(p_.rel_tol) + " (limit of attainable accuracy)");
+      return true;
+    }
+    return false;
+  }
+
+  void fail(SolveStatus s, const std::string& why) {
+    result_.status = s;
+    result_.message = std::string(method_) + ": " + why;
+    done_ = true;
+  }
+
+  /// Final result; throws SolveError on failure if so configured. true_norm may be NaN (unknown).
+  SolveResult finish(double true_norm) {
+    if (!done_) fail(SolveStatus::iteration_limit, "stopped before convergence");
+    if (!result_.ok() && std::isfinite(true_norm)) result_.true_rel_residual = true_norm / r0_;
+    if (monitor_) result_.seconds = monitor_->elapsed();
+    if (!result_.ok() && p_.throw_on_failure) throw SolveError(result_);
+    return result_;
+  }
+
+  const SolveResult& result() const { return result_; }
+
+ private:
+  void finish_converged(double true_rel) {
+    result_.status = SolveStatus::converged;
+    result_.true_rel_residual = true_rel;
+    done_ = true;
+  }
+  static std::string fmt(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3e", v);
+    return buf;
+  }
+
+  const char* method_;
+  const KrylovParams& p_;
+  SolveMonitor* monitor_;
+  SolveResult result_;
+  double r0_ = 0.0;
+  double reference_ = 1.0;
+  int last_progress_ = 0;
+  int replacements_ = 0;
+  bool done_ = false;
+};
+
+}  // namespace pmg::detail

@@ -1,0 +1,258 @@
+#include "pmg/sparse/matrix_market.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <unistd.h>
+#include <vector>
+
+namespace pmg {
+
+namespace {
+
+struct Header {
+  bool coordinate = true;
+  bool pattern = false;
+  bool symmetric = false;
+};
+
+/// Line-oriented reader that knows its position, so every error can say "file:line: what".
+class LineReader {
+ public:
+  LineReader(std::istream& in, std::string name) : in_(in), name_(std::move(name)) {}
+
+  /// Next line that is neither a comment nor blank; false at end of file.
+  bool next_data_line(std::string& line) {
+    while (std::getline(in_, line)) {
+      ++line_no_;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const auto first = line.find_first_not_of(" \t");
+      if (first == std::string::npos || line[first] == '%') continue;
+      return true;
+    }
+    return false;
+  }
+  bool next_raw_line(std::string& line) {
+    if (!std::getline(in_, line)) return false;
+    ++line_no_;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return true;
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(name_ + ":" + std::to_string(line_no_) + ": " + what);
+  }
+
+ private:
+  std::istream& in_;
+  std::string name_;
+  long line_no_ = 0;
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::istringstream ss(line);
+  std::vector<std::string> out;
+  for (std::string tok; ss >> tok;) out.push_back(tok);
+  return out;
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+long long parse_integer(const LineReader& rd, const std::string& tok, const char* what) {
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(tok.c_str(), &end, 10);
+  if (end == tok.c_str() || *end != '\0' || errno == ERANGE)
+    rd.fail(std::string("expected an integer ") + what + ", found '" + tok + "'");
+  return v;
+}
+
+double parse_real(const LineReader& rd, const std::string& tok) {
+  char* end = nullptr;
+  const double v = std::strtod(tok.c_str(), &end);
+  if (end == tok.c_str() || *end != '\0') rd.fail("expected a real value, found '" + tok + "'");
+  if (!std::isfinite(v)) rd.fail("value '" + tok + "' is not finite");
+  return v;
+}
+
+Header read_header(LineReader& rd) {
+  std::string line;
+  if (!rd.next_raw_line(line)) rd.fail("empty file (expected a %%MatrixMarket header)");
+  const auto t = split(line);
+  if (t.empty() || t[0] != "%%MatrixMarket")
+    rd.fail("first line must start with %%MatrixMarket");
+  if (t.size() != 5)
+    rd.fail("header must read '%%MatrixMarket matrix <format> <field> <symmetry>'");
+  if (lower(t[1]) != "matrix") rd.fail("unsupported object '" + t[1] + "' (only 'matrix')");
+  Header h;
+  const std::string format = lower(t[2]), field = lower(t[3]), sym = lower(t[4]);
+  if (format == "array") h.coordinate = false;
+  else if (format != "coordinate")
+    rd.fail("unknown format '" + t[2] + "' (expected coordinate or array)");
+  if (field == "pattern") h.pattern = true;
+  else if (field != "real" && field != "integer" && field != "double")
+    rd.fail("unsupported field '" + t[3] + "' (real, integer or pattern)");
+  if (h.pattern && !h.coordinate) rd.fail("the pattern field needs the coordinate format");
+  if (sym == "symmetric") h.symmetric = true;
+  else if (sym != "general")
+    rd.fail("unsupported symmetry '" + t[4] + "' (general or symmetric)");
+  return h;
+}
+
+index_t checked_size(const LineReader& rd, long long v, const char* what) {
+  if (v < 0) rd.fail(std::string("negative ") + what);
+  if (v > std::numeric_limits<index_t>::max())
+    rd.fail(std::string(what) + " " + std::to_string(v) + " exceeds the 32-bit index range");
+  return static_cast<index_t>(v);
+}
+
+struct Parsed {
+  index_t rows = 0, cols = 0;
+  std::vector<Triplet> entries;
+};
+
+Parsed parse(std::istream& in, const std::string& name) {
+  LineReader rd(in, name);
+  const Header h = read_header(rd);
+  std::string line;
+  if (!rd.next_data_line(line)) rd.fail("missing size line");
+  auto t = split(line);
+  const size_t size_fields = h.coordinate ? 3 : 2;
+  if (t.size() != size_fields)
+    rd.fail("size line must hold " + std::to_string(size_fields) + " integers, found " +
+            std::to_string(t.size()) + " fields");
+  Parsed out;
+  out.rows = checked_size(rd, parse_integer(rd, t[0], "row count"), "row count");
+  out.cols = checked_size(rd, parse_integer(rd, t[1], "column count"), "column count");
+  if (h.symmetric && out.rows != out.cols) rd.fail("a symmetric matrix must be square");
+  long long count;
+  if (h.coordinate) {
+    count = parse_integer(rd, t[2], "entry count");
+    if (count < 0) rd.fail("negative entry count");
+  } else {
+    count = static_cast<long long>(out.rows) * out.cols;
+  }
+  out.entries.reserve(static_cast<size_t>(std::min<long long>(count, 1LL << 26)));
+  const size_t fields = h.coordinate ? (h.pattern ? 2 : 3) : 1;
+  for (long long e = 0; e < count; ++e) {
+    if (!rd.next_data_line(line))
+      rd.fail("file ends after " + std::to_string(e) + " of the " + std::to_string(count) +
+              " declared entries");
+    t = split(line);
+    if (t.size() != fields)
+      rd.fail("expected " + std::to_string(fields) + " fields, found " + std::to_string(t.size()));
+    index_t i, j;
+    double v = 1.0;
+    if (h.coordinate) {
+      const long long ii = parse_integer(rd, t[0], "row index");
+      const long long jj = parse_integer(rd, t[1], "column index");
+      if (ii < 1 || ii > out.rows)
+        rd.fail("row index " + t[0] + " outside 1.." + std::to_string(out.rows));
+      if (jj < 1 || jj > out.cols)
+        rd.fail("column index " + t[1] + " outside 1.." + std::to_string(out.cols));
+      i = static_cast<index_t>(ii - 1);
+      j = static_cast<index_t>(jj - 1);
+      if (!h.pattern) v = parse_real(rd, t[2]);
+      if (h.symmetric && i < j)
+        rd.fail("entry (" + t[0] + ", " + t[1] +
+                ") lies above the diagonal; symmetric files store the lower triangle only");
+    } else {
+      i = static_cast<index_t>(e % std::max<index_t>(out.rows, 1));
+      j = static_cast<index_t>(e / std::max<index_t>(out.rows, 1));
+      v = parse_real(rd, t[0]);
+      if (v == 0.0) continue;
+    }
+    out.entries.emplace_back(i, j, v);
+    if (h.symmetric && i != j) out.entries.emplace_back(j, i, v);
+  }
+  if (rd.next_data_line(line))
+    rd.fail("more entries than the " + std::to_string(count) + " declared");
+  return out;
+}
+
+std::ifstream open_input(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open for reading");
+  return in;
+}
+
+}  // namespace
+
+Csr read_matrix_market(std::istream& in, const std::string& name) {
+  Parsed p = parse(in, name);
+  return Csr::from_triplets(p.rows, p.cols, p.entries);
+}
+
+Csr read_matrix_market(const std::string& path) {
+  auto in = open_input(path);
+  return read_matrix_market(in, path);
+}
+
+Vector read_matrix_market_vector(std::istream& in, const std::string& name) {
+  Parsed p = parse(in, name);
+  if (p.cols != 1)
+    throw InputError(name + ": a vector must have one column, this has " + std::to_string(p.cols));
+  Vector v = Vector::Zero(p.rows);
+  for (const auto& t : p.entries) v[t.row()] += t.value();
+  return v;
+}
+
+Vector read_matrix_market_vector(const std::string& path) {
+  auto in = open_input(path);
+  return read_matrix_market_vector(in, path);
+}
+
+void write_file_atomically(const std::string& path, const std::string& contents) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(tmp + ": cannot open for writing");
+    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
+    out.flush();
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw Error(tmp + ": write failed");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": cannot rename the temporary file into place");
+  }
+}
+
+void write_matrix_market(const std::string& path, const Csr& A, bool symmetric) {
+  if (symmetric && !A.is_symmetric(0.0))
+    throw InputError(path + ": matrix is not symmetric; write it as general");
+  const CsrPattern& p = A.pattern();
+  offset_t count = 0;
+  for (index_t i = 0; i < p.rows; ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+      if (!symmetric || p.col_idx[k] <= i) ++count;
+  std::ostringstream out;
+  out.precision(17);
+  out << "%%MatrixMarket matrix coordinate real " << (symmetric ? "symmetric" : "general") << "\n"
+      << "% written by pmgkit\n"
+      << p.rows << " " << p.cols << " " << count << "\n";
+  for (index_t i = 0; i < p.rows; ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+      if (!symmetric || p.col_idx[k] <= i)
+        out << i + 1 << " " << p.col_idx[k] + 1 << " " << A.values()[k] << "\n";
+  write_file_atomically(path, out.str());
+}
+
+void write_matrix_market_vector(const std::string& path, const Vector& v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "%%MatrixMarket matrix array real general\n" << v.size() << " 1\n";
+  for (Eigen::Index i = 0; i < v.size(); ++i) out << v[i] << "\n";
+  write_file_atomically(path, out.str());
+}
+
+}  // namespace pmg

@@ -1,0 +1,32 @@
+#include "pmg/sparse/monitor.hpp"
+
+namespace pmg {
+
+void SolveMonitor::start() {
+  history_.clear();
+  t0_ = std::chrono::steady_clock::now();
+}
+
+double SolveMonitor::elapsed() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+}
+
+void SolveMonitor::record(int iteration, double rel_residual) {
+  history_.push_back({iteration, elapsed(), rel_residual});
+  if (on_record) on_record(history_.back());
+}
+
+const char* to_string(SolveStatus s) {
+  switch (s) {
+    case SolveStatus::converged: return "converged";
+    case SolveStatus::completed: return "completed";
+    case SolveStatus::iteration_limit: return "iteration limit";
+    case SolveStatus::breakdown: return "breakdown";
+    case SolveStatus::diverged: return "diverged";
+    case SolveStatus::non_finite: return "non-finite";
+    case SolveStatus::stagnated: return "stagnated";
+  }
+  return "unknown";
+}
+
+}  // namespace pmg

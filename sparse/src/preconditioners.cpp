@@ -1,0 +1,53 @@
+#include "pmg/sparse/preconditioners.hpp"
+
+#include <cmath>
+#include <string>
+
+namespace pmg {
+
+void JacobiPreconditioner::update(const Vector& diagonal) {
+  inv_diag_.resize(diagonal.size());
+  for (Eigen::Index i = 0; i < diagonal.size(); ++i) {
+    const double d = diagonal[i];
+    if (!(d > 0.0) || !std::isfinite(d))
+      throw InputError("Jacobi: diagonal entry " + std::to_string(i) + " is " + std::to_string(d) +
+                       "; an SPD matrix has a positive diagonal");
+    inv_diag_[i] = 1.0 / d;
+  }
+}
+
+void JacobiPreconditioner::apply_impl(const Vector& r, Vector& z) const {
+  const Eigen::Index n = r.size();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index i = 0; i < n; ++i) z[i] = inv_diag_[i] * r[i];
+}
+
+void BlockJacobiPreconditioner::update(const std::vector<double>& diagonal_blocks) {
+  if (diagonal_blocks.size() % 9 != 0)
+    throw InputError("block Jacobi: diagonal block array is not a multiple of 9");
+  inv_blocks_.resize(diagonal_blocks.size());
+  const size_t nb = diagonal_blocks.size() / 9;
+  for (size_t I = 0; I < nb; ++I) {
+    const Eigen::Map<const Block3> D(diagonal_blocks.data() + 9 * I);
+    Eigen::LLT<Eigen::Matrix3d> llt(D);
+    if (!D.allFinite() || llt.info() != Eigen::Success)
+      throw InputError("block Jacobi: diagonal block " + std::to_string(I) +
+                       " is not symmetric positive definite");
+    Eigen::Map<Block3>(inv_blocks_.data() + 9 * I) = llt.solve(Eigen::Matrix3d::Identity());
+  }
+}
+
+void BlockJacobiPreconditioner::apply_impl(const Vector& r, Vector& z) const {
+  const Eigen::Index nb = r.size() / 3;
+  const double* D = inv_blocks_.data();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index I = 0; I < nb; ++I) {
+    const double* d = D + 9 * I;
+    const double r0 = r[3 * I], r1 = r[3 * I + 1], r2 = r[3 * I + 2];
+    z[3 * I] = d[0] * r0 + d[1] * r1 + d[2] * r2;
+    z[3 * I + 1] = d[3] * r0 + d[4] * r1 + d[5] * r2;
+    z[3 * I + 2] = d[6] * r0 + d[7] * r1 + d[8] * r2;
+  }
+}
+
+}  // namespace pmg
