@@ -28,8 +28,8 @@ class LineReader {
 
   /// Next line that is neither a comment nor blank; false at end of file.
   bool next_data_line(std::string& line) {
-    while (std::getline(in_, line)) {
-      ++line_no_;
+    // line_no_ counts the line being read, so an error at end of file names the missing line.
+    while (++line_no_, std::getline(in_, line)) {
       if (!line.empty() && line.back() == '\r') line.pop_back();
       const auto first = line.find_first_not_of(" \t");
       if (first == std::string::npos || line[first] == '%') continue;
@@ -38,8 +38,8 @@ class LineReader {
     return false;
   }
   bool next_raw_line(std::string& line) {
-    if (!std::getline(in_, line)) return false;
     ++line_no_;
+    if (!std::getline(in_, line)) return false;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
   }

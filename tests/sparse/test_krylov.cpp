@@ -1,0 +1,207 @@
+#include "fixture.hpp"
+
+#include "pmg/sparse/generators.hpp"
+#include "pmg/sparse/krylov.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <limits>
+
+using namespace pmg;
+using namespace pmg::test;
+
+namespace {
+struct LatticeSystem {
+  Bcsr A = spring_lattice(8);
+  Vector x_true = smooth_field(8);
+  Vector b = A.to_csr().to_eigen() * x_true;
+};
+
+double true_rel_residual(const LinearOperator& A, const Vector& b, const Vector& x,
+                         const Vector& x0) {
+  Vector r, r0;
+  A.residual(b, x, r);
+  A.residual(b, x0, r0);
+  return r.norm() / r0.norm();
+}
+}  // namespace
+
+TEST_CASE("CG and PCG reach the tolerance on the true residual and recover the solution",
+          "[sparse][krylov]") {
+  const LatticeSystem s;
+  KrylovParams p;
+  p.rel_tol = 1e-10;
+  const JacobiPreconditioner jac(s.A);
+  const BlockJacobiPreconditioner bjac(s.A);
+  int its_cg = 0;
+  for (const LinearOperator* M : {static_cast<const LinearOperator*>(nullptr),
+                                  static_cast<const LinearOperator*>(&jac),
+                                  static_cast<const LinearOperator*>(&bjac)}) {
+    Vector x = Vector::Zero(s.b.size());
+    SolveMonitor mon;
+    const SolveResult r = pcg(s.A, M, s.b, x, p, &mon);
+    CHECK(r.status == SolveStatus::converged);
+    CHECK(r.true_rel_residual <= 2e-10);
+    CHECK(true_rel_residual(s.A, s.b, x, Vector::Zero(s.b.size())) <= 2e-10);
+    CHECK((x - s.x_true).norm() / s.x_true.norm() < 1e-7);
+    REQUIRE(mon.history().size() == static_cast<size_t>(r.iterations) + 1);
+    CHECK(mon.history().front().rel_residual == 1.0);
+    for (size_t i = 1; i < mon.history().size(); ++i)
+      CHECK(mon.history()[i].seconds >= mon.history()[i - 1].seconds);
+    if (!M) its_cg = r.iterations;
+    else CHECK(r.iterations < its_cg);
+  }
+}
+
+TEST_CASE("merged CG agrees with block-Jacobi PCG to round-off", "[sparse][krylov][mcg]") {
+  const LatticeSystem s;
+  const BlockJacobiPreconditioner M(s.A);
+  KrylovParams p;
+  p.rel_tol = 1e-9;
+  SolveMonitor m1, m2;
+  Vector x1 = Vector::Zero(s.b.size()), x2 = x1;
+  const SolveResult r1 = pcg(s.A, &M, s.b, x1, p, &m1);
+  const SolveResult r2 = mcg(s.A, M, s.b, x2, p, &m2);
+  CHECK(r1.status == SolveStatus::converged);
+  CHECK(r2.status == SolveStatus::converged);
+  CHECK(r1.iterations == r2.iterations);
+  CHECK(rel_diff(x2, x1) < 1e-10);
+  for (size_t i = 0; i < std::min(m1.history().size(), m2.history().size()); ++i)
+    CHECK(m2.history()[i].rel_residual ==
+          Approx(m1.history()[i].rel_residual).epsilon(1e-6).margin(1e-12));
+
+  SECTION("on the BIN-BCSR layout too") {
+    const BinBcsr bin(s.A);
+    Vector x3 = Vector::Zero(s.b.size());
+    const SolveResult r3 = mcg(bin, M, s.b, x3, p);
+    CHECK(r3.iterations == r1.iterations);
+    CHECK(rel_diff(x3, x1) < 1e-10);
+  }
+  SECTION("reading the residual every k iterations stops at a multiple of k") {
+    p.check_every = 8;
+    Vector x3 = Vector::Zero(s.b.size());
+    const SolveResult r3 = mcg(s.A, M, s.b, x3, p);
+    CHECK(r3.status == SolveStatus::converged);
+    CHECK(r3.iterations % 8 == 0);
+    CHECK(r3.iterations >= r1.iterations);
+    CHECK(r3.iterations < r1.iterations + 8);
+  }
+}
+
+TEST_CASE("fixed-iteration mode runs exactly the iterations asked for", "[sparse][krylov]") {
+  const LatticeSystem s;
+  KrylovParams p;
+  p.fixed_iterations = true;
+  p.max_iterations = 20;
+  Vector x = Vector::Zero(s.b.size());
+  SolveMonitor mon;
+  const SolveResult r = cg(s.A, s.b, x, p, &mon);
+  CHECK(r.status == SolveStatus::completed);
+  CHECK(r.ok());
+  CHECK(r.iterations == 20);
+  CHECK(mon.history().size() == 21);
+  CHECK(r.rel_residual < 1.0);
+}
+
+TEST_CASE("a zero right-hand side gives the zero solution at once", "[sparse][krylov]") {
+  const Bcsr A = spring_lattice(3);
+  Vector x;
+  const SolveResult r = cg(A, Vector::Zero(A.rows()), x);
+  CHECK(r.status == SolveStatus::converged);
+  CHECK(r.iterations == 0);
+  CHECK(x.isZero());
+}
+
+TEST_CASE("an indefinite matrix is a breakdown, not a solution", "[sparse][krylov][errors]") {
+  const Csr A = Csr::from_triplets(3, 3, {{0, 0, 2.0}, {1, 1, -1.0}, {2, 2, 1.0}});
+  Vector x;
+  const Vector b = Vector::Ones(3);
+  CHECK_THROWS_WITH(cg(A, b, x), Catch::Contains("not symmetric positive definite"));
+  try {
+    cg(A, b, x);
+  } catch (const SolveError& e) {
+    CHECK(e.result.status == SolveStatus::breakdown);
+  }
+  SECTION("a preconditioner that is not SPD is a breakdown too") {
+    const Csr S = Csr::from_triplets(3, 3, {{0, 0, 2.0}, {1, 1, 1.0}, {2, 2, 1.0}});
+    const Csr negative = Csr::from_triplets(3, 3, {{0, 0, -1.0}, {1, 1, -1.0}, {2, 2, -1.0}});
+    CHECK_THROWS_WITH(pcg(S, &negative, b, x), Catch::Contains("r^T M^{-1} r"));
+    CHECK_THROWS_AS(JacobiPreconditioner(negative), InputError);
+  }
+}
+
+TEST_CASE("a diverging iteration is detected", "[sparse][krylov][errors]") {
+  // Symmetric indefinite with p^T A p = 2e-9 + 1e-18 > 0 at the first step: alpha ~ 1e9 and the
+  // residual jumps by that factor.
+  const Csr A = Csr::from_triplets(2, 2, {{0, 0, 1.0}, {1, 1, -1.0}});
+  Vector b(2);
+  b << 1.0 + 1e-9, 1.0;
+  Vector x;
+  KrylovParams p;
+  p.throw_on_failure = false;
+  const SolveResult r = cg(A, b, x, p);
+  CHECK(r.status == SolveStatus::diverged);
+  CHECK_THAT(r.message, Catch::Contains("divergence limit"));
+}
+
+TEST_CASE("NaN in the matrix or the right-hand side is reported", "[sparse][krylov][errors]") {
+  const Bcsr A0 = spring_lattice(3);
+  Vector b = Vector::Ones(A0.rows()), x;
+  Bcsr A = A0;
+  A.values()[0] = std::numeric_limits<double>::quiet_NaN();  // in the first diagonal block
+  try {
+    cg(A, b, x);
+    FAIL("no error");
+  } catch (const SolveError& e) {
+    CHECK(e.result.status == SolveStatus::non_finite);
+  }
+  b[3] = std::numeric_limits<double>::infinity();
+  CHECK_THROWS_WITH(cg(A0, b, x), Catch::Contains("right-hand side has NaN/Inf"));
+  CHECK_THROWS_AS(BlockJacobiPreconditioner(A), InputError);
+}
+
+TEST_CASE("an inconsistent singular system stagnates and says so", "[sparse][krylov][errors]") {
+  // 1-D Neumann Laplacian (singular: constants) with a right-hand side outside its range.
+  const index_t n = 30;
+  std::vector<Triplet> t;
+  for (index_t i = 0; i + 1 < n; ++i) {
+    t.emplace_back(i, i, 1.0);
+    t.emplace_back(i + 1, i + 1, 1.0);
+    t.emplace_back(i, i + 1, -1.0);
+    t.emplace_back(i + 1, i, -1.0);
+  }
+  const Csr A = Csr::from_triplets(n, n, t);
+  const Vector b = Vector::Ones(n);  // not orthogonal to the null space
+  Vector x;
+  KrylovParams p;
+  p.stagnation_window = 100;
+  try {
+    cg(A, b, x, p);
+    FAIL("no error");
+  } catch (const SolveError& e) {
+    CHECK((e.result.status == SolveStatus::stagnated || e.result.status == SolveStatus::breakdown ||
+           e.result.status == SolveStatus::diverged));
+    CHECK(e.result.true_rel_residual > 0.5);
+  }
+}
+
+TEST_CASE("an unattainable tolerance ends as stagnation at the true residual",
+          "[sparse][krylov][errors]") {
+  const LatticeSystem s;
+  KrylovParams p;
+  p.rel_tol = 1e-22;
+  p.throw_on_failure = false;
+  Vector x = Vector::Zero(s.b.size());
+  const SolveResult r = cg(s.A, s.b, x, p);
+  CHECK(r.status == SolveStatus::stagnated);
+  CHECK_THAT(r.message, Catch::Contains("attainable accuracy"));
+  CHECK(r.true_rel_residual < 1e-12);  // the solution itself is as good as doubles allow
+}
+
+TEST_CASE("the iteration limit is a failure in tolerance mode", "[sparse][krylov][errors]") {
+  const LatticeSystem s;
+  KrylovParams p;
+  p.max_iterations = 5;
+  Vector x = Vector::Zero(s.b.size());
+  CHECK_THROWS_WITH(cg(s.A, s.b, x, p), Catch::Contains("after 5 iterations"));
+}
