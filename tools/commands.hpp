@@ -1,0 +1,19 @@
+// The pmg command's subcommands: each registers its options and its callback on the app.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace pmg::tools {
+
+/// pmg compare: run several solvers on one system, write the residual history, print a table.
+void register_compare(CLI::App& app);
+
+/// Exit codes shared by every subcommand.
+enum ExitCode : int { kOk = 0, kSolveFailed = 1, kBadInput = 2 };
+
+/// Thrown by a subcommand that has reported its outcome and wants this exit code.
+struct Exit {
+  int code;
+};
+
+}  // namespace pmg::tools

@@ -1,0 +1,316 @@
+// pmg compare — runs several solvers on the same system and reports residual against time.
+//
+//   1. Load the system: a Matrix Market matrix (+ optional right-hand side and known solution) or
+//      the built-in spring lattice with a manufactured solution.
+//   2. Convert once to the formats the solvers need (CSR, BCSR 3x3, BIN-BCSR).
+//   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
+//   4. Write the per-iteration history as CSV and print the summary table.
+#include "commands.hpp"
+#include "table.hpp"
+
+#include "pmg/sparse/bin_bcsr.hpp"
+#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/sparse/generators.hpp"
+#include "pmg/sparse/krylov.hpp"
+#include "pmg/sparse/matrix_market.hpp"
+
+#include <omp.h>
+
+#include <chrono>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+namespace pmg::tools {
+
+namespace {
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct Options {
+  std::string matrix, rhs, solution, history;
+  int grid = 24;
+  std::vector<std::string> solvers{"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod"};
+  std::string format = "bcsr";
+  double tol = 1e-8;
+  int max_iterations = 20000;
+  int fixed_iterations = 0;
+  int check_every = 1;
+  int threads = 0;
+};
+
+struct System {
+  std::string description;
+  Csr csr;
+  std::unique_ptr<Bcsr> bcsr;  // when the size is a multiple of 3
+  Vector b, x_true;            // x_true empty when unknown
+};
+
+struct Outcome {
+  std::string name, status = "ok", message;
+  int iterations = 0;
+  double setup = 0, solve = 0, rel_residual = kNaN, rel_error = kNaN;
+  std::vector<IterationRecord> history;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+System load_system(const Options& o) {
+  System s;
+  if (!o.matrix.empty()) {
+    s.csr = read_matrix_market(o.matrix);
+    if (s.csr.rows() != s.csr.cols())
+      throw InputError(o.matrix + ": matrix is " + std::to_string(s.csr.rows()) + "x" +
+                       std::to_string(s.csr.cols()) + "; the solvers need a square matrix");
+    if (!s.csr.is_symmetric(1e-12))
+      throw InputError(o.matrix + ": matrix is not symmetric; CG and Cholesky need an SPD matrix");
+    s.description = o.matrix;
+    if (!o.solution.empty()) s.x_true = read_matrix_market_vector(o.solution);
+    if (!o.rhs.empty()) {
+      s.b = read_matrix_market_vector(o.rhs);
+    } else {
+      // No right-hand side: manufacture one from a known solution so the error can be reported.
+      if (s.x_true.size() == 0) s.x_true = Vector::LinSpaced(s.csr.rows(), 1.0, 2.0);
+      s.b = s.csr.to_eigen() * s.x_true;
+    }
+    if (s.b.size() != s.csr.rows())
+      throw InputError("right-hand side has " + std::to_string(s.b.size()) + " entries, matrix has " +
+                       std::to_string(s.csr.rows()) + " rows");
+    if (s.x_true.size() != 0 && s.x_true.size() != s.csr.rows())
+      throw InputError("solution has " + std::to_string(s.x_true.size()) +
+                       " entries, matrix has " + std::to_string(s.csr.rows()) + " rows");
+    if (s.csr.rows() % 3 == 0) s.bcsr = std::make_unique<Bcsr>(Bcsr::from_csr(s.csr));
+  } else {
+    s.bcsr = std::make_unique<Bcsr>(spring_lattice(o.grid));
+    s.csr = s.bcsr->to_csr();
+    s.x_true = smooth_field(o.grid);
+    s.b = s.csr.to_eigen() * s.x_true;
+    s.description = "built-in spring lattice " + std::to_string(o.grid) + "^3 (27-point 3x3-block "
+                    "stencil, z=0 face fixed)";
+  }
+  return s;
+}
+
+/// The operator the Krylov solvers multiply with, in the requested format.
+struct Formats {
+  const LinearOperator* op = nullptr;
+  std::unique_ptr<BinBcsr> bin;
+};
+
+Formats select_format(const Options& o, const System& s) {
+  Formats f;
+  if (o.format == "csr") {
+    f.op = &s.csr;
+  } else {
+    if (!s.bcsr)
+      throw InputError("format '" + o.format + "' needs a size divisible by 3 (3x3 blocks); use "
+                       "--format csr");
+    if (o.format == "bcsr") {
+      f.op = s.bcsr.get();
+    } else {
+      f.bin = std::make_unique<BinBcsr>(*s.bcsr);
+      f.op = f.bin.get();
+    }
+  }
+  return f;
+}
+
+using Runner = std::function<void(Outcome&, Vector& x)>;
+
+/// Runs a Krylov solve whose preconditioner is built by make_precond (timed as setup).
+Outcome run_krylov(const std::string& name, const KrylovParams& params,
+                   const std::function<std::shared_ptr<void>()>& setup,
+                   const std::function<SolveResult(SolveMonitor&, Vector&)>& solve, Vector& x) {
+  Outcome out;
+  out.name = name;
+  auto t0 = std::chrono::steady_clock::now();
+  auto keep = setup();
+  out.setup = seconds_since(t0);
+  SolveMonitor mon;
+  t0 = std::chrono::steady_clock::now();
+  SolveResult r;
+  try {
+    r = solve(mon, x);
+  } catch (const SolveError& e) {
+    r = e.result;
+    out.message = e.what();
+  }
+  out.solve = seconds_since(t0);
+  out.history = mon.history();
+  out.iterations = r.iterations;
+  out.rel_residual = params.fixed_iterations ? r.rel_residual : r.true_rel_residual;
+  if (std::isnan(out.rel_residual)) out.rel_residual = r.rel_residual;
+  out.status = to_string(r.status);
+  return out;
+}
+
+void write_history(const std::string& path, const std::vector<Outcome>& outcomes) {
+  std::ostringstream csv;
+  csv.precision(10);
+  csv << "solver,iteration,seconds,rel_residual\n";
+  for (const auto& o : outcomes)
+    for (const auto& h : o.history)
+      csv << o.name << "," << h.iteration << "," << o.setup + h.seconds << "," << h.rel_residual
+          << "\n";
+  write_file_atomically(path, csv.str());
+}
+
+/// Setup plus the time at which the history first reached rel (NaN if never).
+double time_to(const Outcome& o, double rel) {
+  for (const auto& h : o.history)
+    if (h.rel_residual <= rel) return o.setup + h.seconds;
+  return kNaN;
+}
+
+void run(const Options& o) {
+  if (o.threads > 0) omp_set_num_threads(o.threads);
+  auto t0 = std::chrono::steady_clock::now();
+  const System sys = load_system(o);
+  const double load_time = seconds_since(t0);
+  t0 = std::chrono::steady_clock::now();
+  const Formats fmt_ = select_format(o, sys);
+  const double convert_time = seconds_since(t0);
+
+  KrylovParams params;
+  params.rel_tol = o.tol;
+  params.max_iterations = o.fixed_iterations > 0 ? o.fixed_iterations : o.max_iterations;
+  params.fixed_iterations = o.fixed_iterations > 0;
+  params.check_every = o.check_every;
+
+  std::cout << "system:  " << sys.description << "\n"
+            << "size:    " << sys.csr.rows() << " unknowns, " << sys.csr.nnz() << " nonzeros"
+            << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "")
+            << "\n"
+            << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
+            << fmt("%.3f", convert_time) << " s), " << omp_get_max_threads() << " threads\n"
+            << "stop:    "
+            << (params.fixed_iterations ? std::to_string(o.fixed_iterations) + " fixed iterations"
+                                        : "relative residual <= " + fmt("%.1e", o.tol))
+            << "\n\n";
+
+  const LinearOperator& A = *fmt_.op;
+  std::vector<Outcome> outcomes;
+  for (const std::string& name : o.solvers) {
+    Vector x = Vector::Zero(sys.b.size());
+    Outcome out;
+    if (name == "cg") {
+      out = run_krylov(name, params, [] { return nullptr; },
+                       [&](SolveMonitor& m, Vector& xx) { return cg(A, sys.b, xx, params, &m); }, x);
+    } else if (name == "jacobi-pcg") {
+      std::shared_ptr<JacobiPreconditioner> M;
+      out = run_krylov(
+          name, params, [&] { return M = std::make_shared<JacobiPreconditioner>(sys.csr); },
+          [&](SolveMonitor& m, Vector& xx) { return pcg(A, M.get(), sys.b, xx, params, &m); }, x);
+    } else if (name == "block-jacobi-pcg" || name == "mcg") {
+      if (!sys.bcsr) throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
+      std::shared_ptr<BlockJacobiPreconditioner> M;
+      const bool merged = name == "mcg";
+      out = run_krylov(
+          name, params, [&] { return M = std::make_shared<BlockJacobiPreconditioner>(*sys.bcsr); },
+          [&](SolveMonitor& m, Vector& xx) {
+            return merged ? mcg(A, *M, sys.b, xx, params, &m)
+                          : pcg(A, M.get(), sys.b, xx, params, &m);
+          },
+          x);
+    } else if (name == "cholmod") {
+      out.name = name;
+      CholmodSolver chol;
+      auto t = std::chrono::steady_clock::now();
+      try {
+        chol.analyze(sys.csr);
+        chol.factorize(sys.csr);
+        out.setup = seconds_since(t);
+        t = std::chrono::steady_clock::now();
+        chol.solve(sys.b, x);
+        out.solve = seconds_since(t);
+        Vector r;
+        sys.csr.residual(sys.b, x, r);
+        out.rel_residual = r.norm() / sys.b.norm();
+        out.iterations = 1;
+        out.history = {{0, 0.0, 1.0}, {1, out.solve, out.rel_residual}};
+        out.status = "solved";
+      } catch (const Error& e) {
+        out.setup = seconds_since(t);
+        out.status = "failed";
+        out.message = e.what();
+        x.setConstant(kNaN);
+      }
+    } else {
+      throw InputError("unknown solver '" + name +
+                       "' (cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod)");
+    }
+    if (sys.x_true.size() && out.message.empty())
+      out.rel_error = (x - sys.x_true).norm() / sys.x_true.norm();
+    outcomes.push_back(std::move(out));
+  }
+
+  Table table({"solver", "status", "iters", "setup [s]", "solve [s]", "t(1e-3) [s]",
+               "t(1e-6) [s]", "rel. residual", "rel. error"});
+  bool failed = false;
+  for (const auto& out : outcomes) {
+    const bool ok = out.message.empty();
+    failed |= !ok;
+    table.add({out.name, out.status, std::to_string(out.iterations), fmt("%.4f", out.setup),
+               fmt("%.4f", out.solve), fmt("%.4f", time_to(out, 1e-3)),
+               fmt("%.4f", time_to(out, 1e-6)), fmt("%.2e", out.rel_residual),
+               fmt("%.2e", out.rel_error)});
+  }
+  table.print(std::cout);
+  for (const auto& out : outcomes)
+    if (!out.message.empty()) std::cout << "\n" << out.name << " failed: " << out.message << "\n";
+  if (!o.history.empty()) {
+    write_history(o.history, outcomes);
+    std::cout << "\nhistory: " << o.history << "\n";
+  }
+  if (failed) throw Exit{kSolveFailed};
+}
+
+}  // namespace
+
+void register_compare(CLI::App& app) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* sub = app.add_subcommand(
+      "compare", "Run CG, PCG (Jacobi, block Jacobi), merged CG and CHOLMOD on one SPD system");
+  sub->add_option("-m,--matrix", opts->matrix, "Matrix Market file (symmetric positive definite)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("-b,--rhs", opts->rhs, "right-hand side (Matrix Market array or n x 1)")
+      ->check(CLI::ExistingFile)
+      ->needs("--matrix");
+  sub->add_option("-x,--solution", opts->solution, "known solution, for the error column")
+      ->check(CLI::ExistingFile)
+      ->needs("--matrix");
+  sub->add_option("-n,--grid", opts->grid, "built-in lattice: nodes per edge (3 unknowns each)")
+      ->check(CLI::Range(2, 400))
+      ->capture_default_str();
+  sub->add_option("-s,--solvers", opts->solvers,
+                  "comma-separated: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod")
+      ->delimiter(',')
+      ->capture_default_str();
+  sub->add_option("-f,--format", opts->format, "matrix format for the Krylov solvers")
+      ->check(CLI::IsMember({"csr", "bcsr", "bin-bcsr"}))
+      ->capture_default_str();
+  sub->add_option("-t,--tol", opts->tol, "relative residual tolerance")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--max-iter", opts->max_iterations, "iteration limit")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--fixed-iterations", opts->fixed_iterations,
+                  "run exactly this many iterations (no tolerance)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--check-every", opts->check_every,
+                  "merged CG: test convergence every k iterations")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("-o,--history", opts->history,
+                  "write the per-iteration history as CSV (solver,iteration,seconds,rel_residual)");
+  sub->add_option("--threads", opts->threads, "OpenMP threads (default: OMP_NUM_THREADS)")
+      ->check(CLI::NonNegativeNumber);
+  sub->callback([opts] { run(*opts); });
+}
+
+}  // namespace pmg::tools
