@@ -104,7 +104,8 @@ double BinBcsr::bytes_per_spmv() const {
 }
 
 // Per bin: sum[r] = D x for its 32 rows, then for each block step k (column-major: the 32 rows read
-// consecutive values) sum[r] += A[pos + 32c] * x[3 col + c].
+// consecutive values) sum[r] += A[pos + 32c] * x[3 col + c]. On the CPU the rows of one block row
+// are visited together so that its column index and x-block are read once, not three times.
 void BinBcsr::multiply(const double* x, double* y) const {
   const index_t n = rows();
   const index_t nbins = num_bins();
@@ -113,10 +114,8 @@ void BinBcsr::multiply(const double* x, double* y) const {
     const index_t row0 = W * b, nrows = std::min(W, n - row0);
     const index_t first = first_block_row_[b], nbr = bin_block_rows_[b];
     double sum[W];
-    index_t local[W];
     for (index_t r = 0; r < nrows; ++r) {
       const index_t row = row0 + r, I = row / B;
-      local[r] = I - first;
       const double* d = diag_.data() + BB * I + B * (row % B);
       const double* xi = x + B * I;
       sum[r] = d[0] * xi[0] + d[1] * xi[1] + d[2] * xi[2];
@@ -126,11 +125,23 @@ void BinBcsr::multiply(const double* x, double* y) const {
     for (index_t k = 0; k < width_[b]; ++k) {
       const index_t* ck = cols + static_cast<offset_t>(k) * nbr;
       const double* vk = vals + static_cast<offset_t>(B * k) * W;
-      for (index_t r = 0; r < nrows; ++r) {
-        const index_t col = ck[local[r]];
-        if (col < 0) continue;
+      for (index_t l = 0; l < nbr; ++l) {
+        const index_t col = ck[l];
+        if (col < 0) continue;  // padding
         const double* xj = x + B * static_cast<offset_t>(col);
-        sum[r] += vk[r] * xj[0] + vk[r + W] * xj[1] + vk[r + 2 * W] * xj[2];
+        const double x0 = xj[0], x1 = xj[1], x2 = xj[2];
+        // Rows of block row first+l that lie in this bin.
+        const index_t r_begin = std::max<index_t>(B * (first + l) - row0, 0);
+        const index_t r_end = std::min<index_t>(B * (first + l + 1) - row0, nrows);
+        if (r_end - r_begin == B) {  // the common case: the whole block row is in this bin
+          const index_t r = r_begin;
+          sum[r] += vk[r] * x0 + vk[r + W] * x1 + vk[r + 2 * W] * x2;
+          sum[r + 1] += vk[r + 1] * x0 + vk[r + 1 + W] * x1 + vk[r + 1 + 2 * W] * x2;
+          sum[r + 2] += vk[r + 2] * x0 + vk[r + 2 + W] * x1 + vk[r + 2 + 2 * W] * x2;
+        } else {
+          for (index_t r = r_begin; r < r_end; ++r)
+            sum[r] += vk[r] * x0 + vk[r + W] * x1 + vk[r + 2 * W] * x2;
+        }
       }
     }
     std::copy_n(sum, nrows, y + row0);
