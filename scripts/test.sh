@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds, and runs the whole test suite (unit tests, tool tests, the
+# benchmark smoke runs and the installed-package consumer build).
+#   scripts/test.sh             Release build in build/
+#   scripts/test.sh --sanitize  AddressSanitizer + UBSan build in build-asan/
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+if [ "${1:-}" = "--sanitize" ]; then
+  export BUILD_DIR=build-asan BUILD_TYPE=RelWithDebInfo
+  scripts/build.sh -DPMG_SANITIZE=ON
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
+  # The consumer check installs and links a plain build; under sanitizers it adds nothing.
+  ctest --test-dir build-asan --output-on-failure -j 2 -LE install
+else
+  scripts/build.sh
+  ctest --test-dir build --output-on-failure -j 2
+fi
