@@ -1,0 +1,43 @@
+// pmg/fem/assembly.hpp — race-free parallel assembly of 3x3-block element matrices into BCSR.
+//
+// Built once per mesh, degree and set of fixed nodes (the pattern never changes): the BCSR pattern
+// over the free nodes, a map from (element, local a, local b) to its block slot, and a greedy
+// colouring of the elements such that no two elements of one colour share a node. Assembly then
+// runs colour by colour with the elements of a colour in parallel, writing blocks and right-hand
+// side entries in place without locks.
+#pragma once
+
+#include "pmg/fem/bb_space.hpp"
+#include "pmg/sparse/bcsr.hpp"
+
+#include <vector>
+
+namespace pmg::fem {
+
+class BlockAssembler {
+ public:
+  /// free_index[node] = index of the node among the free nodes, or -1 for a fixed node.
+  BlockAssembler(const BBSpace& space, std::vector<index_t> free_index);
+
+  index_t num_free() const { return num_free_; }
+  const std::vector<index_t>& free_index() const { return free_index_; }
+  /// A matrix on the pattern of the free nodes with all values zero.
+  Bcsr make_matrix() const { return Bcsr(pattern_, std::vector<double>(9 * pattern_->nnz(), 0.0)); }
+  /// Block slot of (local a, local b) of element e, or -1 if either node is fixed.
+  offset_t slot(index_t e, int a, int b) const {
+    return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
+  }
+  /// Elements grouped by colour; elements of one colour share no node.
+  const std::vector<std::vector<index_t>>& colors() const { return colors_; }
+
+ private:
+  const BBSpace* space_;
+  int n_;
+  std::vector<index_t> free_index_;
+  index_t num_free_ = 0;
+  std::shared_ptr<const BlockPattern> pattern_;
+  std::vector<offset_t> slots_;
+  std::vector<std::vector<index_t>> colors_;
+};
+
+}  // namespace pmg::fem

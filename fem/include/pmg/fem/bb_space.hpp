@@ -1,0 +1,60 @@
+// pmg/fem/bb_space.hpp — degree-p Bernstein–Bézier basis on tetrahedra (p = 1, 2, 3) and the global
+// numbering of its nodes (control points).
+//
+// B_a(λ) = p!/(a0! a1! a2! a3!) λ0^a0 λ1^a1 λ2^a2 λ3^a3 for multi-indices |a| = p. A node lies on the
+// sub-simplex of its nonzero entries and is shared by every element holding that sub-simplex; it is
+// identified by its global vertex ids together with their multiplicities. Global numbering: vertex
+// nodes first (node v is vertex v), then edge nodes, then face nodes (p = 3). Counts: V (p = 1),
+// V + E (p = 2), V + 2E + F (p = 3).
+#pragma once
+
+#include "pmg/fem/mesh.hpp"
+
+#include <array>
+#include <vector>
+
+namespace pmg::fem {
+
+using MultiIndex = std::array<int, 4>;
+
+/// The multi-indices of degree p in local order: vertices (p e_i), then edge nodes (edges 01, 02,
+/// 03, 12, 13, 23; along each from its first vertex to its second), then face nodes (p = 3; faces
+/// 012, 013, 023, 123).
+const std::vector<MultiIndex>& multi_indices(int p);
+/// Number of multi-indices of degree p: (p+1)(p+2)(p+3)/6.
+int num_element_nodes(int p);
+/// Local position of alpha in multi_indices(|alpha|).
+int local_index(const MultiIndex& alpha);
+
+/// B^p_alpha(λ) and its gradient with respect to λ0..λ3.
+double bernstein(const MultiIndex& alpha, const Eigen::Vector4d& lambda);
+Eigen::Vector4d bernstein_gradient(const MultiIndex& alpha, const Eigen::Vector4d& lambda);
+
+class BBSpace {
+ public:
+  BBSpace(const TetMesh& mesh, int degree);
+
+  int degree() const { return p_; }
+  int nodes_per_element() const { return n_; }
+  index_t num_nodes() const { return static_cast<index_t>(positions_.size()); }
+  index_t num_edges() const { return num_edges_; }
+  index_t num_faces() const { return num_faces_; }
+  const TetMesh& mesh() const { return *mesh_; }
+
+  /// Global node of local node a (position in multi_indices(p)) of element e.
+  index_t node(index_t e, int a) const { return element_nodes_[static_cast<size_t>(e) * n_ + a]; }
+  const index_t* element_nodes(index_t e) const {
+    return element_nodes_.data() + static_cast<size_t>(e) * n_;
+  }
+  /// Rest position X_alpha = sum_i (alpha_i / p) X_i of every node (the straight-sided control net).
+  const std::vector<Vec3>& positions() const { return positions_; }
+
+ private:
+  const TetMesh* mesh_;
+  int p_, n_;
+  index_t num_edges_ = 0, num_faces_ = 0;
+  std::vector<index_t> element_nodes_;
+  std::vector<Vec3> positions_;
+};
+
+}  // namespace pmg::fem

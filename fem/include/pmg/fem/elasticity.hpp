@@ -1,0 +1,105 @@
+// pmg/fem/elasticity.hpp — linear and corotational elasticity on degree-p BB tetrahedra.
+//
+// Displacements are full vectors of 3 entries per BB node (node-major). Systems are assembled over
+// the free nodes only (Dirichlet nodes are eliminated): a reduced vector holds 3 entries per free
+// node, in node order.
+//
+// Corotational (one rotation per element, from the linear part): F = Σ_i x_i ∇λ_iᵀ over the four
+// vertices, x_i = X_i + u_i; F = R S with R a proper rotation (det R = +1 even for inverted
+// elements). K_e^R = R K_e Rᵀ blockwise; elastic force f_e = -R K_e (Rᵀ x_e - X_e). Linear elasticity
+// is R = I.
+#pragma once
+
+#include "pmg/fem/assembly.hpp"
+#include "pmg/fem/element.hpp"
+
+#include <functional>
+#include <memory>
+
+namespace pmg::fem {
+
+/// Isotropic material. check() rejects NaN, E <= 0, ν outside (-1, 0.5), density < 0.
+struct Material {
+  double young = 500e3;   ///< Pa
+  double poisson = 0.3;   ///< -
+  double density = 1e3;   ///< kg/m³
+  void check() const;
+  double lambda() const { return young * poisson / ((1 + poisson) * (1 - 2 * poisson)); }
+  double mu() const { return young / (2 * (1 + poisson)); }
+};
+
+/// Proper rotation of the polar decomposition F = R S (SVD-based; for det F < 0 the axis of the
+/// smallest singular value is flipped so that det R = +1).
+Mat3 polar_rotation(const Mat3& F);
+
+using Rotations = std::vector<Mat3>;
+
+class ElasticityModel {
+ public:
+  /// Checks material and element geometry (MeshError names a degenerate or inverted element).
+  ElasticityModel(const TetMesh& mesh, int degree, const Material& material);
+
+  const BBSpace& space() const { return space_; }
+  const Material& material() const { return material_; }
+  index_t num_nodes() const { return space_.num_nodes(); }
+  index_t num_dofs() const { return 3 * space_.num_nodes(); }
+
+  // ---- Dirichlet conditions (set before the first assembly) -------------------------------------
+  /// Fixes every node whose rest position satisfies the predicate (all BB nodes of a face lying in
+  /// a plane, say: that fixes the face exactly).
+  void fix_where(const std::function<bool(const Vec3&)>& predicate);
+  void fix_nodes(const std::vector<index_t>& nodes);
+  index_t num_fixed() const;
+  bool is_fixed(index_t node) const { return fixed_[node] != 0; }
+  /// Pattern, slot map and colouring for the current fixed set (built on first use, then kept).
+  const BlockAssembler& assembler() const;
+  index_t num_free_dofs() const { return 3 * assembler().num_free(); }
+  Vector restrict_to_free(const Vector& full) const;
+  /// Full vector from free values and the prescribed values of the fixed nodes (from `prescribed`).
+  Vector expand(const Vector& free, const Vector& prescribed) const;
+
+  // ---- rotations, matrices, forces --------------------------------------------------------------
+  Rotations rotations(const Vector& u) const;
+  /// K_ff for rotations R (nullptr: linear elasticity) into K (a matrix of assembler()'s pattern),
+  /// and if rhs != nullptr: rhs -= K_fd u_d + Σ_e R K_e (Rᵀ X_e - X_e) restricted to the free nodes,
+  /// with u_d the prescribed values in `prescribed` (a full vector; may be empty for zero).
+  void assemble(const Rotations* R, const Vector& prescribed, Bcsr& K, Vector* rhs) const;
+  /// Elastic forces f = Σ_e -R K_e (Rᵀ x_e - X_e) (full vector).
+  Vector elastic_force(const Vector& u, const Rotations* R) const;
+  /// Σ_e ½ (Rᵀ x_e - X_e)ᵀ K_e (Rᵀ x_e - X_e).
+  double elastic_energy(const Vector& u, const Rotations* R) const;
+
+  // ---- loads (full vectors) ---------------------------------------------------------------------
+  /// Gravity: f_a = ρ g ∫ B_a = ρ g V / C(p+3,3) per element node.
+  Vector gravity(const Vec3& g) const;
+  /// Point force F at x: F B_a(λ(x)) in the element containing x. Throws if x is outside the mesh.
+  void add_point_force(Vector& f, const Vec3& x, const Vec3& F) const;
+  /// Uniform traction t (force per area) on every boundary face whose three vertices satisfy
+  /// on_face: t ∫_face B_a dA = t A / C(p+2,2) for the face's nodes. Returns the area loaded.
+  double add_traction(Vector& f, const std::function<bool(const Vec3&)>& on_face, const Vec3& t) const;
+  /// Body force density b(x) [N/m³] integrated by quadrature exact to the given degree.
+  Vector body_force(const std::function<Vec3(const Vec3&)>& b, int quadrature_degree) const;
+
+  // ---- evaluation -------------------------------------------------------------------------------
+  /// Element containing rest point X and its barycentric coordinates; throws if outside.
+  std::pair<index_t, Eigen::Vector4d> locate(const Vec3& X) const;
+  Vec3 displacement_at(const Vector& u, const Vec3& X) const;
+  /// BB coefficients of the interpolant of u(X) at every node's domain point (exact for
+  /// polynomials of degree <= p).
+  Vector interpolate(const std::function<Vec3(const Vec3&)>& u) const;
+
+  const ElementGeometry& geometry(index_t e) const { return geometry_[e]; }
+
+ private:
+  void element_matrix(index_t e, Eigen::MatrixXd& K) const;
+
+  const TetMesh& mesh_;
+  BBSpace space_;
+  Material material_;
+  const ElementTables& tables_;
+  std::vector<ElementGeometry> geometry_;
+  std::vector<char> fixed_;
+  mutable std::unique_ptr<BlockAssembler> assembler_;
+};
+
+}  // namespace pmg::fem

@@ -1,0 +1,48 @@
+// pmg/fem/element.hpp — element matrices of degree-p BB tetrahedra by closed-form integration.
+//
+//   ∫_T λ^γ dV = 6V γ!/(|γ|+3)!,  so  ∫ B^p_a B^q_b dV = (p!/a!)(q!/b!) 6V (a+b)!/(p+q+3)!
+//   ∇B^p_a = p Σ_k B^{p-1}_{a-e_k} ∇λ_k
+//   S_ab = ∫ ∇B_a ∇B_bᵀ = 6V Gradᵀ G_ab Grad,  G_ab(k,l) = p² ∫ B^{p-1}_{a-e_k} B^{p-1}_{b-e_l} / (6V)
+//   K_ab = λ S_ab + μ S_abᵀ + μ tr(S_ab) I₃
+// The tables G_ab (4x4 per node pair) and the mass table depend only on p: they are built once per
+// degree; per element only the gradients ∇λ_k (rows of D⁻¹) and V are needed.
+#pragma once
+
+#include "pmg/fem/bb_space.hpp"
+
+#include <Eigen/Dense>
+
+namespace pmg::fem {
+
+struct ElementTables {
+  int p = 0, n = 0;
+  std::vector<Eigen::Matrix4d> G;  ///< n*n, G[a*n+b]
+  Eigen::MatrixXd mass;            ///< ∫ B_a B_b / (6V)
+  double load = 0.0;               ///< ∫ B_a / (6V) = 1 / (6 C(p+3,3)), the same for every a
+};
+const ElementTables& element_tables(int p);
+
+/// Rest geometry of one element: gradients of the barycentric coordinates (row k = ∇λ_k) and volume.
+struct ElementGeometry {
+  Eigen::Matrix<double, 4, 3> grad;
+  double volume = 0.0;
+};
+/// Throws MeshError if the element is degenerate or inverted.
+ElementGeometry element_geometry(const Vec3& X0, const Vec3& X1, const Vec3& X2, const Vec3& X3);
+
+/// Barycentric coordinates of point x in the element with the given geometry and first vertex X0.
+Eigen::Vector4d barycentric(const ElementGeometry& g, const Vec3& X0, const Vec3& x);
+
+/// Element stiffness (3n x 3n, node-major: rows 3a..3a+2 belong to node a).
+void element_stiffness(const ElementTables& t, const ElementGeometry& g, double lambda, double mu,
+                       Eigen::MatrixXd& K);
+
+/// Quadrature on the reference tetrahedron in barycentric coordinates (Grundmann–Möller), exact for
+/// polynomials of the given degree; weights sum to 1 (multiply by V).
+struct QuadratureRule {
+  std::vector<Eigen::Vector4d> points;
+  std::vector<double> weights;
+};
+const QuadratureRule& tet_quadrature(int exact_degree);
+
+}  // namespace pmg::fem

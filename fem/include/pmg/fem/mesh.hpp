@@ -1,0 +1,48 @@
+// pmg/fem/mesh.hpp — a tetrahedral mesh (rest vertices + 4 vertex ids per element) and its checks.
+#pragma once
+
+#include "pmg/sparse/types.hpp"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <vector>
+
+namespace pmg::fem {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+using Tet = std::array<index_t, 4>;
+
+/// Invalid mesh or model input; the message names the element, vertex or face.
+class MeshError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+struct TetMesh {
+  std::vector<Vec3> vertices;
+  std::vector<Tet> tets;
+
+  index_t num_vertices() const { return static_cast<index_t>(vertices.size()); }
+  index_t num_tets() const { return static_cast<index_t>(tets.size()); }
+  /// Signed volume det([X1-X0, X2-X0, X3-X0]) / 6 of element e.
+  double signed_volume(index_t e) const;
+  /// Bounding-box diagonal (the length scale of tolerances).
+  double diameter() const;
+};
+
+struct MeshCheckOptions {
+  /// Elements with |V| below this fraction of (mean edge length)^3 / 6 count as degenerate.
+  double degenerate_volume = 1e-10;
+  /// Reorder the vertices of negatively oriented elements instead of rejecting them.
+  bool fix_orientation = false;
+};
+
+/// Checks a mesh and throws MeshError naming the first problem: no elements, non-finite
+/// coordinates, vertex ids out of range or repeated within an element, zero-volume (degenerate) or
+/// inverted elements, duplicate elements, faces shared by more than two elements (non-manifold),
+/// vertices used by no element.
+void check_mesh(TetMesh& mesh, const MeshCheckOptions& options = {});
+
+}  // namespace pmg::fem

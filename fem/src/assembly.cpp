@@ -1,0 +1,74 @@
+#include "pmg/fem/assembly.hpp"
+
+#include <algorithm>
+
+namespace pmg::fem {
+
+BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_index)
+    : space_(&space), n_(space.nodes_per_element()), free_index_(std::move(free_index)) {
+  if (free_index_.size() != static_cast<size_t>(space.num_nodes()))
+    throw InputError("assembler: free_index must have one entry per node");
+  for (index_t f : free_index_) num_free_ = std::max(num_free_, f + 1);
+  const index_t ne = space.mesh().num_tets();
+
+  // Pattern: block (I, J) for every pair of free nodes sharing an element.
+  std::vector<std::vector<index_t>> rows(num_free_);
+  for (index_t e = 0; e < ne; ++e) {
+    const index_t* nodes = space.element_nodes(e);
+    for (int a = 0; a < n_; ++a) {
+      const index_t I = free_index_[nodes[a]];
+      if (I < 0) continue;
+      for (int b = 0; b < n_; ++b) {
+        const index_t J = free_index_[nodes[b]];
+        if (J >= 0) rows[I].push_back(J);
+      }
+    }
+  }
+  auto p = std::make_shared<BlockPattern>();
+  p->rows = p->cols = num_free_;
+  p->row_ptr.assign(num_free_ + 1, 0);
+  for (index_t I = 0; I < num_free_; ++I) {
+    auto& r = rows[I];
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    p->col_idx.insert(p->col_idx.end(), r.begin(), r.end());
+    p->row_ptr[I + 1] = static_cast<offset_t>(p->col_idx.size());
+    std::vector<index_t>().swap(r);
+  }
+  pattern_ = p;
+
+  slots_.assign(static_cast<size_t>(ne) * n_ * n_, -1);
+  for (index_t e = 0; e < ne; ++e) {
+    const index_t* nodes = space.element_nodes(e);
+    for (int a = 0; a < n_; ++a) {
+      const index_t I = free_index_[nodes[a]];
+      if (I < 0) continue;
+      for (int b = 0; b < n_; ++b) {
+        const index_t J = free_index_[nodes[b]];
+        if (J >= 0) slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b] = p->find(I, J);
+      }
+    }
+  }
+
+  // Greedy colouring: the smallest colour not used by an element sharing a node.
+  std::vector<std::vector<index_t>> node_elements(space.num_nodes());
+  for (index_t e = 0; e < ne; ++e)
+    for (int a = 0; a < n_; ++a) node_elements[space.element_nodes(e)[a]].push_back(e);
+  std::vector<int> color(ne, -1);
+  std::vector<index_t> used_by(64, -1);  // used_by[c] == e: colour c is taken for element e
+  for (index_t e = 0; e < ne; ++e) {
+    for (int a = 0; a < n_; ++a)
+      for (index_t other : node_elements[space.element_nodes(e)[a]])
+        if (color[other] >= 0) {
+          if (static_cast<size_t>(color[other]) >= used_by.size()) used_by.resize(2 * used_by.size(), -1);
+          used_by[color[other]] = e;
+        }
+    int c = 0;
+    while (c < static_cast<int>(used_by.size()) && used_by[c] == e) ++c;
+    color[e] = c;
+    if (static_cast<size_t>(c) >= colors_.size()) colors_.resize(c + 1);
+    colors_[c].push_back(e);
+  }
+}
+
+}  // namespace pmg::fem

@@ -1,0 +1,308 @@
+#include "pmg/fem/elasticity.hpp"
+
+#include <Eigen/SVD>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+namespace pmg::fem {
+
+void Material::check() const {
+  if (!std::isfinite(young) || !(young > 0))
+    throw InputError("material: Young's modulus must be a positive number, got " + std::to_string(young));
+  if (!std::isfinite(poisson) || !(poisson > -1.0 && poisson < 0.5))
+    throw InputError("material: Poisson's ratio must lie in (-1, 0.5), got " + std::to_string(poisson));
+  if (!std::isfinite(density) || density < 0)
+    throw InputError("material: density must be >= 0, got " + std::to_string(density));
+}
+
+Mat3 polar_rotation(const Mat3& F) {
+  Eigen::JacobiSVD<Mat3> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 U = svd.matrixU();
+  const Mat3 V = svd.matrixV();
+  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);  // smallest singular value last
+  return U * V.transpose();
+}
+
+ElasticityModel::ElasticityModel(const TetMesh& mesh, int degree, const Material& material)
+    : mesh_(mesh), space_(mesh, degree), material_(material), tables_(element_tables(degree)) {
+  material_.check();
+  geometry_.resize(mesh.num_tets());
+  for (index_t e = 0; e < mesh.num_tets(); ++e) {
+    const Tet& t = mesh.tets[e];
+    try {
+      geometry_[e] = element_geometry(mesh.vertices[t[0]], mesh.vertices[t[1]],
+                                      mesh.vertices[t[2]], mesh.vertices[t[3]]);
+    } catch (const MeshError& err) {
+      throw MeshError("element " + std::to_string(e) + ": " + err.what());
+    }
+  }
+  fixed_.assign(space_.num_nodes(), 0);
+}
+
+void ElasticityModel::fix_where(const std::function<bool(const Vec3&)>& predicate) {
+  if (assembler_) throw Error("fix_where after the first assembly: the pattern is already built");
+  for (index_t i = 0; i < space_.num_nodes(); ++i)
+    if (predicate(space_.positions()[i])) fixed_[i] = 1;
+}
+
+void ElasticityModel::fix_nodes(const std::vector<index_t>& nodes) {
+  if (assembler_) throw Error("fix_nodes after the first assembly: the pattern is already built");
+  for (index_t i : nodes) {
+    if (i < 0 || i >= space_.num_nodes()) throw InputError("fix_nodes: node " + std::to_string(i) + " does not exist");
+    fixed_[i] = 1;
+  }
+}
+
+index_t ElasticityModel::num_fixed() const {
+  index_t n = 0;
+  for (char f : fixed_) n += f;
+  return n;
+}
+
+const BlockAssembler& ElasticityModel::assembler() const {
+  if (!assembler_) {
+    std::vector<index_t> free_index(space_.num_nodes(), -1);
+    index_t next = 0;
+    for (index_t i = 0; i < space_.num_nodes(); ++i)
+      if (!fixed_[i]) free_index[i] = next++;
+    assembler_ = std::make_unique<BlockAssembler>(space_, std::move(free_index));
+  }
+  return *assembler_;
+}
+
+Vector ElasticityModel::restrict_to_free(const Vector& full) const {
+  const auto& fi = assembler().free_index();
+  Vector r(num_free_dofs());
+  for (index_t i = 0; i < space_.num_nodes(); ++i)
+    if (fi[i] >= 0) r.segment<3>(3 * fi[i]) = full.segment<3>(3 * i);
+  return r;
+}
+
+Vector ElasticityModel::expand(const Vector& free, const Vector& prescribed) const {
+  const auto& fi = assembler().free_index();
+  Vector u = Vector::Zero(num_dofs());
+  for (index_t i = 0; i < space_.num_nodes(); ++i) {
+    if (fi[i] >= 0) u.segment<3>(3 * i) = free.segment<3>(3 * fi[i]);
+    else if (prescribed.size()) u.segment<3>(3 * i) = prescribed.segment<3>(3 * i);
+  }
+  return u;
+}
+
+Rotations ElasticityModel::rotations(const Vector& u) const {
+  Rotations R(mesh_.num_tets());
+#pragma omp parallel for schedule(static)
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const Tet& t = mesh_.tets[e];
+    Mat3 F = Mat3::Zero();
+    for (int i = 0; i < 4; ++i)
+      F += (mesh_.vertices[t[i]] + u.segment<3>(3 * t[i])) * geometry_[e].grad.row(i);
+    R[e] = polar_rotation(F);
+  }
+  return R;
+}
+
+void ElasticityModel::element_matrix(index_t e, Eigen::MatrixXd& K) const {
+  element_stiffness(tables_, geometry_[e], material_.lambda(), material_.mu(), K);
+}
+
+namespace {
+/// d_a = Rᵀ (X_a + u_a) - X_a for the element's nodes (u == nullptr: u = 0).
+Eigen::VectorXd corotated_displacement(const BBSpace& s, index_t e, const Vector* u, const Mat3& R) {
+  const int n = s.nodes_per_element();
+  Eigen::VectorXd d(3 * n);
+  for (int a = 0; a < n; ++a) {
+    const index_t i = s.node(e, a);
+    const Vec3& X = s.positions()[i];
+    d.segment<3>(3 * a) = R.transpose() * (u ? Vec3(X + u->segment<3>(3 * i)) : X) - X;
+  }
+  return d;
+}
+}  // namespace
+
+void ElasticityModel::assemble(const Rotations* R, const Vector& prescribed, Bcsr& K,
+                               Vector* rhs) const {
+  const BlockAssembler& as = assembler();
+  if (K.shared_pattern().get() == nullptr || K.block_rows() != as.num_free())
+    throw InputError("assemble: matrix does not have the assembler's pattern");
+  if (R && R->size() != static_cast<size_t>(mesh_.num_tets()))
+    throw InputError("assemble: one rotation per element expected");
+  if (rhs && rhs->size() != num_free_dofs()) throw InputError("assemble: rhs has the wrong size");
+  std::fill(K.values().begin(), K.values().end(), 0.0);
+  const int n = space_.nodes_per_element();
+  const auto& fi = as.free_index();
+  const bool has_prescribed = prescribed.size() == num_dofs() && prescribed.cwiseAbs().maxCoeff() > 0;
+  for (const auto& elements : as.colors()) {
+#pragma omp parallel
+    {
+      Eigen::MatrixXd Ke;
+      Eigen::VectorXd c;
+#pragma omp for schedule(dynamic, 16)
+      for (size_t k = 0; k < elements.size(); ++k) {
+        const index_t e = elements[k];
+        element_matrix(e, Ke);
+        if (R && rhs) {
+          // c_e = R K_e (Rᵀ X_e - X_e), the rest-state force of the rotated element.
+          c = Ke * corotated_displacement(space_, e, nullptr, (*R)[e]);
+        }
+        for (int a = 0; a < n; ++a) {
+          const index_t ia = space_.node(e, a);
+          const index_t I = fi[ia];
+          if (I < 0) continue;
+          Vec3 r = Vec3::Zero();
+          for (int b = 0; b < n; ++b) {
+            Mat3 Kab = Ke.block<3, 3>(3 * a, 3 * b);
+            if (R) Kab = (*R)[e] * Kab * (*R)[e].transpose();
+            const offset_t s = as.slot(e, a, b);
+            if (s >= 0) K.block(s) += Kab;
+            else if (rhs && has_prescribed) r -= Kab * prescribed.segment<3>(3 * space_.node(e, b));
+          }
+          if (R && rhs) r -= (*R)[e] * c.segment<3>(3 * a);
+          if (rhs) rhs->segment<3>(3 * I) += r;
+        }
+      }
+    }
+  }
+}
+
+Vector ElasticityModel::elastic_force(const Vector& u, const Rotations* R) const {
+  Vector f = Vector::Zero(num_dofs());
+  const int n = space_.nodes_per_element();
+  Eigen::MatrixXd Ke;
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    element_matrix(e, Ke);
+    const Mat3 Re = R ? (*R)[e] : Mat3::Identity();
+    const Eigen::VectorXd fe = Ke * corotated_displacement(space_, e, &u, Re);
+    for (int a = 0; a < n; ++a) f.segment<3>(3 * space_.node(e, a)) -= Re * fe.segment<3>(3 * a);
+  }
+  return f;
+}
+
+double ElasticityModel::elastic_energy(const Vector& u, const Rotations* R) const {
+  double energy = 0.0;
+  Eigen::MatrixXd Ke;
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    element_matrix(e, Ke);
+    const Eigen::VectorXd d = corotated_displacement(space_, e, &u, R ? (*R)[e] : Mat3::Identity());
+    energy += 0.5 * d.dot(Ke * d);
+  }
+  return energy;
+}
+
+Vector ElasticityModel::gravity(const Vec3& g) const {
+  Vector f = Vector::Zero(num_dofs());
+  const int n = space_.nodes_per_element();
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const Vec3 fa = material_.density * 6.0 * geometry_[e].volume * tables_.load * g;
+    for (int a = 0; a < n; ++a) f.segment<3>(3 * space_.node(e, a)) += fa;
+  }
+  return f;
+}
+
+std::pair<index_t, Eigen::Vector4d> ElasticityModel::locate(const Vec3& X) const {
+  const double tol = 1e-10;
+  index_t best = -1;
+  double best_min = -1e300;
+  Eigen::Vector4d best_l;
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const Eigen::Vector4d l = barycentric(geometry_[e], mesh_.vertices[mesh_.tets[e][0]], X);
+    if (l.minCoeff() > best_min) {
+      best_min = l.minCoeff();
+      best = e;
+      best_l = l;
+    }
+  }
+  if (best < 0 || best_min < -tol)
+    throw InputError("point (" + std::to_string(X.x()) + ", " + std::to_string(X.y()) + ", " +
+                     std::to_string(X.z()) + ") lies outside the mesh");
+  return {best, best_l};
+}
+
+void ElasticityModel::add_point_force(Vector& f, const Vec3& x, const Vec3& F) const {
+  const auto [e, l] = locate(x);
+  const auto& alpha = multi_indices(space_.degree());
+  for (int a = 0; a < space_.nodes_per_element(); ++a)
+    f.segment<3>(3 * space_.node(e, a)) += bernstein(alpha[a], l) * F;
+}
+
+double ElasticityModel::add_traction(Vector& f, const std::function<bool(const Vec3&)>& on_face,
+                                     const Vec3& t) const {
+  // Boundary faces: faces of exactly one element. Key: sorted vertex ids -> (element, opposite).
+  std::map<std::array<index_t, 3>, std::pair<index_t, int>> once;
+  std::map<std::array<index_t, 3>, int> count;
+  for (index_t e = 0; e < mesh_.num_tets(); ++e)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<index_t, 3> key;
+      for (int i = 0, k = 0; i < 4; ++i)
+        if (i != skip) key[k++] = mesh_.tets[e][i];
+      std::sort(key.begin(), key.end());
+      if (++count[key] == 1) once[key] = {e, skip};
+    }
+  const int p = space_.degree();
+  const double share = 2.0 / ((p + 1.0) * (p + 2.0));  // ∫_face B_a dA / A = 1 / C(p+2,2)
+  const auto& alpha = multi_indices(p);
+  double area_total = 0.0;
+  for (const auto& [key, c] : count) {
+    if (c != 1) continue;
+    const Vec3 &A = mesh_.vertices[key[0]], &B = mesh_.vertices[key[1]], &C = mesh_.vertices[key[2]];
+    if (!on_face(A) || !on_face(B) || !on_face(C)) continue;
+    const double area = 0.5 * (B - A).cross(C - A).norm();
+    area_total += area;
+    const auto [e, skip] = once[key];
+    for (int a = 0; a < space_.nodes_per_element(); ++a)
+      if (alpha[a][skip] == 0) f.segment<3>(3 * space_.node(e, a)) += share * area * t;
+  }
+  return area_total;
+}
+
+Vector ElasticityModel::body_force(const std::function<Vec3(const Vec3&)>& b,
+                                   int quadrature_degree) const {
+  const QuadratureRule& q = tet_quadrature(quadrature_degree + space_.degree());
+  const auto& alpha = multi_indices(space_.degree());
+  Vector f = Vector::Zero(num_dofs());
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const Tet& t = mesh_.tets[e];
+    for (size_t k = 0; k < q.points.size(); ++k) {
+      const Eigen::Vector4d& l = q.points[k];
+      Vec3 x = Vec3::Zero();
+      for (int i = 0; i < 4; ++i) x += l[i] * mesh_.vertices[t[i]];
+      const Vec3 bx = q.weights[k] * geometry_[e].volume * b(x);
+      for (int a = 0; a < space_.nodes_per_element(); ++a)
+        f.segment<3>(3 * space_.node(e, a)) += bernstein(alpha[a], l) * bx;
+    }
+  }
+  return f;
+}
+
+Vec3 ElasticityModel::displacement_at(const Vector& u, const Vec3& X) const {
+  const auto [e, l] = locate(X);
+  const auto& alpha = multi_indices(space_.degree());
+  Vec3 v = Vec3::Zero();
+  for (int a = 0; a < space_.nodes_per_element(); ++a)
+    v += bernstein(alpha[a], l) * u.segment<3>(3 * space_.node(e, a));
+  return v;
+}
+
+Vector ElasticityModel::interpolate(const std::function<Vec3(const Vec3&)>& u) const {
+  const int p = space_.degree(), n = space_.nodes_per_element();
+  const auto& alpha = multi_indices(p);
+  // Collocation at the domain points λ = β/p: C(β, α) = B_α(β/p), the same for every element.
+  Eigen::MatrixXd C(n, n);
+  for (int b = 0; b < n; ++b) {
+    Eigen::Vector4d l;
+    for (int i = 0; i < 4; ++i) l[i] = static_cast<double>(alpha[b][i]) / p;
+    for (int a = 0; a < n; ++a) C(b, a) = bernstein(alpha[a], l);
+  }
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(C);
+  Vector out = Vector::Zero(num_dofs());
+  Eigen::MatrixXd values(n, 3);
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    for (int b = 0; b < n; ++b) values.row(b) = u(space_.positions()[space_.node(e, b)]).transpose();
+    const Eigen::MatrixXd coeff = lu.solve(values);
+    for (int a = 0; a < n; ++a) out.segment<3>(3 * space_.node(e, a)) = coeff.row(a).transpose();
+  }
+  return out;
+}
+
+}  // namespace pmg::fem
