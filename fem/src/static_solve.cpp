@@ -22,6 +22,7 @@ StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, boo
   StaticResult res;
   res.u = prescribed.size() ? prescribed : Vector::Zero(model.num_dofs());
   Rotations R;
+  double omega = options.relaxation, previous_change = INFINITY;
   for (int it = 1;; ++it) {
     if (corotational) R = model.rotations(res.u);
     Vector rhs = f_free;
@@ -37,9 +38,12 @@ StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, boo
     Vector u_free;
     chol.solve(rhs, u_free);
     Vector u_new = model.expand(u_free, prescribed);
-    if (corotational && options.relaxation != 1.0)
-      u_new = res.u + options.relaxation * (u_new - res.u);
     const double change = (u_new - res.u).norm() / std::max(u_new.norm(), 1e-300);
+    if (corotational && it > 1) {
+      if (change > previous_change) omega = std::max(omega / 2, 1.0 / 64);
+      u_new = res.u + omega * (u_new - res.u);
+    }
+    previous_change = change;
     res.u = std::move(u_new);
     res.iterations = it;
     res.last_change = change;

@@ -15,7 +15,9 @@ namespace pmg::fem {
 struct StaticOptions {
   double corotational_tol = 1e-8;
   int max_corotational_iterations = 200;
-  /// Under-relaxation of the fixed point (1 = none); large rotations may need less than 1.
+  /// Initial under-relaxation ω of the fixed point, u <- u + ω (u_new - u). Whenever the relative
+  /// change grows from one iteration to the next, ω is halved (down to 1/64): large rotations make
+  /// the plain iteration oscillate.
   double relaxation = 1.0;
 };
 
