@@ -1,0 +1,135 @@
+#include "manufactured.hpp"
+
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/static_solve.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <iostream>
+#include <limits>
+
+using namespace pmg;
+using namespace pmg::fem;
+using namespace pmg::fem::test;
+
+namespace {
+const Material kSteelish{2.0e5, 0.3, 1.0};
+
+bool on_box_boundary(const Vec3& X, const Vec3& L) {
+  for (int d = 0; d < 3; ++d)
+    if (std::abs(X[d]) < 1e-12 || std::abs(X[d] - L[d]) < 1e-12) return true;
+  return false;
+}
+
+/// Solves the Dirichlet problem for field f on the box (all boundary nodes prescribed by
+/// interpolation) and returns the model's displacement.
+Vector solve_manufactured(ElasticityModel& model, const Field& f, const Vec3& L, int quad_degree) {
+  model.fix_where([&](const Vec3& X) { return on_box_boundary(X, L); });
+  const Vector prescribed = model.interpolate(f.value);
+  const Vector b = model.body_force(body_force_for(f, model.material()), quad_degree);
+  return solve_static(model, b, false, {}, prescribed).u;
+}
+}  // namespace
+
+TEST_CASE("patch test: a degree-p polynomial field is reproduced exactly", "[fem][elasticity]") {
+  const TetMesh m = box_mesh_24(2, 2, 2, 1.0, 0.8, 0.6);
+  const Vec3 L(1.0, 0.8, 0.6);
+  for (int p = 1; p <= 3; ++p) {
+    const Field f = polynomial_field(p, 10 + p);
+    ElasticityModel model(m, p, kSteelish);
+    const Vector u = solve_manufactured(model, f, L, p);
+    const Vector exact = model.interpolate(f.value);
+    INFO("degree " << p);
+    CHECK((u - exact).lpNorm<Eigen::Infinity>() <= 1e-10 * exact.lpNorm<Eigen::Infinity>());
+    CHECK(errors(model, u, f).energy <= 1e-9);
+  }
+}
+
+TEST_CASE("convergence: L2 error order p+1, energy error order p", "[fem][elasticity]") {
+  const Field f = sine_field();
+  const Vec3 L(1.0, 1.0, 1.0);
+  for (int p = 1; p <= 3; ++p) {
+    std::vector<Errors> errs;
+    const std::vector<int> sizes = p == 1 ? std::vector<int>{2, 4, 8} : std::vector<int>{1, 2, 4};
+    for (int n : sizes) {
+      const TetMesh m = box_mesh_24(n, n, n, 1.0, 1.0, 1.0);
+      ElasticityModel model(m, p, kSteelish);
+      errs.push_back(errors(model, solve_manufactured(model, f, L, 2 * p + 4), f));
+    }
+    const double rate_l2 = std::log2(errs[1].l2 / errs[2].l2);
+    const double rate_en = std::log2(errs[1].energy / errs[2].energy);
+    std::cout << "p=" << p << " L2 errors " << errs[0].l2 << " " << errs[1].l2 << " " << errs[2].l2
+              << " (rate " << rate_l2 << "), energy " << errs[0].energy << " " << errs[1].energy
+              << " " << errs[2].energy << " (rate " << rate_en << ")\n";
+    INFO("degree " << p << ": L2 rate " << rate_l2 << ", energy rate " << rate_en);
+    CHECK(rate_l2 > p + 1 - 0.25);
+    CHECK(rate_en > p - 0.15);
+  }
+}
+
+TEST_CASE("rigid rotation: corotational forces rotate and the energy stays, linear does not",
+          "[fem][elasticity][corotational]") {
+  const TetMesh m = box_mesh_24(2, 1, 1, 1.0, 0.5, 0.5);
+  for (int p = 1; p <= 3; ++p) {
+    ElasticityModel model(m, p, kSteelish);
+    const auto& X = model.space().positions();
+    // A deformed state: a smooth displacement.
+    const Vector u = model.interpolate(sine_field().value);
+    // Rotate the deformed configuration rigidly by 90 degrees about z through the origin.
+    const Mat3 Q = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+    Vector uq(u.size());
+    for (index_t i = 0; i < model.num_nodes(); ++i)
+      uq.segment<3>(3 * i) = Q * (X[i] + u.segment<3>(3 * i)) - X[i];
+    const Rotations R = model.rotations(u), Rq = model.rotations(uq);
+    const Vector f = model.elastic_force(u, &R), fq = model.elastic_force(uq, &Rq);
+    double max_diff = 0.0;
+    for (index_t i = 0; i < model.num_nodes(); ++i)
+      max_diff = std::max(max_diff, (fq.segment<3>(3 * i) - Q * f.segment<3>(3 * i)).norm());
+    const double E = model.elastic_energy(u, &R), Eq = model.elastic_energy(uq, &Rq);
+    INFO("degree " << p);
+    CHECK(max_diff <= 1e-10 * f.norm());
+    CHECK(std::abs(Eq - E) <= 1e-10 * E);
+    // Linear elasticity sees a large strain energy in a pure rotation of the rest shape.
+    Vector rot(u.size());
+    for (index_t i = 0; i < model.num_nodes(); ++i) rot.segment<3>(3 * i) = Q * X[i] - X[i];
+    const Rotations Rr = model.rotations(rot);
+    CHECK(model.elastic_energy(rot, &Rr) <= 1e-20 * kSteelish.young);
+    CHECK(model.elastic_energy(rot, nullptr) > 1e3 * E);
+  }
+}
+
+TEST_CASE("polar rotation is proper even for inverted elements", "[fem][corotational]") {
+  const Mat3 Q = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  const Mat3 S = (Mat3() << 1.2, 0.1, 0.0, 0.1, 0.9, 0.05, 0.0, 0.05, 1.1).finished();
+  CHECK((polar_rotation(Q * S) - Q).norm() < 1e-12);
+  const Mat3 inverted = Q * S * Eigen::Vector3d(1, 1, -1).asDiagonal();
+  const Mat3 R = polar_rotation(inverted);
+  CHECK(R.determinant() == Approx(1.0));
+  CHECK((R.transpose() * R - Mat3::Identity()).norm() < 1e-12);
+}
+
+TEST_CASE("bad material, missing supports and bad forces are clear errors", "[fem][errors]") {
+  const TetMesh m = box_mesh_24(1, 1, 1, 1.0, 1.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  CHECK_THROWS_WITH(ElasticityModel(m, 2, Material{nan, 0.3, 1.0}), Catch::Contains("Young's modulus"));
+  CHECK_THROWS_WITH(ElasticityModel(m, 2, Material{-1.0, 0.3, 1.0}), Catch::Contains("Young's modulus"));
+  CHECK_THROWS_WITH(ElasticityModel(m, 2, Material{1.0, 0.5, 1.0}), Catch::Contains("Poisson"));
+  CHECK_THROWS_WITH(ElasticityModel(m, 2, Material{1.0, -1.0, 1.0}), Catch::Contains("Poisson"));
+  CHECK_THROWS_WITH(ElasticityModel(m, 2, Material{1.0, 0.3, -2.0}), Catch::Contains("density"));
+  CHECK_THROWS_WITH(ElasticityModel(m, 4, Material{}), Catch::Contains("degree 4"));
+
+  ElasticityModel model(m, 2, Material{});
+  const Vector g = model.gravity(Vec3(0, 0, -9.81));
+  CHECK_THROWS_WITH(solve_static(model, g, false), Catch::Contains("no node is fixed"));
+  model.fix_nodes({0});  // one point: rotations about it remain free
+  CHECK_THROWS_WITH(solve_static(model, g, false), Catch::Contains("not positive definite"));
+  CHECK_THROWS_WITH(model.fix_nodes({1}), Catch::Contains("after the first assembly"));
+
+  ElasticityModel model2(m, 1, Material{});
+  model2.fix_where([](const Vec3& X) { return X.z() < 1e-12; });
+  Vector bad = Vector::Zero(model2.num_dofs());
+  bad[5] = nan;
+  CHECK_THROWS_WITH(solve_static(model2, bad, false), Catch::Contains("NaN"));
+  CHECK_THROWS_WITH(model2.add_point_force(bad, Vec3(3, 0, 0), Vec3(1, 0, 0)), Catch::Contains("outside the mesh"));
+}
