@@ -12,6 +12,7 @@ packages=(
   libbenchmark-dev         # Google Benchmark
   libcli11-dev             # command-line parsing for the pmg tool
   nlohmann-json3-dev       # JSON (scene files, reports)
+  python3-vtk9             # tests read our .vtu output with a real VTK reader (Debian's python3)
 )
 missing=()
 for p in "${packages[@]}"; do

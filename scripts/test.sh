@@ -10,9 +10,14 @@ if [ "${1:-}" = "--sanitize" ]; then
   export BUILD_DIR=build-asan BUILD_TYPE=RelWithDebInfo
   scripts/build.sh -DPMG_SANITIZE=ON
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
-  # The consumer check installs and links a plain build; under sanitizers it adds nothing.
-  ctest --test-dir build-asan --output-on-failure -j 2 -LE install
+  # The consumer check installs and links a plain build, and the validation runs are the same
+  # code on larger meshes: under sanitizers they add time, not coverage.
+  ctest --test-dir build-asan --output-on-failure -j 2 -LE "install|validation"
 else
   scripts/build.sh
-  ctest --test-dir build --output-on-failure -j 2
+  if [ "${1:-}" = "--validation" ]; then
+    ctest --test-dir build --output-on-failure -j 2
+  else
+    ctest --test-dir build --output-on-failure -j 2 -LE validation
+  fi
 fi

@@ -209,24 +209,6 @@ Vector read_matrix_market_vector(const std::string& path) {
   return read_matrix_market_vector(in, path);
 }
 
-void write_file_atomically(const std::string& path, const std::string& contents) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(tmp + ": cannot open for writing");
-    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw Error(tmp + ": write failed");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw Error(path + ": cannot rename the temporary file into place");
-  }
-}
-
 void write_matrix_market(const std::string& path, const Csr& A, bool symmetric) {
   if (symmetric && !A.is_symmetric(0.0))
     throw InputError(path + ": matrix is not symmetric; write it as general");

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/file_io.hpp"
 
 #include <iosfwd>
 #include <string>
@@ -26,8 +27,5 @@ Vector read_matrix_market_vector(std::istream& in, const std::string& name = "<s
 void write_matrix_market(const std::string& path, const Csr& A, bool symmetric = false);
 /// Writes a dense vector in array format (atomically, as above).
 void write_matrix_market_vector(const std::string& path, const Vector& v);
-
-/// Writes text to path through a temporary file and a rename (shared by every file writer).
-void write_file_atomically(const std::string& path, const std::string& contents);
 
 }  // namespace pmg

@@ -1,0 +1,35 @@
+// pmg/fem/vtk_writer.hpp — VTK XML output with Bézier tetrahedra (VTK_BEZIER_TETRAHEDRON = 78),
+// readable by ParaView and VTK >= 9.
+//
+// Each element is one Bézier cell whose points are its BB control points in VTK's order (vertices;
+// edge points along edges 01, 12, 20, 03, 13, 23; face points of faces 013, 123, 203, 021). The
+// displacement field is written as point data; because the basis is Bernstein, its values are the
+// Bézier coefficients, which is what VTK interpolates on Bézier cells. Files are written to a
+// temporary name and renamed, so a reader never sees a partial file.
+#pragma once
+
+#include "pmg/fem/bb_space.hpp"
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pmg::fem {
+
+struct VtuOptions {
+  /// Write the deformed control points X + u as the geometry (else the rest positions).
+  bool deformed = false;
+};
+
+/// Writes the mesh of `space` with the displacement u (3 per node; may be empty).
+void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
+               const VtuOptions& options = {});
+
+/// The permutation from VTK's point order of a degree-p Bézier tetrahedron to local BB nodes:
+/// vtk_point i is local node vtk_to_local(p)[i].
+const std::vector<int>& vtk_to_local(int p);
+
+/// Writes a ParaView collection (.pvd) of (time, file) frames.
+void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
+
+}  // namespace pmg::fem

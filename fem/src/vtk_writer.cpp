@@ -1,0 +1,101 @@
+#include "pmg/fem/vtk_writer.hpp"
+
+#include "pmg/sparse/file_io.hpp"
+
+#include <sstream>
+
+namespace pmg::fem {
+
+namespace {
+constexpr int kVtkBezierTetrahedron = 78;
+
+std::vector<int> build_vtk_order(int p) {
+  std::vector<MultiIndex> order;
+  for (int i = 0; i < 4; ++i) {
+    MultiIndex a{0, 0, 0, 0};
+    a[i] = p;
+    order.push_back(a);
+  }
+  const int edges[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  for (const auto& e : edges)
+    for (int m = 1; m < p; ++m) {
+      MultiIndex a{0, 0, 0, 0};
+      a[e[0]] = p - m;
+      a[e[1]] = m;
+      order.push_back(a);
+    }
+  if (p == 3) {
+    const int faces[4][3] = {{0, 1, 3}, {1, 2, 3}, {0, 2, 3}, {0, 1, 2}};
+    for (const auto& f : faces) {
+      MultiIndex a{0, 0, 0, 0};
+      a[f[0]] = a[f[1]] = a[f[2]] = 1;
+      order.push_back(a);
+    }
+  }
+  std::vector<int> out;
+  for (const auto& a : order) out.push_back(local_index(a));
+  return out;
+}
+}  // namespace
+
+const std::vector<int>& vtk_to_local(int p) {
+  static const std::vector<int> tables[3] = {build_vtk_order(1), build_vtk_order(2),
+                                             build_vtk_order(3)};
+  if (p < 1 || p > 3) throw InputError("VTK output: degree must be 1, 2 or 3");
+  return tables[p - 1];
+}
+
+void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
+               const VtuOptions& options) {
+  const index_t nn = space.num_nodes(), ne = space.mesh().num_tets();
+  const int n = space.nodes_per_element();
+  if (u.size() != 0 && u.size() != 3 * nn)
+    throw InputError("VTK output: displacement has " + std::to_string(u.size()) +
+                     " entries, expected " + std::to_string(3 * nn));
+  const bool deformed = options.deformed && u.size() != 0;
+  std::ostringstream out;
+  out.precision(17);
+  out << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n<UnstructuredGrid>\n"
+      << "<Piece NumberOfPoints=\"" << nn << "\" NumberOfCells=\"" << ne << "\">\n"
+      << "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+  for (index_t i = 0; i < nn; ++i) {
+    Vec3 x = space.positions()[i];
+    if (deformed) x += u.segment<3>(3 * i);
+    out << x.x() << " " << x.y() << " " << x.z() << "\n";
+  }
+  out << "</DataArray>\n</Points>\n<Cells>\n"
+      << "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  const auto& perm = vtk_to_local(space.degree());
+  for (index_t e = 0; e < ne; ++e) {
+    for (int i = 0; i < n; ++i) out << space.node(e, perm[i]) << (i + 1 < n ? " " : "\n");
+  }
+  out << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+  for (index_t e = 0; e < ne; ++e) out << static_cast<offset_t>(e + 1) * n << "\n";
+  out << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
+  for (index_t e = 0; e < ne; ++e) out << kVtkBezierTetrahedron << "\n";
+  out << "</DataArray>\n</Cells>\n";
+  if (u.size() != 0) {
+    out << "<PointData Vectors=\"displacement\">\n"
+        << "<DataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\" "
+           "format=\"ascii\">\n";
+    for (index_t i = 0; i < nn; ++i)
+      out << u[3 * i] << " " << u[3 * i + 1] << " " << u[3 * i + 2] << "\n";
+    out << "</DataArray>\n</PointData>\n";
+  }
+  out << "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  write_file_atomically(path, out.str());
+}
+
+void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
+  for (const auto& [t, file] : frames)
+    out << "<DataSet timestep=\"" << t << "\" part=\"0\" file=\"" << file << "\"/>\n";
+  out << "</Collection>\n</VTKFile>\n";
+  write_file_atomically(path, out.str());
+}
+
+}  // namespace pmg::fem
