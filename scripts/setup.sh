@@ -13,6 +13,7 @@ packages=(
   libcli11-dev             # command-line parsing for the pmg tool
   nlohmann-json3-dev       # JSON (scene files, reports)
   python3-vtk9             # tests read our .vtu output with a real VTK reader (Debian's python3)
+  tetgen                   # pmg mesh: closed surface -> tetrahedral mesh
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -7,6 +7,8 @@ namespace pmg::tools {
 
 /// pmg compare: run several solvers on one system, write the residual history, print a table.
 void register_compare(CLI::App& app);
+/// pmg mesh: closed surface to tetrahedral mesh (TetGen), or statistics of a mesh file.
+void register_mesh(CLI::App& app);
 
 /// Exit codes shared by every subcommand.
 enum ExitCode : int { kOk = 0, kSolveFailed = 1, kBadInput = 2 };

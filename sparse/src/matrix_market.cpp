@@ -1,10 +1,10 @@
 #include "pmg/sparse/matrix_market.hpp"
 
+#include "pmg/sparse/text_reader.hpp"
+
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -21,71 +21,15 @@ struct Header {
   bool symmetric = false;
 };
 
-/// Line-oriented reader that knows its position, so every error can say "file:line: what".
-class LineReader {
- public:
-  LineReader(std::istream& in, std::string name) : in_(in), name_(std::move(name)) {}
-
-  /// Next line that is neither a comment nor blank; false at end of file.
-  bool next_data_line(std::string& line) {
-    // line_no_ counts the line being read, so an error at end of file names the missing line.
-    while (++line_no_, std::getline(in_, line)) {
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      const auto first = line.find_first_not_of(" \t");
-      if (first == std::string::npos || line[first] == '%') continue;
-      return true;
-    }
-    return false;
-  }
-  bool next_raw_line(std::string& line) {
-    ++line_no_;
-    if (!std::getline(in_, line)) return false;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    return true;
-  }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw InputError(name_ + ":" + std::to_string(line_no_) + ": " + what);
-  }
-
- private:
-  std::istream& in_;
-  std::string name_;
-  long line_no_ = 0;
-};
-
-std::vector<std::string> split(const std::string& line) {
-  std::istringstream ss(line);
-  std::vector<std::string> out;
-  for (std::string tok; ss >> tok;) out.push_back(tok);
-  return out;
-}
-
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   return s;
 }
 
-long long parse_integer(const LineReader& rd, const std::string& tok, const char* what) {
-  errno = 0;
-  char* end = nullptr;
-  const long long v = std::strtoll(tok.c_str(), &end, 10);
-  if (end == tok.c_str() || *end != '\0' || errno == ERANGE)
-    rd.fail(std::string("expected an integer ") + what + ", found '" + tok + "'");
-  return v;
-}
-
-double parse_real(const LineReader& rd, const std::string& tok) {
-  char* end = nullptr;
-  const double v = std::strtod(tok.c_str(), &end);
-  if (end == tok.c_str() || *end != '\0') rd.fail("expected a real value, found '" + tok + "'");
-  if (!std::isfinite(v)) rd.fail("value '" + tok + "' is not finite");
-  return v;
-}
-
-Header read_header(LineReader& rd) {
+Header read_header(TextReader& rd) {
   std::string line;
-  if (!rd.next_raw_line(line)) rd.fail("empty file (expected a %%MatrixMarket header)");
-  const auto t = split(line);
+  if (!rd.next_line(line)) rd.fail("empty file (expected a %%MatrixMarket header)");
+  const auto t = split_tokens(line);
   if (t.empty() || t[0] != "%%MatrixMarket")
     rd.fail("first line must start with %%MatrixMarket");
   if (t.size() != 5)
@@ -106,7 +50,7 @@ Header read_header(LineReader& rd) {
   return h;
 }
 
-index_t checked_size(const LineReader& rd, long long v, const char* what) {
+index_t checked_size(const TextReader& rd, long long v, const char* what) {
   if (v < 0) rd.fail(std::string("negative ") + what);
   if (v > std::numeric_limits<index_t>::max())
     rd.fail(std::string(what) + " " + std::to_string(v) + " exceeds the 32-bit index range");
@@ -119,22 +63,22 @@ struct Parsed {
 };
 
 Parsed parse(std::istream& in, const std::string& name) {
-  LineReader rd(in, name);
+  TextReader rd(in, name, '%');
   const Header h = read_header(rd);
   std::string line;
   if (!rd.next_data_line(line)) rd.fail("missing size line");
-  auto t = split(line);
+  auto t = split_tokens(line);
   const size_t size_fields = h.coordinate ? 3 : 2;
   if (t.size() != size_fields)
     rd.fail("size line must hold " + std::to_string(size_fields) + " integers, found " +
             std::to_string(t.size()) + " fields");
   Parsed out;
-  out.rows = checked_size(rd, parse_integer(rd, t[0], "row count"), "row count");
-  out.cols = checked_size(rd, parse_integer(rd, t[1], "column count"), "column count");
+  out.rows = checked_size(rd, rd.to_integer(t[0], "row count"), "row count");
+  out.cols = checked_size(rd, rd.to_integer(t[1], "column count"), "column count");
   if (h.symmetric && out.rows != out.cols) rd.fail("a symmetric matrix must be square");
   long long count;
   if (h.coordinate) {
-    count = parse_integer(rd, t[2], "entry count");
+    count = rd.to_integer(t[2], "entry count");
     if (count < 0) rd.fail("negative entry count");
   } else {
     count = static_cast<long long>(out.rows) * out.cols;
@@ -145,28 +89,28 @@ Parsed parse(std::istream& in, const std::string& name) {
     if (!rd.next_data_line(line))
       rd.fail("file ends after " + std::to_string(e) + " of the " + std::to_string(count) +
               " declared entries");
-    t = split(line);
+    t = split_tokens(line);
     if (t.size() != fields)
       rd.fail("expected " + std::to_string(fields) + " fields, found " + std::to_string(t.size()));
     index_t i, j;
     double v = 1.0;
     if (h.coordinate) {
-      const long long ii = parse_integer(rd, t[0], "row index");
-      const long long jj = parse_integer(rd, t[1], "column index");
+      const long long ii = rd.to_integer(t[0], "row index");
+      const long long jj = rd.to_integer(t[1], "column index");
       if (ii < 1 || ii > out.rows)
         rd.fail("row index " + t[0] + " outside 1.." + std::to_string(out.rows));
       if (jj < 1 || jj > out.cols)
         rd.fail("column index " + t[1] + " outside 1.." + std::to_string(out.cols));
       i = static_cast<index_t>(ii - 1);
       j = static_cast<index_t>(jj - 1);
-      if (!h.pattern) v = parse_real(rd, t[2]);
+      if (!h.pattern) v = rd.to_real(t[2]);
       if (h.symmetric && i < j)
         rd.fail("entry (" + t[0] + ", " + t[1] +
                 ") lies above the diagonal; symmetric files store the lower triangle only");
     } else {
       i = static_cast<index_t>(e % std::max<index_t>(out.rows, 1));
       j = static_cast<index_t>(e / std::max<index_t>(out.rows, 1));
-      v = parse_real(rd, t[0]);
+      v = rd.to_real(t[0]);
       if (v == 0.0) continue;
     }
     out.entries.emplace_back(i, j, v);

@@ -1,0 +1,34 @@
+// pmg/fem/mesh_io.hpp — tetrahedral mesh readers (Gmsh .msh 4.1 and 2.2 ASCII, TetGen .node/.ele)
+// and closed-surface readers (.off, ASCII/binary .stl) for meshing.
+//
+// Errors name the file, the line and what is wrong. Readers keep only tetrahedra: nodes used by
+// no tetrahedron (surface-only, higher-order) are dropped, higher-order tetrahedra keep their four
+// corners (with a warning), and negatively oriented tetrahedra are reordered. The result has passed
+// check_mesh().
+#pragma once
+
+#include "pmg/fem/mesh.hpp"
+
+#include <string>
+#include <vector>
+
+namespace pmg::fem {
+
+/// Reads .msh (Gmsh), or .node/.ele (TetGen: give either file or the common base name).
+TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings = nullptr);
+TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings = nullptr);
+TetMesh read_tetgen(const std::string& base, std::vector<std::string>* warnings = nullptr);
+
+/// Writes TetGen .node/.ele (1-based), atomically.
+void write_tetgen(const std::string& base, const TetMesh& mesh);
+
+/// A closed triangle surface.
+struct Surface {
+  std::vector<Vec3> vertices;
+  std::vector<std::array<index_t, 3>> triangles;
+  /// Enclosed volume by the divergence theorem (positive for outward-oriented triangles).
+  double volume() const;
+};
+Surface read_surface(const std::string& path);  ///< .off or .stl
+
+}  // namespace pmg::fem

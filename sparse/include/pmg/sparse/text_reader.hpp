@@ -1,0 +1,42 @@
+// pmg/sparse/text_reader.hpp — line-oriented text parsing that knows where it is, so every error
+// reads "file:line: what is wrong". Shared by the Matrix Market and mesh readers.
+#pragma once
+
+#include "pmg/sparse/types.hpp"
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace pmg {
+
+class TextReader {
+ public:
+  /// comment: lines whose first non-blank character is this are skipped by next_data_line().
+  TextReader(std::istream& in, std::string name, char comment = '#');
+
+  /// Next line (the line counter then names it, or the missing line at end of file).
+  bool next_line(std::string& line);
+  /// Next line that is neither blank nor a comment.
+  bool next_data_line(std::string& line);
+  /// Next data line split on white space; fails with `what` at end of file.
+  std::vector<std::string> next_tokens(const char* what);
+
+  [[noreturn]] void fail(const std::string& what) const;
+  long long to_integer(const std::string& token, const char* what) const;
+  /// A finite real number.
+  double to_real(const std::string& token, const char* what = "a real value") const;
+
+  const std::string& name() const { return name_; }
+  long line_number() const { return line_no_; }
+
+ private:
+  std::istream& in_;
+  std::string name_;
+  char comment_;
+  long line_no_ = 0;
+};
+
+std::vector<std::string> split_tokens(const std::string& line);
+
+}  // namespace pmg

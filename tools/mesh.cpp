@@ -1,0 +1,135 @@
+// pmg mesh — closed surface (.off/.stl) to tetrahedral mesh with TetGen, at about a requested
+// number of elements; or statistics of an existing mesh (.msh/.node/.ele).
+//
+//   1. Read the surface, compute its volume (divergence theorem).
+//   2. Run `tetgen -pq<ratio>a<V/N>` in a scratch folder; TetGen's quality refinement adds
+//      elements, so the volume bound is rescaled from the counts obtained (up to 6 runs) until the
+//      count is within 15% of the request.
+//   3. Read TetGen's output back (checks every element), write .node/.ele, print the counts.
+#include "commands.hpp"
+#include "table.hpp"
+
+#include "pmg/fem/bb_space.hpp"
+#include "pmg/fem/mesh_io.hpp"
+#include "pmg/fem/vtk_writer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <unistd.h>
+
+namespace pmg::tools {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct MeshOptions {
+  std::string input, output;
+  long tets = 5000;
+  double quality = 1.414;
+  std::string tetgen = "tetgen";
+  bool vtu = false;
+};
+
+fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& scratch, double max_volume) {
+  const fs::path input = scratch / ("surface" + fs::path(o.input).extension().string());
+  fs::copy_file(o.input, input, fs::copy_options::overwrite_existing);
+  for (const char* ext : {".1.node", ".1.ele", ".1.face", ".1.edge"})
+    fs::remove(scratch / (std::string("surface") + ext));
+  char switches[128];
+  std::snprintf(switches, sizeof switches, "-pq%ga%.6g", o.quality, max_volume);
+  const std::string cmd = "'" + o.tetgen + "' -Q " + switches + " '" + input.string() + "' > '" +
+                          (scratch / "tetgen.log").string() + "' 2>&1";
+  const int rc = std::system(cmd.c_str());
+  // TetGen may exit with 134 even after writing a good mesh: judge by its output files.
+  const fs::path base = scratch / "surface.1";
+  if (!fs::exists(base.string() + ".ele"))
+    throw Error("tetgen failed (exit status " + std::to_string(rc) + ", see " +
+                (scratch / "tetgen.log").string() + "); is the surface closed and free of " +
+                "self-intersections? Is tetgen installed (apt install tetgen)?");
+  return fem::read_tetgen(base.string());
+}
+
+void print_counts(const fem::TetMesh& m) {
+  Table t({"degree", "nodes", "dofs"});
+  for (int p = 1; p <= 3; ++p) {
+    const fem::BBSpace s(m, p);
+    t.add({std::to_string(p), std::to_string(s.num_nodes()), std::to_string(3 * s.num_nodes())});
+  }
+  t.print(std::cout);
+}
+
+void run(const MeshOptions& o) {
+  const std::string ext = fs::path(o.input).extension().string();
+  fem::TetMesh mesh;
+  if (ext == ".off" || ext == ".stl") {
+    const fem::Surface surface = fem::read_surface(o.input);
+    const double volume = std::abs(surface.volume());
+    if (!(volume > 0)) throw InputError(o.input + ": the surface encloses no volume (not closed?)");
+    std::cout << "surface: " << o.input << ", " << surface.vertices.size() << " vertices, "
+              << surface.triangles.size() << " triangles, volume " << fmt("%.6g", volume) << "\n";
+    const fs::path scratch = fs::temp_directory_path() / ("pmg_mesh_" + std::to_string(::getpid()));
+    fs::create_directories(scratch);
+    // count ~ C a^-k: k = 1 would hold without quality refinement; estimate it from the runs.
+    double max_volume = volume / o.tets, previous_volume = 0.0, previous_count = 0.0, k = 1.0;
+    for (int attempt = 1;; ++attempt) {
+      mesh = run_tetgen(o, scratch, max_volume);
+      const double count = mesh.num_tets();
+      std::cout << "tetgen run " << attempt << ": max volume " << fmt("%.3g", max_volume) << " -> "
+                << mesh.num_tets() << " tetrahedra\n";
+      if (std::abs(count / o.tets - 1.0) <= 0.15 || attempt == 6) break;
+      if (previous_count > 0 && count != previous_count)
+        k = std::clamp(std::log(previous_count / count) / std::log(max_volume / previous_volume), 0.2, 2.0);
+      previous_volume = max_volume;
+      previous_count = count;
+      max_volume *= std::pow(count / o.tets, 1.0 / k);
+    }
+    fs::remove_all(scratch);
+  } else {
+    std::vector<std::string> warnings;
+    mesh = fem::read_mesh(o.input, &warnings);
+    for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
+  }
+  std::cout << "mesh: " << mesh.num_tets() << " tetrahedra, " << mesh.num_vertices()
+            << " vertices (all elements checked)\n";
+  print_counts(mesh);
+  if (!o.output.empty()) {
+    std::string base = o.output;
+    for (const char* e : {".node", ".ele"})
+      if (base.size() > 5 && base.substr(base.size() - std::string(e).size()) == e)
+        base.erase(base.size() - std::string(e).size());
+    fem::write_tetgen(base, mesh);
+    std::cout << "written: " << base << ".node, " << base << ".ele\n";
+    if (o.vtu) {
+      fem::write_vtu(base + ".vtu", fem::BBSpace(mesh, 1), Vector());
+      std::cout << "written: " << base << ".vtu\n";
+    }
+  }
+}
+
+}  // namespace
+
+void register_mesh(CLI::App& app) {
+  auto o = std::make_shared<MeshOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "mesh", "Tetrahedralise a closed surface (.off/.stl) with TetGen, or check a mesh");
+  sub->add_option("input", o->input, "surface (.off, .stl) or mesh (.msh, .node, .ele)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("-o,--output", o->output, "output base name (writes BASE.node and BASE.ele)");
+  sub->add_option("-n,--tets", o->tets, "target number of tetrahedra (within 15%)")
+      ->check(CLI::Range(10L, 100000000L))
+      ->capture_default_str();
+  sub->add_option("-q,--quality", o->quality, "TetGen radius-edge bound (-q)")
+      ->check(CLI::Range(1.1, 10.0))
+      ->capture_default_str();
+  sub->add_option("--tetgen", o->tetgen, "TetGen executable")->capture_default_str();
+  sub->add_flag("--vtu", o->vtu, "also write BASE.vtu for viewing");
+  sub->callback([o] { run(*o); });
+}
+
+}  // namespace pmg::tools
