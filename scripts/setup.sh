@@ -14,6 +14,7 @@ packages=(
   nlohmann-json3-dev       # JSON (scene files, reports)
   python3-vtk9             # tests read our .vtu output with a real VTK reader (Debian's python3)
   tetgen                   # pmg mesh: closed surface -> tetrahedral mesh
+  libcgal-dev              # pmg mesh: surface decimation before TetGen (header-only)
 )
 missing=()
 for p in "${packages[@]}"; do

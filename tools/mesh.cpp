@@ -1,17 +1,20 @@
 // pmg mesh — closed surface (.off/.stl) to tetrahedral mesh with TetGen, at about a requested
 // number of elements; or statistics of an existing mesh (.msh/.node/.ele).
 //
-//   1. Read the surface, compute its volume (divergence theorem).
+//   1. Read the surface, compute its volume (divergence theorem); decimate it (CGAL edge collapse)
+//      when it has more triangles than a mesh of the requested size can keep.
 //   2. Run `tetgen -pq<ratio>a<V/N>` in a scratch folder; TetGen's quality refinement adds
 //      elements, so the volume bound is rescaled from the counts obtained (up to 6 runs) until the
 //      count is within 15% of the request.
 //   3. Read TetGen's output back (checks every element), write .node/.ele, print the counts.
 #include "commands.hpp"
+#include "surface_simplify.hpp"
 #include "table.hpp"
 
 #include "pmg/fem/bb_space.hpp"
 #include "pmg/fem/mesh_io.hpp"
 #include "pmg/fem/vtk_writer.hpp"
+#include "pmg/sparse/file_io.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +22,8 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <sstream>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace pmg::tools {
@@ -30,25 +35,33 @@ namespace fs = std::filesystem;
 struct MeshOptions {
   std::string input, output;
   long tets = 5000;
+  long surface_triangles = -1;  // -1: automatic, 0: keep the surface
   double quality = 1.414;
   std::string tetgen = "tetgen";
   bool vtu = false;
 };
 
-fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& scratch, double max_volume) {
-  const fs::path input = scratch / ("surface" + fs::path(o.input).extension().string());
-  fs::copy_file(o.input, input, fs::copy_options::overwrite_existing);
-  for (const char* ext : {".1.node", ".1.ele", ".1.face", ".1.edge"})
-    fs::remove(scratch / (std::string("surface") + ext));
+void write_off(const fs::path& path, const fem::Surface& s) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "OFF\n" << s.vertices.size() << " " << s.triangles.size() << " 0\n";
+  for (const auto& v : s.vertices) out << v.x() << " " << v.y() << " " << v.z() << "\n";
+  for (const auto& t : s.triangles) out << "3 " << t[0] << " " << t[1] << " " << t[2] << "\n";
+  write_file_atomically(path.string(), out.str());
+}
+
+fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::path& scratch,
+                        double max_volume) {  for (const char* ext : {".1.node", ".1.ele", ".1.face", ".1.edge"})
+    fs::remove(input.parent_path() / (input.stem().string() + ext));
   char switches[128];
   std::snprintf(switches, sizeof switches, "-pq%ga%.6g", o.quality, max_volume);
   const std::string cmd = "'" + o.tetgen + "' -Q " + switches + " '" + input.string() + "' > '" +
                           (scratch / "tetgen.log").string() + "' 2>&1";
   const int rc = std::system(cmd.c_str());
   // TetGen may exit with 134 even after writing a good mesh: judge by its output files.
-  const fs::path base = scratch / "surface.1";
+  const fs::path base = input.parent_path() / (input.stem().string() + ".1");
   if (!fs::exists(base.string() + ".ele"))
-    throw Error("tetgen failed (exit status " + std::to_string(rc) + ", see " +
+    throw Error("tetgen failed (exit status " + std::to_string(WIFEXITED(rc) ? WEXITSTATUS(rc) : rc) + ", see " +
                 (scratch / "tetgen.log").string() + "); is the surface closed and free of " +
                 "self-intersections? Is tetgen installed (apt install tetgen)?");
   return fem::read_tetgen(base.string());
@@ -67,22 +80,44 @@ void run(const MeshOptions& o) {
   const std::string ext = fs::path(o.input).extension().string();
   fem::TetMesh mesh;
   if (ext == ".off" || ext == ".stl") {
-    const fem::Surface surface = fem::read_surface(o.input);
+    fem::Surface surface = fem::read_surface(o.input);
     const double volume = std::abs(surface.volume());
     if (!(volume > 0)) throw InputError(o.input + ": the surface encloses no volume (not closed?)");
     std::cout << "surface: " << o.input << ", " << surface.vertices.size() << " vertices, "
               << surface.triangles.size() << " triangles, volume " << fmt("%.6g", volume) << "\n";
     const fs::path scratch = fs::temp_directory_path() / ("pmg_mesh_" + std::to_string(::getpid()));
     fs::create_directories(scratch);
+    // TetGen keeps every surface triangle and refines inwards from them to meet the quality bound:
+    // measured on the CGAL models, about N^(2/3) surface triangles give N elements at -q1.414, so a
+    // finer surface is decimated to that first.
+    const long keep = o.surface_triangles >= 0
+                          ? o.surface_triangles
+                          : static_cast<long>(std::pow(static_cast<double>(o.tets), 2.0 / 3.0));
+    fs::path input = scratch / ("surface" + fs::path(o.input).extension().string());
+    if (keep > 0 && static_cast<long>(surface.triangles.size()) > keep) {
+      surface = simplify_surface(surface, static_cast<size_t>(keep));
+      input = scratch / "surface.off";
+      write_off(input, surface);
+      std::cout << "surface simplified to " << surface.triangles.size() << " triangles (volume "
+                << fmt("%.6g", std::abs(surface.volume())) << ")\n";
+    } else {
+      fs::copy_file(o.input, input, fs::copy_options::overwrite_existing);
+    }
     // count ~ C a^-k: k = 1 would hold without quality refinement; estimate it from the runs.
     double max_volume = volume / o.tets, previous_volume = 0.0, previous_count = 0.0, k = 1.0;
     for (int attempt = 1;; ++attempt) {
-      mesh = run_tetgen(o, scratch, max_volume);
+      mesh = run_tetgen(o, input, scratch, max_volume);
       const double count = mesh.num_tets();
       std::cout << "tetgen run " << attempt << ": max volume " << fmt("%.3g", max_volume) << " -> "
                 << mesh.num_tets() << " tetrahedra\n";
       if (std::abs(count / o.tets - 1.0) <= 0.15 || attempt == 6) break;
-      if (previous_count > 0 && count != previous_count)
+      if (count == previous_count) {
+        std::cout << "warning: the element count no longer follows the volume bound; the surface's "
+                  << surface.triangles.size() << " triangles set the minimum (--surface-triangles "
+                  << "lowers it)\n";
+        break;
+      }
+      if (previous_count > 0)
         k = std::clamp(std::log(previous_count / count) / std::log(max_volume / previous_volume), 0.2, 2.0);
       previous_volume = max_volume;
       previous_count = count;
@@ -124,6 +159,9 @@ void register_mesh(CLI::App& app) {
   sub->add_option("-n,--tets", o->tets, "target number of tetrahedra (within 15%)")
       ->check(CLI::Range(10L, 100000000L))
       ->capture_default_str();
+  sub->add_option("--surface-triangles", o->surface_triangles,
+                  "decimate the surface to this many triangles first (default: N^(2/3); 0: never)")
+      ->check(CLI::Range(-1L, 100000000L));
   sub->add_option("-q,--quality", o->quality, "TetGen radius-edge bound (-q)")
       ->check(CLI::Range(1.1, 10.0))
       ->capture_default_str();
