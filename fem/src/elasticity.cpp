@@ -166,6 +166,39 @@ void ElasticityModel::assemble(const Rotations* R, const Vector& prescribed, Bcs
   }
 }
 
+void ElasticityModel::assemble_mass(Bcsr& M) const {
+  const BlockAssembler& as = assembler();
+  if (M.block_rows() != as.num_free()) throw InputError("assemble_mass: matrix does not have the assembler's pattern");
+  std::fill(M.values().begin(), M.values().end(), 0.0);
+  const int n = space_.nodes_per_element();
+  for (const auto& elements : as.colors()) {
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < elements.size(); ++k) {
+      const index_t e = elements[k];
+      const double scale = material_.density * 6.0 * geometry_[e].volume;
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b) {
+          const offset_t s = as.slot(e, a, b);
+          if (s < 0) continue;
+          const double m = scale * tables_.mass(a, b);
+          auto blk = M.block(s);
+          blk(0, 0) += m;
+          blk(1, 1) += m;
+          blk(2, 2) += m;
+        }
+    }
+  }
+}
+
+Vector ElasticityModel::lumped_mass() const {
+  Vector m = Vector::Zero(space_.num_nodes());
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const double me = material_.density * 6.0 * geometry_[e].volume * tables_.load;
+    for (int a = 0; a < space_.nodes_per_element(); ++a) m[space_.node(e, a)] += me;
+  }
+  return m;
+}
+
 Vector ElasticityModel::elastic_force(const Vector& u, const Rotations* R) const {
   Vector f = Vector::Zero(num_dofs());
   const int n = space_.nodes_per_element();

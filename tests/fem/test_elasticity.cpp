@@ -99,6 +99,25 @@ TEST_CASE("rigid rotation: corotational forces rotate and the energy stays, line
   }
 }
 
+TEST_CASE("mass: consistent and lumped masses add up to ρ V", "[fem][elasticity][mass]") {
+  const TetMesh m = box_mesh_24(2, 1, 1, 1.0, 0.5, 0.4);
+  for (int p = 1; p <= 3; ++p) {
+    ElasticityModel model(m, p, Material{1e5, 0.3, 1200.0});
+    pmg::Bcsr M = model.assembler().make_matrix();  // no node fixed: the full mass matrix
+    model.assemble_mass(M);
+    const Vector ones = Vector::Ones(M.rows());
+    Vector Mo;
+    M.apply(ones, Mo);
+    INFO("degree " << p);
+    CHECK(Mo.sum() / 3 == Approx(1200.0 * 0.2).epsilon(1e-12));  // per component: ρ V
+    CHECK(M.to_csr().is_symmetric(1e-14));
+    const Vector lumped = model.lumped_mass();
+    CHECK(lumped.minCoeff() > 0.0);
+    CHECK(lumped.sum() == Approx(1200.0 * 0.2).epsilon(1e-12));
+    for (index_t i = 0; i < model.num_nodes(); ++i) CHECK(Mo[3 * i] == Approx(lumped[i]).epsilon(1e-12));
+  }
+}
+
 TEST_CASE("polar rotation is proper even for inverted elements", "[fem][corotational]") {
   const Mat3 Q = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
   const Mat3 S = (Mat3() << 1.2, 0.1, 0.0, 0.1, 0.9, 0.05, 0.0, 0.05, 1.1).finished();

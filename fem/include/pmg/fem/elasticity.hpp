@@ -64,6 +64,11 @@ class ElasticityModel {
   /// and if rhs != nullptr: rhs -= K_fd u_d + Σ_e R K_e (Rᵀ X_e - X_e) restricted to the free nodes,
   /// with u_d the prescribed values in `prescribed` (a full vector; may be empty for zero).
   void assemble(const Rotations* R, const Vector& prescribed, Bcsr& K, Vector* rhs) const;
+  /// Consistent mass M_ab = ρ ∫ B_a B_b dV · I₃ over the free nodes, into a matrix of assembler()'s
+  /// pattern (rotation invariant: assembled once).
+  void assemble_mass(Bcsr& M) const;
+  /// BB row-sum lumped masses per node, m_a = ρ ∫ B_a dV (all positive; full, one per node).
+  Vector lumped_mass() const;
   /// Elastic forces f = Σ_e -R K_e (Rᵀ x_e - X_e) (full vector).
   Vector elastic_force(const Vector& u, const Rotations* R) const;
   /// Σ_e ½ (Rᵀ x_e - X_e)ᵀ K_e (Rᵀ x_e - X_e).
