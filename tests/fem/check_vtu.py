@@ -1,5 +1,6 @@
 """Reads pmgkit's .vtu with VTK's own XML reader and checks every sampled point: the Bezier cell's
-geometry and its interpolated displacement must match what pmgkit computed. Exit 77 = skipped."""
+geometry and its interpolated displacement must match what pmgkit computed; then reads the frames
+of the .pvd series. Exit 77 = skipped."""
 import sys
 
 try:
@@ -33,5 +34,15 @@ for line in open(directory + "/samples.csv"):
     worst_x = max(worst_x, max(abs(x[k] - v[4 + k]) for k in range(3)))
     worst_d = max(worst_d, max(abs(d[k] - v[7 + k]) for k in range(3)))
     count += 1
+# The .pvd collection: a well-formed XML list of (time, file) whose files VTK reads.
+import xml.etree.ElementTree as ET
+frames = [(float(d.get("timestep")), d.get("file")) for d in ET.parse(directory + "/series.pvd").getroot().iter("DataSet")]
+assert [t for t, _ in frames] == [0.0, 0.5], frames
+for _, name in frames:
+    r = vtk.vtkXMLUnstructuredGridReader()
+    r.SetFileName(directory + "/" + name)
+    r.Update()
+    assert r.GetOutput().GetNumberOfCells() == grid.GetNumberOfCells(), name
+
 print(f"degree {degree}: {count} points, max position error {worst_x:.2e}, max displacement error {worst_d:.2e}")
 sys.exit(0 if count > 0 and worst_x < 1e-12 and worst_d < 1e-12 else 1)

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   VtuOptions opt;
   opt.deformed = true;
   write_vtu(dir + "/sample.vtu", model.space(), u, opt);
+  write_vtu(dir + "/rest.vtu", model.space(), Vector::Zero(u.size()));
+  write_pvd(dir + "/series.pvd", {{0.0, "rest.vtu"}, {0.5, "sample.vtu"}});
   std::ofstream csv(dir + "/samples.csv");
   csv.precision(17);
   std::mt19937 gen(1);
