@@ -1,6 +1,6 @@
 #include "pmg/sparse/krylov.hpp"
 
-#include "convergence.hpp"
+#include "pmg/sparse/convergence.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "convergence.hpp"
+#include "pmg/sparse/convergence.hpp"
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 

@@ -1,4 +1,6 @@
-// Internal: the stopping logic shared by pcg() and mcg(), so both methods decide identically.
+// pmg/sparse/convergence.hpp — the stopping logic shared by every iterative method (CG, PCG, MCG,
+// stationary multigrid), so all decide identically: relative residual against tol, true-residual
+// confirmation, divergence, NaN/Inf, stagnation, iteration limit. For implementers of solvers.
 #pragma once
 
 #include "pmg/sparse/krylov.hpp"

@@ -1,0 +1,55 @@
+// pmg/fem/hierarchy.hpp — the degree hierarchy of p-multigrid on one mesh: models of degree
+// p, p-1, ..., 1 with the same material and Dirichlet set, their matrices (re-discretised with the
+// same rotations: the "geometric" coarse operators), and the transfers between them over the free
+// nodes. pmg::multigrid consumes the matrices and transfers; fem knows nothing of cycles.
+//
+// Prolongation by degree elevation (exact: the BB spaces are nested):
+//   b^p_α = Σ_{k: α_k>0} (α_k/p) b^{p-1}_{α-e_k}
+// The seed's interpolating restriction (an option to compare with R = Pᵀ): cubic→quadratic copies
+// the vertex coefficients and sets the edge coefficient to (-b_30 + 3 b_21 + 3 b_12 - b_03)/4 (the
+// quadratic interpolating the cubic at the edge midpoint); quadratic→linear drops the edge nodes.
+#pragma once
+
+#include "pmg/fem/elasticity.hpp"
+
+#include <functional>
+#include <memory>
+#include <vector>
+
+namespace pmg::fem {
+
+/// Scalar prolongation (fine free nodes x coarse free nodes) from degree p-1 to degree p.
+Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
+                     const BBSpace& coarse, const std::vector<index_t>& coarse_free);
+/// The seed's interpolating restriction (coarse free nodes x fine free nodes).
+Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& fine_free,
+                              const BBSpace& coarse, const std::vector<index_t>& coarse_free);
+
+class DegreeHierarchy {
+ public:
+  /// Levels l = 0..degree-1 hold degree l+1; `fixed` selects the Dirichlet nodes by rest position
+  /// on every level (all BB nodes of a fixed face on each).
+  DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
+                  const std::function<bool(const Vec3&)>& fixed);
+
+  int num_levels() const { return static_cast<int>(models_.size()); }
+  const ElasticityModel& model(int level) const { return *models_[level]; }
+  const ElasticityModel& finest() const { return *models_.back(); }
+  Bcsr& matrix(int level) { return matrices_[level]; }
+  const Bcsr& matrix(int level) const { return matrices_[level]; }
+  /// Prolongation from level-1 to level (level >= 1).
+  const Csr& prolongation(int level) const { return prolongations_[level - 1]; }
+  Csr interpolating_restriction(int level) const;
+
+  /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
+  /// level, and on the finest level also the right-hand side correction (see
+  /// ElasticityModel::assemble) when rhs != nullptr. Patterns are kept; only values change.
+  void assemble(const Rotations* R, Vector* rhs = nullptr);
+
+ private:
+  std::vector<std::unique_ptr<ElasticityModel>> models_;
+  std::vector<Bcsr> matrices_;
+  std::vector<Csr> prolongations_;
+};
+
+}  // namespace pmg::fem

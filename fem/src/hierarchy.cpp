@@ -1,0 +1,113 @@
+#include "pmg/fem/hierarchy.hpp"
+
+#include <map>
+
+namespace pmg::fem {
+
+namespace {
+
+void check_pair(const BBSpace& fine, const BBSpace& coarse) {
+  if (&fine.mesh() != &coarse.mesh() || fine.degree() != coarse.degree() + 1)
+    throw InputError("degree transfer: spaces must share the mesh and differ by one degree");
+}
+
+/// Collects (row, col, weight) entries that several elements may set identically.
+Csr from_entries(index_t rows, index_t cols, const std::map<std::pair<index_t, index_t>, double>& e) {
+  std::vector<Triplet> t;
+  t.reserve(e.size());
+  for (const auto& [ij, w] : e) t.emplace_back(ij.first, ij.second, w);
+  return Csr::from_triplets(rows, cols, t);
+}
+
+index_t count_free(const std::vector<index_t>& f) {
+  index_t n = 0;
+  for (index_t i : f) n = std::max(n, i + 1);
+  return n;
+}
+
+}  // namespace
+
+Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
+                     const BBSpace& coarse, const std::vector<index_t>& coarse_free) {
+  check_pair(fine, coarse);
+  const int p = fine.degree();
+  const auto& alpha = multi_indices(p);
+  std::map<std::pair<index_t, index_t>, double> entries;
+  for (index_t e = 0; e < fine.mesh().num_tets(); ++e)
+    for (int a = 0; a < fine.nodes_per_element(); ++a) {
+      const index_t I = fine_free[fine.node(e, a)];
+      if (I < 0) continue;
+      for (int k = 0; k < 4; ++k) {
+        if (alpha[a][k] == 0) continue;
+        MultiIndex beta = alpha[a];
+        --beta[k];
+        const index_t J = coarse_free[coarse.node(e, local_index(beta))];
+        if (J >= 0) entries[{I, J}] = static_cast<double>(alpha[a][k]) / p;
+      }
+    }
+  return from_entries(count_free(fine_free), count_free(coarse_free), entries);
+}
+
+Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& fine_free,
+                              const BBSpace& coarse, const std::vector<index_t>& coarse_free) {
+  check_pair(fine, coarse);
+  const int q = coarse.degree();
+  const auto& beta = multi_indices(q);
+  std::map<std::pair<index_t, index_t>, double> entries;
+  auto fine_node = [&](index_t e, const MultiIndex& a) { return fine_free[fine.node(e, local_index(a))]; };
+  for (index_t e = 0; e < fine.mesh().num_tets(); ++e)
+    for (int b = 0; b < coarse.nodes_per_element(); ++b) {
+      const index_t J = coarse_free[coarse.node(e, b)];
+      if (J < 0) continue;
+      int support[4], n = 0;
+      for (int i = 0; i < 4; ++i)
+        if (beta[b][i] > 0) support[n++] = i;
+      if (n == 1) {  // vertex: copy
+        MultiIndex a{0, 0, 0, 0};
+        a[support[0]] = q + 1;
+        const index_t I = fine_node(e, a);
+        if (I >= 0) entries[{J, I}] = 1.0;
+      } else if (n == 2 && q == 2) {  // quadratic edge node from the cubic edge
+        const int i = support[0], j = support[1];
+        const int w[4][2] = {{3, 0}, {2, 1}, {1, 2}, {0, 3}};
+        const double weight[4] = {-0.25, 0.75, 0.75, -0.25};
+        for (int m = 0; m < 4; ++m) {
+          MultiIndex a{0, 0, 0, 0};
+          a[i] = w[m][0];
+          a[j] = w[m][1];
+          const index_t I = fine_node(e, a);
+          if (I >= 0) entries[{J, I}] = weight[m];
+        }
+      } else {
+        throw InputError("interpolating restriction: only cubic->quadratic and quadratic->linear");
+      }
+    }
+  return from_entries(count_free(coarse_free), count_free(fine_free), entries);
+}
+
+DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
+                                 const std::function<bool(const Vec3&)>& fixed) {
+  for (int p = 1; p <= degree; ++p) {
+    models_.push_back(std::make_unique<ElasticityModel>(mesh, p, material));
+    models_.back()->fix_where(fixed);
+    matrices_.push_back(models_.back()->assembler().make_matrix());
+  }
+  for (int l = 1; l < num_levels(); ++l)
+    prolongations_.push_back(degree_elevation(models_[l]->space(), models_[l]->assembler().free_index(),
+                                              models_[l - 1]->space(),
+                                              models_[l - 1]->assembler().free_index()));
+}
+
+Csr DegreeHierarchy::interpolating_restriction(int level) const {
+  return fem::interpolating_restriction(models_[level]->space(), models_[level]->assembler().free_index(),
+                                        models_[level - 1]->space(),
+                                        models_[level - 1]->assembler().free_index());
+}
+
+void DegreeHierarchy::assemble(const Rotations* R, Vector* rhs) {
+  const Vector none;
+  for (int l = 0; l < num_levels(); ++l)
+    models_[l]->assemble(R, none, matrices_[l], l == num_levels() - 1 ? rhs : nullptr);
+}
+
+}  // namespace pmg::fem

@@ -1,0 +1,78 @@
+// pmg/multigrid/smoothers.hpp — smoothers on 3x3-block matrices.
+//
+// A smoother improves x for A x = b in place. pre_smooth() and post_smooth() are adjoint to each
+// other (forward then backward Gauss–Seidel), so a V-cycle that uses them is symmetric. set-up is
+// split: the ordering (colouring) depends on the pattern and is built once; update() takes new
+// values on the same pattern (inverted diagonal blocks).
+#pragma once
+
+#include "pmg/sparse/bcsr.hpp"
+
+#include <vector>
+
+namespace pmg::mg {
+
+class Smoother {
+ public:
+  virtual ~Smoother() = default;
+  virtual void pre_smooth(const Vector& b, Vector& x) const = 0;
+  virtual void post_smooth(const Vector& b, Vector& x) const = 0;
+  /// New values of the matrix the smoother was built for (same pattern, same object).
+  virtual void update() = 0;
+};
+
+enum class Ordering {
+  natural,     ///< rows in order, one thread (the serial reference)
+  multicolor,  ///< rows grouped by a greedy colouring of the block graph; a colour runs in parallel
+};
+
+struct GaussSeidelParams {
+  int sweeps = 5;  ///< per pre- and per post-smoothing (the seed's 5)
+  Ordering ordering = Ordering::multicolor;
+};
+
+/// 3x3-block Gauss–Seidel: x_I <- D_I⁻¹ (b_I - Σ_{J≠I} A_IJ x_J). pre: forward sweeps; post:
+/// backward sweeps (colours in reverse order). Keeps a reference to A.
+class BlockGaussSeidel final : public Smoother {
+ public:
+  BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params = {});
+  void pre_smooth(const Vector& b, Vector& x) const override;
+  void post_smooth(const Vector& b, Vector& x) const override;
+  void update() override;
+  /// Block rows grouped by colour (one group holding every row in natural order).
+  const std::vector<std::vector<index_t>>& colors() const { return colors_; }
+  /// One sweep, forward or backward.
+  void sweep(const Vector& b, Vector& x, bool forward) const;
+
+ private:
+  const Bcsr& A_;
+  GaussSeidelParams params_;
+  std::vector<std::vector<index_t>> colors_;
+  std::vector<double> inv_diag_;
+};
+
+struct JacobiParams {
+  int sweeps = 5;
+  double omega = 0.6;  ///< damping; block Jacobi diverges for ω too large (ω ρ(D⁻¹A) ≥ 2)
+};
+
+/// Damped 3x3-block Jacobi: x <- x + ω D⁻¹ (b - A x). Symmetric by construction.
+class BlockJacobi final : public Smoother {
+ public:
+  BlockJacobi(const Bcsr& A, const JacobiParams& params = {});
+  void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
+  void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
+  void update() override;
+
+ private:
+  void smooth(const Vector& b, Vector& x) const;
+  const Bcsr& A_;
+  JacobiParams params_;
+  std::vector<double> inv_diag_;
+};
+
+/// Inverts the 3x3 diagonal blocks of A (Cholesky); throws InputError naming a block that is not
+/// SPD.
+std::vector<double> inverse_diagonal_blocks(const Bcsr& A);
+
+}  // namespace pmg::mg

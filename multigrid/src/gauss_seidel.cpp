@@ -1,0 +1,99 @@
+#include "pmg/multigrid/smoothers.hpp"
+
+#include "pmg/sparse/preconditioners.hpp"
+
+#include <algorithm>
+#include <string>
+
+namespace pmg::mg {
+
+std::vector<double> inverse_diagonal_blocks(const Bcsr& A) {
+  return BlockJacobiPreconditioner(A).inverse_blocks();
+}
+
+namespace {
+std::vector<std::vector<index_t>> color_rows(const BlockPattern& p) {
+  // Greedy: the smallest colour not taken by a neighbour (a column of the row) coloured before.
+  std::vector<int> color(p.rows, -1);
+  std::vector<index_t> taken_by;
+  std::vector<std::vector<index_t>> out;
+  for (index_t I = 0; I < p.rows; ++I) {
+    for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
+      const int c = color[p.col_idx[k]];
+      if (c < 0) continue;
+      if (static_cast<size_t>(c) >= taken_by.size()) taken_by.resize(c + 1, -1);
+      taken_by[c] = I;
+    }
+    int c = 0;
+    while (static_cast<size_t>(c) < taken_by.size() && taken_by[c] == I) ++c;
+    color[I] = c;
+    if (static_cast<size_t>(c) >= out.size()) out.resize(c + 1);
+    out[c].push_back(I);
+  }
+  return out;
+}
+
+inline void relax_row(const BlockPattern& p, const double* v, const double* inv, const Vector& b,
+                      Vector& x, index_t I) {
+  double r0 = b[3 * I], r1 = b[3 * I + 1], r2 = b[3 * I + 2];
+  for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
+    const index_t J = p.col_idx[k];
+    if (J == I) continue;
+    const double* a = v + 9 * k;
+    const double x0 = x[3 * J], x1 = x[3 * J + 1], x2 = x[3 * J + 2];
+    r0 -= a[0] * x0 + a[1] * x1 + a[2] * x2;
+    r1 -= a[3] * x0 + a[4] * x1 + a[5] * x2;
+    r2 -= a[6] * x0 + a[7] * x1 + a[8] * x2;
+  }
+  const double* d = inv + 9 * I;
+  x[3 * I] = d[0] * r0 + d[1] * r1 + d[2] * r2;
+  x[3 * I + 1] = d[3] * r0 + d[4] * r1 + d[5] * r2;
+  x[3 * I + 2] = d[6] * r0 + d[7] * r1 + d[8] * r2;
+}
+}  // namespace
+
+BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params)
+    : A_(A), params_(params) {
+  if (A.block_rows() != A.block_cols()) throw InputError("Gauss-Seidel: matrix must be square");
+  if (params.sweeps < 0) throw InputError("Gauss-Seidel: sweeps must be >= 0");
+  if (params.ordering == Ordering::multicolor) {
+    colors_ = color_rows(A.pattern());
+  } else {
+    colors_.assign(1, std::vector<index_t>(A.block_rows()));
+    for (index_t I = 0; I < A.block_rows(); ++I) colors_[0][I] = I;
+  }
+  update();
+}
+
+void BlockGaussSeidel::update() { inv_diag_ = inverse_diagonal_blocks(A_); }
+
+void BlockGaussSeidel::sweep(const Vector& b, Vector& x, bool forward) const {
+  const BlockPattern& p = A_.pattern();
+  const double* v = A_.values().data();
+  const double* inv = inv_diag_.data();
+  const bool parallel = params_.ordering == Ordering::multicolor;
+  const int nc = static_cast<int>(colors_.size());
+  for (int ci = 0; ci < nc; ++ci) {
+    const auto& rows = colors_[forward ? ci : nc - 1 - ci];
+    const index_t n = static_cast<index_t>(rows.size());
+    if (parallel) {
+      // Rows of one colour are not coupled: any order, any thread.
+#pragma omp parallel for schedule(static)
+      for (index_t k = 0; k < n; ++k) relax_row(p, v, inv, b, x, rows[k]);
+    } else if (forward) {
+      for (index_t k = 0; k < n; ++k) relax_row(p, v, inv, b, x, rows[k]);
+    } else {
+      for (index_t k = n - 1; k >= 0; --k) relax_row(p, v, inv, b, x, rows[k]);
+    }
+  }
+}
+
+void BlockGaussSeidel::pre_smooth(const Vector& b, Vector& x) const {
+  for (int s = 0; s < params_.sweeps; ++s) sweep(b, x, true);
+}
+
+void BlockGaussSeidel::post_smooth(const Vector& b, Vector& x) const {
+  for (int s = 0; s < params_.sweeps; ++s) sweep(b, x, false);
+}
+
+}  // namespace pmg::mg
