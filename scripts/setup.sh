@@ -15,6 +15,7 @@ packages=(
   python3-vtk9             # tests read our .vtu output with a real VTK reader (Debian's python3)
   tetgen                   # pmg mesh: closed surface -> tetrahedral mesh
   libcgal-dev              # pmg mesh: surface decimation before TetGen (header-only)
+  python3-matplotlib       # pmg compare --plot (Debian's /usr/bin/python3)
 )
 missing=()
 for p in "${packages[@]}"; do

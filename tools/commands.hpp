@@ -10,6 +10,9 @@ void register_compare(CLI::App& app);
 /// pmg mesh: closed surface to tetrahedral mesh (TetGen), or statistics of a mesh file.
 void register_mesh(CLI::App& app);
 
+/// Path of a data file shipped with the tools (installed share/pmgkit/, else the source tree).
+std::string find_data_file(const std::string& name);
+
 /// Exit codes shared by every subcommand.
 enum ExitCode : int { kOk = 0, kSolveFailed = 1, kBadInput = 2 };
 

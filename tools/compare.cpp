@@ -1,12 +1,17 @@
 // pmg compare — runs several solvers on the same system and reports residual against time.
 //
-//   1. Load the system: a Matrix Market matrix (+ optional right-hand side and known solution) or
-//      the built-in spring lattice with a manufactured solution.
+//   1. Load the system: a Matrix Market matrix (+ optional right-hand side and known solution), an
+//      FEM scene (mesh or box bar, degree, material, supports, load: the only systems on which PMG
+//      and MGPCG can run, since they need the degree hierarchy), or the built-in spring lattice
+//      with a manufactured solution.
 //   2. Convert once to the formats the solvers need (CSR, BCSR 3x3, BIN-BCSR).
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
 //   4. Write the per-iteration history as CSV and print the summary table.
 #include "commands.hpp"
+#include "scene.hpp"
 #include "table.hpp"
+
+#include "pmg/fem/pmg_cycle.hpp"
 
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
@@ -15,6 +20,8 @@
 #include "pmg/sparse/matrix_market.hpp"
 
 #include <omp.h>
+
+#include <cstdlib>
 
 #include <chrono>
 #include <functional>
@@ -30,9 +37,15 @@ namespace {
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Options {
-  std::string matrix, rhs, solution, history;
+  std::string matrix, rhs, solution, history, plot;
   int grid = 24;
-  std::vector<std::string> solvers{"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod"};
+  bool fem = false;  // set when a scene option is given
+  SceneOptions scene;
+  bool reference = true;
+  std::vector<std::string> solvers;  // default depends on the system
+  // PMG
+  std::string coarse_operator = "geometric", restriction = "transpose", cycle = "V";
+  int sweeps = 5, mgpcg_cycles = 2;
   std::string format = "bcsr";
   double tol = 1e-8;
   int max_iterations = 20000;
@@ -46,10 +59,12 @@ struct System {
   Csr csr;
   std::unique_ptr<Bcsr> bcsr;  // when the size is a multiple of 3
   Vector b, x_true;            // x_true empty when unknown
+  std::unique_ptr<FemSystem> fem;
+  std::string error_reference = "known solution";
 };
 
 struct Outcome {
-  std::string name, status = "ok", message;
+  std::string name, status = "ok", message, breakdown;
   int iterations = 0;
   double setup = 0, solve = 0, rel_residual = kNaN, rel_error = kNaN;
   std::vector<IterationRecord> history;
@@ -84,6 +99,18 @@ System load_system(const Options& o) {
       throw InputError("solution has " + std::to_string(s.x_true.size()) +
                        " entries, matrix has " + std::to_string(s.csr.rows()) + " rows");
     if (s.csr.rows() % 3 == 0) s.bcsr = std::make_unique<Bcsr>(Bcsr::from_csr(s.csr));
+  } else if (o.fem) {
+    s.fem = std::make_unique<FemSystem>(build_fem_system(o.scene));
+    s.bcsr = std::make_unique<Bcsr>(s.fem->matrix());
+    s.csr = s.bcsr->to_csr();
+    s.b = s.fem->b;
+    s.description = s.fem->description;
+    if (o.reference) {  // the error column is measured against a direct solve (not timed)
+      CholmodSolver chol;
+      chol.compute(s.csr);
+      chol.solve(s.b, s.x_true);
+      s.error_reference = "CHOLMOD solution";
+    }
   } else {
     s.bcsr = std::make_unique<Bcsr>(spring_lattice(o.grid));
     s.csr = s.bcsr->to_csr();
@@ -159,6 +186,32 @@ void write_history(const std::string& path, const std::vector<Outcome>& outcomes
   write_file_atomically(path, csv.str());
 }
 
+/// Draws relative residual against time and against iterations (matplotlib, Debian's python3).
+void plot_history(const std::string& csv, const std::string& png, const std::string& title) {
+  const std::string script = find_data_file("plot_history.py");
+  const std::string cmd = "/usr/bin/python3 '" + script + "' '" + csv + "' '" + png + "' '" + title + "'";
+  if (std::system(cmd.c_str()) != 0)
+    throw Error("plotting failed (needs /usr/bin/python3 with matplotlib: apt install python3-matplotlib)");
+  std::cout << "plot: " << png << "\n";
+}
+
+/// Where one cycle's time goes, averaged over the cycles run.
+std::string cycle_breakdown(const mg::MultigridCycle& c, int levels) {
+  const mg::CycleTimings& t = c.timings();
+  if (t.cycles == 0) return "";
+  const double n = static_cast<double>(t.cycles);
+  double total = t.transfer + t.residual + t.coarse;
+  for (double s : t.smoothing) total += s;
+  std::ostringstream out;
+  out << "one cycle " << fmt("%.2f", 1e3 * total / n) << " ms:";
+  for (int l = levels - 1; l >= 1; --l)
+    out << " smoothing degree " << l + 1 << " " << fmt("%.2f", 1e3 * t.smoothing[l] / n) << " ms,";
+  out << " residuals " << fmt("%.2f", 1e3 * t.residual / n) << " ms, transfers "
+      << fmt("%.2f", 1e3 * t.transfer / n) << " ms, linear-level solve "
+      << fmt("%.2f", 1e3 * t.coarse / n) << " ms (" << t.cycles << " cycles)";
+  return out.str();
+}
+
 /// Setup plus the time at which the history first reached rel (NaN if never).
 double time_to(const Outcome& o, double rel) {
   for (const auto& h : o.history)
@@ -193,8 +246,14 @@ void run(const Options& o) {
             << "\n\n";
 
   const LinearOperator& A = *fmt_.op;
+  std::vector<std::string> solvers = o.solvers;
+  if (solvers.empty()) {
+    solvers = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod"};
+    if (sys.fem && sys.fem->hierarchy->num_levels() > 1) solvers.insert(solvers.end(), {"pmg", "mgpcg"});
+  }
   std::vector<Outcome> outcomes;
-  for (const std::string& name : o.solvers) {
+  double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
+  for (const std::string& name : solvers) {
     Vector x = Vector::Zero(sys.b.size());
     Outcome out;
     if (name == "cg") {
@@ -216,6 +275,30 @@ void run(const Options& o) {
                           : pcg(A, M.get(), sys.b, xx, params, &m);
           },
           x);
+    } else if (name == "pmg" || name == "mgpcg") {
+      if (!sys.fem) throw InputError(name + " needs an FEM scene (--box or --mesh): it builds the degree hierarchy");
+      if (sys.fem->hierarchy->num_levels() < 2) throw InputError(name + " needs degree >= 2");
+      fem::PmgOptions po;
+      po.coarse_operator = o.coarse_operator == "galerkin" ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
+      po.interpolating_restriction = o.restriction == "interpolating";
+      po.smoother.sweeps = o.sweeps;
+      po.cycle.gamma = o.cycle == "W" ? 2 : 1;
+      std::unique_ptr<fem::PmgSolver> pmg;
+      out = run_krylov(
+          name, params,
+          [&] {
+            // The lower levels are PMG's own set-up: re-discretised (or Galerkin) operators.
+            if (lower_levels < 0) lower_levels = sys.fem->assemble_lower_levels();
+            pmg = fem::make_pmg(*sys.fem->hierarchy, po);
+            return nullptr;
+          },
+          [&](SolveMonitor& m, Vector& xx) {
+            return name == "pmg" ? mg::multigrid_solve(A, *pmg->cycle, sys.b, xx, params, &m)
+                                 : mg::mgpcg(A, *pmg->cycle, sys.b, xx, params, &m, o.mgpcg_cycles);
+          },
+          x);
+      out.setup += lower_levels;
+      out.breakdown = cycle_breakdown(*pmg->cycle, sys.fem->hierarchy->num_levels());
     } else if (name == "cholmod") {
       out.name = name;
       CholmodSolver chol;
@@ -241,7 +324,7 @@ void run(const Options& o) {
       }
     } else {
       throw InputError("unknown solver '" + name +
-                       "' (cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod)");
+                       "' (cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, pmg, mgpcg)");
     }
     if (sys.x_true.size() && out.message.empty())
       out.rel_error = (x - sys.x_true).norm() / sys.x_true.norm();
@@ -262,10 +345,16 @@ void run(const Options& o) {
   table.print(std::cout);
   for (const auto& out : outcomes)
     if (!out.message.empty()) std::cout << "\n" << out.name << " failed: " << out.message << "\n";
-  if (!o.history.empty()) {
-    write_history(o.history, outcomes);
-    std::cout << "\nhistory: " << o.history << "\n";
+  for (const auto& out : outcomes)
+    if (!out.breakdown.empty()) std::cout << "\n" << out.name << ": " << out.breakdown << "\n";
+  if (sys.x_true.size()) std::cout << "\nrel. error: against the " << sys.error_reference << "\n";
+  std::string history = o.history;
+  if (!o.plot.empty() && history.empty()) history = o.plot + ".csv";
+  if (!history.empty()) {
+    write_history(history, outcomes);
+    std::cout << "history: " << history << "\n";
   }
+  if (!o.plot.empty()) plot_history(history, o.plot, sys.description);
   if (failed) throw Exit{kSolveFailed};
 }
 
@@ -274,7 +363,7 @@ void run(const Options& o) {
 void register_compare(CLI::App& app) {
   auto opts = std::make_shared<Options>();
   CLI::App* sub = app.add_subcommand(
-      "compare", "Run CG, PCG (Jacobi, block Jacobi), merged CG and CHOLMOD on one SPD system");
+      "compare", "Run PMG, MGPCG, CG, PCG (Jacobi, block Jacobi), merged CG and CHOLMOD on one SPD system");
   sub->add_option("-m,--matrix", opts->matrix, "Matrix Market file (symmetric positive definite)")
       ->check(CLI::ExistingFile);
   sub->add_option("-b,--rhs", opts->rhs, "right-hand side (Matrix Market array or n x 1)")
@@ -287,9 +376,9 @@ void register_compare(CLI::App& app) {
       ->check(CLI::Range(2, 400))
       ->capture_default_str();
   sub->add_option("-s,--solvers", opts->solvers,
-                  "comma-separated: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod")
-      ->delimiter(',')
-      ->capture_default_str();
+                  "comma-separated: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, pmg, mgpcg "
+                  "(default: all that apply)")
+      ->delimiter(',');
   sub->add_option("-f,--format", opts->format, "matrix format for the Krylov solvers")
       ->check(CLI::IsMember({"csr", "bcsr", "bin-bcsr"}))
       ->capture_default_str();
@@ -310,7 +399,27 @@ void register_compare(CLI::App& app) {
                   "write the per-iteration history as CSV (solver,iteration,seconds,rel_residual)");
   sub->add_option("--threads", opts->threads, "OpenMP threads (default: OMP_NUM_THREADS)")
       ->check(CLI::NonNegativeNumber);
-  sub->callback([opts] { run(*opts); });
+  sub->add_option("--plot", opts->plot, "draw residual against time and iterations to this PNG");
+  add_scene_options(sub, opts->scene);
+  sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
+  sub->add_option("--coarse-operator", opts->coarse_operator, "PMG lower levels")
+      ->check(CLI::IsMember({"geometric", "galerkin"}))
+      ->capture_default_str();
+  sub->add_option("--restriction", opts->restriction, "PMG restriction: P transposed or the seed's")
+      ->check(CLI::IsMember({"transpose", "interpolating"}))
+      ->capture_default_str();
+  sub->add_option("--cycle", opts->cycle, "PMG cycle")->check(CLI::IsMember({"V", "W"}))->capture_default_str();
+  sub->add_option("--sweeps", opts->sweeps, "Gauss-Seidel sweeps before and after")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--mgpcg-cycles", opts->mgpcg_cycles, "cycles per MGPCG preconditioner application")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->callback([opts, sub] {
+    opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
+                sub->count("--load") || sub->count("--dt");
+    run(*opts);
+  });
 }
 
 }  // namespace pmg::tools

@@ -3,7 +3,25 @@
 
 #include "pmg/sparse/monitor.hpp"
 
+#include <filesystem>
 #include <iostream>
+
+namespace pmg::tools {
+
+std::string find_data_file(const std::string& name) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share" / "pmgkit" / name;
+    if (fs::exists(installed)) return installed.string();
+  }
+  const fs::path source = fs::path(PMG_TOOLS_SOURCE_DIR) / name;
+  if (fs::exists(source)) return source.string();
+  throw Error("data file " + name + " not found (looked in share/pmgkit and " PMG_TOOLS_SOURCE_DIR ")");
+}
+
+}  // namespace pmg::tools
 
 int main(int argc, char** argv) {
   CLI::App app{"pmgkit: block-sparse formats, Krylov and direct solvers, p-multigrid"};

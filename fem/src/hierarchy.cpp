@@ -104,10 +104,34 @@ Csr DegreeHierarchy::interpolating_restriction(int level) const {
                                         models_[level - 1]->assembler().free_index());
 }
 
-void DegreeHierarchy::assemble(const Rotations* R, Vector* rhs) {
-  const Vector none;
+void DegreeHierarchy::assemble(const Rotations* R, Vector* rhs, double mass_weight,
+                               double stiffness_weight) {
   for (int l = 0; l < num_levels(); ++l)
-    models_[l]->assemble(R, none, matrices_[l], l == num_levels() - 1 ? rhs : nullptr);
+    assemble_level(l, R, l == num_levels() - 1 ? rhs : nullptr, mass_weight, stiffness_weight);
+}
+
+void DegreeHierarchy::assemble_level(int l, const Rotations* R, Vector* rhs, double mass_weight,
+                                     double stiffness_weight) {
+  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
+  const Vector none;
+  Vector correction;
+  if (rhs) correction = Vector::Zero(rhs->size());
+  models_[l]->assemble(R, none, matrices_[l], rhs ? &correction : nullptr);
+  if (rhs) *rhs += stiffness_weight * correction;
+  if (mass_weight == 0.0 && stiffness_weight == 1.0) return;
+  std::vector<double>& a = matrices_[l].values();
+  if (mass_weight != 0.0) {
+    if (masses_.size() != models_.size()) masses_.resize(models_.size());
+    if (masses_[l].values().empty()) {
+      masses_[l] = models_[l]->assembler().make_matrix();
+      models_[l]->assemble_mass(masses_[l]);
+    }
+    const std::vector<double>& m = masses_[l].values();
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < a.size(); ++k) a[k] = mass_weight * m[k] + stiffness_weight * a[k];
+  } else {
+    for (double& v : a) v *= stiffness_weight;
+  }
 }
 
 }  // namespace pmg::fem

@@ -33,11 +33,12 @@ std::vector<std::vector<index_t>> color_rows(const BlockPattern& p) {
   return out;
 }
 
-inline void relax_row(const BlockPattern& p, const double* v, const double* inv, const Vector& b,
-                      Vector& x, index_t I) {
+/// Relaxes block row I whose blocks are [begin, end) of (cols, v).
+inline void relax_row(const index_t* cols, const double* v, offset_t begin, offset_t end,
+                      const double* inv, const Vector& b, Vector& x, index_t I) {
   double r0 = b[3 * I], r1 = b[3 * I + 1], r2 = b[3 * I + 2];
-  for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
-    const index_t J = p.col_idx[k];
+  for (offset_t k = begin; k < end; ++k) {
+    const index_t J = cols[k];
     if (J == I) continue;
     const double* a = v + 9 * k;
     const double x0 = x[3 * J], x1 = x[3 * J + 1], x2 = x[3 * J + 2];
@@ -58,6 +59,22 @@ BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& param
   if (params.sweeps < 0) throw InputError("Gauss-Seidel: sweeps must be >= 0");
   if (params.ordering == Ordering::multicolor) {
     colors_ = color_rows(A.pattern());
+    const BlockPattern& p = A.pattern();
+    colored_.rows = colored_.cols = p.rows;
+    colored_.row_ptr.assign(1, 0);
+    color_start_.assign(1, 0);
+    for (const auto& rows : colors_) {
+      for (index_t I : rows) {
+        order_.push_back(I);
+        for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
+          colored_.col_idx.push_back(p.col_idx[k]);
+          source_.push_back(k);
+        }
+        colored_.row_ptr.push_back(static_cast<offset_t>(colored_.col_idx.size()));
+      }
+      color_start_.push_back(static_cast<index_t>(order_.size()));
+    }
+    colored_values_.resize(9 * source_.size());
   } else {
     colors_.assign(1, std::vector<index_t>(A.block_rows()));
     for (index_t I = 0; I < A.block_rows(); ++I) colors_[0][I] = I;
@@ -65,26 +82,38 @@ BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& param
   update();
 }
 
-void BlockGaussSeidel::update() { inv_diag_ = inverse_diagonal_blocks(A_); }
+void BlockGaussSeidel::update() {
+  inv_diag_ = inverse_diagonal_blocks(A_);
+  const double* src = A_.values().data();
+  double* dst = colored_values_.data();
+  const offset_t n = static_cast<offset_t>(source_.size());
+#pragma omp parallel for schedule(static)
+  for (offset_t k = 0; k < n; ++k) std::copy_n(src + 9 * source_[k], 9, dst + 9 * k);
+}
 
 void BlockGaussSeidel::sweep(const Vector& b, Vector& x, bool forward) const {
+  const double* inv = inv_diag_.data();
+  if (params_.ordering == Ordering::multicolor) {
+    const offset_t* rp = colored_.row_ptr.data();
+    const index_t* cols = colored_.col_idx.data();
+    const double* v = colored_values_.data();
+    const int nc = static_cast<int>(colors_.size());
+    for (int ci = 0; ci < nc; ++ci) {
+      const int c = forward ? ci : nc - 1 - ci;
+      // Rows of one colour are not coupled: any order, any thread; their blocks are contiguous.
+#pragma omp parallel for schedule(static)
+      for (index_t k = color_start_[c]; k < color_start_[c + 1]; ++k)
+        relax_row(cols, v, rp[k], rp[k + 1], inv, b, x, order_[k]);
+    }
+    return;
+  }
   const BlockPattern& p = A_.pattern();
   const double* v = A_.values().data();
-  const double* inv = inv_diag_.data();
-  const bool parallel = params_.ordering == Ordering::multicolor;
-  const int nc = static_cast<int>(colors_.size());
-  for (int ci = 0; ci < nc; ++ci) {
-    const auto& rows = colors_[forward ? ci : nc - 1 - ci];
-    const index_t n = static_cast<index_t>(rows.size());
-    if (parallel) {
-      // Rows of one colour are not coupled: any order, any thread.
-#pragma omp parallel for schedule(static)
-      for (index_t k = 0; k < n; ++k) relax_row(p, v, inv, b, x, rows[k]);
-    } else if (forward) {
-      for (index_t k = 0; k < n; ++k) relax_row(p, v, inv, b, x, rows[k]);
-    } else {
-      for (index_t k = n - 1; k >= 0; --k) relax_row(p, v, inv, b, x, rows[k]);
-    }
+  const index_t n = p.rows;
+  if (forward) {
+    for (index_t I = 0; I < n; ++I) relax_row(p.col_idx.data(), v, p.row_ptr[I], p.row_ptr[I + 1], inv, b, x, I);
+  } else {
+    for (index_t I = n - 1; I >= 0; --I) relax_row(p.col_idx.data(), v, p.row_ptr[I], p.row_ptr[I + 1], inv, b, x, I);
   }
 }
 

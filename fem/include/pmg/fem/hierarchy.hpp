@@ -44,11 +44,18 @@ class DegreeHierarchy {
   /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
   /// level, and on the finest level also the right-hand side correction (see
   /// ElasticityModel::assemble) when rhs != nullptr. Patterns are kept; only values change.
-  void assemble(const Rotations* R, Vector* rhs = nullptr);
+  /// The level matrices are  mass_weight M + stiffness_weight K  (implicit Euler: M + Δt² K); the
+  /// rhs correction is scaled by stiffness_weight. Mass matrices are assembled once, on first use.
+  void assemble(const Rotations* R, Vector* rhs = nullptr, double mass_weight = 0.0,
+                double stiffness_weight = 1.0);
+  /// The same for one level.
+  void assemble_level(int level, const Rotations* R, Vector* rhs = nullptr,
+                      double mass_weight = 0.0, double stiffness_weight = 1.0);
 
  private:
   std::vector<std::unique_ptr<ElasticityModel>> models_;
   std::vector<Bcsr> matrices_;
+  std::vector<Bcsr> masses_;  ///< per level, assembled on first use
   std::vector<Csr> prolongations_;
 };
 

@@ -32,7 +32,9 @@ struct GaussSeidelParams {
 };
 
 /// 3x3-block Gauss–Seidel: x_I <- D_I⁻¹ (b_I - Σ_{J≠I} A_IJ x_J). pre: forward sweeps; post:
-/// backward sweeps (colours in reverse order). Keeps a reference to A.
+/// backward sweeps (colours in reverse order). Keeps a reference to A. Multicolour: the block rows
+/// are copied in colour order (pattern once, values on update()), so that a colour streams a
+/// contiguous part of the matrix instead of rows scattered over all of it.
 class BlockGaussSeidel final : public Smoother {
  public:
   BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params = {});
@@ -49,6 +51,11 @@ class BlockGaussSeidel final : public Smoother {
   GaussSeidelParams params_;
   std::vector<std::vector<index_t>> colors_;
   std::vector<double> inv_diag_;
+  // Colour-ordered copy (multicolour only): position k holds block row order_[k] of A.
+  std::vector<index_t> order_, color_start_;
+  BlockPattern colored_;          ///< row_ptr/col_idx in colour order (columns keep A's numbering)
+  std::vector<offset_t> source_;  ///< block of A behind each block of the copy
+  std::vector<double> colored_values_;
 };
 
 struct JacobiParams {
