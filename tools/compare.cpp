@@ -12,6 +12,7 @@
 #include "table.hpp"
 
 #include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/multigrid/boomeramg.hpp"
 
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
@@ -248,7 +249,7 @@ void run(const Options& o) {
   const LinearOperator& A = *fmt_.op;
   std::vector<std::string> solvers = o.solvers;
   if (solvers.empty()) {
-    solvers = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod"};
+    solvers = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
     if (sys.fem && sys.fem->hierarchy->num_levels() > 1) solvers.insert(solvers.end(), {"pmg", "mgpcg"});
   }
   std::vector<Outcome> outcomes;
@@ -275,6 +276,11 @@ void run(const Options& o) {
                           : pcg(A, M.get(), sys.b, xx, params, &m);
           },
           x);
+    } else if (name == "boomeramg-pcg") {
+      std::shared_ptr<mg::BoomerAMG> M;
+      out = run_krylov(
+          name, params, [&] { return M = std::make_shared<mg::BoomerAMG>(sys.csr); },
+          [&](SolveMonitor& m, Vector& xx) { return pcg(A, M.get(), sys.b, xx, params, &m); }, x);
     } else if (name == "pmg" || name == "mgpcg") {
       if (!sys.fem) throw InputError(name + " needs an FEM scene (--box or --mesh): it builds the degree hierarchy");
       if (sys.fem->hierarchy->num_levels() < 2) throw InputError(name + " needs degree >= 2");
@@ -324,7 +330,7 @@ void run(const Options& o) {
       }
     } else {
       throw InputError("unknown solver '" + name +
-                       "' (cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, pmg, mgpcg)");
+                       "' (cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, boomeramg-pcg, pmg, mgpcg)");
     }
     if (sys.x_true.size() && out.message.empty())
       out.rel_error = (x - sys.x_true).norm() / sys.x_true.norm();
@@ -363,7 +369,8 @@ void run(const Options& o) {
 void register_compare(CLI::App& app) {
   auto opts = std::make_shared<Options>();
   CLI::App* sub = app.add_subcommand(
-      "compare", "Run PMG, MGPCG, CG, PCG (Jacobi, block Jacobi), merged CG and CHOLMOD on one SPD system");
+      "compare",
+      "Run PMG, MGPCG, CG, PCG (Jacobi, block Jacobi, BoomerAMG), merged CG and CHOLMOD on one SPD system");
   sub->add_option("-m,--matrix", opts->matrix, "Matrix Market file (symmetric positive definite)")
       ->check(CLI::ExistingFile);
   sub->add_option("-b,--rhs", opts->rhs, "right-hand side (Matrix Market array or n x 1)")
@@ -376,7 +383,8 @@ void register_compare(CLI::App& app) {
       ->check(CLI::Range(2, 400))
       ->capture_default_str();
   sub->add_option("-s,--solvers", opts->solvers,
-                  "comma-separated: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, pmg, mgpcg "
+                  "comma-separated: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, boomeramg-pcg, pmg, "
+                  "mgpcg "
                   "(default: all that apply)")
       ->delimiter(',');
   sub->add_option("-f,--format", opts->format, "matrix format for the Krylov solvers")
