@@ -9,6 +9,8 @@ namespace pmg::tools {
 void register_compare(CLI::App& app);
 /// pmg mesh: closed surface to tetrahedral mesh (TetGen), or statistics of a mesh file.
 void register_mesh(CLI::App& app);
+/// pmg coarse: geometric vs Galerkin coarse operators (Table 2.8).
+void register_coarse(CLI::App& app);
 
 /// Path of a data file shipped with the tools (installed share/pmgkit/, else the source tree).
 std::string find_data_file(const std::string& name);

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "pmgkit 0.1.0");
   pmg::tools::register_compare(app);
   pmg::tools::register_mesh(app);
+  pmg::tools::register_coarse(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
