@@ -55,6 +55,7 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
     const double alpha = rho / sigma;
     ops::axpy(alpha, p, x);
     ops::axpy(-alpha, q, r);
+    track.add_energy_decrease(alpha * rho);
     if (track.after_iteration(it, ops::norm2(r))) {
       A.residual(b, x, r);  // recursive residual converged: confirm with the true one
       if (track.accept_true_residual(ops::norm2(r))) break;

@@ -72,6 +72,7 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
     if (!track.check_positive(sigma, "s^T A s", it)) break;
     // (2) alpha = rho/sigma; x, r, z updated and r.z, r.r reduced in one pass
     const Step2Sums sums = update_and_precondition(rho / sigma, s, q, M.inverse_blocks(), x, r, z);
+    track.add_energy_decrease(rho / sigma * rho);
     // The GPU reads rr back only every check_every iterations; the history still gets every one.
     const bool test = it % params.check_every == 0 || it >= params.max_iterations;
     const bool converged = track.after_iteration(it, std::sqrt(sums.rr)) && test;

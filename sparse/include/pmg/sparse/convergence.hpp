@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 namespace pmg::detail {
 
@@ -57,6 +58,13 @@ class ConvergenceTracker {
     return true;
   }
 
+  /// CG-type methods: the decrease α rᵀz of the energy functional in this iteration (call before
+  /// after_iteration). A flat residual is then called stagnation only if the energy norm of the
+  /// error is flat too.
+  void add_energy_decrease(double d) {
+    energy_.push_back((energy_.empty() ? 0.0 : energy_.back()) + d);
+  }
+
   /// Records iteration it with recursive residual norm r_norm. Returns true when the recursive
   /// residual meets the tolerance (the caller then checks the true residual).
   bool after_iteration(int it, double r_norm) {
@@ -74,12 +82,15 @@ class ConvergenceTracker {
                                       std::to_string(it));
       return false;
     }
+    const int W = p_.stagnation_window;
     if (rel < p_.stagnation_factor * reference_) {
       reference_ = rel;
       last_progress_ = it;
-    } else if (p_.stagnation_window > 0 && it - last_progress_ >= p_.stagnation_window) {
-      fail(SolveStatus::stagnated, "no progress in " + std::to_string(p_.stagnation_window) +
-                                       " iterations (relative residual " + fmt(rel) + ")");
+    } else if (W > 0 && it - last_progress_ >= W && !energy_progress(W)) {
+      fail(SolveStatus::stagnated, "no progress in " + std::to_string(W) +
+                                       " iterations (relative residual " + fmt(rel) +
+                                       (energy_.empty() ? "" : ", energy norm of the error flat") +
+                                       ")");
       return false;
     }
     if (p_.fixed_iterations) {
@@ -114,6 +125,14 @@ class ConvergenceTracker {
       return true;
     }
     return false;
+  }
+
+  /// Whether the energy functional still fell by more than 1e-8 of its total decrease over the last
+  /// W iterations (no data: false).
+  bool energy_progress(int W) const {
+    const size_t k = energy_.size();
+    if (k <= static_cast<size_t>(W)) return !energy_.empty();
+    return energy_[k - 1] - energy_[k - 1 - W] > 1e-8 * energy_[k - 1];
   }
 
   void fail(SolveStatus s, const std::string& why) {
@@ -153,6 +172,7 @@ class ConvergenceTracker {
   double reference_ = 1.0;
   int last_progress_ = 0;
   int replacements_ = 0;
+  std::vector<double> energy_;
   bool done_ = false;
 };
 

@@ -21,8 +21,11 @@ struct KrylovParams {
   bool fixed_iterations = false;
   /// A relative residual above this is divergence.
   double divergence_limit = 1e6;
-  /// Stagnation: no drop of the residual below stagnation_factor x its last reference value within
-  /// this many iterations (0 disables).
+  /// Stagnation: the residual did not drop below stagnation_factor x its last reference value
+  /// within this many iterations (0 disables) and, for CG-type methods, the energy norm of the
+  /// error (which CG decreases monotonically by α rᵀz per iteration) fell by less than 1e-8 of its
+  /// total decrease over the same window. The residual alone is no test for CG: on hard problems
+  /// it can stay above its initial value for thousands of iterations while CG progresses steadily.
   int stagnation_window = 1000;
   double stagnation_factor = 0.9;
   /// MCG only: read the residual for the convergence test every k iterations (as on a GPU).
