@@ -108,7 +108,13 @@ System load_system(const Options& o) {
     s.description = s.fem->description;
     if (o.reference) {  // the error column is measured against a direct solve (not timed)
       CholmodSolver chol;
-      chol.compute(s.csr);
+      try {
+        chol.compute(s.csr);
+      } catch (const Error& e) {
+        throw InputError(std::string(e.what()) + ": the clamped nodes (" +
+                         std::to_string(s.fem->hierarchy->finest().num_fixed()) +
+                         ") do not remove every rigid motion; raise --fix-fraction");
+      }
       chol.solve(s.b, s.x_true);
       s.error_reference = "CHOLMOD solution";
     }
@@ -156,7 +162,16 @@ Outcome run_krylov(const std::string& name, const KrylovParams& params,
   Outcome out;
   out.name = name;
   auto t0 = std::chrono::steady_clock::now();
-  auto keep = setup();
+  std::shared_ptr<void> keep;
+  try {
+    keep = setup();
+  } catch (const Error& e) {  // e.g. a lowest level that is not positive definite
+    out.setup = seconds_since(t0);
+    out.status = "set-up failed";
+    out.message = e.what();
+    x.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return out;
+  }
   out.setup = seconds_since(t0);
   SolveMonitor mon;
   t0 = std::chrono::steady_clock::now();
@@ -304,7 +319,7 @@ void run(const Options& o) {
           },
           x);
       out.setup += lower_levels;
-      out.breakdown = cycle_breakdown(*pmg->cycle, sys.fem->hierarchy->num_levels());
+      if (pmg) out.breakdown = cycle_breakdown(*pmg->cycle, sys.fem->hierarchy->num_levels());
     } else if (name == "cholmod") {
       out.name = name;
       CholmodSolver chol;
