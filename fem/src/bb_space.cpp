@@ -10,29 +10,8 @@ namespace pmg::fem {
 namespace {
 
 std::vector<MultiIndex> build_indices(int p) {
-  std::vector<MultiIndex> out;
-  for (int i = 0; i < 4; ++i) {
-    MultiIndex a{0, 0, 0, 0};
-    a[i] = p;
-    out.push_back(a);
-  }
-  const int edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  for (const auto& e : edges)
-    for (int m = 1; m < p; ++m) {
-      MultiIndex a{0, 0, 0, 0};
-      a[e[0]] = p - m;
-      a[e[1]] = m;
-      out.push_back(a);
-    }
-  if (p == 3) {
-    const int faces[4][3] = {{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}};
-    for (const auto& f : faces) {
-      MultiIndex a{0, 0, 0, 0};
-      a[f[0]] = a[f[1]] = a[f[2]] = 1;
-      out.push_back(a);
-    }
-  }
-  return out;
+  return ordered_multi_indices(p, {{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}},
+                               {{{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}}});
 }
 
 double factorial(int n) {
@@ -46,6 +25,30 @@ void check_degree(int p) {
 }
 
 }  // namespace
+
+std::vector<MultiIndex> ordered_multi_indices(int p, const std::array<std::array<int, 2>, 6>& edges,
+                                              const std::array<std::array<int, 3>, 4>& faces) {
+  std::vector<MultiIndex> out;
+  for (int i = 0; i < 4; ++i) {
+    MultiIndex a{0, 0, 0, 0};
+    a[i] = p;
+    out.push_back(a);
+  }
+  for (const auto& e : edges)
+    for (int m = 1; m < p; ++m) {
+      MultiIndex a{0, 0, 0, 0};
+      a[e[0]] = p - m;
+      a[e[1]] = m;
+      out.push_back(a);
+    }
+  if (p == 3)
+    for (const auto& f : faces) {
+      MultiIndex a{0, 0, 0, 0};
+      a[f[0]] = a[f[1]] = a[f[2]] = 1;
+      out.push_back(a);
+    }
+  return out;
+}
 
 const std::vector<MultiIndex>& multi_indices(int p) {
   check_degree(p);

@@ -10,30 +10,11 @@ namespace {
 constexpr int kVtkBezierTetrahedron = 78;
 
 std::vector<int> build_vtk_order(int p) {
-  std::vector<MultiIndex> order;
-  for (int i = 0; i < 4; ++i) {
-    MultiIndex a{0, 0, 0, 0};
-    a[i] = p;
-    order.push_back(a);
-  }
-  const int edges[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
-  for (const auto& e : edges)
-    for (int m = 1; m < p; ++m) {
-      MultiIndex a{0, 0, 0, 0};
-      a[e[0]] = p - m;
-      a[e[1]] = m;
-      order.push_back(a);
-    }
-  if (p == 3) {
-    const int faces[4][3] = {{0, 1, 3}, {1, 2, 3}, {0, 2, 3}, {0, 1, 2}};
-    for (const auto& f : faces) {
-      MultiIndex a{0, 0, 0, 0};
-      a[f[0]] = a[f[1]] = a[f[2]] = 1;
-      order.push_back(a);
-    }
-  }
+  // VTK's tetra: edges 01, 12, 20, 03, 13, 23; faces 013, 123, 203, 021 (vtkHigherOrderTetra).
   std::vector<int> out;
-  for (const auto& a : order) out.push_back(local_index(a));
+  for (const auto& a : ordered_multi_indices(p, {{{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}}},
+                                             {{{0, 1, 3}, {1, 2, 3}, {2, 0, 3}, {0, 2, 1}}}))
+    out.push_back(local_index(a));
   return out;
 }
 }  // namespace

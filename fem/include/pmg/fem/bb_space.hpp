@@ -21,6 +21,11 @@ using MultiIndex = std::array<int, 4>;
 /// 03, 12, 13, 23; along each from its first vertex to its second), then face nodes (p = 3; faces
 /// 012, 013, 023, 123).
 const std::vector<MultiIndex>& multi_indices(int p);
+/// The multi-indices of degree p in the order: vertices 0..3, the nodes of each listed edge (from
+/// its first vertex to its second), the node of each listed face (p = 3). multi_indices() and the
+/// VTK writer use it with their own edge and face orders.
+std::vector<MultiIndex> ordered_multi_indices(int p, const std::array<std::array<int, 2>, 6>& edges,
+                                              const std::array<std::array<int, 3>, 4>& faces);
 /// Number of multi-indices of degree p: (p+1)(p+2)(p+3)/6.
 int num_element_nodes(int p);
 /// Local position of alpha in multi_indices(|alpha|).
