@@ -8,6 +8,7 @@
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
 //   4. Write the per-iteration history as CSV and print the summary table.
 #include "commands.hpp"
+#include "levels.hpp"
 #include "scene.hpp"
 #include "table.hpp"
 
@@ -38,7 +39,8 @@ namespace {
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Options {
-  std::string matrix, rhs, solution, history, plot;
+  std::string matrix, rhs, solution, history, plot, export_levels;
+  std::vector<std::string> levels, prolongations;  // user multigrid levels (Matrix Market)
   int grid = 24;
   bool fem = false;  // set when a scene option is given
   SceneOptions scene;
@@ -61,6 +63,7 @@ struct System {
   std::unique_ptr<Bcsr> bcsr;  // when the size is a multiple of 3
   Vector b, x_true;            // x_true empty when unknown
   std::unique_ptr<FemSystem> fem;
+  std::unique_ptr<UserLevels> levels;
   std::string error_reference = "known solution";
 };
 
@@ -77,7 +80,19 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 System load_system(const Options& o) {
   System s;
-  if (!o.matrix.empty()) {
+  if (!o.levels.empty()) {
+    s.levels = std::make_unique<UserLevels>(read_levels(o.levels, o.prolongations));
+    s.bcsr = std::make_unique<Bcsr>(s.levels->matrices.back());
+    s.csr = s.bcsr->to_csr();
+    s.description = "user levels, finest " + o.levels.back();
+    if (!o.rhs.empty()) {
+      s.b = read_matrix_market_vector(o.rhs);
+      if (s.b.size() != s.csr.rows()) throw InputError(o.rhs + ": size does not match the finest level");
+    } else {
+      s.x_true = Vector::LinSpaced(s.csr.rows(), 1.0, 2.0);
+      s.b = s.csr.to_eigen() * s.x_true;
+    }
+  } else if (!o.matrix.empty()) {
     s.csr = read_matrix_market(o.matrix);
     if (s.csr.rows() != s.csr.cols())
       throw InputError(o.matrix + ": matrix is " + std::to_string(s.csr.rows()) + "x" +
@@ -238,7 +253,11 @@ double time_to(const Outcome& o, double rel) {
 void run(const Options& o) {
   if (o.threads > 0) omp_set_num_threads(o.threads);
   auto t0 = std::chrono::steady_clock::now();
-  const System sys = load_system(o);
+  System sys = load_system(o);
+  if (!o.export_levels.empty()) {
+    if (!sys.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");
+    export_levels(*sys.fem, o.export_levels);
+  }
   const double load_time = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
   const Formats fmt_ = select_format(o, sys);
@@ -265,7 +284,8 @@ void run(const Options& o) {
   std::vector<std::string> solvers = o.solvers;
   if (solvers.empty()) {
     solvers = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
-    if (sys.fem && sys.fem->hierarchy->num_levels() > 1) solvers.insert(solvers.end(), {"pmg", "mgpcg"});
+    if ((sys.fem && sys.fem->hierarchy->num_levels() > 1) || sys.levels)
+      solvers.insert(solvers.end(), {"pmg", "mgpcg"});
   }
   std::vector<Outcome> outcomes;
   double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
@@ -296,8 +316,23 @@ void run(const Options& o) {
       out = run_krylov(
           name, params, [&] { return M = std::make_shared<mg::BoomerAMG>(sys.csr); },
           [&](SolveMonitor& m, Vector& xx) { return pcg(A, M.get(), sys.b, xx, params, &m); }, x);
+    } else if ((name == "pmg" || name == "mgpcg") && sys.levels) {
+      mg::GaussSeidelParams gs;
+      gs.sweeps = o.sweeps;
+      mg::CycleParams cp;
+      cp.gamma = o.cycle == "W" ? 2 : 1;
+      std::unique_ptr<mg::MultigridCycle> cycle;
+      out = run_krylov(
+          name, params, [&] { cycle = make_cycle(*sys.levels, gs, cp); return nullptr; },
+          [&](SolveMonitor& m, Vector& xx) {
+            return name == "pmg" ? mg::multigrid_solve(A, *cycle, sys.b, xx, params, &m)
+                                 : mg::mgpcg(A, *cycle, sys.b, xx, params, &m, o.mgpcg_cycles);
+          },
+          x);
+      if (cycle) out.breakdown = cycle_breakdown(*cycle, cycle->num_levels());
     } else if (name == "pmg" || name == "mgpcg") {
-      if (!sys.fem) throw InputError(name + " needs an FEM scene (--box or --mesh): it builds the degree hierarchy");
+      if (!sys.fem)
+        throw InputError(name + " needs multigrid levels: an FEM scene (--box or --mesh) or --levels/--prolongations");
       if (sys.fem->hierarchy->num_levels() < 2) throw InputError(name + " needs degree >= 2");
       fem::PmgOptions po;
       po.coarse_operator = o.coarse_operator == "galerkin" ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
@@ -389,8 +424,7 @@ void register_compare(CLI::App& app) {
   sub->add_option("-m,--matrix", opts->matrix, "Matrix Market file (symmetric positive definite)")
       ->check(CLI::ExistingFile);
   sub->add_option("-b,--rhs", opts->rhs, "right-hand side (Matrix Market array or n x 1)")
-      ->check(CLI::ExistingFile)
-      ->needs("--matrix");
+      ->check(CLI::ExistingFile);
   sub->add_option("-x,--solution", opts->solution, "known solution, for the error column")
       ->check(CLI::ExistingFile)
       ->needs("--matrix");
@@ -423,6 +457,18 @@ void register_compare(CLI::App& app) {
   sub->add_option("--threads", opts->threads, "OpenMP threads (default: OMP_NUM_THREADS)")
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--plot", opts->plot, "draw residual against time and iterations to this PNG");
+  sub->add_option("--levels", opts->levels,
+                  "multigrid level matrices, coarsest first (Matrix Market, 3 unknowns per node)")
+      ->delimiter(',')
+      ->check(CLI::ExistingFile)
+      ->excludes("--matrix");
+  sub->add_option("--prolongations", opts->prolongations,
+                  "scalar prolongations between those levels (nodes x nodes), coarsest first")
+      ->delimiter(',')
+      ->check(CLI::ExistingFile)
+      ->needs("--levels");
+  sub->add_option("--export-levels", opts->export_levels,
+                  "FEM scenes: write the level matrices, prolongations and b to this folder");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
   sub->add_option("--coarse-operator", opts->coarse_operator, "PMG lower levels")
@@ -441,6 +487,8 @@ void register_compare(CLI::App& app) {
   sub->callback([opts, sub] {
     opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
                 sub->count("--load") || sub->count("--dt");
+    if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
+      throw InputError("give either an FEM scene or --matrix/--levels, not both");
     run(*opts);
   });
 }

@@ -138,7 +138,8 @@ void element_stiffness(const ElementTables& t, const ElementGeometry& g, double 
   const double scale = 6.0 * g.volume;
   for (int a = 0; a < n; ++a)
     for (int b = a; b < n; ++b) {
-      const Mat3 S = scale * (g.grad.transpose() * t.G[a * n + b] * g.grad);
+      Mat3 S = scale * (g.grad.transpose() * t.G[a * n + b] * g.grad);
+      if (a == b) S = 0.5 * (S + S.transpose()).eval();  // symmetric to the last bit
       const Mat3 Kab = lambda * S + mu * S.transpose() + (mu * S.trace()) * Mat3::Identity();
       K.block<3, 3>(3 * a, 3 * b) = Kab;
       if (b != a) K.block<3, 3>(3 * b, 3 * a) = Kab.transpose();

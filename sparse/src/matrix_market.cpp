@@ -154,7 +154,8 @@ Vector read_matrix_market_vector(const std::string& path) {
 }
 
 void write_matrix_market(const std::string& path, const Csr& A, bool symmetric) {
-  if (symmetric && !A.is_symmetric(0.0))
+  // Round-off asymmetry (1e-12 of the largest entry) is accepted: the lower triangle is written.
+  if (symmetric && !A.is_symmetric(1e-12))
     throw InputError(path + ": matrix is not symmetric; write it as general");
   const CsrPattern& p = A.pattern();
   offset_t count = 0;

@@ -23,7 +23,7 @@ Vector read_matrix_market_vector(const std::string& path);
 Vector read_matrix_market_vector(std::istream& in, const std::string& name = "<stream>");
 
 /// Writes a matrix in coordinate format; symmetric=true writes the lower triangle of a symmetric
-/// matrix (throws if it is not). Written to "path.tmp" then renamed: a reader never sees half a file.
+/// matrix (throws if it is not symmetric to 1e-12 of its largest entry). Written to "path.tmp" then renamed: a reader never sees half a file.
 void write_matrix_market(const std::string& path, const Csr& A, bool symmetric = false);
 /// Writes a dense vector in array format (atomically, as above).
 void write_matrix_market_vector(const std::string& path, const Vector& v);
