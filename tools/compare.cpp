@@ -47,7 +47,8 @@ struct Options {
   bool reference = true;
   std::vector<std::string> solvers;  // default depends on the system
   // PMG
-  std::string coarse_operator = "geometric", restriction = "transpose", cycle = "V";
+  std::string coarse_operator = "geometric", restriction = "transpose", cycle = "V",
+              smoother = "gauss-seidel";
   int sweeps = 5, mgpcg_cycles = 2;
   std::string format = "bcsr";
   double tol = 1e-8;
@@ -338,6 +339,7 @@ void run(const Options& o) {
       po.coarse_operator = o.coarse_operator == "galerkin" ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
       po.interpolating_restriction = o.restriction == "interpolating";
       po.smoother.sweeps = o.sweeps;
+      po.chebyshev = o.smoother == "chebyshev";
       po.cycle.gamma = o.cycle == "W" ? 2 : 1;
       std::unique_ptr<fem::PmgSolver> pmg;
       out = run_krylov(
@@ -478,6 +480,9 @@ void register_compare(CLI::App& app) {
       ->check(CLI::IsMember({"transpose", "interpolating"}))
       ->capture_default_str();
   sub->add_option("--cycle", opts->cycle, "PMG cycle")->check(CLI::IsMember({"V", "W"}))->capture_default_str();
+  sub->add_option("--smoother", opts->smoother, "PMG smoother on FEM scenes")
+      ->check(CLI::IsMember({"gauss-seidel", "chebyshev"}))
+      ->capture_default_str();
   sub->add_option("--sweeps", opts->sweeps, "Gauss-Seidel sweeps before and after")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -62,13 +62,14 @@ TEST_CASE("PMG V-cycles solve the cubic cantilever; MGPCG needs fewer iterations
   CHECK(pmg->cycle->timings().smoothing[2] > 0.0);
 }
 
-TEST_CASE("W-cycles and Galerkin coarse operators converge", "[multigrid][cycle]") {
+TEST_CASE("W-cycles, Galerkin coarse operators and Chebyshev smoothing converge", "[multigrid][cycle]") {
   Cantilever c(1, 3);
   const Vector x_ref = c.direct();
-  PmgOptions w, gal;
+  PmgOptions w, gal, cheb;
   w.cycle.gamma = 2;
   gal.coarse_operator = CoarseOperator::galerkin;
-  for (const PmgOptions& o : {w, gal}) {
+  cheb.chebyshev = true;
+  for (const PmgOptions& o : {w, gal, cheb}) {
     const auto pmg = make_pmg(c.h, o);
     Vector x = Vector::Zero(c.b.size());
     const SolveResult r = mg::multigrid_solve(c.A(), *pmg->cycle, c.b, x, tolerance(1e-9));

@@ -18,7 +18,9 @@ enum class CoarseOperator {
 struct PmgOptions {
   CoarseOperator coarse_operator = CoarseOperator::geometric;
   bool interpolating_restriction = false;  ///< the seed's R instead of Pᵀ (not symmetric)
+  bool chebyshev = false;                  ///< Chebyshev instead of block Gauss–Seidel
   mg::GaussSeidelParams smoother;
+  mg::ChebyshevParams chebyshev_params;
   mg::CycleParams cycle;
 };
 
@@ -70,7 +72,10 @@ inline std::unique_ptr<PmgSolver> make_pmg(const DegreeHierarchy& h, const PmgOp
     matrices.push_back(&s->level_matrix(h, l));
     if (l > 0) {
       transfers.push_back(s->transfers[l - 1].get());
-      smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(*matrices.back(), options.smoother));
+      if (options.chebyshev)
+        smoothers.push_back(std::make_unique<mg::Chebyshev>(*matrices.back(), options.chebyshev_params));
+      else
+        smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(*matrices.back(), options.smoother));
     }
   }
   s->cycle = std::make_unique<mg::MultigridCycle>(

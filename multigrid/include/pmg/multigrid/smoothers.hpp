@@ -78,6 +78,32 @@ class BlockJacobi final : public Smoother {
   std::vector<double> inv_diag_;
 };
 
+struct ChebyshevParams {
+  int degree = 4;               ///< polynomial degree = residual evaluations per smoothing
+  double lower_fraction = 0.1;  ///< smooth eigenvalues in [f λmax, λmax] of D⁻¹A
+  int power_iterations = 15;    ///< estimate of λmax (then raised by 10%)
+};
+
+/// Chebyshev polynomial smoother on D⁻¹A (D: 3x3 diagonal blocks): damps the upper part of the
+/// spectrum with no ordering or colouring, so it parallelises like SpMV. The same polynomial before
+/// and after keeps the cycle symmetric.
+class Chebyshev final : public Smoother {
+ public:
+  Chebyshev(const Bcsr& A, const ChebyshevParams& params = {});
+  void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
+  void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
+  void update() override;
+  double lambda_max() const { return lambda_max_; }
+
+ private:
+  void smooth(const Vector& b, Vector& x) const;
+  void apply_inverse_diagonal(const Vector& r, Vector& z) const;
+  const Bcsr& A_;
+  ChebyshevParams params_;
+  std::vector<double> inv_diag_;
+  double lambda_max_ = 0.0;
+};
+
 /// Inverts the 3x3 diagonal blocks of A (Cholesky); throws InputError naming a block that is not
 /// SPD.
 std::vector<double> inverse_diagonal_blocks(const Bcsr& A);
