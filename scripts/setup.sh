@@ -7,7 +7,8 @@ packages=(
   libeigen3-dev            # dense/sparse linear algebra, the public vector type
   libsuitesparse-dev       # CHOLMOD (supernodal sparse Cholesky)
   libopenblas0-pthread     # BLAS for CHOLMOD's supernodes (about 3x the reference BLAS)
-  libhypre-dev             # BoomerAMG baseline (brings OpenMPI)
+  libhypre-dev             # BoomerAMG baseline (brings OpenMPI's headers and libraries)
+  openmpi-bin              # mpirun, for the 2-rank BoomerAMG test (a Recommends only)
   catch2                   # unit tests (v2)
   libbenchmark-dev         # Google Benchmark
   libcli11-dev             # command-line parsing for the pmg tool
