@@ -3,8 +3,10 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mesh_io.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <iostream>
+#include <sstream>
 
 namespace pmg::tools {
 
@@ -59,7 +61,16 @@ FemSystem build_fem_system(const SceneOptions& o) {
       s.mesh, o.degree, fem::Material{o.young, o.poisson, o.density},
       [axis, limit](const fem::Vec3& X) { return X[axis] <= limit; });
   const fem::ElasticityModel& m = s.hierarchy->finest();
-  if (m.num_fixed() == 0) throw InputError("scene: no node is clamped; raise --fix-fraction");
+  const std::vector<char>& clamped = s.hierarchy->clamped_vertices();
+  const int dim = fem::clamped_dimension(s.mesh, clamped);
+  if (dim < 2) {
+    std::ostringstream msg;
+    msg << "scene: the clamped vertices (" << std::count(clamped.begin(), clamped.end(), 1)
+        << " within --fix-fraction " << o.fix_fraction << " of the minimum " << o.fix << ") "
+        << (dim < 0 ? "are none" : dim == 0 ? "are a single point" : "lie on one line")
+        << ": the body could still move rigidly; raise --fix-fraction";
+    throw InputError(msg.str());
+  }
   Vector f = Vector::Zero(m.num_dofs());
   if (o.load == "gravity") {
     f = m.gravity(fem::Vec3(0, 0, -9.81));

@@ -1,5 +1,6 @@
 #include "pmg/fem/elasticity.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 #include <cmath>
@@ -53,6 +54,40 @@ void ElasticityModel::fix_nodes(const std::vector<index_t>& nodes) {
     if (i < 0 || i >= space_.num_nodes()) throw InputError("fix_nodes: node " + std::to_string(i) + " does not exist");
     fixed_[i] = 1;
   }
+}
+
+void ElasticityModel::fix_vertices(const std::vector<char>& clamped) {
+  if (assembler_) throw Error("fix_vertices after the first assembly: the pattern is already built");
+  if (clamped.size() != mesh_.vertices.size())
+    throw InputError("fix_vertices: " + std::to_string(clamped.size()) + " flags for " +
+                     std::to_string(mesh_.vertices.size()) + " vertices");
+  const auto& alpha = multi_indices(space_.degree());
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const Tet& t = mesh_.tets[e];
+    for (int a = 0; a < space_.nodes_per_element(); ++a) {
+      bool all = true;
+      for (int i = 0; i < 4; ++i) all = all && (alpha[a][i] == 0 || clamped[t[i]]);
+      if (all) fixed_[space_.node(e, a)] = 1;
+    }
+  }
+}
+
+int clamped_dimension(const TetMesh& mesh, const std::vector<char>& clamped) {
+  std::vector<Vec3> X;
+  for (size_t v = 0; v < clamped.size() && v < mesh.vertices.size(); ++v)
+    if (clamped[v]) X.push_back(mesh.vertices[v]);
+  if (X.empty()) return -1;
+  Vec3 c = Vec3::Zero();
+  for (const auto& x : X) c += x;
+  c /= static_cast<double>(X.size());
+  Mat3 C = Mat3::Zero();
+  double scale = 0;
+  for (const auto& x : X) C += (x - c) * (x - c).transpose();
+  for (const auto& v : mesh.vertices) scale = std::max(scale, (v - c).squaredNorm());
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+  int dim = 0;
+  for (int i = 0; i < 3; ++i) dim += eig.eigenvalues()[i] > 1e-12 * scale ? 1 : 0;
+  return dim;
 }
 
 index_t ElasticityModel::num_fixed() const {

@@ -87,9 +87,11 @@ Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& f
 
 DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
                                  const std::function<bool(const Vec3&)>& fixed) {
+  clamped_.resize(mesh.vertices.size());
+  for (size_t v = 0; v < mesh.vertices.size(); ++v) clamped_[v] = fixed(mesh.vertices[v]) ? 1 : 0;
   for (int p = 1; p <= degree; ++p) {
     models_.push_back(std::make_unique<ElasticityModel>(mesh, p, material));
-    models_.back()->fix_where(fixed);
+    models_.back()->fix_vertices(clamped_);
     matrices_.push_back(models_.back()->assembler().make_matrix());
   }
   for (int l = 1; l < num_levels(); ++l)

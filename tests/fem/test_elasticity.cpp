@@ -152,3 +152,30 @@ TEST_CASE("bad material, missing supports and bad forces are clear errors", "[fe
   CHECK_THROWS_WITH(solve_static(model2, bad, false), Catch::Contains("NaN"));
   CHECK_THROWS_WITH(model2.add_point_force(bad, Vec3(3, 0, 0), Vec3(1, 0, 0)), Catch::Contains("outside the mesh"));
 }
+
+TEST_CASE("clamping by vertices fixes the same face on every degree", "[fem][dirichlet]") {
+  const TetMesh mesh = box_mesh_24(2, 1, 1, 2.0, 1.0, 1.0);
+  std::vector<char> face(mesh.vertices.size()), edge(mesh.vertices.size()), point(mesh.vertices.size());
+  for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+    const Vec3& X = mesh.vertices[v];
+    face[v] = X.x() < 1e-12;
+    edge[v] = X.x() < 1e-12 && X.y() < 1e-12;
+    point[v] = X.norm() < 1e-12;
+  }
+  CHECK(clamped_dimension(mesh, std::vector<char>(mesh.vertices.size(), 0)) == -1);
+  CHECK(clamped_dimension(mesh, point) == 0);
+  CHECK(clamped_dimension(mesh, edge) == 1);
+  CHECK(clamped_dimension(mesh, face) == 2);
+  for (int p = 1; p <= 3; ++p) {
+    ElasticityModel by_vertex(mesh, p, kSteelish), by_position(mesh, p, kSteelish);
+    by_vertex.fix_vertices(face);
+    by_position.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
+    for (index_t i = 0; i < by_vertex.num_nodes(); ++i) CHECK(by_vertex.is_fixed(i) == by_position.is_fixed(i));
+    ElasticityModel on_edge(mesh, p, kSteelish);
+    on_edge.fix_vertices(edge);
+    // The x = 0, y = 0 edge of the 24-tet box: 2 vertices, and p - 1 nodes inside the edge.
+    CHECK(on_edge.num_fixed() == 2 + (p - 1));
+  }
+  ElasticityModel m(mesh, 2, kSteelish);
+  CHECK_THROWS_AS(m.fix_vertices(std::vector<char>(3, 1)), InputError);
+}

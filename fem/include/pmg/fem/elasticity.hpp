@@ -32,6 +32,10 @@ struct Material {
 /// smallest singular value is flipped so that det R = +1).
 Mat3 polar_rotation(const Mat3& F);
 
+/// Dimension of the affine hull of the clamped vertices: -1 (none), 0 (one point), 1 (a line),
+/// 2 or 3. Clamping removes every rigid motion only when it is at least 2.
+int clamped_dimension(const TetMesh& mesh, const std::vector<char>& clamped);
+
 using Rotations = std::vector<Mat3>;
 
 class ElasticityModel {
@@ -49,6 +53,10 @@ class ElasticityModel {
   /// a plane, say: that fixes the face exactly).
   void fix_where(const std::function<bool(const Vec3&)>& predicate);
   void fix_nodes(const std::vector<index_t>& nodes);
+  /// Fixes every node whose support sub-simplex (the vertex, edge, face or tet it belongs to) has
+  /// only clamped vertices: the same clamped set on every degree, so the fixed spaces are nested
+  /// and prolongation maps free coarse nodes to free fine nodes. `clamped` has one entry per vertex.
+  void fix_vertices(const std::vector<char>& clamped);
   index_t num_fixed() const;
   bool is_fixed(index_t node) const { return fixed_[node] != 0; }
   /// Pattern, slot map and colouring for the current fixed set (built on first use, then kept).

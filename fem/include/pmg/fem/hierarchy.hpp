@@ -27,14 +27,16 @@ Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& f
 
 class DegreeHierarchy {
  public:
-  /// Levels l = 0..degree-1 hold degree l+1; `fixed` selects the Dirichlet nodes by rest position
-  /// on every level (all BB nodes of a fixed face on each).
+  /// Levels l = 0..degree-1 hold degree l+1; `fixed` selects the clamped mesh vertices by rest
+  /// position, and every level fixes the BB nodes whose support has only clamped vertices
+  /// (ElasticityModel::fix_vertices): all nodes of a clamped face, on every level alike.
   DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
                   const std::function<bool(const Vec3&)>& fixed);
 
   int num_levels() const { return static_cast<int>(models_.size()); }
   const ElasticityModel& model(int level) const { return *models_[level]; }
   const ElasticityModel& finest() const { return *models_.back(); }
+  const std::vector<char>& clamped_vertices() const { return clamped_; }
   Bcsr& matrix(int level) { return matrices_[level]; }
   const Bcsr& matrix(int level) const { return matrices_[level]; }
   /// Prolongation from level-1 to level (level >= 1).
@@ -57,6 +59,7 @@ class DegreeHierarchy {
   std::vector<Bcsr> matrices_;
   std::vector<Bcsr> masses_;  ///< per level, assembled on first use
   std::vector<Csr> prolongations_;
+  std::vector<char> clamped_;
 };
 
 }  // namespace pmg::fem
