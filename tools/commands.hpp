@@ -11,6 +11,8 @@ void register_compare(CLI::App& app);
 void register_mesh(CLI::App& app);
 /// pmg coarse: geometric vs Galerkin coarse operators (Table 2.8).
 void register_coarse(CLI::App& app);
+/// pmg simulate: implicit-Euler simulation of a JSON scene (default: the built-in cantilever).
+void register_simulate(CLI::App& app);
 
 /// Path of a data file shipped with the tools (installed share/pmgkit/, else the source tree).
 std::string find_data_file(const std::string& name);

@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   pmg::tools::register_compare(app);
   pmg::tools::register_mesh(app);
   pmg::tools::register_coarse(app);
+  pmg::tools::register_simulate(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -112,6 +112,16 @@ void DegreeHierarchy::assemble(const Rotations* R, Vector* rhs, double mass_weig
     assemble_level(l, R, l == num_levels() - 1 ? rhs : nullptr, mass_weight, stiffness_weight);
 }
 
+const Bcsr& DegreeHierarchy::mass(int l) {
+  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
+  if (masses_.size() != models_.size()) masses_.resize(models_.size());
+  if (masses_[l].values().empty()) {
+    masses_[l] = models_[l]->assembler().make_matrix();
+    models_[l]->assemble_mass(masses_[l]);
+  }
+  return masses_[l];
+}
+
 void DegreeHierarchy::assemble_level(int l, const Rotations* R, Vector* rhs, double mass_weight,
                                      double stiffness_weight) {
   if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
@@ -123,12 +133,7 @@ void DegreeHierarchy::assemble_level(int l, const Rotations* R, Vector* rhs, dou
   if (mass_weight == 0.0 && stiffness_weight == 1.0) return;
   std::vector<double>& a = matrices_[l].values();
   if (mass_weight != 0.0) {
-    if (masses_.size() != models_.size()) masses_.resize(models_.size());
-    if (masses_[l].values().empty()) {
-      masses_[l] = models_[l]->assembler().make_matrix();
-      models_[l]->assemble_mass(masses_[l]);
-    }
-    const std::vector<double>& m = masses_[l].values();
+    const std::vector<double>& m = mass(l).values();
 #pragma omp parallel for schedule(static)
     for (size_t k = 0; k < a.size(); ++k) a[k] = mass_weight * m[k] + stiffness_weight * a[k];
   } else {

@@ -37,6 +37,8 @@ class DegreeHierarchy {
   const ElasticityModel& model(int level) const { return *models_[level]; }
   const ElasticityModel& finest() const { return *models_.back(); }
   const std::vector<char>& clamped_vertices() const { return clamped_; }
+  /// Consistent mass matrix of a level over its free nodes (assembled on first use, then kept).
+  const Bcsr& mass(int level);
   Bcsr& matrix(int level) { return matrices_[level]; }
   const Bcsr& matrix(int level) const { return matrices_[level]; }
   /// Prolongation from level-1 to level (level >= 1).

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/simulation.hpp"
 #include "pmg/multigrid/cycle.hpp"
 
 #include <memory>
@@ -83,5 +84,32 @@ inline std::unique_ptr<PmgSolver> make_pmg(const DegreeHierarchy& h, const PmgOp
       std::make_unique<mg::CholmodCoarseSolver>(*matrices[0]), options.cycle);
   return s;
 }
+
+/// PMG (one cycle per iteration) or MGPCG as the step solver of ImplicitEuler: the cycle is
+/// built on the first update and refreshed (smoothers, Cholesky refactorisation) on later ones.
+class PmgStepSolver final : public StepSolver {
+ public:
+  PmgStepSolver(const PmgOptions& options, const KrylovParams& params, bool mgpcg = false,
+                int cycles_per_apply = 2)
+      : options_(options), params_(params), mgpcg_(mgpcg), cycles_(cycles_per_apply) {}
+  std::string name() const override { return mgpcg_ ? "mgpcg" : "pmg"; }
+  bool needs_lower_levels() const override { return true; }
+  void update(DegreeHierarchy& h) override {
+    if (!pmg_) pmg_ = make_pmg(h, options_);
+    else pmg_->update(h);
+  }
+  SolveResult solve(const Bcsr& A, const Vector& b, Vector& x) override {
+    return mgpcg_ ? mg::mgpcg(A, *pmg_->cycle, b, x, params_, nullptr, cycles_)
+                  : mg::multigrid_solve(A, *pmg_->cycle, b, x, params_);
+  }
+  const mg::MultigridCycle* cycle() const { return pmg_ ? pmg_->cycle.get() : nullptr; }
+
+ private:
+  PmgOptions options_;
+  KrylovParams params_;
+  bool mgpcg_;
+  int cycles_;
+  std::unique_ptr<PmgSolver> pmg_;
+};
 
 }  // namespace pmg::fem

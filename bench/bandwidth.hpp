@@ -1,0 +1,65 @@
+// Memory-bandwidth probes measured in the same run as the kernels they are compared with.
+// Call set_probe_mib() before registering BM_Triad / BM_ReadSum.
+#pragma once
+
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cstddef>
+#include <vector>
+
+namespace pmg::bench {
+
+inline size_t g_triad_elems = 0;  ///< elements per array; set_probe_mib() sets it
+inline void set_probe_mib(size_t mib) { g_triad_elems = (mib << 20) / 8 / 3; }
+
+// ---- STREAM triad: a = b + s c, 24 bytes per element (no write-allocate counted, as STREAM) ------
+inline double triad_once(std::vector<double>& a, const std::vector<double>& b, const std::vector<double>& c) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const long n = static_cast<long>(a.size());
+  double* ap = a.data();
+  const double* bp = b.data();
+  const double* cp = c.data();
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < n; ++i) ap[i] = bp[i] + 3.0 * cp[i];
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct TriadArrays {
+  std::vector<double> a, b, c;
+  explicit TriadArrays(size_t n) : a(n), b(n), c(n) {
+    // First touch in parallel, with the same static schedule as the kernel.
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < static_cast<long>(n); ++i) a[i] = 0.0, b[i] = 1.0, c[i] = 2.0;
+  }
+};
+
+inline void BM_Triad(benchmark::State& state) {
+  TriadArrays t(g_triad_elems);
+  for (auto _ : state) {
+    triad_once(t.a, t.b, t.c);
+    benchmark::DoNotOptimize(t.a.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["bytes"] = 24.0 * g_triad_elems;
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 24.0 * g_triad_elems));
+}
+
+// Read-only probe: sum of the three triad arrays, 24 bytes per element. SpMV mostly reads, and a
+// write costs a read for ownership besides, so this is the tighter ceiling for it.
+inline void BM_ReadSum(benchmark::State& state) {
+  TriadArrays t(g_triad_elems);
+  const long n = static_cast<long>(g_triad_elems);
+  const double *a = t.a.data(), *b = t.b.data(), *c = t.c.data();
+  for (auto _ : state) {
+    double s = 0.0;
+    // simd: lets the compiler split the sum over vector lanes (a single add chain is latency bound).
+#pragma omp parallel for simd schedule(static) reduction(+ : s)
+    for (long i = 0; i < n; ++i) s += a[i] + b[i] + c[i];
+    benchmark::DoNotOptimize(s);
+  }
+  state.counters["bytes"] = 24.0 * g_triad_elems;
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 24.0 * g_triad_elems));
+}
+
+}  // namespace pmg::bench

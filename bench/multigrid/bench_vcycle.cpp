@@ -1,0 +1,160 @@
+// One p-multigrid V-cycle on a cubic (or --pmg_degree) elasticity system, against the least bytes
+// it must move and the memory bandwidth measured in the same run.
+//
+//   bench_vcycle [--pmg_boxes=8] [--pmg_degree=3] [--pmg_sweeps=5] [--pmg_triad_mib=384]
+//                [google benchmark flags]
+//
+// The system: a unit cube of n^3 boxes of 24 tetrahedra, clamped at z = 0, static stiffness (cubic
+// n = 8: 164k unknowns). The bytes model counts every stream once per pass and nothing twice:
+//   Gauss-Seidel sweep  76 B per 3x3 block (values + column index) + per block row 8 B row pointer,
+//                       72 B inverse diagonal block, 24 B b read, 48 B x read and written
+//   residual            76 B per block + per block row 8 + 24 (x) + 24 (b) + 24 (r written)
+//   restriction (Pᵀ)    12 B per nonzero of the scalar P + 24 B per fine and per coarse node
+//   prolongation        12 B per nonzero of P + 48 B per fine node (read and write) + 24 per coarse
+//   lowest level        CHOLMOD's L read twice (forward and backward: 12 B per nonzero)
+// The bound is bytes / read-only bandwidth (a cycle mostly reads); the summary prints the measured
+// cycle time as a multiple of it (target: within 2x).
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/sparse/cholmod_solver.hpp"
+
+#include "../bandwidth.hpp"
+
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace pmg;
+using namespace pmg::bench;
+
+int g_boxes = 8, g_degree = 3, g_sweeps = 5;
+
+struct Scene {
+  fem::TetMesh mesh;
+  std::unique_ptr<fem::DegreeHierarchy> h;
+  std::unique_ptr<fem::PmgSolver> pmg;
+  Vector b, x;
+  double bytes = 0.0;
+  std::vector<std::pair<std::string, double>> parts;  // bytes per part of the cycle
+};
+
+Scene& scene() {
+  static std::unique_ptr<Scene> s;
+  if (s) return *s;
+  s = std::make_unique<Scene>();
+  s->mesh = fem::box_mesh_24(g_boxes, g_boxes, g_boxes, 1.0, 1.0, 1.0);
+  s->h = std::make_unique<fem::DegreeHierarchy>(s->mesh, g_degree, fem::Material{1e6, 0.3, 1000.0},
+                                                [](const fem::Vec3& X) { return X.z() < 1e-12; });
+  s->h->assemble(nullptr);
+  fem::PmgOptions po;
+  po.smoother.sweeps = g_sweeps;
+  s->pmg = fem::make_pmg(*s->h, po);
+  const index_t n = s->h->matrix(s->h->num_levels() - 1).rows();
+  s->b = Vector::Ones(n);
+  s->x = Vector::Zero(n);
+
+  double smooth = 0, residual = 0, transfer = 0;
+  for (int l = 1; l < s->h->num_levels(); ++l) {
+    const Bcsr& A = s->h->matrix(l);
+    const double nb = static_cast<double>(A.num_blocks()), rows = A.block_rows();
+    smooth += 2.0 * g_sweeps * (76.0 * nb + (8.0 + 72.0 + 24.0 + 48.0) * rows);
+    residual += 76.0 * nb + (8.0 + 72.0) * rows;
+    const Csr& P = s->h->prolongation(l);
+    const double pnz = static_cast<double>(P.nnz()), fine = P.rows(), coarse = P.cols();
+    transfer += (12.0 * pnz + 8.0 * fine + 24.0 * (fine + coarse)) +
+                (12.0 * pnz + 8.0 * fine + 48.0 * fine + 24.0 * coarse);
+  }
+  CholmodSolver chol;
+  chol.compute(s->h->matrix(0).to_csr());
+  const double coarse = 2.0 * 12.0 * chol.factor_nnz() + 4.0 * 8.0 * s->h->matrix(0).rows();
+  s->parts = {{"smoothing", smooth}, {"residuals", residual}, {"transfers", transfer}, {"lowest level", coarse}};
+  for (const auto& [name, b] : s->parts) s->bytes += b;
+  return *s;
+}
+
+void BM_VCycle(benchmark::State& state) {
+  Scene& s = scene();
+  for (auto _ : state) {
+    s.pmg->cycle->apply(s.b, s.x);
+    benchmark::DoNotOptimize(s.x.data());
+  }
+  state.counters["bytes"] = s.bytes;
+  state.counters["unknowns"] = static_cast<double>(s.b.size());
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * s.bytes));
+}
+
+class SummaryReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& r : runs) {
+      const bool use = r.run_type == Run::RT_Aggregate ? r.aggregate_name == "median" : r.repetitions <= 1;
+      const auto it = r.counters.find("bytes");
+      if (r.error_occurred || !use || it == r.counters.end()) continue;
+      const double seconds = r.real_accumulated_time / static_cast<double>(r.iterations);
+      const double gbs = it->second.value / seconds / 1e9;
+      if (r.benchmark_name().rfind("BM_Triad", 0) == 0) triad_ = std::max(triad_, gbs);
+      else if (r.benchmark_name().rfind("BM_ReadSum", 0) == 0) read_ = std::max(read_, gbs);
+      else cycle_ = seconds;
+    }
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    const Scene& s = scene();
+    std::printf("\nSummary (%d threads; degree %d, %ld unknowns, %d sweeps; triad %.2f GB/s, read-only %.2f GB/s)\n",
+                omp_get_max_threads(), g_degree, static_cast<long>(s.b.size()), g_sweeps, triad_, read_);
+    for (const auto& [name, b] : s.parts)
+      std::printf("  %-13s %9.1f MB  (%4.1f%%)\n", name.c_str(), b / 1e6, 100.0 * b / s.bytes);
+    const double bound = read_ > 0 ? s.bytes / (read_ * 1e9) : 0.0;
+    std::printf("V-cycle: %.2f ms measured, %.1f MB moved at least, bound %.2f ms at the read-only "
+                "bandwidth: %.2fx the bound\n",
+                1e3 * cycle_, s.bytes / 1e6, 1e3 * bound, bound > 0 ? cycle_ / bound : 0.0);
+  }
+
+ private:
+  double triad_ = 0, read_ = 0, cycle_ = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  size_t triad_mib = 384;
+  std::vector<char*> rest;
+  bool repetitions_given = false;
+  for (int i = 0; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--pmg_boxes=", 0) == 0) g_boxes = std::stoi(a.substr(12));
+    else if (a.rfind("--pmg_degree=", 0) == 0) g_degree = std::stoi(a.substr(13));
+    else if (a.rfind("--pmg_sweeps=", 0) == 0) g_sweeps = std::stoi(a.substr(13));
+    else if (a.rfind("--pmg_triad_mib=", 0) == 0) triad_mib = std::stoul(a.substr(16));
+    else rest.push_back(argv[i]);
+    repetitions_given |= a.rfind("--benchmark_repetitions", 0) == 0;
+  }
+  if (g_boxes < 1 || g_degree < 2 || g_degree > 3 || g_sweeps < 1) {
+    std::fprintf(stderr, "bench_vcycle: need --pmg_boxes >= 1, --pmg_degree 2 or 3, --pmg_sweeps >= 1\n");
+    return 2;
+  }
+  static char reps[] = "--benchmark_repetitions=5";
+  static char aggregates[] = "--benchmark_report_aggregates_only=true";
+  if (!repetitions_given) {
+    rest.push_back(reps);
+    rest.push_back(aggregates);
+  }
+  set_probe_mib(triad_mib);
+  int rest_argc = static_cast<int>(rest.size());
+  benchmark::Initialize(&rest_argc, rest.data());
+  benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->UseRealTime()->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("BM_ReadSum", BM_ReadSum)->UseRealTime()->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("BM_VCycle", BM_VCycle)->UseRealTime()->Unit(benchmark::kMillisecond);
+  SummaryReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+  return 0;
+}

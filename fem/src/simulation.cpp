@@ -1,0 +1,181 @@
+#include "pmg/fem/simulation.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+namespace pmg::fem {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+}  // namespace
+
+const char* stage_name(int stage) {
+  static const char* names[kNumStages] = {"rotations", "finest matrix", "hierarchy update",
+                                          "forces", "solve"};
+  return names[stage];
+}
+
+// ---- step solvers --------------------------------------------------------------------------------
+
+std::string KrylovStepSolver::name() const {
+  switch (kind_) {
+    case Kind::cg: return "cg";
+    case Kind::block_jacobi_pcg: return "block-jacobi-pcg";
+    case Kind::mcg: return "mcg";
+  }
+  return "?";
+}
+
+void KrylovStepSolver::update(DegreeHierarchy& h) {
+  if (kind_ == Kind::cg) return;
+  const Bcsr& A = h.matrix(h.num_levels() - 1);
+  if (jacobi_) jacobi_->update(A);
+  else jacobi_ = std::make_unique<BlockJacobiPreconditioner>(A);
+}
+
+SolveResult KrylovStepSolver::solve(const Bcsr& A, const Vector& b, Vector& x) {
+  switch (kind_) {
+    case Kind::cg: return cg(A, b, x, params_);
+    case Kind::block_jacobi_pcg: return pcg(A, jacobi_.get(), b, x, params_);
+    case Kind::mcg: return mcg(A, *jacobi_, b, x, params_);
+  }
+  throw Error("unknown Krylov solver");
+}
+
+void CholmodStepSolver::update(DegreeHierarchy& h) {
+  const Csr A = h.matrix(h.num_levels() - 1).to_csr();
+  if (!analyzed_) chol_.analyze(A), analyzed_ = true;
+  chol_.factorize(A);
+}
+
+SolveResult CholmodStepSolver::solve(const Bcsr& A, const Vector& b, Vector& x) {
+  const auto t0 = Clock::now();
+  chol_.solve(b, x);
+  Vector r;
+  A.residual(b, x, r);
+  SolveResult res;
+  res.status = SolveStatus::converged;
+  res.iterations = 1;
+  const double bn = b.norm();
+  res.rel_residual = res.true_rel_residual = bn > 0 ? r.norm() / bn : 0.0;
+  res.seconds = since(t0);
+  return res;
+}
+
+// ---- implicit Euler ------------------------------------------------------------------------------
+
+ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, StepSolver& solver, const Vector& f_ext,
+                             const SimulationParams& p)
+    : h_(h), solver_(solver), f_ext_(f_ext), p_(p) {
+  const ElasticityModel& m = h_.finest();
+  if (f_ext_.size() != m.num_dofs())
+    throw InputError("simulation: external force has " + std::to_string(f_ext_.size()) +
+                     " entries for " + std::to_string(m.num_dofs()) + " unknowns");
+  if (!std::isfinite(p_.dt) || !(p_.dt > 0))
+    throw InputError("simulation: the time step must be positive, got " + std::to_string(p_.dt));
+  if (!(p_.rayleigh_alpha >= 0) || !(p_.rayleigh_beta >= 0) || !std::isfinite(p_.rayleigh_alpha) ||
+      !std::isfinite(p_.rayleigh_beta))
+    throw InputError("simulation: Rayleigh damping coefficients must be >= 0");
+  if (m.num_fixed() == 0 && p_.rayleigh_alpha == 0 && m.material().density == 0)
+    throw InputError("simulation: no mass and nothing clamped: the step system is singular");
+  if (m.material().density == 0) throw InputError("simulation: density must be > 0 for dynamics");
+  u_ = Vector::Zero(m.num_dofs());
+  v_ = Vector::Zero(m.num_dofs());
+  v_free_ = Vector::Zero(m.num_free_dofs());
+}
+
+void ImplicitEuler::set_state(const Vector& u, const Vector& v) {
+  const ElasticityModel& m = h_.finest();
+  if (u.size() != m.num_dofs() || v.size() != m.num_dofs())
+    throw InputError("simulation: state vectors must have " + std::to_string(m.num_dofs()) + " entries");
+  if (!u.allFinite() || !v.allFinite()) throw InputError("simulation: the initial state is not finite");
+  for (index_t i = 0; i < m.num_nodes(); ++i)
+    if (m.is_fixed(i) && (u.segment<3>(3 * i).norm() > 0 || v.segment<3>(3 * i).norm() > 0))
+      throw InputError("simulation: clamped node " + std::to_string(i) + " must start at rest");
+  u_ = u;
+  v_ = v;
+  v_free_ = m.restrict_to_free(v);
+}
+
+void ImplicitEuler::assemble(const Rotations* R) {
+  const double mw = 1.0 + p_.dt * p_.rayleigh_alpha, sw = p_.dt * p_.rayleigh_beta + p_.dt * p_.dt;
+  h_.assemble_level(h_.num_levels() - 1, R, nullptr, mw, sw);
+}
+
+StepStats ImplicitEuler::step() {
+  StepStats st;
+  const ElasticityModel& m = h_.finest();
+  const int L = h_.num_levels();
+  Rotations R;
+  auto t0 = Clock::now();
+  if (p_.corotational) {
+    R = m.rotations(u_);
+    st.seconds[kRotations] = since(t0);
+  }
+  const Rotations* Rp = p_.corotational ? &R : nullptr;
+  if (p_.corotational || !assembled_) {
+    t0 = Clock::now();
+    assemble(Rp);
+    st.seconds[kAssembly] = since(t0);
+    t0 = Clock::now();
+    if (solver_.needs_lower_levels()) {
+      const double mw = 1.0 + p_.dt * p_.rayleigh_alpha, sw = p_.dt * p_.rayleigh_beta + p_.dt * p_.dt;
+      for (int l = 0; l < L - 1; ++l) h_.assemble_level(l, Rp, nullptr, mw, sw);
+    }
+    solver_.update(h_);
+    st.seconds[kHierarchy] = since(t0);
+    assembled_ = true;
+  }
+  // b = M v + Δt (f_ext + f_el(x)) on the free nodes.
+  t0 = Clock::now();
+  const Vector f = m.restrict_to_free(f_ext_ + m.elastic_force(u_, Rp));
+  const Bcsr& M = h_.mass(L - 1);
+  Vector b(v_free_.size());
+  M.multiply(v_free_.data(), b.data());
+  b += p_.dt * f;
+  st.seconds[kForces] = since(t0);
+
+  t0 = Clock::now();
+  SolveResult res;
+  try {
+    res = solver_.solve(h_.matrix(L - 1), b, v_free_);
+  } catch (const SolveError& e) {
+    SolveResult r = e.result;
+    r.message = "step " + std::to_string(step_ + 1) + " (t = " + std::to_string(t_ + p_.dt) +
+                " s): " + solver_.name() + " failed: " + e.what();
+    throw SolveError(r);
+  }
+  st.seconds[kSolve] = since(t0);
+  if (!v_free_.allFinite())
+    throw Error("step " + std::to_string(step_ + 1) + ": the velocity is not finite");
+
+  v_ = m.expand(v_free_, Vector());
+  u_ += p_.dt * v_;
+  t_ += p_.dt;
+  ++step_;
+  st.step = step_;
+  st.time = t_;
+  st.iterations = res.iterations;
+  st.rel_residual = res.true_rel_residual;
+  return st;
+}
+
+double ImplicitEuler::kinetic_energy() const {
+  const Bcsr& M = h_.mass(h_.num_levels() - 1);
+  Vector Mv(v_free_.size());
+  M.multiply(v_free_.data(), Mv.data());
+  return 0.5 * v_free_.dot(Mv);
+}
+
+double ImplicitEuler::elastic_energy() const {
+  const ElasticityModel& m = h_.finest();
+  if (!p_.corotational) return m.elastic_energy(u_, nullptr);
+  const Rotations R = m.rotations(u_);
+  return m.elastic_energy(u_, &R);
+}
+
+double ImplicitEuler::external_work() const { return f_ext_.dot(u_); }
+
+}  // namespace pmg::fem

@@ -1,0 +1,272 @@
+#include "scene_file.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace pmg::tools {
+
+namespace {
+
+using nlohmann::json;
+
+/// One JSON object of the scene: typed getters that name the key path in every error, and a
+/// check that no key was left unread (a misspelt key is an error, not a silent default).
+class Section {
+ public:
+  Section(const std::string& file, const std::string& path, const json& j) : file_(file), path_(path), j_(j) {
+    if (!j.is_object()) fail(path_.empty() ? "the scene must be a JSON object" : "expected an object");
+  }
+  ~Section() noexcept(false) {
+    if (std::uncaught_exceptions()) return;
+    for (auto it = j_.begin(); it != j_.end(); ++it)
+      if (!read_.count(it.key())) {
+        std::string known;
+        for (const auto& k : read_) known += (known.empty() ? "" : ", ") + k;
+        throw InputError(file_ + ": " + key(it.key()) + ": unknown key" +
+                         (known.empty() ? "" : " (this section has: " + known + ")"));
+      }
+  }
+  bool has(const std::string& k) {
+    read_.insert(k);
+    return j_.contains(k);
+  }
+  const json& at(const std::string& k) {
+    read_.insert(k);
+    return j_.at(k);
+  }
+  Section sub(const std::string& k) { return Section(file_, key(k), at(k)); }
+
+  double number(const std::string& k, double fallback) {
+    if (!has(k)) return fallback;
+    const json& v = j_.at(k);
+    if (!v.is_number()) fail_key(k, "expected a number, got " + std::string(v.type_name()));
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) fail_key(k, "must be finite");
+    return d;
+  }
+  double positive(const std::string& k, double fallback) {
+    const double d = number(k, fallback);
+    if (!(d > 0)) fail_key(k, "must be > 0, got " + fmt(d));
+    return d;
+  }
+  double nonnegative(const std::string& k, double fallback) {
+    const double d = number(k, fallback);
+    if (!(d >= 0)) fail_key(k, "must be >= 0, got " + fmt(d));
+    return d;
+  }
+  int integer(const std::string& k, int fallback, int lo, int hi) {
+    if (!has(k)) return fallback;
+    const json& v = j_.at(k);
+    if (!v.is_number_integer()) fail_key(k, "expected an integer, got " + std::string(v.type_name()));
+    const long long i = v.get<long long>();
+    if (i < lo || i > hi) fail_key(k, "must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(i));
+    return static_cast<int>(i);
+  }
+  bool boolean(const std::string& k, bool fallback) {
+    if (!has(k)) return fallback;
+    const json& v = j_.at(k);
+    if (!v.is_boolean()) fail_key(k, "expected true or false, got " + std::string(v.type_name()));
+    return v.get<bool>();
+  }
+  std::string string(const std::string& k, const std::string& fallback, const std::set<std::string>& allowed = {}) {
+    if (!has(k)) return fallback;
+    const json& v = j_.at(k);
+    if (!v.is_string()) fail_key(k, "expected a string, got " + std::string(v.type_name()));
+    std::string s = v.get<std::string>();
+    if (!allowed.empty() && !allowed.count(s)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      fail_key(k, "'" + s + "' is not one of: " + list);
+    }
+    return s;
+  }
+  template <size_t N>
+  std::array<double, N> numbers(const std::string& k, std::array<double, N> fallback) {
+    if (!has(k)) return fallback;
+    const json& v = j_.at(k);
+    if (!v.is_array() || v.size() != N) fail_key(k, "expected an array of " + std::to_string(N) + " numbers");
+    for (size_t i = 0; i < N; ++i) {
+      if (!v[i].is_number()) fail_key(k, "entry " + std::to_string(i) + " is not a number");
+      fallback[i] = v[i].get<double>();
+      if (!std::isfinite(fallback[i])) fail_key(k, "entry " + std::to_string(i) + " is not finite");
+    }
+    return fallback;
+  }
+  fem::Vec3 vec3(const std::string& k, const fem::Vec3& fallback) {
+    const auto a = numbers<3>(k, {fallback.x(), fallback.y(), fallback.z()});
+    return {a[0], a[1], a[2]};
+  }
+  [[noreturn]] void fail_key(const std::string& k, const std::string& what) const {
+    throw InputError(file_ + ": " + key(k) + ": " + what);
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(file_ + (path_.empty() ? "" : ": " + path_) + ": " + what);
+  }
+
+ private:
+  std::string key(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
+  static std::string fmt(double d) {
+    std::ostringstream s;
+    s << d;
+    return s.str();
+  }
+  std::string file_, path_;
+  const json& j_;
+  std::set<std::string> read_;
+};
+
+int axis_index(Section& sec, const std::string& k, const std::string& name) {
+  if (name == "x" || name == "y" || name == "z") return name[0] - 'x';
+  sec.fail_key(k, "expected \"x\", \"y\" or \"z\", got '" + name + "'");
+}
+
+}  // namespace
+
+SimScene read_scene(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open the scene file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw InputError(path + ": not valid JSON: " + e.what());
+  }
+  SimScene s;
+  s.source = path;
+  Section root(path, "", j);
+  if (root.has("mesh")) {
+    Section m = root.sub("mesh");
+    if (m.has("file")) {
+      s.mesh_file = m.string("file", "");
+      if (s.mesh_file.empty()) m.fail_key("file", "must name a mesh file");
+      // Relative to the scene file's folder.
+      if (s.mesh_file[0] != '/' && path.find('/') != std::string::npos)
+        s.mesh_file = path.substr(0, path.rfind('/') + 1) + s.mesh_file;
+      if (!std::ifstream(s.mesh_file)) m.fail_key("file", "cannot open '" + s.mesh_file + "'");
+      if (m.has("box") || m.has("size")) m.fail("give either file or box/size, not both");
+    } else {
+      const auto b = m.numbers<3>("box", {10, 2, 2});
+      for (int d = 0; d < 3; ++d) {
+        if (b[d] < 1 || b[d] > 1000 || b[d] != std::floor(b[d]))
+          m.fail_key("box", "expected three whole numbers of boxes in [1, 1000]");
+        s.box[d] = static_cast<int>(b[d]);
+      }
+      s.size = m.numbers<3>("size", s.size);
+      for (double L : s.size)
+        if (!(L > 0)) m.fail_key("size", "side lengths must be > 0");
+    }
+  }
+  s.degree = root.integer("degree", s.degree, 1, 3);
+  if (root.has("material")) {
+    Section m = root.sub("material");
+    s.corotational = m.string("model", "corotational", {"corotational", "linear"}) == "corotational";
+    s.young = m.positive("young", s.young);
+    s.poisson = m.number("poisson", s.poisson);
+    if (!(s.poisson > -1.0 && s.poisson < 0.5)) m.fail_key("poisson", "must lie in (-1, 0.5)");
+    s.density = m.nonnegative("density", s.density);
+  }
+  if (root.has("clamp")) {
+    if (root.at("clamp").is_string() && root.at("clamp").get<std::string>() == "none") {
+      s.clamp_axis = -1;
+    } else {
+      Section c = root.sub("clamp");
+      s.clamp_axis = axis_index(c, "axis", c.string("axis", "x"));
+      s.clamp_fraction = c.nonnegative("fraction", 0.0);
+      if (s.clamp_fraction >= 1) c.fail_key("fraction", "must be < 1");
+    }
+  }
+  if (root.has("loads")) {
+    Section l = root.sub("loads");
+    s.gravity = l.vec3("gravity", s.gravity);
+    s.end_force = l.vec3("end_force", s.end_force);
+  }
+  if (root.has("initial")) {
+    Section i = root.sub("initial");
+    s.initial = i.string("state", "rest", {"rest", "deflected", "compressed", "twisted", "spinning"});
+    if (s.initial == "deflected") s.initial_force = i.vec3("force", s.initial_force);
+    if (s.initial == "compressed") {
+      s.strain = i.positive("strain", s.strain);
+      if (s.strain >= 1) i.fail_key("strain", "must be < 1");
+    }
+    if (s.initial == "twisted") s.twist_degrees = i.number("degrees", s.twist_degrees);
+    if (s.initial == "spinning") s.omega = i.vec3("omega", s.omega);
+  } else {
+    s.initial = "rest";
+  }
+  if (root.has("time")) {
+    if (root.at("time").is_string() && root.at("time").get<std::string>() == "static") {
+      s.dynamic = false;
+    } else {
+      Section t = root.sub("time");
+      s.dt = t.positive("dt", s.dt);
+      s.duration = t.positive("duration", s.duration);
+      if (s.duration / s.dt > 1e7) t.fail_key("duration", "more than 10 million steps");
+    }
+  }
+  if (root.has("damping")) {
+    Section d = root.sub("damping");
+    s.rayleigh_alpha = d.nonnegative("alpha", 0.0);
+    s.rayleigh_beta = d.nonnegative("beta", 0.0);
+  }
+  if (root.has("solver")) {
+    Section v = root.sub("solver");
+    s.method = v.string("method", s.method, {"pmg", "mgpcg", "cg", "block-jacobi-pcg", "mcg", "cholmod"});
+    s.tol = v.positive("tol", s.tol);
+    if (s.tol >= 1) v.fail_key("tol", "must be < 1");
+    s.max_iterations = v.integer("max_iterations", s.max_iterations, 1, 1000000);
+    s.fixed_iterations = v.integer("fixed_iterations", 0, 0, 1000000);
+    s.sweeps = v.integer("sweeps", s.sweeps, 1, 100);
+  }
+  if (root.has("output")) {
+    Section o = root.sub("output");
+    s.output = o.string("directory", "");
+    s.frame_every = o.integer("frame_every", s.frame_every, 0, 1000000000);
+    s.energy = o.boolean("energy", s.energy);
+    if (o.has("probe")) s.probe = o.vec3("probe", fem::Vec3::Zero());
+  }
+  if (root.has("name")) s.source = root.string("name", s.source) + " (" + path + ")";
+  // Combinations, checked before any work.
+  if (!s.dynamic && s.clamp_axis < 0) root.fail("a static scene needs a clamp (nothing holds the body)");
+  if (s.dynamic && s.density == 0) root.fail("material.density: a dynamic scene needs a density > 0");
+  if (s.initial == "spinning" && s.clamp_axis >= 0)
+    root.fail("initial.state spinning needs \"clamp\": \"none\" (a clamped body cannot spin freely)");
+  if ((s.initial == "deflected" || s.initial == "compressed" || s.initial == "twisted") && s.clamp_axis < 0)
+    root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
+  if (s.method == "pmg" || s.method == "mgpcg")
+    if (s.fixed_iterations > 0 && s.method == "mgpcg") root.fail("solver.fixed_iterations: not for mgpcg");
+  return s;
+}
+
+std::string scene_to_json(const SimScene& s) {
+  json j;
+  if (s.mesh_file.empty()) j["mesh"] = {{"box", s.box}, {"size", s.size}};
+  else j["mesh"] = {{"file", s.mesh_file}};
+  j["degree"] = s.degree;
+  j["material"] = {{"model", s.corotational ? "corotational" : "linear"},
+                   {"young", s.young}, {"poisson", s.poisson}, {"density", s.density}};
+  if (s.clamp_axis < 0) j["clamp"] = "none";
+  else j["clamp"] = {{"axis", std::string(1, static_cast<char>('x' + s.clamp_axis))}, {"fraction", s.clamp_fraction}};
+  auto vec = [](const fem::Vec3& v) { return std::array<double, 3>{v.x(), v.y(), v.z()}; };
+  j["loads"] = {{"gravity", vec(s.gravity)}, {"end_force", vec(s.end_force)}};
+  json init = {{"state", s.initial}};
+  if (s.initial == "deflected") init["force"] = vec(s.initial_force);
+  if (s.initial == "compressed") init["strain"] = s.strain;
+  if (s.initial == "twisted") init["degrees"] = s.twist_degrees;
+  if (s.initial == "spinning") init["omega"] = vec(s.omega);
+  j["initial"] = init;
+  if (s.dynamic) j["time"] = {{"dt", s.dt}, {"duration", s.duration}};
+  else j["time"] = "static";
+  j["damping"] = {{"alpha", s.rayleigh_alpha}, {"beta", s.rayleigh_beta}};
+  j["solver"] = {{"method", s.method}, {"tol", s.tol}, {"max_iterations", s.max_iterations},
+                 {"fixed_iterations", s.fixed_iterations}, {"sweeps", s.sweeps}};
+  json out = {{"directory", s.output}, {"frame_every", s.frame_every}, {"energy", s.energy}};
+  if (s.probe) out["probe"] = vec(*s.probe);
+  j["output"] = out;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace pmg::tools

@@ -1,0 +1,58 @@
+// Simulation scenes: a JSON file (nlohmann::json) read into SimScene, every key checked before any
+// work starts. An unknown key, a wrong type or an impossible value is an InputError naming the key
+// ("scene.json: material.poisson: must lie in (-1, 0.5), got 0.7").
+#pragma once
+
+#include "pmg/fem/mesh.hpp"
+
+#include <array>
+#include <optional>
+#include <string>
+
+namespace pmg::tools {
+
+struct SimScene {
+  std::string source = "built-in default scene";
+  // geometry
+  std::string mesh_file;                  ///< empty: the box bar
+  std::array<int, 3> box{8, 2, 2};       ///< boxes of 24 tets along x y z
+  std::array<double, 3> size{4.0, 1.0, 1.0};
+  int degree = 3;
+  // material
+  bool corotational = true;
+  double young = 5e6, poisson = 0.3, density = 1000.0;
+  // constraints: the vertices within `clamp_fraction` of the minimum of `clamp_axis` (none: -1)
+  int clamp_axis = 0;
+  double clamp_fraction = 0.0;
+  // loads (constant in time)
+  fem::Vec3 gravity = fem::Vec3::Zero();
+  fem::Vec3 end_force = fem::Vec3::Zero();  ///< total force on the far face (max of the clamp axis)
+  // initial state
+  std::string initial = "rest";  ///< rest, deflected, compressed, twisted, spinning
+  fem::Vec3 initial_force{0.0, 0.0, -4000.0};  ///< deflected: static shape under this end force
+  double strain = 0.2;                         ///< compressed: shortening along the clamp axis
+  double twist_degrees = 90.0;                 ///< twisted: rotation of the far end
+  fem::Vec3 omega{0.0, 0.0, 2.0};              ///< spinning: angular velocity [rad/s]
+  // time
+  bool dynamic = true;
+  double dt = 0.01, duration = 2.0;
+  double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;
+  // solver
+  std::string method = "pmg";  ///< pmg, mgpcg, cg, block-jacobi-pcg, mcg, cholmod
+  double tol = 1e-3;
+  int max_iterations = 1000;
+  int fixed_iterations = 0;  ///< > 0: exactly this many iterations per step (seed's 20 CG)
+  int sweeps = 5;
+  // output
+  std::string output;  ///< directory; empty: nothing written
+  int frame_every = 10;
+  bool energy = true;                 ///< record energies each step
+  std::optional<fem::Vec3> probe;     ///< rest point whose displacement is recorded
+};
+
+/// Reads and checks a scene; `path` names the file in every message.
+SimScene read_scene(const std::string& path);
+/// The scene as JSON (what --print-scene shows; read_scene accepts it back).
+std::string scene_to_json(const SimScene& s);
+
+}  // namespace pmg::tools
