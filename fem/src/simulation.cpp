@@ -36,10 +36,11 @@ void KrylovStepSolver::update(DegreeHierarchy& h) {
 }
 
 SolveResult KrylovStepSolver::solve(const Bcsr& A, const Vector& b, Vector& x) {
+  const KrylovParams p = with_rounding_floor(params_, b);
   switch (kind_) {
-    case Kind::cg: return cg(A, b, x, params_);
-    case Kind::block_jacobi_pcg: return pcg(A, jacobi_.get(), b, x, params_);
-    case Kind::mcg: return mcg(A, *jacobi_, b, x, params_);
+    case Kind::cg: return cg(A, b, x, p);
+    case Kind::block_jacobi_pcg: return pcg(A, jacobi_.get(), b, x, p);
+    case Kind::mcg: return mcg(A, *jacobi_, b, x, p);
   }
   throw Error("unknown Krylov solver");
 }
@@ -138,9 +139,13 @@ StepStats ImplicitEuler::step() {
   st.seconds[kForces] = since(t0);
 
   t0 = Clock::now();
+  const Bcsr& A = h_.matrix(L - 1);
+  Vector r;
+  A.residual(b, v_free_, r);
+  const double r0 = r.norm(), bn = b.norm();
   SolveResult res;
   try {
-    res = solver_.solve(h_.matrix(L - 1), b, v_free_);
+    res = solver_.solve(A, b, v_free_);
   } catch (const SolveError& e) {
     SolveResult r = e.result;
     r.message = "step " + std::to_string(step_ + 1) + " (t = " + std::to_string(t_ + p_.dt) +
@@ -159,6 +164,7 @@ StepStats ImplicitEuler::step() {
   st.time = t_;
   st.iterations = res.iterations;
   st.rel_residual = res.true_rel_residual;
+  st.residual = bn > 0 ? (std::isfinite(res.true_rel_residual) ? res.true_rel_residual * r0 : r0) / bn : 0.0;
   return st;
 }
 

@@ -3,6 +3,7 @@
 #include "pmg/sparse/cholmod_solver.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 namespace pmg::fem {
@@ -49,8 +50,12 @@ StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, boo
     res.last_change = change;
     if (!corotational || change <= options.corotational_tol) return res;
     if (!std::isfinite(change) || it >= options.max_corotational_iterations)
-      throw Error("static solve: corotational fixed point did not converge (relative change " +
-                  std::to_string(change) + " after " + std::to_string(it) + " iterations)");
+    {
+      std::ostringstream msg;
+      msg << "static solve: corotational fixed point did not converge (relative change " << change
+          << " after " << it << " iterations, tolerance " << options.corotational_tol << ")";
+      throw Error(msg.str());
+    }
   }
 }
 

@@ -99,8 +99,9 @@ class PmgStepSolver final : public StepSolver {
     else pmg_->update(h);
   }
   SolveResult solve(const Bcsr& A, const Vector& b, Vector& x) override {
-    return mgpcg_ ? mg::mgpcg(A, *pmg_->cycle, b, x, params_, nullptr, cycles_)
-                  : mg::multigrid_solve(A, *pmg_->cycle, b, x, params_);
+    const KrylovParams p = with_rounding_floor(params_, b);
+    return mgpcg_ ? mg::mgpcg(A, *pmg_->cycle, b, x, p, nullptr, cycles_)
+                  : mg::multigrid_solve(A, *pmg_->cycle, b, x, p);
   }
   const mg::MultigridCycle* cycle() const { return pmg_ ? pmg_->cycle.get() : nullptr; }
 

@@ -15,6 +15,7 @@
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/preconditioners.hpp"
 
+#include <algorithm>
 #include <array>
 #include <memory>
 #include <string>
@@ -34,6 +35,13 @@ class StepSolver {
   /// Throws SolveError when the solve fails (divergence, breakdown, iteration limit).
   virtual SolveResult solve(const Bcsr& A, const Vector& b, Vector& x) = 0;
 };
+
+/// The step solvers' stopping rule: relative to the warm start's residual, with a floor at
+/// 1e-12 ||b|| (a warm start can be so good that tol ||r_0|| lies below rounding).
+inline KrylovParams with_rounding_floor(KrylovParams p, const Vector& b) {
+  p.abs_tol = std::max(p.abs_tol, 1e-12 * b.norm());
+  return p;
+}
 
 /// CG (fixed_iterations: the seed's "20 CG iterations" per step), block-Jacobi PCG or merged CG.
 class KrylovStepSolver final : public StepSolver {
@@ -78,7 +86,8 @@ struct StepStats {
   double time = 0.0;                       ///< simulated time after the step
   std::array<double, kNumStages> seconds{};  ///< wall time per stage (0 when skipped)
   int iterations = 0;                      ///< iterations or cycles of the solve
-  double rel_residual = 0.0;               ///< true relative residual of the solve
+  double rel_residual = 0.0;  ///< true residual of the solve relative to the warm start's
+  double residual = 0.0;      ///< true residual ||b - A v|| / ||b||
 };
 
 class ImplicitEuler {

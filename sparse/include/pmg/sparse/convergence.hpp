@@ -17,6 +17,7 @@ class ConvergenceTracker {
   ConvergenceTracker(const char* method, const KrylovParams& p, SolveMonitor* m)
       : method_(method), p_(p), monitor_(m) {
     if (!(p.rel_tol >= 0.0)) throw InputError(std::string(method) + ": rel_tol must be >= 0");
+    if (!(p.abs_tol >= 0.0)) throw InputError(std::string(method) + ": abs_tol must be >= 0");
     if (p.max_iterations < 0) throw InputError(std::string(method) + ": max_iterations < 0");
     if (p.check_every < 1) throw InputError(std::string(method) + ": check_every must be >= 1");
     if (monitor_) monitor_->start();
@@ -30,9 +31,9 @@ class ConvergenceTracker {
       return false;
     }
     if (monitor_) monitor_->record(0, r0_norm > 0 ? 1.0 : 0.0);
-    if (r0_norm == 0.0) {
+    if (r0_norm == 0.0 || (!p_.fixed_iterations && r0_norm <= p_.abs_tol)) {
       result_.status = SolveStatus::converged;
-      result_.rel_residual = result_.true_rel_residual = 0.0;
+      result_.rel_residual = result_.true_rel_residual = r0_norm > 0 ? 1.0 : 0.0;
       done_ = true;
       return false;
     }
@@ -102,7 +103,7 @@ class ConvergenceTracker {
       }
       return false;
     }
-    if (rel <= p_.rel_tol) return true;
+    if (rel <= p_.rel_tol || r_norm <= p_.abs_tol) return true;
     if (it >= p_.max_iterations)
       fail(SolveStatus::iteration_limit, "relative residual " + fmt(rel) + " after " +
                                              std::to_string(it) + " iterations, tolerance " +
@@ -115,7 +116,7 @@ class ConvergenceTracker {
   bool accept_true_residual(double true_norm) {
     const double rel = true_norm / r0_;
     // The recursive and the true residual differ by rounding; allow that much above tol.
-    if (rel <= 2.0 * p_.rel_tol) {
+    if (rel <= 2.0 * p_.rel_tol || true_norm <= 2.0 * p_.abs_tol) {
       finish_converged(rel);
       return true;
     }

@@ -16,6 +16,9 @@ namespace pmg {
 
 struct KrylovParams {
   double rel_tol = 1e-8;
+  /// Also converged when ||r|| <= abs_tol (0: off). A warm-started time step can begin so close to
+  /// its solution that rel_tol ||r_0|| lies below rounding; a floor such as 1e-12 ||b|| ends it.
+  double abs_tol = 0.0;
   int max_iterations = 10000;
   /// Run exactly max_iterations (the seed's "20 CG iterations"); only failures stop it early.
   bool fixed_iterations = false;
