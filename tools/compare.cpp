@@ -340,6 +340,7 @@ void run(const Options& o) {
       po.interpolating_restriction = o.restriction == "interpolating";
       po.smoother.sweeps = o.sweeps;
       po.chebyshev = o.smoother == "chebyshev";
+      po.smoother.pointwise = o.smoother == "point-gauss-seidel";
       po.cycle.gamma = o.cycle == "W" ? 2 : 1;
       std::unique_ptr<fem::PmgSolver> pmg;
       out = run_krylov(
@@ -480,8 +481,9 @@ void register_compare(CLI::App& app) {
       ->check(CLI::IsMember({"transpose", "interpolating"}))
       ->capture_default_str();
   sub->add_option("--cycle", opts->cycle, "PMG cycle")->check(CLI::IsMember({"V", "W"}))->capture_default_str();
-  sub->add_option("--smoother", opts->smoother, "PMG smoother on FEM scenes")
-      ->check(CLI::IsMember({"gauss-seidel", "chebyshev"}))
+  sub->add_option("--smoother", opts->smoother,
+                  "PMG smoother on FEM scenes: 3x3-block Gauss-Seidel, point (scalar) Gauss-Seidel, Chebyshev")
+      ->check(CLI::IsMember({"gauss-seidel", "point-gauss-seidel", "chebyshev"}))
       ->capture_default_str();
   sub->add_option("--sweeps", opts->sweeps, "Gauss-Seidel sweeps before and after")
       ->check(CLI::NonNegativeNumber)

@@ -51,6 +51,30 @@ inline void relax_row(const index_t* cols, const double* v, offset_t begin, offs
   x[3 * I + 1] = d[3] * r0 + d[4] * r1 + d[5] * r2;
   x[3 * I + 2] = d[6] * r0 + d[7] * r1 + d[8] * r2;
 }
+/// Point Gauss–Seidel on block row I: the off-diagonal blocks as relax_row, then the 3x3 diagonal
+/// block d relaxed scalar by scalar (forward: 0,1,2; backward: 2,1,0).
+inline void relax_row_pointwise(const index_t* cols, const double* v, offset_t begin, offset_t end,
+                                const double* diag, const Vector& b, Vector& x, index_t I, bool forward) {
+  double r[3] = {b[3 * I], b[3 * I + 1], b[3 * I + 2]};
+  for (offset_t k = begin; k < end; ++k) {
+    const index_t J = cols[k];
+    if (J == I) continue;
+    const double* a = v + 9 * k;
+    const double x0 = x[3 * J], x1 = x[3 * J + 1], x2 = x[3 * J + 2];
+    r[0] -= a[0] * x0 + a[1] * x1 + a[2] * x2;
+    r[1] -= a[3] * x0 + a[4] * x1 + a[5] * x2;
+    r[2] -= a[6] * x0 + a[7] * x1 + a[8] * x2;
+  }
+  const double* d = diag + 9 * I;
+  double* xi = x.data() + 3 * I;
+  for (int s = 0; s < 3; ++s) {
+    const int i = forward ? s : 2 - s;
+    double ri = r[i];
+    for (int j = 0; j < 3; ++j)
+      if (j != i) ri -= d[3 * i + j] * xi[j];
+    xi[i] = ri / d[4 * i];
+  }
+}
 }  // namespace
 
 BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params)
@@ -83,7 +107,8 @@ BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& param
 }
 
 void BlockGaussSeidel::update() {
-  inv_diag_ = inverse_diagonal_blocks(A_);
+  inv_diag_ = inverse_diagonal_blocks(A_);  // also refuses diagonal blocks that are not SPD
+  if (params_.pointwise) diag_ = A_.diagonal_blocks();
   const double* src = A_.values().data();
   double* dst = colored_values_.data();
   const offset_t n = static_cast<offset_t>(source_.size());
@@ -101,15 +126,28 @@ void BlockGaussSeidel::sweep(const Vector& b, Vector& x, bool forward) const {
     for (int ci = 0; ci < nc; ++ci) {
       const int c = forward ? ci : nc - 1 - ci;
       // Rows of one colour are not coupled: any order, any thread; their blocks are contiguous.
+      if (params_.pointwise) {
 #pragma omp parallel for schedule(static)
-      for (index_t k = color_start_[c]; k < color_start_[c + 1]; ++k)
-        relax_row(cols, v, rp[k], rp[k + 1], inv, b, x, order_[k]);
+        for (index_t k = color_start_[c]; k < color_start_[c + 1]; ++k)
+          relax_row_pointwise(cols, v, rp[k], rp[k + 1], diag_.data(), b, x, order_[k], forward);
+      } else {
+#pragma omp parallel for schedule(static)
+        for (index_t k = color_start_[c]; k < color_start_[c + 1]; ++k)
+          relax_row(cols, v, rp[k], rp[k + 1], inv, b, x, order_[k]);
+      }
     }
     return;
   }
   const BlockPattern& p = A_.pattern();
   const double* v = A_.values().data();
   const index_t n = p.rows;
+  if (params_.pointwise) {
+    for (index_t s = 0; s < n; ++s) {
+      const index_t I = forward ? s : n - 1 - s;
+      relax_row_pointwise(p.col_idx.data(), v, p.row_ptr[I], p.row_ptr[I + 1], diag_.data(), b, x, I, forward);
+    }
+    return;
+  }
   if (forward) {
     for (index_t I = 0; I < n; ++I) relax_row(p.col_idx.data(), v, p.row_ptr[I], p.row_ptr[I + 1], inv, b, x, I);
   } else {

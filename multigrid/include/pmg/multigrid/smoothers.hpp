@@ -29,6 +29,10 @@ enum class Ordering {
 struct GaussSeidelParams {
   int sweeps = 5;  ///< per pre- and per post-smoothing (the seed's 5)
   Ordering ordering = Ordering::multicolor;
+  /// Point (scalar) Gauss–Seidel instead of 3x3-block: the three unknowns of a block row are
+  /// relaxed one after another with their scalar diagonal (forward 0,1,2; backward 2,1,0), which
+  /// in natural order is exactly scalar Gauss–Seidel on the scalar matrix.
+  bool pointwise = false;
 };
 
 /// 3x3-block Gauss–Seidel: x_I <- D_I⁻¹ (b_I - Σ_{J≠I} A_IJ x_J). pre: forward sweeps; post:
@@ -51,6 +55,7 @@ class BlockGaussSeidel final : public Smoother {
   GaussSeidelParams params_;
   std::vector<std::vector<index_t>> colors_;
   std::vector<double> inv_diag_;
+  std::vector<double> diag_;  ///< pointwise: the diagonal blocks themselves
   // Colour-ordered copy (multicolour only): position k holds block row order_[k] of A.
   std::vector<index_t> order_, color_start_;
   BlockPattern colored_;          ///< row_ptr/col_idx in colour order (columns keep A's numbering)
