@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace pmg::bench {
@@ -60,6 +61,25 @@ inline void BM_ReadSum(benchmark::State& state) {
   }
   state.counters["bytes"] = 24.0 * g_triad_elems;
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 24.0 * g_triad_elems));
+}
+
+/// The common start of a pmgkit benchmark: repetitions default to 5 with aggregates only (these
+/// machines are noisy; summaries use medians), the probe arrays are sized, Google Benchmark is
+/// initialised with the arguments the caller did not consume, and the two probes are registered.
+inline void start_benchmarks(std::vector<char*>& rest, size_t triad_mib) {
+  bool repetitions_given = false;
+  for (const char* a : rest) repetitions_given |= std::string(a).rfind("--benchmark_repetitions", 0) == 0;
+  static char reps[] = "--benchmark_repetitions=5";
+  static char aggregates[] = "--benchmark_report_aggregates_only=true";
+  if (!repetitions_given) {
+    rest.push_back(reps);
+    rest.push_back(aggregates);
+  }
+  set_probe_mib(triad_mib);
+  int rest_argc = static_cast<int>(rest.size());
+  benchmark::Initialize(&rest_argc, rest.data());
+  benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->UseRealTime()->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("BM_ReadSum", BM_ReadSum)->UseRealTime()->Unit(benchmark::kMillisecond);
 }
 
 }  // namespace pmg::bench

@@ -3,6 +3,7 @@
 # benchmark smoke runs and the installed-package consumer build).
 #   scripts/test.sh             Release build in build/
 #   scripts/test.sh --sanitize  AddressSanitizer + UBSan build in build-asan/
+#   scripts/test.sh --validation  also the long validation runs and the stability stress matrix
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -12,12 +13,13 @@ if [ "${1:-}" = "--sanitize" ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
   # The consumer check installs and links a plain build, and the validation runs are the same
   # code on larger meshes: under sanitizers they add time, not coverage.
-  ctest --test-dir build-asan --output-on-failure -j 2 -LE "install|validation"
+  ctest --test-dir build-asan --output-on-failure -j 2 -LE "install|validation|stress"
 else
   scripts/build.sh
   if [ "${1:-}" = "--validation" ]; then
-    ctest --test-dir build --output-on-failure -j 2
+    ctest --test-dir build --output-on-failure -j 2 -LE stress
+    ctest --test-dir build --output-on-failure -L stress
   else
-    ctest --test-dir build --output-on-failure -j 2 -LE validation
+    ctest --test-dir build --output-on-failure -j 2 -LE "validation|stress"
   fi
 fi

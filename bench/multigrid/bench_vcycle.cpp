@@ -127,7 +127,6 @@ class SummaryReporter : public benchmark::ConsoleReporter {
 int main(int argc, char** argv) {
   size_t triad_mib = 384;
   std::vector<char*> rest;
-  bool repetitions_given = false;
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
     if (a.rfind("--pmg_boxes=", 0) == 0) g_boxes = std::stoi(a.substr(12));
@@ -135,23 +134,12 @@ int main(int argc, char** argv) {
     else if (a.rfind("--pmg_sweeps=", 0) == 0) g_sweeps = std::stoi(a.substr(13));
     else if (a.rfind("--pmg_triad_mib=", 0) == 0) triad_mib = std::stoul(a.substr(16));
     else rest.push_back(argv[i]);
-    repetitions_given |= a.rfind("--benchmark_repetitions", 0) == 0;
   }
   if (g_boxes < 1 || g_degree < 2 || g_degree > 3 || g_sweeps < 1) {
     std::fprintf(stderr, "bench_vcycle: need --pmg_boxes >= 1, --pmg_degree 2 or 3, --pmg_sweeps >= 1\n");
     return 2;
   }
-  static char reps[] = "--benchmark_repetitions=5";
-  static char aggregates[] = "--benchmark_report_aggregates_only=true";
-  if (!repetitions_given) {
-    rest.push_back(reps);
-    rest.push_back(aggregates);
-  }
-  set_probe_mib(triad_mib);
-  int rest_argc = static_cast<int>(rest.size());
-  benchmark::Initialize(&rest_argc, rest.data());
-  benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->UseRealTime()->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("BM_ReadSum", BM_ReadSum)->UseRealTime()->Unit(benchmark::kMillisecond);
+  start_benchmarks(rest, triad_mib);
   benchmark::RegisterBenchmark("BM_VCycle", BM_VCycle)->UseRealTime()->Unit(benchmark::kMillisecond);
   SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);

@@ -156,26 +156,13 @@ int main(int argc, char** argv) {
   std::vector<int> sizes{16, 64};
   size_t triad_mib = 384;  // three arrays of 128 MiB each: 12x the 32 MiB last-level cache
   std::vector<char*> rest;
-  bool repetitions_given = false;
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
     if (a.rfind("--pmg_sizes=", 0) == 0) sizes = parse_sizes(a.substr(12));
     else if (a.rfind("--pmg_triad_mib=", 0) == 0) triad_mib = std::stoul(a.substr(16));
     else rest.push_back(argv[i]);
-    repetitions_given |= a.rfind("--benchmark_repetitions", 0) == 0;
   }
-  // These machines are noisy: by default every kernel runs 5 times and the summary uses medians.
-  static char reps[] = "--benchmark_repetitions=5";
-  static char aggregates[] = "--benchmark_report_aggregates_only=true";
-  if (!repetitions_given) {
-    rest.push_back(reps);
-    rest.push_back(aggregates);
-  }
-  set_probe_mib(triad_mib);
-  int rest_argc = static_cast<int>(rest.size());
-  benchmark::Initialize(&rest_argc, rest.data());
-  benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->UseRealTime()->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("BM_ReadSum", BM_ReadSum)->UseRealTime()->Unit(benchmark::kMillisecond);
+  start_benchmarks(rest, triad_mib);
   for (int n : sizes)
     for (auto [name, fn] : std::vector<std::pair<const char*, void (*)(benchmark::State&)>>{
              {"BM_SpMV_EigenCSR", BM_SpMV_EigenCSR},

@@ -1,0 +1,130 @@
+"""Stability stress matrix for pmg simulate: near-incompressible material, time steps from 1e-4 to
+0.1 s, large compression, flat and needle elements, a spinning free body over 10,000 steps.
+
+Each case is a scene run by `pmg simulate`; it passes when the run either finishes with finite
+results and an energy that never rises above its start (undamped runs: implicit Euler only removes
+energy; 1e-4 relative is allowed for the lagged-rotation wobble of a spinning body), or stops
+with a clear error (exit 1 or 2 and a message naming what failed). A crash, a hang, a NaN in the
+output or an energy rise is a failure. Prints a Markdown table (and writes it to --out .md);
+exit code 1 if any case failed.
+
+  /usr/bin/python3 tools/stress_matrix.py --pmg build/tools/pmg [--quick] [--out stress]
+"""
+import argparse
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+BAR = {"mesh": {"box": [8, 2, 2], "size": [4, 1, 1]}, "degree": 2,
+       "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
+       "clamp": {"axis": "x"}, "initial": {"state": "deflected", "force": [0, 0, -4000]},
+       "time": {"dt": 0.01, "duration": 0.5}, "solver": {"method": "pmg", "tol": 1e-3}}
+
+
+def case(name, base=BAR, **changes):
+    scene = json.loads(json.dumps(base))
+    for path, value in changes.items():
+        d = scene
+        keys = path.split("__")
+        for k in keys[:-1]:
+            d = d.setdefault(k, {})
+        d[keys[-1]] = value
+    return name, scene
+
+
+def cases(quick, only=None):
+    out = []
+    for nu in (0.3, 0.45, 0.49, 0.499):
+        out.append(case("Poisson %g" % nu, material__poisson=nu))
+    for dt in (1e-4, 1e-3, 1e-2, 1e-1):
+        out.append(case("dt = %g s" % dt, time={"dt": dt, "duration": 50 * dt}))
+    out.append(case("compressed 50% and released", initial={"state": "compressed", "strain": 0.5},
+                    time={"dt": 0.005, "duration": 0.5}))
+    out.append(case("twisted 180 degrees and released", initial={"state": "twisted", "degrees": 180}))
+    out.append(case("flat elements (plate 4 x 1 x 0.01)", mesh={"box": [8, 2, 1], "size": [4, 1, 0.01]},
+                    initial={"state": "deflected", "force": [0, 0, -0.002]}))
+    out.append(case("needle elements (rod 4 x 0.01 x 0.01)", mesh={"box": [16, 1, 1], "size": [4, 0.01, 0.01]},
+                    initial={"state": "deflected", "force": [0, 0, -4e-6]}))
+    out.append(case("flat elements, MGPCG", mesh={"box": [8, 2, 1], "size": [4, 1, 0.01]},
+                    initial={"state": "deflected", "force": [0, 0, -0.002]}, solver={"method": "mgpcg", "tol": 1e-3}))
+    out.append(case("needle elements, MGPCG", mesh={"box": [16, 1, 1], "size": [4, 0.01, 0.01]},
+                    initial={"state": "deflected", "force": [0, 0, -4e-6]}, solver={"method": "mgpcg", "tol": 1e-3}))
+    spin = {"mesh": {"box": [4, 1, 1], "size": [2, 0.5, 0.5]}, "degree": 2,
+            "material": {"model": "corotational", "young": 5e5, "poisson": 0.3, "density": 1000},
+            "clamp": "none", "initial": {"state": "spinning", "omega": [0, 0, 3]},
+            "time": {"dt": 0.005, "duration": 5.0 if quick else 50.0}, "solver": {"method": "pmg", "tol": 1e-6}}
+    out.append(case("spinning free bar, %d steps" % (1000 if quick else 10000), base=spin))
+    out.append(case("solver cannot converge (cg, 2 iterations to 1e-10)",
+                    solver={"method": "cg", "tol": 1e-10, "max_iterations": 2}))
+    return [c for c in out if not only or only in c[0]]
+
+
+def run_case(pmg, name, scene, d):
+    path = os.path.join(d, "scene.json")
+    out = os.path.join(d, "out")
+    scene = dict(scene)
+    scene["output"] = {"directory": out, "frame_every": 0, "energy": True}
+    with open(path, "w") as f:
+        json.dump(scene, f)
+    t0 = time.time()
+    try:
+        p = subprocess.run([pmg, "simulate", path, "-q"], capture_output=True, text=True, timeout=600)
+    except subprocess.TimeoutExpired:
+        return "FAIL", "hung (no result in 600 s)", time.time() - t0
+    wall = time.time() - t0
+    text = p.stdout + p.stderr
+    if p.returncode not in (0, 1, 2):
+        return "FAIL", "crashed (exit %d)" % p.returncode, wall
+    if p.returncode != 0:
+        m = re.search(r"(simulation failed at step .*|pmg: error: .*)", text)
+        if not m:
+            return "FAIL", "exit %d without a message" % p.returncode, wall
+        return "clear error", m.group(1).strip()[:150], wall
+    steps = os.path.join(out, "steps.csv")
+    rows = open(steps).read().strip().splitlines()[1:]
+    energy = [float(r.split(",")[7]) for r in rows]
+    if any(not math.isfinite(float(x)) for r in rows for x in r.split(",")[:8]):
+        return "FAIL", "non-finite values in steps.csv", wall
+    e0, peak = energy[0], max(energy)
+    rise = (peak - e0) / abs(e0) if e0 else 0.0
+    cycles = re.search(r"steps: +(\d+) .*?, ([0-9.]+) (?:cycles|iterations) per step", text)
+    detail = "%s steps, %s per step, energy %+.1f%%, peak rise %.1e" % (
+        cycles.group(1) if cycles else "?", cycles.group(2) if cycles else "?",
+        100 * (energy[-1] - e0) / abs(e0) if e0 else 0.0, rise)
+    if rise > 1e-4:
+        return "FAIL", "energy rose: " + detail, wall
+    return "ok", detail, wall
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--pmg", default="build/tools/pmg")
+    ap.add_argument("--quick", action="store_true", help="1,000 instead of 10,000 spinning steps")
+    ap.add_argument("--out", default="")
+    ap.add_argument("--only", default="", help="run the cases whose name contains this")
+    a = ap.parse_args()
+    lines = ["| case | outcome | details | wall [s] |", "| --- | --- | --- | ---: |"]
+    failed = 0
+    for name, scene in cases(a.quick, a.only):
+        with tempfile.TemporaryDirectory() as d:
+            outcome, detail, wall = run_case(a.pmg, name, scene, d)
+        failed += outcome == "FAIL"
+        lines.append("| %s | %s | %s | %.1f |" % (name, outcome, detail.replace("|", "/"), wall))
+        print(lines[-1], flush=True)
+    table = "\n".join(lines) + "\n"
+    if a.out:
+        with open(a.out + ".md.tmp", "w") as f:
+            f.write(table)
+        os.replace(a.out + ".md.tmp", a.out + ".md")
+    print("\n" + table)
+    print("%d case(s) failed" % failed if failed else "all cases passed")
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()
