@@ -168,6 +168,15 @@ SimScene read_scene(const std::string& path) {
     s.poisson = m.number("poisson", s.poisson);
     if (!(s.poisson > -1.0 && s.poisson < 0.5)) m.fail_key("poisson", "must lie in (-1, 0.5)");
     s.density = m.nonnegative("density", s.density);
+    if (m.has("inclusion")) {
+      Section inc = m.sub("inclusion");
+      s.inclusion = true;
+      s.inclusion_min = inc.vec3("min", s.inclusion_min);
+      s.inclusion_max = inc.vec3("max", s.inclusion_max);
+      s.inclusion_young = inc.positive("young", 0.0);
+      if (!(s.inclusion_min.array() < s.inclusion_max.array()).all())
+        inc.fail("min must lie below max in every coordinate");
+    }
   }
   if (root.has("clamp")) {
     if (root.at("clamp").is_string() && root.at("clamp").get<std::string>() == "none") {
@@ -248,6 +257,10 @@ std::string scene_to_json(const SimScene& s) {
   j["degree"] = s.degree;
   j["material"] = {{"model", s.corotational ? "corotational" : "linear"},
                    {"young", s.young}, {"poisson", s.poisson}, {"density", s.density}};
+  if (s.inclusion)
+    j["material"]["inclusion"] = {{"min", std::array<double, 3>{s.inclusion_min.x(), s.inclusion_min.y(), s.inclusion_min.z()}},
+                                  {"max", std::array<double, 3>{s.inclusion_max.x(), s.inclusion_max.y(), s.inclusion_max.z()}},
+                                  {"young", s.inclusion_young}};
   if (s.clamp_axis < 0) j["clamp"] = "none";
   else j["clamp"] = {{"axis", std::string(1, static_cast<char>('x' + s.clamp_axis))}, {"fraction", s.clamp_fraction}};
   auto vec = [](const fem::Vec3& v) { return std::array<double, 3>{v.x(), v.y(), v.z()}; };

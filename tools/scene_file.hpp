@@ -21,6 +21,10 @@ struct SimScene {
   // material
   bool corotational = true;
   double young = 5e6, poisson = 0.3, density = 1000.0;
+  /// Optional stiff (or soft) inclusion: elements whose centroid lies in [min, max] get this E.
+  bool inclusion = false;
+  fem::Vec3 inclusion_min = fem::Vec3::Zero(), inclusion_max = fem::Vec3::Zero();
+  double inclusion_young = 0.0;
   // constraints: the vertices within `clamp_fraction` of the minimum of `clamp_axis` (none: -1)
   int clamp_axis = 0;
   double clamp_fraction = 0.0;

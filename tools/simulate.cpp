@@ -87,6 +87,22 @@ Built build(const SimScene& s) {
                        " clamps too few vertices (" + (dim < 0 ? "none" : dim == 0 ? "one point" : "all on one line") +
                        "): the body could still move rigidly");
   }
+  if (s.inclusion) {
+    std::vector<double> scale(b.mesh.num_tets(), 1.0);
+    index_t inside = 0;
+    for (index_t e = 0; e < b.mesh.num_tets(); ++e) {
+      fem::Vec3 c = fem::Vec3::Zero();
+      for (index_t v : b.mesh.tets[e]) c += 0.25 * b.mesh.vertices[v];
+      if ((c.array() >= s.inclusion_min.array()).all() && (c.array() <= s.inclusion_max.array()).all())
+        scale[e] = s.inclusion_young / s.young, ++inside;
+    }
+    if (inside == 0) throw InputError("material.inclusion: no element centroid lies inside [min, max]");
+    b.h->set_stiffness_scale(scale);
+    std::ostringstream note;
+    note << "material: inclusion of " << inside << " elements with E = " << s.inclusion_young << " Pa (contrast "
+         << s.inclusion_young / s.young << ")";
+    b.notes.push_back(note.str());
+  }
   const fem::ElasticityModel& m = b.h->finest();
   b.f_ext = Vector::Zero(m.num_dofs());
   if (s.gravity.norm() > 0) b.f_ext += m.gravity(s.gravity);

@@ -43,6 +43,9 @@ def cases(quick, only=None):
         out.append(case("Poisson %g" % nu, material__poisson=nu))
     for dt in (1e-4, 1e-3, 1e-2, 1e-1):
         out.append(case("dt = %g s" % dt, time={"dt": dt, "duration": 50 * dt}))
+    for contrast in (1e3, 1e6):
+        out.append(case("Young's contrast %g (stiff core)" % contrast,
+                        material__inclusion={"min": [1.5, 0.25, 0.25], "max": [2.5, 0.75, 0.75], "young": 5e6 * contrast}))
     out.append(case("compressed 50% and released", initial={"state": "compressed", "strain": 0.5},
                     time={"dt": 0.005, "duration": 0.5}))
     out.append(case("twisted 180 degrees and released", initial={"state": "twisted", "degrees": 180}))

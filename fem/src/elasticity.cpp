@@ -138,8 +138,20 @@ Rotations ElasticityModel::rotations(const Vector& u) const {
   return R;
 }
 
+void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
+  if (!scale.empty() && scale.size() != static_cast<size_t>(mesh_.num_tets()))
+    throw InputError("stiffness scale: " + std::to_string(scale.size()) + " factors for " +
+                     std::to_string(mesh_.num_tets()) + " elements");
+  for (size_t e = 0; e < scale.size(); ++e)
+    if (!std::isfinite(scale[e]) || !(scale[e] > 0))
+      throw InputError("stiffness scale: element " + std::to_string(e) + " has factor " +
+                       std::to_string(scale[e]) + " (must be positive)");
+  stiffness_scale_ = std::move(scale);
+}
+
 void ElasticityModel::element_matrix(index_t e, Eigen::MatrixXd& K) const {
-  element_stiffness(tables_, geometry_[e], material_.lambda(), material_.mu(), K);
+  const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
+  element_stiffness(tables_, geometry_[e], s * material_.lambda(), s * material_.mu(), K);
 }
 
 namespace {

@@ -179,3 +179,26 @@ TEST_CASE("clamping by vertices fixes the same face on every degree", "[fem][dir
   ElasticityModel m(mesh, 2, kSteelish);
   CHECK_THROWS_AS(m.fix_vertices(std::vector<char>(3, 1)), InputError);
 }
+
+TEST_CASE("a per-element stiffness scale acts as a per-element Young's modulus", "[fem][material]") {
+  const TetMesh mesh = box_mesh_24(2, 1, 1, 2.0, 1.0, 1.0);
+  auto clamp = [](const Vec3& X) { return X.x() < 1e-12; };
+  ElasticityModel soft(mesh, 2, kSteelish), scaled(mesh, 2, kSteelish),
+      stiff(mesh, 2, Material{3 * kSteelish.young, kSteelish.poisson, kSteelish.density});
+  for (ElasticityModel* m : {&soft, &scaled, &stiff}) m->fix_where(clamp);
+  scaled.set_stiffness_scale(std::vector<double>(mesh.num_tets(), 3.0));
+  const Vector f = soft.gravity(Vec3(0, 0, -9.81));
+  const Vector u_scaled = solve_static(scaled, f, false).u, u_stiff = solve_static(stiff, f, false).u;
+  CHECK((u_scaled - u_stiff).norm() <= 1e-12 * u_stiff.norm());
+  CHECK((solve_static(soft, f, false).u - 3.0 * u_stiff).norm() <= 1e-10 * u_stiff.norm());
+  // A stiff half: less deflection than the soft body, more than the stiff one.
+  std::vector<double> half(mesh.num_tets(), 1.0);
+  for (index_t e = 0; e < mesh.num_tets(); ++e)
+    if (mesh.vertices[mesh.tets[e][0]].x() + mesh.vertices[mesh.tets[e][1]].x() > 2.0) half[e] = 1e6;
+  scaled.set_stiffness_scale(half);
+  const double tip = solve_static(scaled, f, false).u.norm();
+  CHECK(tip < solve_static(soft, f, false).u.norm());
+  CHECK(tip > u_stiff.norm());
+  CHECK_THROWS_AS(scaled.set_stiffness_scale(std::vector<double>(3, 1.0)), InputError);
+  CHECK_THROWS_AS(scaled.set_stiffness_scale(std::vector<double>(mesh.num_tets(), -1.0)), InputError);
+}

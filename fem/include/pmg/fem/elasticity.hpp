@@ -103,6 +103,11 @@ class ElasticityModel {
 
   const ElementGeometry& geometry(index_t e) const { return geometry_[e]; }
 
+  /// Heterogeneous stiffness: element e's Young's modulus is material().young * scale[e] (ν and ρ
+  /// stay). One positive finite factor per element; an empty vector restores the homogeneous body.
+  void set_stiffness_scale(std::vector<double> scale);
+  const std::vector<double>& stiffness_scale() const { return stiffness_scale_; }
+
  private:
   void element_matrix(index_t e, Eigen::MatrixXd& K) const;
 
@@ -112,6 +117,7 @@ class ElasticityModel {
   const ElementTables& tables_;
   std::vector<ElementGeometry> geometry_;
   std::vector<char> fixed_;
+  std::vector<double> stiffness_scale_;  ///< empty: homogeneous
   mutable std::unique_ptr<BlockAssembler> assembler_;
 };
 

@@ -37,6 +37,10 @@ class DegreeHierarchy {
   const ElasticityModel& model(int level) const { return *models_[level]; }
   const ElasticityModel& finest() const { return *models_.back(); }
   const std::vector<char>& clamped_vertices() const { return clamped_; }
+  /// Per-element Young's modulus factors on every level (ElasticityModel::set_stiffness_scale).
+  void set_stiffness_scale(const std::vector<double>& scale) {
+    for (auto& m : models_) m->set_stiffness_scale(scale);
+  }
   /// Consistent mass matrix of a level over its free nodes (assembled on first use, then kept).
   const Bcsr& mass(int level);
   Bcsr& matrix(int level) { return matrices_[level]; }
