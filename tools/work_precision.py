@@ -1,0 +1,101 @@
+"""Run time against error (a work-precision diagram) for the released cantilever.
+
+For degrees 1-3, several refinements of the 4 x 1 x 1 m bar and several per-step PMG tolerances,
+runs `pmg simulate` for a short time and records the probe's (centre of the free end) vertical
+displacement at the end against the run's wall time. The error is measured against a reference
+run: degree 3 on a finer mesh than any in the sweep, solved to 1e-10 per step, the same time step
+(so the time-discretisation error, common to all runs, cancels and the error is that of space and
+solver). Writes <out>.csv, <out>.md and <out>.png (matplotlib):
+
+  /usr/bin/python3 tools/work_precision.py --pmg build/tools/pmg --out wp
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import tempfile
+import time
+
+
+def scene(p, boxes, tol, duration, dt):
+    return {"mesh": {"box": [4 * boxes, boxes, boxes], "size": [4, 1, 1]}, "degree": p,
+            "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
+            "clamp": {"axis": "x"}, "initial": {"state": "deflected", "force": [0, 0, -4000]},
+            "time": {"dt": dt, "duration": duration},
+            "solver": {"method": "pmg" if p > 1 else "cholmod", "tol": tol, "max_iterations": 5000},
+            "output": {"energy": False}}
+
+
+def run(pmg, sc):
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "s.json")
+        with open(path, "w") as f:
+            json.dump(sc, f)
+        t0 = time.time()
+        p = subprocess.run([pmg, "simulate", path, "-q"], capture_output=True, text=True)
+        wall = time.time() - t0
+    if p.returncode != 0:
+        raise SystemExit("work_precision: pmg simulate failed:\n" + p.stdout + p.stderr)
+    m = re.search(r"displacement now +(\S+) +(\S+) +(\S+)", p.stdout)
+    u = re.search(r"mesh: .*?(\d+) unknowns", p.stdout)
+    return float(m.group(3)), int(u.group(1)), wall
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--pmg", default="build/tools/pmg")
+    ap.add_argument("--boxes", default="1,2,3", help="boxes across the bar (4x as many along it)")
+    ap.add_argument("--reference-boxes", type=int, default=4)
+    ap.add_argument("--tols", default="1e-2,1e-3,1e-5")
+    ap.add_argument("--duration", type=float, default=0.3)
+    ap.add_argument("--dt", type=float, default=0.01)
+    ap.add_argument("--out", default="work_precision")
+    a = ap.parse_args()
+    ref, ref_n, ref_wall = run(a.pmg, scene(3, a.reference_boxes, 1e-10, a.duration, a.dt))
+    print("reference: degree 3, %d unknowns, tip z = %.8f m (%.1f s)" % (ref_n, ref, ref_wall), flush=True)
+    rows = []
+    for p in (1, 2, 3):
+        for b in [int(x) for x in a.boxes.split(",")]:
+            for tol in [float(t) for t in a.tols.split(",")] if p > 1 else [0.0]:
+                z, n, wall = run(a.pmg, scene(p, b, tol if p > 1 else 1e-3, a.duration, a.dt))
+                err = abs(z - ref) / abs(ref)
+                rows.append((p, b, n, tol, z, err, wall))
+                print("p=%d boxes=%d unknowns=%d tol=%g: z=%.8f error %.2e, %.2f s" % (p, b, n, tol, z, err, wall), flush=True)
+    csv = "degree,boxes,unknowns,tol,tip_z,rel_error,wall_s\n" + "".join(
+        "%d,%d,%d,%g,%.10g,%.4g,%.4g\n" % r for r in rows)
+    md = ["reference: degree 3, %d unknowns, PMG to 1e-10 per step, tip z = %.6f m at t = %g s\n" % (ref_n, ref, a.duration),
+          "| degree | mesh | unknowns | tolerance per step | tip z [m] | error | run time [s] |",
+          "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+    for p, b, n, tol, z, err, wall in rows:
+        md.append("| %d | %dx%dx%d | %d | %s | %.6f | %.2e | %.2f |" % (
+            p, 4 * b, b, b, n, "direct" if p == 1 else "%g" % tol, z, err, wall))
+    for name, text in ((a.out + ".csv", csv), (a.out + ".md", "\n".join(md) + "\n")):
+        with open(name + ".tmp", "w") as f:
+            f.write(text)
+        os.replace(name + ".tmp", name)
+    print("\n".join(md))
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for p, marker in ((1, "o"), (2, "s"), (3, "^")):
+        for tol in sorted(set(r[3] for r in rows if r[0] == p)):
+            pts = sorted((r[6], r[5]) for r in rows if r[0] == p and r[3] == tol)
+            ax.loglog([t for t, _ in pts], [e for _, e in pts], marker=marker,
+                      label="p = %d" % p + ("" if p == 1 else ", tol %g" % tol))
+    ax.set_xlabel("run time [s]")
+    ax.set_ylabel("relative error of the tip displacement")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(a.out + ".png.tmp.png", dpi=110)
+    os.replace(a.out + ".png.tmp.png", a.out + ".png")
+    print("wrote %s.csv, %s.md, %s.png" % (a.out, a.out, a.out))
+
+
+if __name__ == "__main__":
+    main()
