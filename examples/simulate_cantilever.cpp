@@ -6,7 +6,7 @@
 #include <cstdio>
 
 int main() {
-  pmg::fem::TetMesh mesh = pmg::fem::box_mesh_24(8, 2, 2, 4.0, 1.0, 1.0);
+  pmg::fem::TetMesh mesh = pmg::fem::box_mesh_24(4, 1, 1, 4.0, 1.0, 1.0);
   pmg::fem::DegreeHierarchy h(mesh, 3, {5e6, 0.3, 1000.0},  // E, nu, rho
                               [](const pmg::fem::Vec3& X) { return X.x() < 1e-9; });  // clamp
   pmg::KrylovParams kp;
