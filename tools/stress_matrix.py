@@ -43,6 +43,10 @@ def cases(quick, only=None):
         out.append(case("Poisson %g" % nu, material__poisson=nu))
     for dt in (1e-4, 1e-3, 1e-2, 1e-1):
         out.append(case("dt = %g s" % dt, time={"dt": dt, "duration": 50 * dt}))
+    for eps in (1e-2, 1e-4):
+        out.append(case("sliver element (vertices %g off a plane)" % (3 * eps), sliver=eps, degree=3,
+                        clamp={"axis": "z"}, initial={"state": "compressed", "strain": 0.1},
+                        time={"dt": 0.001, "duration": 0.05}))
     for contrast in (1e3, 1e6):
         out.append(case("Young's contrast %g (stiff core)" % contrast,
                         material__inclusion={"min": [1.5, 0.25, 0.25], "max": [2.5, 0.75, 0.75], "young": 5e6 * contrast}))
@@ -67,7 +71,21 @@ def cases(quick, only=None):
     return [c for c in out if not only or only in c[0]]
 
 
+def write_sliver_mesh(d, eps):
+    """A regular corner tetrahedron with a sliver glued on its slanted face: the sliver's four
+    vertices lie within 3 eps of one plane while all its edges are long (0.8 to 1.4)."""
+    c = 1.0 / 3.0 + eps
+    with open(os.path.join(d, "sliver.node"), "w") as f:
+        f.write("5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 %.17g %.17g %.17g\n" % (c, c, c))
+    with open(os.path.join(d, "sliver.ele"), "w") as f:
+        f.write("2 4 0\n1 1 2 3 4\n2 2 3 4 5\n")
+    return os.path.join(d, "sliver.ele")
+
+
 def run_case(pmg, name, scene, d):
+    if "sliver" in scene:
+        eps = scene.pop("sliver")
+        scene["mesh"] = {"file": write_sliver_mesh(d, eps)}
     path = os.path.join(d, "scene.json")
     out = os.path.join(d, "out")
     scene = dict(scene)
