@@ -18,13 +18,21 @@ import tempfile
 import time
 
 
-def scene(p, boxes, tol, duration, dt):
-    return {"mesh": {"box": [4 * boxes, boxes, boxes], "size": [4, 1, 1]}, "degree": p,
-            "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
-            "clamp": {"axis": "x"}, "initial": {"state": "deflected", "force": [0, 0, -4000]},
-            "time": {"dt": dt, "duration": duration},
-            "solver": {"method": "pmg" if p > 1 else "cholmod", "tol": tol, "max_iterations": 5000},
-            "output": {"energy": False}}
+def scene(p, mesh, tol, duration, dt, model=None):
+    """mesh: a number of boxes across the bar, or a mesh file (model: clamp and probe for it)."""
+    sc = {"mesh": {"box": [4 * mesh, mesh, mesh], "size": [4, 1, 1]}, "degree": p,
+          "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
+          "clamp": {"axis": "x"}, "initial": {"state": "deflected", "force": [0, 0, -4000]},
+          "time": {"dt": dt, "duration": duration},
+          "solver": {"method": "pmg" if p > 1 else "cholmod", "tol": tol, "max_iterations": 5000},
+          "output": {"energy": False}}
+    if model:
+        sc["mesh"] = {"file": os.path.abspath(mesh)}
+        sc["material"]["young"] = 1e6
+        sc["clamp"] = {"axis": "z", "fraction": model["fraction"]}
+        sc["initial"] = {"state": "compressed", "strain": 0.2}
+        sc["output"]["probe"] = model["probe"]
+    return sc
 
 
 def run(pmg, sc):
@@ -51,25 +59,38 @@ def main():
     ap.add_argument("--duration", type=float, default=0.3)
     ap.add_argument("--dt", type=float, default=0.01)
     ap.add_argument("--out", default="work_precision")
+    ap.add_argument("--meshes", default="", help="model mode: comma-separated mesh files, coarse to fine")
+    ap.add_argument("--reference-mesh", default="", help="model mode: the reference's (finer) mesh")
+    ap.add_argument("--clamp-fraction", type=float, default=0.1, help="model mode: bottom fraction clamped")
+    ap.add_argument("--probe", default="", help="model mode: rest point x,y,z inside every mesh")
     a = ap.parse_args()
-    ref, ref_n, ref_wall = run(a.pmg, scene(3, a.reference_boxes, 1e-10, a.duration, a.dt))
+    model = None
+    meshes = [int(x) for x in a.boxes.split(",")]
+    ref_mesh = a.reference_boxes
+    if a.meshes:
+        if not a.reference_mesh or not a.probe:
+            raise SystemExit("work_precision: --meshes needs --reference-mesh and --probe")
+        model = {"fraction": a.clamp_fraction, "probe": [float(x) for x in a.probe.split(",")]}
+        meshes, ref_mesh = a.meshes.split(","), a.reference_mesh
+    ref, ref_n, ref_wall = run(a.pmg, scene(3, ref_mesh, 1e-10, a.duration, a.dt, model))
     print("reference: degree 3, %d unknowns, tip z = %.8f m (%.1f s)" % (ref_n, ref, ref_wall), flush=True)
     rows = []
     for p in (1, 2, 3):
-        for b in [int(x) for x in a.boxes.split(",")]:
+        for b in meshes:
             for tol in [float(t) for t in a.tols.split(",")] if p > 1 else [0.0]:
-                z, n, wall = run(a.pmg, scene(p, b, tol if p > 1 else 1e-3, a.duration, a.dt))
+                z, n, wall = run(a.pmg, scene(p, b, tol if p > 1 else 1e-3, a.duration, a.dt, model))
                 err = abs(z - ref) / abs(ref)
                 rows.append((p, b, n, tol, z, err, wall))
-                print("p=%d boxes=%d unknowns=%d tol=%g: z=%.8f error %.2e, %.2f s" % (p, b, n, tol, z, err, wall), flush=True)
-    csv = "degree,boxes,unknowns,tol,tip_z,rel_error,wall_s\n" + "".join(
-        "%d,%d,%d,%g,%.10g,%.4g,%.4g\n" % r for r in rows)
-    md = ["reference: degree 3, %d unknowns, PMG to 1e-10 per step, tip z = %.6f m at t = %g s\n" % (ref_n, ref, a.duration),
-          "| degree | mesh | unknowns | tolerance per step | tip z [m] | error | run time [s] |",
+                print("p=%d mesh=%s unknowns=%d tol=%g: z=%.8f error %.2e, %.2f s" % (p, b, n, tol, z, err, wall), flush=True)
+    csv = "degree,mesh,unknowns,tol,probe_z,rel_error,wall_s\n" + "".join(
+        "%d,%s,%d,%g,%.10g,%.4g,%.4g\n" % r for r in rows)
+    md = ["reference: degree 3, %d unknowns, PMG to 1e-10 per step, probe z = %.6f m at t = %g s\n" % (ref_n, ref, a.duration),
+          "| degree | mesh | unknowns | tolerance per step | probe z [m] | error | run time [s] |",
           "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
     for p, b, n, tol, z, err, wall in rows:
-        md.append("| %d | %dx%dx%d | %d | %s | %.6f | %.2e | %.2f |" % (
-            p, 4 * b, b, b, n, "direct" if p == 1 else "%g" % tol, z, err, wall))
+        name = os.path.basename(b) if model else "%dx%dx%d" % (4 * b, b, b)
+        md.append("| %d | %s | %d | %s | %.6f | %.2e | %.2f |" % (
+            p, name, n, "direct" if p == 1 else "%g" % tol, z, err, wall))
     for name, text in ((a.out + ".csv", csv), (a.out + ".md", "\n".join(md) + "\n")):
         with open(name + ".tmp", "w") as f:
             f.write(text)
@@ -88,7 +109,7 @@ def main():
             ax.loglog([t for t, _ in pts], [e for _, e in pts], marker=marker,
                       label="p = %d" % p + ("" if p == 1 else ", tol %g" % tol))
     ax.set_xlabel("run time [s]")
-    ax.set_ylabel("relative error of the tip displacement")
+    ax.set_ylabel("relative error of the probe's displacement")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
