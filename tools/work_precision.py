@@ -45,7 +45,7 @@ def run(pmg, sc):
         wall = time.time() - t0
     if p.returncode != 0:
         raise SystemExit("work_precision: pmg simulate failed:\n" + p.stdout + p.stderr)
-    m = re.search(r"displacement now +(\S+) +(\S+) +(\S+)", p.stdout)
+    m = re.search(r"displacement now +([^\s,]+),? +([^\s,]+),? +([^\s,]+)", p.stdout)
     u = re.search(r"mesh: .*?(\d+) unknowns", p.stdout)
     return float(m.group(3)), int(u.group(1)), wall
 
