@@ -41,15 +41,20 @@ double FemSystem::assemble_lower_levels() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3]) {
+  if (file.empty()) return fem::box_mesh_24(box[0], box[1], box[2], size[0], size[1], size[2]);
+  std::vector<std::string> warnings;
+  fem::TetMesh mesh = fem::read_mesh(file, &warnings);
+  for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
+  return mesh;
+}
+
 FemSystem build_fem_system(const SceneOptions& o) {
   FemSystem s;
+  s.mesh = load_mesh_or_box(o.mesh, o.box.data(), o.size.data());
   if (!o.mesh.empty()) {
-    std::vector<std::string> warnings;
-    s.mesh = fem::read_mesh(o.mesh, &warnings);
-    for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
     s.description = o.mesh;
   } else {
-    s.mesh = fem::box_mesh_24(o.box[0], o.box[1], o.box[2], o.size[0], o.size[1], o.size[2]);
     s.description = "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
                     std::to_string(o.box[2]) + " boxes";
   }

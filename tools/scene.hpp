@@ -41,4 +41,7 @@ struct FemSystem {
 
 FemSystem build_fem_system(const SceneOptions& o);
 
+/// A mesh file (warnings to stderr), or with an empty path the box bar of nx x ny x nz boxes.
+fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3]);
+
 }  // namespace pmg::tools

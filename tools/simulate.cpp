@@ -1,6 +1,7 @@
 // pmg simulate [scene.json]: a dynamic (or static) corotational simulation of a JSON scene; with
 // no file, the built-in default scene (a cubic cantilever released from a deflected state).
 #include "commands.hpp"
+#include "scene.hpp"
 #include "scene_file.hpp"
 #include "table.hpp"
 
@@ -63,13 +64,7 @@ Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol,
 
 Built build(const SimScene& s) {
   Built b;
-  if (!s.mesh_file.empty()) {
-    std::vector<std::string> warnings;
-    b.mesh = fem::read_mesh(s.mesh_file, &warnings);
-    for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
-  } else {
-    b.mesh = fem::box_mesh_24(s.box[0], s.box[1], s.box[2], s.size[0], s.size[1], s.size[2]);
-  }
+  b.mesh = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data());
   fem::Vec3 lo = fem::Vec3::Constant(1e300), hi = fem::Vec3::Constant(-1e300);
   for (const auto& v : b.mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
   b.centre = 0.5 * (lo + hi);
