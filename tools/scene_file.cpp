@@ -245,8 +245,7 @@ SimScene read_scene(const std::string& path) {
     root.fail("initial.state spinning needs \"clamp\": \"none\" (a clamped body cannot spin freely)");
   if ((s.initial == "deflected" || s.initial == "compressed" || s.initial == "twisted") && s.clamp_axis < 0)
     root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
-  if (s.method == "pmg" || s.method == "mgpcg")
-    if (s.fixed_iterations > 0 && s.method == "mgpcg") root.fail("solver.fixed_iterations: not for mgpcg");
+  if (s.fixed_iterations > 0 && s.method == "cholmod") root.fail("solver.fixed_iterations: not for cholmod (a direct solve)");
   return s;
 }
 

@@ -7,9 +7,19 @@ using namespace pmg;
 using namespace pmg::mg;
 
 namespace {
-/// Plain serial block Gauss–Seidel over rows in the given order (the reference).
-void reference_sweep(const Eigen::MatrixXd& A, const Vector& b, Vector& x, const std::vector<index_t>& order) {
+/// Plain serial Gauss–Seidel over block rows in the given order (the reference): each block row
+/// solved exactly (block), or its three scalar rows relaxed one by one, 0,1,2 forward and 2,1,0
+/// backward (pointwise; in natural order that is scalar Gauss–Seidel on the scalar matrix).
+void reference_sweep(const Eigen::MatrixXd& A, const Vector& b, Vector& x,
+                     const std::vector<index_t>& order, bool pointwise, bool forward) {
   for (index_t I : order) {
+    if (pointwise) {
+      for (int s = 0; s < 3; ++s) {
+        const Eigen::Index i = 3 * I + (forward ? s : 2 - s);
+        x[i] = (b[i] - A.row(i).dot(x) + A(i, i) * x[i]) / A(i, i);
+      }
+      continue;
+    }
     Eigen::Vector3d r = b.segment<3>(3 * I);
     for (Eigen::Index J = 0; J < A.cols() / 3; ++J)
       if (J != I) r -= A.block<3, 3>(3 * I, 3 * J) * x.segment<3>(3 * J);
@@ -18,68 +28,39 @@ void reference_sweep(const Eigen::MatrixXd& A, const Vector& b, Vector& x, const
 }
 }  // namespace
 
-TEST_CASE("block Gauss-Seidel sweeps match the serial reference in both orderings", "[multigrid][smoother]") {
+TEST_CASE("Gauss-Seidel sweeps (block and point) match the serial reference in both orderings",
+          "[multigrid][smoother]") {
   const Bcsr A = spring_lattice(5);
   const Eigen::MatrixXd D = A.to_csr().to_eigen();
   const Vector b = Vector::LinSpaced(A.rows(), -1.0, 2.0);
-  for (Ordering ord : {Ordering::natural, Ordering::multicolor}) {
-    GaussSeidelParams p;
-    p.ordering = ord;
-    const BlockGaussSeidel gs(A, p);
-    std::vector<index_t> order;
-    for (const auto& c : gs.colors()) order.insert(order.end(), c.begin(), c.end());
-    std::vector<index_t> reverse(order.rbegin(), order.rend());
-    Vector x = Vector::Zero(A.rows()), xr = x;
-    gs.sweep(b, x, true);
-    reference_sweep(D, b, xr, order);
-    CHECK((x - xr).norm() <= 1e-13 * xr.norm());
-    gs.sweep(b, x, false);
-    reference_sweep(D, b, xr, reverse);
-    CHECK((x - xr).norm() <= 1e-13 * xr.norm());
-    if (ord == Ordering::multicolor) {
-      CHECK(gs.colors().size() > 1);
-      CHECK(gs.colors().size() <= 27);
-    }
-  }
-}
-
-TEST_CASE("point Gauss-Seidel is scalar Gauss-Seidel, in both orderings", "[multigrid][smoother]") {
-  const Bcsr A = spring_lattice(5);
-  const Eigen::MatrixXd D = A.to_csr().to_eigen();
-  const Vector b = Vector::LinSpaced(A.rows(), -1.0, 2.0);
-  // Scalar Gauss–Seidel over the scalar rows 3I, 3I+1, 3I+2 of each block row in `order`
-  // (reversed inside a block row when backward).
-  auto reference = [&](Vector& x, const std::vector<index_t>& order, bool forward) {
-    for (index_t I : order)
-      for (int s = 0; s < 3; ++s) {
-        const Eigen::Index i = 3 * I + (forward ? s : 2 - s);
-        x[i] = (b[i] - D.row(i).dot(x) + D(i, i) * x[i]) / D(i, i);
+  for (bool pointwise : {false, true})
+    for (Ordering ord : {Ordering::natural, Ordering::multicolor}) {
+      GaussSeidelParams p;
+      p.ordering = ord;
+      p.pointwise = pointwise;
+      const BlockGaussSeidel gs(A, p);
+      std::vector<index_t> order;
+      for (const auto& c : gs.colors()) order.insert(order.end(), c.begin(), c.end());
+      std::vector<index_t> reverse(order.rbegin(), order.rend());
+      Vector x = Vector::Zero(A.rows()), xr = x;
+      gs.sweep(b, x, true);
+      reference_sweep(D, b, xr, order, pointwise, true);
+      CHECK((x - xr).norm() <= 1e-13 * xr.norm());
+      gs.sweep(b, x, false);
+      reference_sweep(D, b, xr, reverse, pointwise, false);
+      CHECK((x - xr).norm() <= 1e-13 * xr.norm());
+      if (ord == Ordering::multicolor) {
+        CHECK(gs.colors().size() > 1);
+        CHECK(gs.colors().size() <= 27);
       }
-  };
-  for (Ordering ord : {Ordering::natural, Ordering::multicolor}) {
-    GaussSeidelParams p;
-    p.ordering = ord;
-    p.pointwise = true;
-    const BlockGaussSeidel gs(A, p);
-    std::vector<index_t> order;
-    for (const auto& c : gs.colors()) order.insert(order.end(), c.begin(), c.end());
-    std::vector<index_t> reverse(order.rbegin(), order.rend());
-    Vector x = Vector::Zero(A.rows()), xr = x;
-    gs.sweep(b, x, true);
-    reference(xr, order, true);
-    CHECK((x - xr).norm() <= 1e-13 * xr.norm());
-    gs.sweep(b, x, false);
-    reference(xr, reverse, false);
-    CHECK((x - xr).norm() <= 1e-13 * xr.norm());
-    // It smooths, and differs from the block variant.
-    GaussSeidelParams pb = p;
-    pb.pointwise = false;
-    Vector xb = Vector::Zero(A.rows());
-    BlockGaussSeidel(A, pb).sweep(b, xb, true);
-    Vector xp = Vector::Zero(A.rows());
-    gs.sweep(b, xp, true);
-    CHECK((xb - xp).norm() > 1e-6 * xb.norm());
-  }
+    }
+  // The two variants are different smoothers (the diagonal blocks are not diagonal).
+  GaussSeidelParams pb, pp;
+  pp.pointwise = true;
+  Vector xb = Vector::Zero(A.rows()), xp = xb;
+  BlockGaussSeidel(A, pb).sweep(b, xb, true);
+  BlockGaussSeidel(A, pp).sweep(b, xp, true);
+  CHECK((xb - xp).norm() > 1e-6 * xb.norm());
 }
 
 TEST_CASE("smoothers reduce the error of an SPD system", "[multigrid][smoother]") {

@@ -112,7 +112,7 @@ class ImplicitEuler {
   double total_energy() const { return kinetic_energy() + elastic_energy() - external_work(); }
 
  private:
-  void assemble(const Rotations* R);
+  void assemble_level(int level, const Rotations* R);
 
   DegreeHierarchy& h_;
   StepSolver& solver_;

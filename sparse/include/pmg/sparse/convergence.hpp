@@ -26,6 +26,7 @@ class ConvergenceTracker {
   /// Initial residual norm; returns false if there is nothing to do (r0 = 0).
   bool start(double r0_norm) {
     r0_ = r0_norm;
+    result_.initial_residual = r0_norm;
     if (!std::isfinite(r0_norm)) {
       fail(SolveStatus::non_finite, "initial residual is not finite (NaN/Inf in A, b or x0)");
       return false;

@@ -51,6 +51,7 @@ struct SolveResult {
   double true_rel_residual = 1.0;  ///< ||b - A x|| / ||r_0||, computed at the end
   double seconds = 0.0;
   std::string message;  ///< what went wrong, in words (empty when ok)
+  double initial_residual = 0.0;  ///< ||r_0|| = ||b - A x_0||, the reference of both ratios
   bool ok() const { return status == SolveStatus::converged || status == SolveStatus::completed; }
 };
 
