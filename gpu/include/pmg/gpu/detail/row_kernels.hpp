@@ -1,0 +1,117 @@
+// pmg/gpu/detail/row_kernels.hpp — what one GPU thread computes, as plain functions that compile
+// for the host as well (PMG_HD). The CUDA kernels call them per thread; tests/gpu calls them in a
+// loop on the CPU and compares with the host formats (Bcsr, BinBcsr, BlockTransfer), so the
+// indexing of every kernel is checked on machines without a GPU.
+//
+// Layouts are those of pmg/sparse/bin_bcsr.hpp and bcsr.hpp (index_t = int32, offset_t = int64).
+#pragma once
+
+#include <cstdint>
+
+#if defined(__CUDACC__)
+#define PMG_HD __host__ __device__ __forceinline__
+#else
+#define PMG_HD inline
+#endif
+
+namespace pmg::gpu::detail {
+
+constexpr int kBinRows = 32;
+
+/// Raw device (or host) pointers of a BIN-BCSR matrix.
+struct BinBcsrView {
+  int rows = 0;  ///< scalar rows
+  const int* width = nullptr;
+  const int* first_block_row = nullptr;
+  const int* bin_block_rows = nullptr;
+  const std::int64_t* col_offset = nullptr;
+  const std::int64_t* val_offset = nullptr;
+  const int* columns = nullptr;
+  const double* values = nullptr;
+  const double* diag = nullptr;  ///< 9 per block row, row-major
+};
+
+/// Raw pointers of a BCSR (3x3) or scalar CSR matrix.
+struct CsrView {
+  int rows = 0;  ///< block rows for BCSR, rows for CSR
+  const std::int64_t* row_ptr = nullptr;
+  const int* col_idx = nullptr;
+  const double* values = nullptr;
+};
+
+/// (A x)_row of a BIN-BCSR matrix: the 32 threads of a warp are the 32 rows of a bin, so at every
+/// step k they read 32 consecutive values and (up to 11) column indices.
+PMG_HD double bin_bcsr_row(const BinBcsrView& A, const double* x, int row) {
+  const int bin = row / kBinRows, lane = row % kBinRows;
+  const int I = row / 3, c = row % 3;
+  const double* d = A.diag + 9 * static_cast<std::int64_t>(I) + 3 * c;
+  const double* xi = x + 3 * static_cast<std::int64_t>(I);
+  double sum = d[0] * xi[0] + d[1] * xi[1] + d[2] * xi[2];
+  const int nbr = A.bin_block_rows[bin], width = A.width[bin];
+  const int* cols = A.columns + A.col_offset[bin] + (I - A.first_block_row[bin]);
+  const double* v = A.values + A.val_offset[bin] + lane;
+  for (int k = 0; k < width; ++k, cols += nbr, v += 3 * kBinRows) {
+    const int col = *cols;
+    if (col < 0) continue;  // padding
+    const double* xj = x + 3 * static_cast<std::int64_t>(col);
+    sum += v[0] * xj[0] + v[kBinRows] * xj[1] + v[2 * kBinRows] * xj[2];
+  }
+  return sum;
+}
+
+/// (A x)_row of a 3x3-block BCSR matrix, one thread per scalar row (the plain GPU port).
+PMG_HD double bcsr_row(const CsrView& A, const double* x, int row) {
+  const int I = row / 3, c = row % 3;
+  double sum = 0.0;
+  for (std::int64_t k = A.row_ptr[I]; k < A.row_ptr[I + 1]; ++k) {
+    const double* v = A.values + 9 * k + 3 * c;
+    const double* xj = x + 3 * static_cast<std::int64_t>(A.col_idx[k]);
+    sum += v[0] * xj[0] + v[1] * xj[1] + v[2] * xj[2];
+  }
+  return sum;
+}
+
+/// y_i = Σ_k T_ik x_k for the three components of node i: a scalar CSR transfer T (prolongation
+/// P or restriction R) acting as T ⊗ I₃ on interleaved vectors. add: y_i += instead of =.
+PMG_HD void transfer_row(const CsrView& T, const double* x, double* y, int i, bool add) {
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+  for (std::int64_t k = T.row_ptr[i]; k < T.row_ptr[i + 1]; ++k) {
+    const double t = T.values[k];
+    const double* xj = x + 3 * static_cast<std::int64_t>(T.col_idx[k]);
+    s0 += t * xj[0];
+    s1 += t * xj[1];
+    s2 += t * xj[2];
+  }
+  double* yi = y + 3 * static_cast<std::int64_t>(i);
+  if (add) {
+    yi[0] += s0;
+    yi[1] += s1;
+    yi[2] += s2;
+  } else {
+    yi[0] = s0;
+    yi[1] = s1;
+    yi[2] = s2;
+  }
+}
+
+/// z = B r for one 3x3 row-major block B and 3-vectors r, z.
+PMG_HD void block_apply(const double* B, const double* r, double* z) {
+  z[0] = B[0] * r[0] + B[1] * r[1] + B[2] * r[2];
+  z[1] = B[3] * r[0] + B[4] * r[1] + B[5] * r[2];
+  z[2] = B[6] * r[0] + B[7] * r[1] + B[8] * r[2];
+}
+
+/// One Chebyshev step on block row I (tests/gpu checks it against mg::Chebyshev):
+///   d_I = c1 d_I + c2 D_I⁻¹ r_I ;  x_I += d_I      (c1 = 0: d is not read, may be uninitialised)
+PMG_HD void chebyshev_block(const double* inv_diag, const double* r, double* d, double* x, int I,
+                            double c1, double c2) {
+  const std::int64_t o = 3 * static_cast<std::int64_t>(I);
+  double z[3];
+  block_apply(inv_diag + 9 * static_cast<std::int64_t>(I), r + o, z);
+  for (int c = 0; c < 3; ++c) {
+    d[o + c] = c1 == 0.0 ? c2 * z[c] : c1 * d[o + c] + c2 * z[c];
+    x[o + c] += d[o + c];
+  }
+}
+
+}  // namespace pmg::gpu::detail

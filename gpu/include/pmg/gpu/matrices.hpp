@@ -1,0 +1,121 @@
+// pmg/gpu/matrices.hpp — sparse matrices in device memory and their SpMV kernels.
+//
+//   DeviceBinBcsr  BIN-BCSR (pmg/sparse/bin_bcsr.hpp), one thread per scalar row, bins of 32 rows
+//                  = one warp reading consecutive addresses. The layout (plan) is uploaded once;
+//                  update_values() re-uploads only values and diagonal blocks.
+//   DeviceBcsr     plain 3x3-block CSR, one thread per scalar row (the straightforward port).
+//   CusparseBsr    the vendor baseline: cusparseDbsrmv on the same BCSR (block size 3, row-major).
+//   CusparseCsr    the vendor baseline on the scalar CSR: cusparseSpMV (generic API).
+// Every multiply() runs on the default stream and returns without waiting.
+#pragma once
+
+#include "pmg/gpu/detail/row_kernels.hpp"
+#include "pmg/gpu/device.hpp"
+#include "pmg/sparse/bin_bcsr.hpp"
+
+#include <memory>
+
+namespace pmg::gpu {
+
+class DeviceBinBcsr {
+ public:
+  /// Uploads the layout and the values of A.
+  explicit DeviceBinBcsr(const BinBcsr& A);
+  /// Re-uploads values and diagonal blocks of A, which must be the host matrix this was built
+  /// from or one with the same layout (BinBcsr::update_values keeps the layout).
+  void update_values(const BinBcsr& A);
+
+  index_t rows() const { return rows_; }
+  /// y = A x
+  void multiply(const DeviceVector& x, DeviceVector& y) const;
+  /// r = b - A x (one pass)
+  void residual(const DeviceVector& b, const DeviceVector& x, DeviceVector& r) const;
+  /// Bytes one SpMV moves at least (the host matrix's count).
+  double bytes_per_spmv() const { return bytes_; }
+  detail::BinBcsrView view() const;
+
+ private:
+  index_t rows_ = 0;
+  std::size_t num_values_ = 0, num_columns_ = 0;
+  double bytes_ = 0;
+  DeviceArray<int> width_, first_block_row_, bin_block_rows_, columns_;
+  DeviceArray<std::int64_t> col_offset_, val_offset_;
+  DeviceArray<double> values_, diag_;
+};
+
+class DeviceBcsr {
+ public:
+  explicit DeviceBcsr(const Bcsr& A);
+  void update_values(const Bcsr& A);
+  index_t rows() const { return rows_; }
+  void multiply(const DeviceVector& x, DeviceVector& y) const;
+  /// Values, columns, row pointers, x once and y once.
+  double bytes_per_spmv() const;
+  detail::CsrView view() const;
+
+ private:
+  index_t rows_ = 0, block_rows_ = 0;
+  DeviceArray<std::int64_t> row_ptr_;
+  DeviceArray<int> col_idx_;
+  DeviceArray<double> values_;
+};
+
+/// A scalar CSR matrix on the device (transfer operators, CSR baselines).
+class DeviceCsr {
+ public:
+  explicit DeviceCsr(const Csr& A);
+  index_t rows() const { return rows_; }
+  index_t cols() const { return cols_; }
+  detail::CsrView view() const;
+
+ private:
+  index_t rows_ = 0, cols_ = 0;
+  DeviceArray<std::int64_t> row_ptr_;
+  DeviceArray<int> col_idx_;
+  DeviceArray<double> values_;
+};
+
+/// cuSPARSE's BSR SpMV (cusparseDbsrmv, 3x3 row-major blocks) on a copy of A.
+class CusparseBsr {
+ public:
+  explicit CusparseBsr(const Bcsr& A);
+  ~CusparseBsr();
+  CusparseBsr(const CusparseBsr&) = delete;
+  CusparseBsr& operator=(const CusparseBsr&) = delete;
+  void update_values(const Bcsr& A);
+  index_t rows() const { return 3 * block_rows_; }
+  /// y = A x
+  void multiply(const DeviceVector& x, DeviceVector& y) const;
+  double bytes_per_spmv() const;
+
+ private:
+  index_t block_rows_ = 0, num_blocks_ = 0;
+  void* handle_ = nullptr;  ///< cusparseHandle_t
+  void* descr_ = nullptr;   ///< cusparseMatDescr_t
+  DeviceArray<int> row_ptr_, col_idx_;
+  DeviceArray<double> values_;
+};
+
+/// cuSPARSE's generic SpMV (cusparseSpMV, CSR, default algorithm) on a copy of A.
+class CusparseCsr {
+ public:
+  explicit CusparseCsr(const Csr& A);
+  ~CusparseCsr();
+  CusparseCsr(const CusparseCsr&) = delete;
+  CusparseCsr& operator=(const CusparseCsr&) = delete;
+  index_t rows() const { return rows_; }
+  /// y = A x
+  void multiply(const DeviceVector& x, DeviceVector& y) const;
+  double bytes_per_spmv() const;
+
+ private:
+  index_t rows_ = 0, cols_ = 0;
+  std::int64_t nnz_ = 0;
+  void* handle_ = nullptr;  ///< cusparseHandle_t
+  void* mat_ = nullptr;     ///< cusparseSpMatDescr_t
+  DeviceArray<int> row_ptr_, col_idx_;
+  DeviceArray<double> values_;
+  mutable DeviceArray<char> buffer_;
+};
+
+}  // namespace pmg::gpu

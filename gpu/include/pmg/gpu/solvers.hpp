@@ -1,0 +1,123 @@
+// pmg/gpu/solvers.hpp — solvers on the GPU: the merged CG (MCG), the library PCG it is measured
+// against, and a p-multigrid V-cycle with a Chebyshev smoother.
+//
+// Every solver stops by the rules of pmg/sparse/krylov.hpp (relative residual, true-residual
+// confirmation, divergence, NaN/Inf, stagnation, iteration limit) through the same tracker as the
+// CPU solvers, and agrees with its CPU counterpart to round-off:
+//   gpu::Mcg        ≡ pmg::mcg          (BIN-BCSR, block Jacobi)
+//   gpu::LibraryPcg ≡ pmg::pcg + BlockJacobiPreconditioner
+//   gpu::VCycle     ≡ mg::MultigridCycle with mg::Chebyshev smoothers and CHOLMOD below
+#pragma once
+
+#include "pmg/gpu/matrices.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/sparse/krylov.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace pmg::gpu {
+
+/// Inverted 3x3 diagonal blocks on the device (z = D⁻¹ r).
+class DeviceBlockJacobi {
+ public:
+  explicit DeviceBlockJacobi(const BlockJacobiPreconditioner& M) { update(M); }
+  void update(const BlockJacobiPreconditioner& M) { inv_.upload(M.inverse_blocks()); }
+  index_t rows() const { return static_cast<index_t>(inv_.size() / 3); }
+  const double* inverse_blocks() const { return inv_.data(); }
+  void apply(const DeviceVector& r, DeviceVector& z) const;
+
+ private:
+  DeviceArray<double> inv_;
+};
+
+/// Merged CG in three kernels per iteration, scalars kept on the device (no host round trip):
+///   (1) q = A s, σ = sᵀq           last block reduces σ, sets α = ρ/σ       reads A, s; writes q
+///   (2) x += α s, r -= α q, z = D⁻¹r, ρ' = rᵀz, rr = rᵀr; last block sets β = ρ'/ρ, ρ = ρ'
+///                                                          reads x, s, r, q, D⁻¹; writes x, r, z
+///   (3) s = z + β s                                         reads z, s; writes s
+/// Vector traffic 16n doubles per iteration besides the matrix (as the CPU mcg). The host reads
+/// the per-iteration scalars (σ, ρ', rr) every params.check_every iterations (1 reads after
+/// every iteration; 10 is the GPU's natural choice), so the history still has every iteration;
+/// up to check_every - 1 iterations run past the one that met the tolerance. Block reductions are
+/// in a fixed order: results are bitwise repeatable.
+class Mcg {
+ public:
+  /// Keeps references to A and M; workspace is allocated here, once.
+  Mcg(const DeviceBinBcsr& A, const DeviceBlockJacobi& M);
+  ~Mcg();
+  /// x: initial guess in, solution out (resized to zero if empty).
+  SolveResult solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& params = {},
+                    SolveMonitor* monitor = nullptr) const;
+
+ private:
+  struct Workspace;
+  const DeviceBinBcsr& A_;
+  const DeviceBlockJacobi& M_;
+  std::unique_ptr<Workspace> w_;
+};
+
+/// Block-Jacobi PCG assembled from library calls, the baseline MCG is measured against:
+/// cusparseDbsrmv for A and for D⁻¹ (a block-diagonal BSR matrix), cublasDdot, cublasDaxpy and
+/// cublasDgeam with the scalars on the host (three dot products per iteration, each a round trip).
+class LibraryPcg {
+ public:
+  LibraryPcg(const Bcsr& A, const BlockJacobiPreconditioner& M);
+  ~LibraryPcg();
+  LibraryPcg(const LibraryPcg&) = delete;
+  LibraryPcg& operator=(const LibraryPcg&) = delete;
+  SolveResult solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& params = {},
+                    SolveMonitor* monitor = nullptr) const;
+
+ private:
+  CusparseBsr A_, Dinv_;
+  void* cublas_ = nullptr;  ///< cublasHandle_t
+  mutable DeviceVector r_, z_, p_, q_;
+};
+
+/// p-multigrid V-cycle on the GPU: every level above the lowest runs there (BIN-BCSR residuals,
+/// Chebyshev smoothing on D⁻¹A, transfers P ⊗ I₃ and R ⊗ I₃ as scalar CSR kernels); the lowest
+/// level is solved on the host by CHOLMOD (one download and one upload per cycle, of the
+/// lowest level's size). Built from the same inputs as mg::MultigridCycle (coarsest first); keeps
+/// references to the matrices and transfers. λmax of each level comes from mg::Chebyshev, so the
+/// GPU and CPU cycles apply the same polynomial.
+class VCycle {
+ public:
+  VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
+         const mg::ChebyshevParams& chebyshev = {});
+  ~VCycle();
+  /// The matrices' values changed (same patterns): re-upload, new D⁻¹ and λmax, refactorise.
+  void update();
+  index_t rows() const;
+  int num_levels() const { return static_cast<int>(matrices_.size()); }
+  /// One cycle improving x for A x = b (finest level) in place.
+  void cycle(const DeviceVector& b, DeviceVector& x) const;
+  /// z = C r (one cycle from z = 0): the cycle as a preconditioner.
+  void apply(const DeviceVector& r, DeviceVector& z) const;
+  /// The finest level's matrix on the device.
+  const DeviceBinBcsr& finest() const;
+
+ private:
+  struct Level;
+  void cycle(int level, const DeviceVector& b, DeviceVector& x) const;
+  void smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const;
+
+  std::vector<const Bcsr*> matrices_;
+  std::vector<const mg::BlockTransfer*> transfers_;
+  mg::ChebyshevParams chebyshev_;
+  std::vector<std::unique_ptr<Level>> levels_;  ///< levels_[0] unused (the host's)
+  std::unique_ptr<mg::CholmodCoarseSolver> coarse_;
+  mutable Vector coarse_b_, coarse_x_;
+};
+
+/// PMG on the GPU: x <- x + C (b - A x) with the stopping rules of mg::multigrid_solve (the true
+/// residual's norm is read back once per cycle).
+SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
+                            const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
+
+/// Device vector primitives (default stream).
+double dot(const DeviceVector& a, const DeviceVector& b);
+/// y += alpha x
+void axpy(double alpha, const DeviceVector& x, DeviceVector& y);
+
+}  // namespace pmg::gpu

@@ -1,0 +1,166 @@
+// pmg::gpu on a device, each kernel against its host oracle. Without a CUDA device (or driver)
+// the program prints why and exits 77, which CTest reports as skipped.
+#define CATCH_CONFIG_RUNNER
+#include <catch2/catch.hpp>
+
+#include "../sparse/fixture.hpp"
+#include "hierarchy.hpp"
+#include "pmg/gpu/solvers.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+using namespace pmg;
+
+int main(int argc, char** argv) {
+  if (gpu::device_count() == 0) {
+    std::puts("no CUDA device or driver: the [gpu] tests are skipped");
+    return 77;
+  }
+  const gpu::DeviceInfo info = gpu::device_info();
+  std::printf("device: %s (sm_%d%d, %d SMs)\n", info.name.c_str(), info.major, info.minor,
+              info.multiprocessors);
+  return Catch::Session().run(argc, argv);
+}
+
+namespace {
+
+KrylovParams tolerance(double tol, int check_every = 1) {
+  KrylovParams p;
+  p.rel_tol = tol;
+  p.max_iterations = 2000;
+  p.check_every = check_every;
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("device arrays round-trip, resize in place and move", "[gpu]") {
+  const Vector v = test::random_vector(1000, 1);
+  gpu::DeviceVector d(v);
+  CHECK(d.to_vector() == v);
+  const double* p = d.data();
+  d.resize(500);  // smaller: same allocation
+  CHECK(d.data() == p);
+  gpu::DeviceVector e(std::move(d));
+  CHECK(e.data() == p);
+  CHECK(d.empty());
+  gpu::DeviceVector f;
+  f.assign(e);
+  CHECK(f.to_vector() == v.head(500));
+}
+
+TEST_CASE("every device SpMV matches the host BCSR SpMV", "[gpu]") {
+  std::vector<Bcsr> mats;
+  mats.push_back(Bcsr::from_block_triplets(23, 23, test::irregular_blocks()));
+  for (int p = 1; p <= 3; ++p) mats.push_back(test::GpuCantilever(p, 2).A());
+  for (const Bcsr& A : mats) {
+    const Vector x = test::random_vector(A.cols(), 2);
+    Vector y_ref;
+    A.apply(x, y_ref);
+    const gpu::DeviceVector dx(x);
+    gpu::DeviceVector dy;
+    const BinBcsr bin(A);
+    gpu::DeviceBinBcsr(bin).multiply(dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+    gpu::DeviceBcsr(A).multiply(dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+    gpu::CusparseBsr(A).multiply(dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+    gpu::CusparseCsr(A.to_csr()).multiply(dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+    // r = b - A x in one pass
+    const Vector b = test::random_vector(A.rows(), 3);
+    gpu::DeviceBinBcsr(bin).residual(gpu::DeviceVector(b), dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), Vector(b - y_ref)) < 1e-13);
+  }
+}
+
+TEST_CASE("new values re-upload without re-slicing and give the new product", "[gpu]") {
+  Bcsr A = test::GpuCantilever(2, 1).A();
+  BinBcsr bin(A);
+  gpu::DeviceBinBcsr dA(bin);
+  for (double& v : A.values()) v *= 2.5;
+  bin.update_values(A);
+  dA.update_values(bin);
+  const Vector x = test::random_vector(A.cols(), 4);
+  Vector y_ref;
+  A.apply(x, y_ref);
+  gpu::DeviceVector dy;
+  dA.multiply(gpu::DeviceVector(x), dy);
+  CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+  const Bcsr other = test::GpuCantilever(1, 1).A();
+  CHECK_THROWS_AS(dA.update_values(BinBcsr(other)), InputError);
+}
+
+TEST_CASE("GPU MCG agrees with the CPU MCG, reading the residual every 1 or 10 iterations", "[gpu]") {
+  test::GpuCantilever c(3, 2);
+  const BlockJacobiPreconditioner M(c.A());
+  Vector x_cpu;
+  const SolveResult cpu = mcg(c.A(), M, c.b, x_cpu, tolerance(1e-8));
+  const BinBcsr bin(c.A());
+  const gpu::DeviceBinBcsr dA(bin);
+  const gpu::DeviceBlockJacobi dM(M);
+  const gpu::Mcg solver(dA, dM);
+  for (int k : {1, 10}) {
+    gpu::DeviceVector x;
+    const SolveResult r = solver.solve(gpu::DeviceVector(c.b), x, tolerance(1e-8, k));
+    INFO("check_every " << k << ": GPU " << r.iterations << " iterations, CPU " << cpu.iterations);
+    CHECK(r.status == SolveStatus::converged);
+    CHECK(r.iterations >= cpu.iterations);
+    CHECK(r.iterations <= cpu.iterations + k);
+    CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
+    Vector res;
+    c.A().residual(c.b, x.to_vector(), res);
+    CHECK(res.norm() <= 2e-8 * c.b.norm());
+  }
+}
+
+TEST_CASE("GPU MCG reports breakdown on an indefinite matrix and NaN in the right-hand side", "[gpu][errors]") {
+  Bcsr A = test::GpuCantilever(1, 1).A();
+  const BlockJacobiPreconditioner M(A);
+  for (double& v : A.values()) v = -v;  // negative definite with the positive D⁻¹ of the original
+  const BinBcsr bin(A);
+  const gpu::DeviceBinBcsr dA(bin);
+  const gpu::DeviceBlockJacobi dM(M);
+  KrylovParams p = tolerance(1e-8);
+  p.throw_on_failure = false;
+  gpu::DeviceVector x;
+  const SolveResult r = gpu::Mcg(dA, dM).solve(gpu::DeviceVector(Vector(Vector::Ones(A.rows()))), x, p);
+  CHECK(r.status == SolveStatus::breakdown);
+  Vector b = Vector::Ones(A.rows());
+  b[3] = std::nan("");
+  gpu::DeviceVector x2;
+  CHECK(gpu::Mcg(dA, dM).solve(gpu::DeviceVector(b), x2, p).status == SolveStatus::non_finite);
+}
+
+TEST_CASE("the cuBLAS/cuSPARSE PCG agrees with the CPU PCG", "[gpu]") {
+  test::GpuCantilever c(2, 2);
+  const BlockJacobiPreconditioner M(c.A());
+  Vector x_cpu;
+  const SolveResult cpu = pcg(c.A(), &M, c.b, x_cpu, tolerance(1e-8));
+  gpu::DeviceVector x;
+  const SolveResult r = gpu::LibraryPcg(c.A(), M).solve(gpu::DeviceVector(c.b), x, tolerance(1e-8));
+  CHECK(r.status == SolveStatus::converged);
+  CHECK(std::abs(r.iterations - cpu.iterations) <= 1);
+  CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
+}
+
+TEST_CASE("the GPU V-cycle equals the CPU Chebyshev V-cycle, and GPU PMG converges like CPU PMG", "[gpu]") {
+  test::GpuCantilever c(3, 2);
+  const gpu::VCycle C(c.matrices(), c.transfers());
+  const Vector r = test::random_vector(c.A().rows(), 9);
+  Vector z_ref;
+  c.pmg->cycle->apply(r, z_ref);
+  gpu::DeviceVector z;
+  C.apply(gpu::DeviceVector(r), z);
+  CHECK(test::rel_diff(z.to_vector(), z_ref) < 1e-10);
+
+  Vector x_cpu = Vector::Zero(c.b.size());
+  const SolveResult cpu = mg::multigrid_solve(c.A(), *c.pmg->cycle, c.b, x_cpu, tolerance(1e-8));
+  gpu::DeviceVector x;
+  const SolveResult g = gpu::multigrid_solve(C, gpu::DeviceVector(c.b), x, tolerance(1e-8));
+  CHECK(g.status == SolveStatus::converged);
+  CHECK(g.iterations == cpu.iterations);
+  CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
+}
