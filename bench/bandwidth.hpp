@@ -63,10 +63,9 @@ inline void BM_ReadSum(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 24.0 * g_triad_elems));
 }
 
-/// The common start of a pmgkit benchmark: repetitions default to 5 with aggregates only (these
-/// machines are noisy; summaries use medians), the probe arrays are sized, Google Benchmark is
-/// initialised with the arguments the caller did not consume, and the two probes are registered.
-inline void start_benchmarks(std::vector<char*>& rest, size_t triad_mib) {
+/// Google Benchmark initialised with the arguments the caller did not consume; repetitions default
+/// to 5 with aggregates only (these machines are noisy; summaries use medians).
+inline void initialize_benchmarks(std::vector<char*>& rest) {
   bool repetitions_given = false;
   for (const char* a : rest) repetitions_given |= std::string(a).rfind("--benchmark_repetitions", 0) == 0;
   static char reps[] = "--benchmark_repetitions=5";
@@ -75,9 +74,22 @@ inline void start_benchmarks(std::vector<char*>& rest, size_t triad_mib) {
     rest.push_back(reps);
     rest.push_back(aggregates);
   }
-  set_probe_mib(triad_mib);
   int rest_argc = static_cast<int>(rest.size());
   benchmark::Initialize(&rest_argc, rest.data());
+}
+
+/// The run a summary should read: the median of repeated runs, or the single run.
+inline bool summary_run(const benchmark::BenchmarkReporter::Run& r) {
+  using Run = benchmark::BenchmarkReporter::Run;
+  if (r.error_occurred) return false;
+  return r.run_type == Run::RT_Aggregate ? r.aggregate_name == "median" : r.repetitions <= 1;
+}
+
+/// The common start of a pmgkit CPU benchmark: initialize_benchmarks(), then the probe arrays
+/// sized and the two probes registered.
+inline void start_benchmarks(std::vector<char*>& rest, size_t triad_mib) {
+  initialize_benchmarks(rest);
+  set_probe_mib(triad_mib);
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->UseRealTime()->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("BM_ReadSum", BM_ReadSum)->UseRealTime()->Unit(benchmark::kMillisecond);
 }

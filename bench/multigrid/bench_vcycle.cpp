@@ -95,9 +95,8 @@ class SummaryReporter : public benchmark::ConsoleReporter {
   void ReportRuns(const std::vector<Run>& runs) override {
     ConsoleReporter::ReportRuns(runs);
     for (const Run& r : runs) {
-      const bool use = r.run_type == Run::RT_Aggregate ? r.aggregate_name == "median" : r.repetitions <= 1;
       const auto it = r.counters.find("bytes");
-      if (r.error_occurred || !use || it == r.counters.end()) continue;
+      if (!summary_run(r) || it == r.counters.end()) continue;
       const double seconds = r.real_accumulated_time / static_cast<double>(r.iterations);
       const double gbs = it->second.value / seconds / 1e9;
       if (r.benchmark_name().rfind("BM_Triad", 0) == 0) triad_ = std::max(triad_, gbs);

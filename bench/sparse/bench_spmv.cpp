@@ -102,9 +102,7 @@ class SummaryReporter : public benchmark::ConsoleReporter {
     ConsoleReporter::ReportRuns(runs);
     for (const Run& r : runs) {
       // With repetitions (the default here) only the medians are used; otherwise the single run.
-      const bool use = r.run_type == Run::RT_Aggregate ? r.aggregate_name == "median"
-                                                       : r.repetitions <= 1;
-      if (r.error_occurred || !use) continue;
+      if (!summary_run(r)) continue;
       const double seconds = r.real_accumulated_time / static_cast<double>(r.iterations);
       const auto it = r.counters.find("bytes");
       if (it == r.counters.end()) continue;
