@@ -159,6 +159,7 @@ SimScene read_scene(const std::string& path) {
       for (double L : s.size)
         if (!(L > 0)) m.fail_key("size", "side lengths must be > 0");
     }
+    s.refine = m.integer("refine", 0, 0, 4);
   }
   s.degree = root.integer("degree", s.degree, 1, 3);
   if (root.has("material")) {
@@ -253,6 +254,7 @@ std::string scene_to_json(const SimScene& s) {
   json j;
   if (s.mesh_file.empty()) j["mesh"] = {{"box", s.box}, {"size", s.size}};
   else j["mesh"] = {{"file", s.mesh_file}};
+  if (s.refine > 0) j["mesh"]["refine"] = s.refine;
   j["degree"] = s.degree;
   j["material"] = {{"model", s.corotational ? "corotational" : "linear"},
                    {"young", s.young}, {"poisson", s.poisson}, {"density", s.density}};

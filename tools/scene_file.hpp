@@ -17,6 +17,7 @@ struct SimScene {
   std::string mesh_file;                  ///< empty: the box bar
   std::array<int, 3> box{8, 2, 2};       ///< boxes of 24 tets along x y z
   std::array<double, 3> size{4.0, 1.0, 1.0};
+  int refine = 0;                         ///< uniform refinements of the mesh (8x elements each)
   int degree = 3;
   // material
   bool corotational = true;

@@ -64,7 +64,7 @@ Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol,
 
 Built build(const SimScene& s) {
   Built b;
-  b.mesh = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data());
+  b.mesh = fem::refine_uniform(load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data()), s.refine);
   fem::Vec3 lo = fem::Vec3::Constant(1e300), hi = fem::Vec3::Constant(-1e300);
   for (const auto& v : b.mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
   b.centre = 0.5 * (lo + hi);
@@ -401,6 +401,7 @@ void run(const Cli& cli_in) {
   const fem::ElasticityModel& m = b.h->finest();
   std::cout << "scene:   " << s.source << "\n"
             << "mesh:    " << (s.mesh_file.empty() ? "box bar " + std::to_string(s.box[0]) + "x" + std::to_string(s.box[1]) + "x" + std::to_string(s.box[2]) + " boxes" : s.mesh_file)
+            << (s.refine > 0 ? " refined " + std::to_string(s.refine) + "x" : "")
             << ", " << b.mesh.num_tets() << " tets, degree " << s.degree << ", " << m.num_free_dofs() << " unknowns, "
             << m.num_fixed() << " clamped nodes\n"
             << "model:   " << (s.corotational ? "corotational" : "linear") << ", E = " << s.young << " Pa, nu = " << s.poisson

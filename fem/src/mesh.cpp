@@ -91,4 +91,63 @@ void check_mesh(TetMesh& mesh, const MeshCheckOptions& options) {
   }
 }
 
+namespace {
+
+TetMesh refine_once(const TetMesh& in) {
+  TetMesh out;
+  out.vertices = in.vertices;
+  std::map<std::pair<index_t, index_t>, index_t> midpoint;
+  auto mid = [&](index_t a, index_t b) {
+    const auto key = std::minmax(a, b);
+    const auto it = midpoint.find(key);
+    if (it != midpoint.end()) return it->second;
+    const index_t id = static_cast<index_t>(out.vertices.size());
+    out.vertices.push_back(0.5 * (in.vertices[a] + in.vertices[b]));
+    midpoint.emplace(key, id);
+    return id;
+  };
+  auto add = [&](Tet t) {
+    const Vec3& X0 = out.vertices[t[0]];
+    const double det = (out.vertices[t[1]] - X0).cross(out.vertices[t[2]] - X0).dot(out.vertices[t[3]] - X0);
+    if (det < 0) std::swap(t[2], t[3]);
+    out.tets.push_back(t);
+  };
+  out.tets.reserve(8 * in.tets.size());
+  for (const Tet& t : in.tets) {
+    // m[i][j]: midpoint of edge ij.
+    index_t m[4][4];
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) m[i][j] = m[j][i] = mid(t[i], t[j]);
+    for (int i = 0; i < 4; ++i) {  // corner tets
+      Tet c;
+      for (int j = 0; j < 4; ++j) c[j] = j == i ? t[i] : m[i][j];
+      add(c);
+    }
+    // Octahedron: the three diagonals join midpoints of opposite edges (01-23, 02-13, 03-12).
+    const int pairs[3][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}};
+    int best = 0;
+    double shortest = 1e300;
+    for (int d = 0; d < 3; ++d) {
+      const auto& q = pairs[d];
+      const double len = (out.vertices[m[q[0]][q[1]]] - out.vertices[m[q[2]][q[3]]]).squaredNorm();
+      if (len < shortest) shortest = len, best = d;
+    }
+    const auto& q = pairs[best];
+    const index_t a = m[q[0]][q[1]], b = m[q[2]][q[3]];
+    // The equator around diagonal ab, in cyclic order: consecutive midpoints share a tet vertex.
+    const index_t ring[4] = {m[q[0]][q[2]], m[q[0]][q[3]], m[q[1]][q[3]], m[q[1]][q[2]]};
+    for (int k = 0; k < 4; ++k) add({a, b, ring[k], ring[(k + 1) % 4]});
+  }
+  return out;
+}
+
+}  // namespace
+
+TetMesh refine_uniform(const TetMesh& mesh, int levels) {
+  if (levels < 0) throw MeshError("refine_uniform: levels must be >= 0");
+  TetMesh m = mesh;
+  for (int l = 0; l < levels; ++l) m = refine_once(m);
+  return m;
+}
+
 }  // namespace pmg::fem

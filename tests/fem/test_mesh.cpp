@@ -2,8 +2,11 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <set>
 
 using namespace pmg;
 using namespace pmg::fem;
@@ -84,4 +87,68 @@ TEST_CASE("mesh errors name the element, vertex or face", "[fem][mesh][errors]")
     TetMesh m;
     CHECK_THROWS_WITH(check_mesh(m), Catch::Contains("no elements"));
   }
+}
+
+namespace {
+/// Faces on the boundary (used by one element), as sorted vertex triples.
+size_t boundary_faces(const TetMesh& m) {
+  std::map<std::array<index_t, 3>, int> count;
+  for (const Tet& t : m.tets)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<index_t, 3> f;
+      for (int i = 0, k = 0; i < 4; ++i)
+        if (i != skip) f[k++] = t[i];
+      std::sort(f.begin(), f.end());
+      ++count[f];
+    }
+  size_t n = 0;
+  for (const auto& [f, c] : count) n += c == 1;
+  return n;
+}
+
+/// Smallest of (6 √2 V) / (longest edge)³ over the elements: 1 for the regular tetrahedron.
+double worst_shape(const TetMesh& m) {
+  double worst = 1e300;
+  for (index_t e = 0; e < m.num_tets(); ++e) {
+    double longest = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j)
+        longest = std::max(longest, (m.vertices[m.tets[e][i]] - m.vertices[m.tets[e][j]]).norm());
+    worst = std::min(worst, 6 * std::sqrt(2.0) * m.signed_volume(e) / std::pow(longest, 3));
+  }
+  return worst;
+}
+}  // namespace
+
+TEST_CASE("uniform refinement splits each tet into 8 conforming tets of the same total volume", "[fem][mesh]") {
+  for (const TetMesh& base : {single_tet(), box_mesh_24(2, 1, 1, 2.0, 1.0, 1.0)}) {
+    double volume = 0.0;
+    for (index_t e = 0; e < base.num_tets(); ++e) volume += base.signed_volume(e);
+    TetMesh m = base;
+    for (int level = 1; level <= 2; ++level) {
+      const TetMesh fine = refine_uniform(m);
+      // V + E vertices: count the edges of m.
+      std::set<std::pair<index_t, index_t>> edges;
+      for (const Tet& t : m.tets)
+        for (int i = 0; i < 4; ++i)
+          for (int j = i + 1; j < 4; ++j) edges.insert(std::minmax(t[i], t[j]));
+      CHECK(fine.num_vertices() == m.num_vertices() + static_cast<index_t>(edges.size()));
+      CHECK(fine.num_tets() == 8 * m.num_tets());
+      double v = 0.0;
+      for (index_t e = 0; e < fine.num_tets(); ++e) {
+        CHECK(fine.signed_volume(e) > 0);
+        v += fine.signed_volume(e);
+      }
+      CHECK(v == Approx(volume).epsilon(1e-12));
+      // Conforming: every boundary face of m became exactly 4, and no face inside is unmatched.
+      CHECK(boundary_faces(fine) == 4 * boundary_faces(m));
+      TetMesh copy = fine;
+      REQUIRE_NOTHROW(check_mesh(copy));
+      // Shortest-diagonal splitting keeps the shapes: no worse than a third of the coarse worst.
+      CHECK(worst_shape(fine) >= worst_shape(base) / 3.0);
+      m = fine;
+    }
+    CHECK(refine_uniform(base, 2).num_tets() == m.num_tets());
+  }
+  CHECK_THROWS_AS(refine_uniform(single_tet(), -1), MeshError);
 }

@@ -107,7 +107,9 @@ TEST_CASE("GPU MCG agrees with the CPU MCG, reading the residual every 1 or 10 i
     const SolveResult r = solver.solve(gpu::DeviceVector(c.b), x, tolerance(1e-8, k));
     INFO("check_every " << k << ": GPU " << r.iterations << " iterations, CPU " << cpu.iterations);
     CHECK(r.status == SolveStatus::converged);
-    CHECK(r.iterations >= cpu.iterations);
+    // Round-off may move the crossing of the tolerance by one iteration; the host reads the
+    // residual every k iterations, so the GPU may run up to k - 1 past it.
+    CHECK(r.iterations >= cpu.iterations - 1);
     CHECK(r.iterations <= cpu.iterations + k);
     CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
     Vector res;
@@ -161,6 +163,6 @@ TEST_CASE("the GPU V-cycle equals the CPU Chebyshev V-cycle, and GPU PMG converg
   gpu::DeviceVector x;
   const SolveResult g = gpu::multigrid_solve(C, gpu::DeviceVector(c.b), x, tolerance(1e-8));
   CHECK(g.status == SolveStatus::converged);
-  CHECK(g.iterations == cpu.iterations);
+  CHECK(std::abs(g.iterations - cpu.iterations) <= 1);
   CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
 }

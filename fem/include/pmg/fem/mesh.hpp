@@ -45,4 +45,11 @@ struct MeshCheckOptions {
 /// vertices used by no element.
 void check_mesh(TetMesh& mesh, const MeshCheckOptions& options = {});
 
+/// Uniform ("red") refinement, levels times: every tetrahedron is split into 8 through its edge
+/// midpoints (4 corner tets and the inner octahedron cut along its shortest diagonal, which keeps
+/// the shapes from degrading, Bey 1995). The geometry is unchanged (new vertices lie on the old
+/// straight edges), so a sequence of refinements is a clean h-convergence study on any mesh.
+/// Vertices: V + E per level; elements: 8^levels as many; every element positively oriented.
+TetMesh refine_uniform(const TetMesh& mesh, int levels = 1);
+
 }  // namespace pmg::fem
