@@ -82,43 +82,32 @@ void DeviceBinBcsr::residual(const DeviceVector& b, const DeviceVector& x, Devic
   PMG_LAUNCHED("bin_bcsr_residual_kernel");
 }
 
-// ---- DeviceBcsr --------------------------------------------------------------------------------
+// ---- DeviceCsr, DeviceBcsr ----------------------------------------------------------------------
 
-DeviceBcsr::DeviceBcsr(const Bcsr& A)
-    : rows_(A.rows()), block_rows_(A.block_rows()), row_ptr_(A.pattern().row_ptr),
-      col_idx_(A.pattern().col_idx), values_(A.values()) {
-  if (A.rows() != A.cols()) throw InputError("DeviceBcsr: matrix must be square");
+DeviceCsr::DeviceCsr(const CsrPattern& pattern, const std::vector<double>& values)
+    : rows_(pattern.rows), cols_(pattern.cols), row_ptr_(pattern.row_ptr), col_idx_(pattern.col_idx),
+      values_(values) {}
+
+void DeviceCsr::update_values(const std::vector<double>& values) {
+  if (values.size() != values_.size())
+    throw InputError("DeviceCsr/DeviceBcsr::update_values: the matrix does not have the uploaded pattern");
+  values_.upload(values);
 }
-
-void DeviceBcsr::update_values(const Bcsr& A) {
-  if (A.rows() != rows_ || A.values().size() != values_.size())
-    throw InputError("DeviceBcsr::update_values: the matrix does not have the uploaded pattern");
-  values_.upload(A.values());
-}
-
-double DeviceBcsr::bytes_per_spmv() const {
-  return 8.0 * values_.size() + 4.0 * col_idx_.size() + 8.0 * row_ptr_.size() + 16.0 * rows_;
-}
-
-detail::CsrView DeviceBcsr::view() const {
-  return {block_rows_, row_ptr_.data(), col_idx_.data(), values_.data()};
-}
-
-void DeviceBcsr::multiply(const DeviceVector& x, DeviceVector& y) const {
-  check_vectors(rows_, x, y, "DeviceBcsr::multiply");
-  if (rows_ == 0) return;
-  bcsr_spmv_kernel<<<detail::blocks_for(rows_), detail::kThreads>>>(view(), x.data(), y.data());
-  PMG_LAUNCHED("bcsr_spmv_kernel");
-}
-
-// ---- DeviceCsr ---------------------------------------------------------------------------------
-
-DeviceCsr::DeviceCsr(const Csr& A)
-    : rows_(A.rows()), cols_(A.cols()), row_ptr_(A.pattern().row_ptr), col_idx_(A.pattern().col_idx),
-      values_(A.values()) {}
 
 detail::CsrView DeviceCsr::view() const {
   return {rows_, row_ptr_.data(), col_idx_.data(), values_.data()};
+}
+
+DeviceBcsr::DeviceBcsr(const Bcsr& A) : blocks_(A.pattern(), A.values()) {
+  if (A.rows() != A.cols()) throw InputError("DeviceBcsr: matrix must be square");
+}
+
+void DeviceBcsr::multiply(const DeviceVector& x, DeviceVector& y) const {
+  const index_t n = rows();
+  check_vectors(n, x, y, "DeviceBcsr::multiply");
+  if (n == 0) return;
+  bcsr_spmv_kernel<<<detail::blocks_for(n), detail::kThreads>>>(view(), x.data(), y.data());
+  PMG_LAUNCHED("bcsr_spmv_kernel");
 }
 
 }  // namespace pmg::gpu

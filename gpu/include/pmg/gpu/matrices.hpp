@@ -43,29 +43,18 @@ class DeviceBinBcsr {
   DeviceArray<double> values_, diag_;
 };
 
-class DeviceBcsr {
- public:
-  explicit DeviceBcsr(const Bcsr& A);
-  void update_values(const Bcsr& A);
-  index_t rows() const { return rows_; }
-  void multiply(const DeviceVector& x, DeviceVector& y) const;
-  /// Values, columns, row pointers, x once and y once.
-  double bytes_per_spmv() const;
-  detail::CsrView view() const;
-
- private:
-  index_t rows_ = 0, block_rows_ = 0;
-  DeviceArray<std::int64_t> row_ptr_;
-  DeviceArray<int> col_idx_;
-  DeviceArray<double> values_;
-};
-
-/// A scalar CSR matrix on the device (transfer operators, CSR baselines).
+/// CSR arrays on the device: a scalar CSR matrix (transfer operators), or with 9 values per entry
+/// the block pattern and 3x3 blocks of a BCSR matrix.
 class DeviceCsr {
  public:
-  explicit DeviceCsr(const Csr& A);
+  explicit DeviceCsr(const Csr& A) : DeviceCsr(A.pattern(), A.values()) {}
+  DeviceCsr(const CsrPattern& pattern, const std::vector<double>& values);
+  /// New values on the same pattern (same count).
+  void update_values(const std::vector<double>& values);
   index_t rows() const { return rows_; }
   index_t cols() const { return cols_; }
+  /// Bytes of values, column indices and row pointers.
+  double bytes() const { return 8.0 * values_.size() + 4.0 * col_idx_.size() + 8.0 * row_ptr_.size(); }
   detail::CsrView view() const;
 
  private:
@@ -73,6 +62,20 @@ class DeviceCsr {
   DeviceArray<std::int64_t> row_ptr_;
   DeviceArray<int> col_idx_;
   DeviceArray<double> values_;
+};
+
+class DeviceBcsr {
+ public:
+  explicit DeviceBcsr(const Bcsr& A);
+  void update_values(const Bcsr& A) { blocks_.update_values(A.values()); }
+  index_t rows() const { return 3 * blocks_.rows(); }
+  void multiply(const DeviceVector& x, DeviceVector& y) const;
+  /// Values, columns, row pointers, x once and y once.
+  double bytes_per_spmv() const { return blocks_.bytes() + 16.0 * rows(); }
+  detail::CsrView view() const { return blocks_.view(); }
+
+ private:
+  DeviceCsr blocks_;  ///< block rows, one column per block, 9 values per block
 };
 
 /// cuSPARSE's BSR SpMV (cusparseDbsrmv, 3x3 row-major blocks) on a copy of A.
