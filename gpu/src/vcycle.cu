@@ -70,6 +70,7 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
     L->x.resize(n);
     L->r.resize(n);
     L->d.resize(n);
+    set_up_smoother(*L);
     levels_[l] = std::move(L);
   }
   // Level 0's right-hand side and solution also live on the device (restricted into, prolongated
@@ -78,19 +79,23 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
   L0->b.resize(static_cast<std::size_t>(matrices_[0]->rows()));
   L0->x.resize(static_cast<std::size_t>(matrices_[0]->rows()));
   levels_[0] = std::move(L0);
-  update();
 }
 
 VCycle::~VCycle() = default;
+
+// D⁻¹ (checked SPD) and λmax from the CPU smoother, so both cycles apply the same polynomial.
+void VCycle::set_up_smoother(Level& L) const {
+  const mg::Chebyshev cheb(*L.A, chebyshev_);
+  L.lambda_max = cheb.lambda_max();
+  L.inv_diag.upload(cheb.inverse_diagonal());
+}
 
 void VCycle::update() {
   for (std::size_t l = 1; l < levels_.size(); ++l) {
     Level& L = *levels_[l];
     L.host.update_values(*L.A);
     L.device->update_values(L.host);
-    const mg::Chebyshev cheb(*L.A, chebyshev_);  // D⁻¹ (checked SPD) and λmax, as on the CPU
-    L.lambda_max = cheb.lambda_max();
-    L.inv_diag.upload(mg::inverse_diagonal_blocks(*L.A));
+    set_up_smoother(L);
   }
   coarse_->update();
 }

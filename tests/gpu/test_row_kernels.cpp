@@ -100,7 +100,7 @@ TEST_CASE("the GPU Chebyshev step sequence reproduces mg::Chebyshev smoothing", 
   Vector x = x_ref;
   cheb.pre_smooth(b, x_ref);
   // The recurrence of gpu::VCycle::smooth, with the kernel bodies run on the host.
-  const std::vector<double> inv = mg::inverse_diagonal_blocks(A);
+  const std::vector<double>& inv = cheb.inverse_diagonal();
   const double lmax = cheb.lambda_max(), lmin = p.lower_fraction * lmax;
   const double theta = 0.5 * (lmax + lmin), delta = 0.5 * (lmax - lmin), sigma = theta / delta;
   double rho = 1.0 / sigma;

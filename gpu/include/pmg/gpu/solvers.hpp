@@ -99,13 +99,15 @@ class VCycle {
 
  private:
   struct Level;
+  void set_up_smoother(Level& L) const;
   void cycle(int level, const DeviceVector& b, DeviceVector& x) const;
   void smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const;
 
   std::vector<const Bcsr*> matrices_;
   std::vector<const mg::BlockTransfer*> transfers_;
   mg::ChebyshevParams chebyshev_;
-  std::vector<std::unique_ptr<Level>> levels_;  ///< levels_[0] unused (the host's)
+  /// levels_[0] holds only the lowest level's b and x on the device (its matrix is the host's)
+  std::vector<std::unique_ptr<Level>> levels_;
   std::unique_ptr<mg::CholmodCoarseSolver> coarse_;
   mutable Vector coarse_b_, coarse_x_;
 };
@@ -115,7 +117,8 @@ class VCycle {
 SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
                             const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
 
-/// Device vector primitives (default stream).
+/// Device vector primitives (default stream). dot() allocates its reduction scratch per call;
+/// the solvers above keep theirs.
 double dot(const DeviceVector& a, const DeviceVector& b);
 /// y += alpha x
 void axpy(double alpha, const DeviceVector& x, DeviceVector& y);

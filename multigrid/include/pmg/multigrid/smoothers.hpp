@@ -99,6 +99,8 @@ class Chebyshev final : public Smoother {
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
   void update() override;
   double lambda_max() const { return lambda_max_; }
+  /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update()).
+  const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
 
  private:
   void smooth(const Vector& b, Vector& x) const;
