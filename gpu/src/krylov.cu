@@ -22,6 +22,11 @@ struct Scalars {
   double dot = 0.0;    ///< result of dot_kernel
   double init_rz = 0.0, init_rr = 0.0;
   unsigned int counter = 0;  ///< grid_sum ticket (each kernel leaves it at 0)
+  /// Set when σ or ρ' is not positive (breakdown, NaN): the step kernels still queued in the chunk
+  /// then return at once, so x stays the iterate the host reports, as in the CPU MCG. Only a
+  /// kernel's last block writes it, after every block of that kernel has read it, so all blocks
+  /// of a later kernel see the same value. The restart kernel clears it.
+  unsigned int halt = 0;
 };
 
 /// What the host reads back per iteration.
@@ -35,6 +40,7 @@ struct Record {
 // (1) q = A s and σ = sᵀq; the last block sets α = ρ/σ.
 __global__ void step1_kernel(BinBcsrView A, const double* __restrict__ s, double* __restrict__ q,
                              double* partials, Scalars* sc, Record* rec) {
+  if (sc->halt) return;
   const int row = blockIdx.x * blockDim.x + threadIdx.x;
   double v[1] = {0.0};
   if (row < A.rows) {
@@ -46,6 +52,7 @@ __global__ void step1_kernel(BinBcsrView A, const double* __restrict__ s, double
   if (detail::grid_sum(v, partials, &sc->counter, total) && threadIdx.x == 0) {
     rec->sigma = total[0];
     sc->alpha = sc->rho / total[0];
+    if (!(total[0] > 0.0)) sc->halt = 1;  // also NaN
   }
 }
 
@@ -55,6 +62,7 @@ __global__ void step2_kernel(int block_rows, const double* __restrict__ inv_diag
                              const double* __restrict__ s, const double* __restrict__ q,
                              double* __restrict__ x, double* __restrict__ r, double* __restrict__ z,
                              double* partials, Scalars* sc, Record* rec) {
+  if (sc->halt) return;
   const int I = blockIdx.x * blockDim.x + threadIdx.x;
   const double alpha = sc->alpha;
   double v[2] = {0.0, 0.0};
@@ -80,12 +88,14 @@ __global__ void step2_kernel(int block_rows, const double* __restrict__ inv_diag
     rec->energy = alpha * sc->rho;
     sc->beta = total[0] / sc->rho;
     sc->rho = total[0];
+    if (!(total[0] > 0.0)) sc->halt = 1;
   }
 }
 
 // (3) s = z + β s
 __global__ void step3_kernel(int n, const double* __restrict__ z, double* __restrict__ s,
                              const Scalars* sc) {
+  if (sc->halt) return;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < n) s[i] = z[i] + sc->beta * s[i];
 }
@@ -110,6 +120,7 @@ __global__ void restart_kernel(int block_rows, const double* __restrict__ inv_di
   if (detail::grid_sum(v, partials, &sc->counter, total) && threadIdx.x == 0) {
     sc->rho = sc->init_rz = total[0];
     sc->init_rr = total[1];
+    sc->halt = 0;
   }
 }
 

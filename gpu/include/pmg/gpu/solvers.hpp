@@ -39,8 +39,9 @@ class DeviceBlockJacobi {
 /// Vector traffic 16n doubles per iteration besides the matrix (as the CPU mcg). The host reads
 /// the per-iteration scalars (σ, ρ', rr) every params.check_every iterations (1 reads after
 /// every iteration; 10 is the GPU's natural choice), so the history still has every iteration;
-/// up to check_every - 1 iterations run past the one that met the tolerance. Block reductions are
-/// in a fixed order: results are bitwise repeatable.
+/// up to check_every - 1 iterations run past the one that met the tolerance. A σ or ρ' that is
+/// not positive (or NaN) stops the queued iterations on the device, so after a breakdown x is the
+/// CPU mcg's iterate. Block reductions are in a fixed order: results are bitwise repeatable.
 class Mcg {
  public:
   /// Keeps references to A and M; workspace is allocated here, once.
