@@ -25,6 +25,7 @@
 
 #include <cstdlib>
 
+#include <algorithm>
 #include <chrono>
 #include <functional>
 #include <iostream>
@@ -48,8 +49,9 @@ struct Options {
   std::vector<std::string> solvers;  // default depends on the system
   // PMG
   std::string coarse_operator = "geometric", restriction = "transpose", cycle = "V",
-              smoother = "gauss-seidel";
-  int sweeps = 5, mgpcg_cycles = 2;
+              smoother = "gauss-seidel", lowest_level = "cholmod";
+  int sweeps = 5, mgpcg_cycles = 2, lowest_level_cycles = 1;
+  double lowest_level_tol = 1e-2;
   std::string format = "bcsr";
   double tol = 1e-8;
   int max_iterations = 20000;
@@ -57,6 +59,19 @@ struct Options {
   int check_every = 1;
   int threads = 0;
 };
+
+/// PMG/MGPCG settings from the command line (FEM scenes and user levels alike).
+fem::PmgOptions pmg_options(const Options& o) {
+  fem::PmgOptions po;
+  po.coarse_operator = o.coarse_operator == "galerkin" ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
+  po.interpolating_restriction = o.restriction == "interpolating";
+  po.smoother.sweeps = o.sweeps;
+  po.chebyshev = o.smoother == "chebyshev";
+  po.smoother.pointwise = o.smoother == "point-gauss-seidel";
+  po.cycle.gamma = o.cycle == "W" ? 2 : 1;
+  set_lowest_level(po, o.lowest_level, o.lowest_level_cycles, o.lowest_level_tol);
+  return po;
+}
 
 struct System {
   std::string description;
@@ -285,8 +300,23 @@ void run(const Options& o) {
   std::vector<std::string> solvers = o.solvers;
   if (solvers.empty()) {
     solvers = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
-    if ((sys.fem && sys.fem->hierarchy->num_levels() > 1) || sys.levels)
-      solvers.insert(solvers.end(), {"pmg", "mgpcg"});
+    if ((sys.fem && sys.fem->hierarchy->num_levels() > 1) || sys.levels) {
+      solvers.push_back("pmg");
+      if (o.lowest_level != "boomeramg-pcg") solvers.push_back("mgpcg");
+    }
+  }
+  if (o.lowest_level == "boomeramg-pcg" && std::count(solvers.begin(), solvers.end(), "mgpcg"))
+    throw InputError("mgpcg needs a fixed (linear) cycle, and --lowest-level boomeramg-pcg makes the "
+                     "cycle depend on its input: use it with pmg, or give mgpcg --lowest-level boomeramg");
+  // hypre needs MPI, whose start-up (about half a second here) is paid once per process, not per
+  // solve: start it before the clocks so that it is charged to no solver.
+  const bool uses_hypre =
+      o.lowest_level != "cholmod" ||
+      std::any_of(solvers.begin(), solvers.end(), [](const std::string& s) { return s.rfind("boomeramg", 0) == 0; });
+  if (uses_hypre) {
+    t0 = std::chrono::steady_clock::now();
+    mg::mpi_size();
+    std::cout << "MPI start-up for hypre: " << fmt("%.3f", seconds_since(t0)) << " s (charged to no solver)\n\n";
   }
   std::vector<Outcome> outcomes;
   double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
@@ -318,13 +348,9 @@ void run(const Options& o) {
           name, params, [&] { return M = std::make_shared<mg::BoomerAMG>(sys.csr); },
           [&](SolveMonitor& m, Vector& xx) { return pcg(A, M.get(), sys.b, xx, params, &m); }, x);
     } else if ((name == "pmg" || name == "mgpcg") && sys.levels) {
-      mg::GaussSeidelParams gs;
-      gs.sweeps = o.sweeps;
-      mg::CycleParams cp;
-      cp.gamma = o.cycle == "W" ? 2 : 1;
       std::unique_ptr<mg::MultigridCycle> cycle;
       out = run_krylov(
-          name, params, [&] { cycle = make_cycle(*sys.levels, gs, cp); return nullptr; },
+          name, params, [&] { cycle = make_cycle(*sys.levels, pmg_options(o)); return nullptr; },
           [&](SolveMonitor& m, Vector& xx) {
             return name == "pmg" ? mg::multigrid_solve(A, *cycle, sys.b, xx, params, &m)
                                  : mg::mgpcg(A, *cycle, sys.b, xx, params, &m, o.mgpcg_cycles);
@@ -335,13 +361,7 @@ void run(const Options& o) {
       if (!sys.fem)
         throw InputError(name + " needs multigrid levels: an FEM scene (--box or --mesh) or --levels/--prolongations");
       if (sys.fem->hierarchy->num_levels() < 2) throw InputError(name + " needs degree >= 2");
-      fem::PmgOptions po;
-      po.coarse_operator = o.coarse_operator == "galerkin" ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
-      po.interpolating_restriction = o.restriction == "interpolating";
-      po.smoother.sweeps = o.sweeps;
-      po.chebyshev = o.smoother == "chebyshev";
-      po.smoother.pointwise = o.smoother == "point-gauss-seidel";
-      po.cycle.gamma = o.cycle == "W" ? 2 : 1;
+      const fem::PmgOptions po = pmg_options(o);
       std::unique_ptr<fem::PmgSolver> pmg;
       out = run_krylov(
           name, params,
@@ -488,12 +508,29 @@ void register_compare(CLI::App& app) {
   sub->add_option("--sweeps", opts->sweeps, "Gauss-Seidel sweeps before and after")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  sub->add_option("--lowest-level", opts->lowest_level,
+                  "PMG/MGPCG linear level: CHOLMOD (exact), BoomerAMG V-cycles, or CG preconditioned "
+                  "by BoomerAMG to a tolerance (pmg only)")
+      ->check(CLI::IsMember({"cholmod", "boomeramg", "boomeramg-pcg"}))
+      ->capture_default_str();
+  sub->add_option("--lowest-level-cycles", opts->lowest_level_cycles,
+                  "BoomerAMG V-cycles per application (boomeramg, boomeramg-pcg)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--lowest-level-tol", opts->lowest_level_tol,
+                  "relative tolerance of the linear-level CG (boomeramg-pcg)")
+      ->check(CLI::Range(1e-14, 0.5))
+      ->capture_default_str();
   sub->add_option("--mgpcg-cycles", opts->mgpcg_cycles, "cycles per MGPCG preconditioner application")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   sub->callback([opts, sub] {
     opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
                 sub->count("--load") || sub->count("--dt");
+    if (sub->count("--lowest-level-cycles") && opts->lowest_level == "cholmod")
+      throw InputError("--lowest-level-cycles needs --lowest-level boomeramg or boomeramg-pcg");
+    if (sub->count("--lowest-level-tol") && opts->lowest_level != "boomeramg-pcg")
+      throw InputError("--lowest-level-tol needs --lowest-level boomeramg-pcg");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
     run(*opts);

@@ -35,8 +35,7 @@ UserLevels read_levels(const std::vector<std::string>& matrices,
 }
 
 std::unique_ptr<mg::MultigridCycle> make_cycle(const UserLevels& levels,
-                                               const mg::GaussSeidelParams& smoother,
-                                               const mg::CycleParams& cycle) {
+                                               const fem::PmgOptions& options) {
   std::vector<const Bcsr*> matrices;
   std::vector<const mg::BlockTransfer*> transfers;
   std::vector<std::unique_ptr<mg::Smoother>> smoothers;
@@ -44,12 +43,22 @@ std::unique_ptr<mg::MultigridCycle> make_cycle(const UserLevels& levels,
     matrices.push_back(&levels.matrices[l]);
     if (l > 0) {
       transfers.push_back(levels.transfers[l - 1].get());
-      smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(levels.matrices[l], smoother));
+      smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(levels.matrices[l], options.smoother));
     }
   }
   return std::make_unique<mg::MultigridCycle>(matrices, transfers, std::move(smoothers),
-                                              std::make_unique<mg::CholmodCoarseSolver>(levels.matrices[0]),
-                                              cycle);
+                                              mg::make_lowest_level(levels.matrices[0], options.lowest_level,
+                                                                    options.boomeramg, options.lowest_level_tol),
+                                              options.cycle);
+}
+
+void set_lowest_level(fem::PmgOptions& options, const std::string& name, int amg_cycles, double tol) {
+  if (name == "cholmod") options.lowest_level = mg::LowestLevel::cholmod;
+  else if (name == "boomeramg") options.lowest_level = mg::LowestLevel::boomeramg;
+  else if (name == "boomeramg-pcg") options.lowest_level = mg::LowestLevel::boomeramg_pcg;
+  else throw InputError("unknown lowest-level solver '" + name + "' (cholmod, boomeramg, boomeramg-pcg)");
+  options.boomeramg.cycles = amg_cycles;
+  options.lowest_level_tol = tol;
 }
 
 void export_levels(FemSystem& system, const std::string& dir) {

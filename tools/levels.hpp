@@ -4,6 +4,7 @@
 
 #include "scene.hpp"
 
+#include "pmg/fem/pmg_cycle.hpp"
 #include "pmg/multigrid/cycle.hpp"
 
 #include <memory>
@@ -22,10 +23,13 @@ struct UserLevels {
 UserLevels read_levels(const std::vector<std::string>& matrices,
                        const std::vector<std::string>& prolongations);
 
-/// A cycle over user levels: block Gauss–Seidel smoothers, CHOLMOD on level 0, R = Pᵀ.
-std::unique_ptr<mg::MultigridCycle> make_cycle(const UserLevels& levels,
-                                               const mg::GaussSeidelParams& smoother,
-                                               const mg::CycleParams& cycle);
+/// A cycle over user levels: block Gauss–Seidel smoothers (options.smoother), R = Pᵀ, the
+/// options' cycle and lowest-level solver (the FEM-only options are not used).
+std::unique_ptr<mg::MultigridCycle> make_cycle(const UserLevels& levels, const fem::PmgOptions& options);
+
+/// The tools' names of the lowest-level solvers ("cholmod", "boomeramg", "boomeramg-pcg") into
+/// options, with the AMG cycles per application and boomeramg-pcg's tolerance.
+void set_lowest_level(fem::PmgOptions& options, const std::string& name, int amg_cycles, double tol);
 
 /// Writes DIR/A<l>.mtx (level matrices over the free dofs, symmetric), DIR/P<l>.mtx (scalar
 /// prolongations) and DIR/b.mtx; assembles the lower levels first.

@@ -230,6 +230,17 @@ SimScene read_scene(const std::string& path) {
     s.max_iterations = v.integer("max_iterations", s.max_iterations, 1, 1000000);
     s.fixed_iterations = v.integer("fixed_iterations", 0, 0, 1000000);
     s.sweeps = v.integer("sweeps", s.sweeps, 1, 100);
+    s.lowest_level = v.string("lowest_level", s.lowest_level, {"cholmod", "boomeramg", "boomeramg-pcg"});
+    s.lowest_level_cycles = v.integer("lowest_level_cycles", s.lowest_level_cycles, 1, 100);
+    s.lowest_level_tol = v.positive("lowest_level_tol", s.lowest_level_tol);
+    if (v.has("lowest_level_cycles") && s.lowest_level == "cholmod")
+      v.fail_key("lowest_level_cycles", "only with \"lowest_level\": \"boomeramg\" or \"boomeramg-pcg\"");
+    if (v.has("lowest_level_tol") && s.lowest_level != "boomeramg-pcg")
+      v.fail_key("lowest_level_tol", "only with \"lowest_level\": \"boomeramg-pcg\"");
+    if (s.lowest_level_tol >= 0.5) v.fail_key("lowest_level_tol", "must be < 0.5");
+    if (s.lowest_level == "boomeramg-pcg" && s.method == "mgpcg")
+      v.fail_key("lowest_level", "boomeramg-pcg makes the cycle nonlinear; mgpcg needs a fixed cycle "
+                                 "(use \"boomeramg\", or method \"pmg\")");
   }
   if (root.has("output")) {
     Section o = root.sub("output");
@@ -276,7 +287,10 @@ std::string scene_to_json(const SimScene& s) {
   else j["time"] = "static";
   j["damping"] = {{"alpha", s.rayleigh_alpha}, {"beta", s.rayleigh_beta}};
   j["solver"] = {{"method", s.method}, {"tol", s.tol}, {"max_iterations", s.max_iterations},
-                 {"fixed_iterations", s.fixed_iterations}, {"sweeps", s.sweeps}};
+                 {"fixed_iterations", s.fixed_iterations}, {"sweeps", s.sweeps},
+                 {"lowest_level", s.lowest_level}};
+  if (s.lowest_level != "cholmod") j["solver"]["lowest_level_cycles"] = s.lowest_level_cycles;
+  if (s.lowest_level == "boomeramg-pcg") j["solver"]["lowest_level_tol"] = s.lowest_level_tol;
   json out = {{"directory", s.output}, {"frame_every", s.frame_every}, {"energy", s.energy}};
   if (s.probe) out["probe"] = vec(*s.probe);
   j["output"] = out;

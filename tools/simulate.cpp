@@ -1,6 +1,7 @@
 // pmg simulate [scene.json]: a dynamic (or static) corotational simulation of a JSON scene; with
 // no file, the built-in default scene (a cubic cantilever released from a deflected state).
 #include "commands.hpp"
+#include "levels.hpp"
 #include "scene.hpp"
 #include "scene_file.hpp"
 #include "table.hpp"
@@ -187,6 +188,12 @@ std::unique_ptr<fem::StepSolver> make_solver(const SimScene& s, std::vector<std:
   if (method == "pmg" || method == "mgpcg") {
     fem::PmgOptions po;
     po.smoother.sweeps = s.sweeps;
+    set_lowest_level(po, s.lowest_level, s.lowest_level_cycles, s.lowest_level_tol);
+    if (s.lowest_level != "cholmod") {  // hypre's MPI start-up, once per process: not a step's cost
+      const auto t0 = Clock::now();
+      mg::mpi_size();
+      notes.push_back("MPI start-up for hypre: " + std::to_string(since(t0)).substr(0, 5) + " s");
+    }
     return std::make_unique<fem::PmgStepSolver>(po, kp, method == "mgpcg");
   }
   if (method == "cholmod") return std::make_unique<fem::CholmodStepSolver>();

@@ -8,6 +8,11 @@ Markdown table. Needs Debian's python3 (numpy, matplotlib):
 
   /usr/bin/python3 tools/size_sweep.py --pmg build/tools/pmg --boxes 5,7,9,11,14,17 -p 2 \
       --solvers pmg,mgpcg,block-jacobi-pcg,cholmod,boomeramg-pcg --out sweep
+
+--variant LABEL=ARGS (repeatable) runs `pmg compare` once more per size with extra arguments and
+reports its solvers as SOLVER[LABEL], e.g. PMG with BoomerAMG on the linear level:
+
+  --variant "amg=--solvers pmg --lowest-level boomeramg-pcg"
 """
 import argparse
 import csv
@@ -52,15 +57,25 @@ def main():
     ap.add_argument("--tols", default="1e-3,1e-6")
     ap.add_argument("--out", default="sweep", help="prefix of the .csv, .png and .md outputs")
     ap.add_argument("--max-iter", type=int, default=20000)
+    ap.add_argument("--variant", action="append", default=[], metavar="LABEL=ARGS",
+                    help="another pmg compare run per size with these extra arguments (its --solvers "
+                         "replaces the default); its solvers are reported as SOLVER[LABEL]")
     a = ap.parse_args()
+    runs = [("", [])]
+    for v in a.variant:
+        label, sep, args = v.partition("=")
+        if not sep or not label:
+            sys.exit("size_sweep: --variant needs LABEL=ARGS, got %r" % v)
+        runs.append(("[%s]" % label, args.split()))
     tols = [float(t) for t in a.tols.split(",")]
     rows = []  # (n_boxes, unknowns, solver, tol, iterations, seconds)
-    for n in [int(x) for x in a.boxes.split(",")]:
+    for n, (suffix, extra) in ((n, r) for n in [int(x) for x in a.boxes.split(",")] for r in runs):
         with tempfile.TemporaryDirectory() as d:
             hist = os.path.join(d, "h.csv")
             cmd = [a.pmg, "compare", "--box", str(n), str(n), str(n), "--size", "1", "1", "1",
                    "-p", str(a.degree), "--fix", "z", "--load", "gravity", "--tol", str(min(tols)),
-                   "--no-reference", "--max-iter", str(a.max_iter), "--solvers", a.solvers, "-o", hist]
+                   "--no-reference", "--max-iter", str(a.max_iter), "-o", hist]
+            cmd += extra if "--solvers" in extra else extra + ["--solvers", a.solvers]
             print("$", " ".join(cmd), flush=True)
             p = subprocess.run(cmd, capture_output=True, text=True)
             print(p.stdout, p.stderr, sep="", flush=True)
@@ -71,7 +86,7 @@ def main():
             hist_rows = {}
             with open(hist) as f:
                 for r in csv.DictReader(f):
-                    hist_rows.setdefault(r["solver"], []).append(
+                    hist_rows.setdefault(r["solver"] + suffix, []).append(
                         (int(r["iteration"]), float(r["seconds"]), float(r["rel_residual"])))
             for solver, hr in hist_rows.items():
                 for tol in tols:

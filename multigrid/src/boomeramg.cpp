@@ -1,4 +1,5 @@
 #include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/sparse/krylov.hpp"
 
 #include <HYPRE.h>
 #include <HYPRE_parcsr_ls.h>
@@ -186,7 +187,37 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   }
 }
 
-BoomerAMGCoarseSolver::BoomerAMGCoarseSolver(const Bcsr& A, const BoomerAMGParams& params)
-    : A_(A), amg_(A.to_csr(), params) {}
+BoomerAMGCoarseSolver::BoomerAMGCoarseSolver(const Bcsr& A, const BoomerAMGParams& params,
+                                             double rel_tol)
+    : A_(A), amg_(A.to_csr(), params), rel_tol_(rel_tol) {
+  if (!(rel_tol >= 0.0 && rel_tol < 1.0))
+    throw InputError("BoomerAMG lowest level: the relative tolerance must be in [0, 1)");
+}
+
+void BoomerAMGCoarseSolver::apply_impl(const Vector& b, Vector& x) const {
+  if (rel_tol_ == 0.0) {
+    amg_.apply(b, x);
+    return;
+  }
+  KrylovParams p;
+  p.rel_tol = rel_tol_;
+  p.max_iterations = 500;
+  // Inside a cycle a loose solve is still a usable correction: the outer iteration judges it.
+  // Only a broken one (NaN, not positive definite) is an error.
+  p.throw_on_failure = false;
+  x.setZero(b.size());
+  const SolveResult r = pcg(A_, &amg_, b, x, p);
+  last_iterations_ = r.iterations;
+  if (r.status == SolveStatus::non_finite || r.status == SolveStatus::breakdown)
+    throw SolveError(r);
+}
+
+std::unique_ptr<CoarseSolver> make_lowest_level(const Bcsr& A, LowestLevel kind,
+                                                const BoomerAMGParams& params, double rel_tol) {
+  if (kind == LowestLevel::boomeramg) return std::make_unique<BoomerAMGCoarseSolver>(A, params);
+  if (kind == LowestLevel::boomeramg_pcg)
+    return std::make_unique<BoomerAMGCoarseSolver>(A, params, rel_tol);
+  return std::make_unique<CholmodCoarseSolver>(A);
+}
 
 }  // namespace pmg::mg

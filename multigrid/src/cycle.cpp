@@ -48,7 +48,7 @@ MultigridCycle::MultigridCycle(std::vector<const Bcsr*> matrices,
 bool MultigridCycle::is_symmetric() const {
   for (const auto* t : transfers_)
     if (!t->restriction_is_transpose()) return false;
-  return true;
+  return coarse_->is_linear();
 }
 
 void MultigridCycle::update() {
@@ -119,7 +119,8 @@ SolveResult multigrid_solve(const LinearOperator& A, const MultigridCycle& C, co
 SolveResult mgpcg(const LinearOperator& A, const MultigridCycle& C, const Vector& b, Vector& x,
                   const KrylovParams& params, SolveMonitor* monitor, int cycles_per_apply) {
   if (!C.is_symmetric())
-    throw InputError("MGPCG needs a symmetric cycle (restriction = prolongation transposed)");
+    throw InputError("MGPCG needs a symmetric cycle (restriction = prolongation transposed, a linear "
+                     "lowest-level solver)");
   if (cycles_per_apply < 1) throw InputError("MGPCG: cycles_per_apply must be >= 1");
   // z = M r with M = cycles_per_apply cycles from z = 0 (symmetric: forward pre-, backward
   // post-smoothing, R = Pᵀ).

@@ -55,6 +55,66 @@ TEST_CASE("BoomerAMG as PMG's lowest-level solver", "[multigrid][boomeramg]") {
   CHECK(r.status == SolveStatus::converged);
 }
 
+TEST_CASE("BoomerAMG lowest levels: V-cycles keep the cycle symmetric for MGPCG, CG on top restores stationary PMG", "[multigrid][boomeramg]") {
+  Bar bar;  // slender (10x2x2): its bending modes are what one AMG V-cycle contracts slowly
+  const Bcsr& A = bar.h.matrix(1);
+  KrylovParams p;
+  p.rel_tol = 1e-8;
+  p.max_iterations = 200;
+  Vector x_ref = Vector::Zero(bar.b.size());
+  const auto exact = make_pmg(bar.h);  // CHOLMOD on the linear level
+  const SolveResult ref = mg::multigrid_solve(A, *exact->cycle, bar.b, x_ref, p);
+  REQUIRE(ref.status == SolveStatus::converged);
+
+  SECTION("fixed V-cycles: a symmetric cycle, MGPCG converges; more V-cycles, fewer iterations") {
+    int previous = 1 << 30;
+    for (int cycles : {1, 4}) {
+      PmgOptions o;
+      o.lowest_level = mg::LowestLevel::boomeramg;
+      o.boomeramg.cycles = cycles;
+      const auto pmg = make_pmg(bar.h, o);
+      INFO(cycles << " AMG V-cycles per linear-level solve");
+      const Vector u = Vector::Random(A.rows()), v = Vector::Random(A.rows());
+      Vector Cu, Cv;
+      pmg->cycle->apply(u, Cu);
+      pmg->cycle->apply(v, Cv);
+      CHECK(std::abs(Cu.dot(v) - u.dot(Cv)) <= 1e-10 * Cu.norm() * v.norm());
+      Vector y = Vector::Zero(bar.b.size());
+      const SolveResult r = mg::mgpcg(A, *pmg->cycle, bar.b, y, p);
+      CHECK(r.status == SolveStatus::converged);
+      CHECK((y - x_ref).norm() <= 1e-6 * x_ref.norm());
+      CHECK(r.iterations < previous);
+      previous = r.iterations;
+    }
+  }
+  SECTION("CG to 1e-1 on the linear level: stationary PMG within two cycles of the exact lowest level") {
+    PmgOptions o;
+    o.lowest_level = mg::LowestLevel::boomeramg_pcg;
+    o.lowest_level_tol = 1e-1;
+    const auto pmg = make_pmg(bar.h, o);
+    Vector x = Vector::Zero(bar.b.size());
+    const SolveResult r = mg::multigrid_solve(A, *pmg->cycle, bar.b, x, p);
+    INFO("PMG cycles: " << r.iterations << " (CHOLMOD lowest level: " << ref.iterations << ")");
+    CHECK(r.status == SolveStatus::converged);
+    CHECK(r.iterations <= ref.iterations + 2);
+    CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
+    const auto& amg = dynamic_cast<const mg::BoomerAMGCoarseSolver&>(pmg->cycle->coarse_solver());
+    CHECK(amg.last_iterations() >= 1);
+    // The inner CG makes the cycle depend on its input: MGPCG refuses it.
+    CHECK_FALSE(pmg->cycle->is_symmetric());
+    Vector y = Vector::Zero(bar.b.size());
+    CHECK_THROWS_AS(mg::mgpcg(A, *pmg->cycle, bar.b, y, p), InputError);
+    // New values (as after a time step's re-assembly): the AMG set-up is redone.
+    pmg->update(bar.h);
+    Vector x2 = Vector::Zero(bar.b.size());
+    CHECK(mg::multigrid_solve(A, *pmg->cycle, bar.b, x2, p).iterations == r.iterations);
+  }
+  SECTION("a tolerance outside [0, 1) is refused") {
+    CHECK_THROWS_AS(mg::BoomerAMGCoarseSolver(bar.h.matrix(0), {}, 1.5), InputError);
+    CHECK_THROWS_AS(mg::BoomerAMGCoarseSolver(bar.h.matrix(0), {}, std::nan("")), InputError);
+  }
+}
+
 TEST_CASE("BoomerAMG refuses a matrix with NaN", "[multigrid][boomeramg][errors]") {
   Csr A = Csr::from_triplets(3, 3, {{0, 0, 1.0}, {1, 1, std::nan("")}, {2, 2, 1.0}});
   CHECK_THROWS_WITH(mg::BoomerAMG(A), Catch::Contains("NaN"));

@@ -4,6 +4,7 @@
 
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/simulation.hpp"
+#include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/cycle.hpp"
 
 #include <memory>
@@ -23,6 +24,11 @@ struct PmgOptions {
   mg::GaussSeidelParams smoother;
   mg::ChebyshevParams chebyshev_params;
   mg::CycleParams cycle;
+  /// What solves the linear level. boomeramg_pcg makes the cycle nonlinear: stationary PMG only,
+  /// not a preconditioner for MGPCG.
+  mg::LowestLevel lowest_level = mg::LowestLevel::cholmod;
+  mg::BoomerAMGParams boomeramg;   ///< boomeramg, boomeramg_pcg: the AMG set-up, V-cycles per apply
+  double lowest_level_tol = 1e-2;  ///< boomeramg_pcg: relative tolerance of the linear-level CG
 };
 
 /// Owns what a cycle over a DegreeHierarchy needs: transfers, Galerkin matrices if asked for.
@@ -79,9 +85,10 @@ inline std::unique_ptr<PmgSolver> make_pmg(const DegreeHierarchy& h, const PmgOp
         smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(*matrices.back(), options.smoother));
     }
   }
-  s->cycle = std::make_unique<mg::MultigridCycle>(
-      matrices, transfers, std::move(smoothers),
-      std::make_unique<mg::CholmodCoarseSolver>(*matrices[0]), options.cycle);
+  s->cycle = std::make_unique<mg::MultigridCycle>(matrices, transfers, std::move(smoothers),
+                                                  mg::make_lowest_level(*matrices[0], options.lowest_level,
+                                                                        options.boomeramg, options.lowest_level_tol),
+                                                  options.cycle);
   return s;
 }
 

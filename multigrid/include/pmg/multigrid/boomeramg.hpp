@@ -52,19 +52,45 @@ class BoomerAMG final : public Preconditioner {
   index_t n_ = 0;
 };
 
-/// BoomerAMG as PMG's lowest-level solver (the seed's "future work" for large meshes).
+/// BoomerAMG as PMG's lowest-level solver (the seed's "future work" for large meshes), in one of
+/// two modes:
+///   rel_tol == 0: params.cycles V-cycles from a zero guess: a fixed symmetric linear operator,
+///                 so the PMG cycle stays symmetric and can precondition CG (MGPCG);
+///   rel_tol  > 0: CG preconditioned by those V-cycles, to ||r|| <= rel_tol ||b||: a sharper but
+///                 iteration-dependent (nonlinear) solve, for stationary PMG only. One AMG V-cycle
+///                 contracts the long bending modes of a slender body slowly, and stationary PMG
+///                 inherits that rate; CG on top removes it.
 class BoomerAMGCoarseSolver final : public CoarseSolver {
  public:
-  explicit BoomerAMGCoarseSolver(const Bcsr& A, const BoomerAMGParams& params = {});
+  explicit BoomerAMGCoarseSolver(const Bcsr& A, const BoomerAMGParams& params = {},
+                                 double rel_tol = 0.0);
   index_t rows() const override { return A_.rows(); }
   index_t cols() const override { return A_.cols(); }
   void update() override { amg_.setup(A_.to_csr()); }
+  bool is_linear() const override { return rel_tol_ == 0.0; }
+  /// CG iterations of the last solve (0 in V-cycle mode).
+  int last_iterations() const { return last_iterations_; }
 
  private:
-  void apply_impl(const Vector& b, Vector& x) const override { amg_.apply(b, x); }
+  void apply_impl(const Vector& b, Vector& x) const override;
   const Bcsr& A_;
   BoomerAMG amg_;
+  double rel_tol_;
+  mutable int last_iterations_ = 0;
 };
+
+/// What solves a cycle's lowest level.
+enum class LowestLevel {
+  cholmod,        ///< sparse Cholesky, refactorised on update(): exact; cost grows like n^1.5 in 3-D
+  boomeramg,      ///< BoomerAMG V-cycle(s) (params.cycles): inexact, symmetric (MGPCG can use it)
+  boomeramg_pcg,  ///< CG preconditioned by BoomerAMG to a relative tolerance (stationary PMG only)
+};
+
+/// The lowest-level solver for A (kept by reference: A must outlive it). rel_tol: boomeramg_pcg's
+/// tolerance (> 0), ignored otherwise.
+std::unique_ptr<CoarseSolver> make_lowest_level(const Bcsr& A, LowestLevel kind,
+                                                const BoomerAMGParams& params = {},
+                                                double rel_tol = 1e-2);
 
 /// Rank and number of ranks of MPI_COMM_WORLD (initialising MPI if needed).
 int mpi_rank();

@@ -28,6 +28,9 @@ class CoarseSolver : public LinearOperator {
  public:
   /// The matrix values changed (same pattern).
   virtual void update() = 0;
+  /// False when the solve depends on its input beyond linearly (an inner Krylov solve to a
+  /// tolerance): the cycle is then no fixed symmetric operator and cannot precondition CG.
+  virtual bool is_linear() const { return true; }
 };
 
 /// Sparse Cholesky of the lowest level: symbolic analysis once, numeric factorisation per update().
@@ -67,8 +70,10 @@ class MultigridCycle final : public Preconditioner {
   index_t cols() const override { return rows(); }
   std::string name() const override { return params_.gamma == 1 ? "V-cycle" : "W-cycle"; }
   int num_levels() const { return static_cast<int>(matrices_.size()); }
-  /// True when R = Pᵀ on every level (the smoothers used here are adjoint pairs).
+  /// True when R = Pᵀ on every level (the smoothers used here are adjoint pairs) and the
+  /// lowest-level solver is a linear operator.
   bool is_symmetric() const;
+  const CoarseSolver& coarse_solver() const { return *coarse_; }
 
   /// Refresh smoothers and the lowest-level factorisation after the matrices' values changed.
   void update();
