@@ -50,7 +50,7 @@ struct SimScene {
   int sweeps = 5;
   std::string lowest_level = "cholmod";  ///< pmg/mgpcg linear level: cholmod, boomeramg, boomeramg-pcg
   int lowest_level_cycles = 1;           ///< BoomerAMG V-cycles per application
-  double lowest_level_tol = 1e-2;        ///< boomeramg-pcg: relative tolerance of the inner CG
+  double lowest_level_tol = 0.1;         ///< boomeramg-pcg: relative tolerance of the inner CG
   // output
   std::string output;  ///< directory; empty: nothing written
   int frame_every = 10;

@@ -57,6 +57,9 @@ def main():
     ap.add_argument("--tols", default="1e-3,1e-6")
     ap.add_argument("--out", default="sweep", help="prefix of the .csv, .png and .md outputs")
     ap.add_argument("--max-iter", type=int, default=20000)
+    ap.add_argument("--no-warm-up", action="store_true",
+                    help="time each solver's first run (by default pmg compare --warm-up runs each "
+                         "once untimed first, so no solver pays the process's first memory touches)")
     ap.add_argument("--variant", action="append", default=[], metavar="LABEL=ARGS",
                     help="another pmg compare run per size with these extra arguments (its --solvers "
                          "replaces the default); its solvers are reported as SOLVER[LABEL]")
@@ -75,6 +78,8 @@ def main():
             cmd = [a.pmg, "compare", "--box", str(n), str(n), str(n), "--size", "1", "1", "1",
                    "-p", str(a.degree), "--fix", "z", "--load", "gravity", "--tol", str(min(tols)),
                    "--no-reference", "--max-iter", str(a.max_iter), "-o", hist]
+            if not a.no_warm_up:
+                cmd.append("--warm-up")
             cmd += extra if "--solvers" in extra else extra + ["--solvers", a.solvers]
             print("$", " ".join(cmd), flush=True)
             p = subprocess.run(cmd, capture_output=True, text=True)

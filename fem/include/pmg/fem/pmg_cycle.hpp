@@ -28,7 +28,7 @@ struct PmgOptions {
   /// not a preconditioner for MGPCG.
   mg::LowestLevel lowest_level = mg::LowestLevel::cholmod;
   mg::BoomerAMGParams boomeramg;   ///< boomeramg, boomeramg_pcg: the AMG set-up, V-cycles per apply
-  double lowest_level_tol = 1e-2;  ///< boomeramg_pcg: relative tolerance of the linear-level CG
+  double lowest_level_tol = 0.1;  ///< boomeramg_pcg: relative tolerance of the linear-level CG
 };
 
 /// Owns what a cycle over a DegreeHierarchy needs: transfers, Galerkin matrices if asked for.

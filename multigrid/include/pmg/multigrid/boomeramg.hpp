@@ -90,7 +90,7 @@ enum class LowestLevel {
 /// tolerance (> 0), ignored otherwise.
 std::unique_ptr<CoarseSolver> make_lowest_level(const Bcsr& A, LowestLevel kind,
                                                 const BoomerAMGParams& params = {},
-                                                double rel_tol = 1e-2);
+                                                double rel_tol = 0.1);
 
 /// Rank and number of ranks of MPI_COMM_WORLD (initialising MPI if needed).
 int mpi_rank();
