@@ -4,12 +4,38 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
 namespace pmg::bench {
+
+/// A whole decimal integer >= min from text, or exit code 2 naming `what` (no exception escapes
+/// main as an abort).
+inline long long parse_integer(const std::string& text, const std::string& what, long long min) {
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno == ERANGE || v < min) {
+    std::fprintf(stderr, "%s: expected an integer >= %lld, got '%s'\n", what.c_str(), min, text.c_str());
+    std::exit(2);
+  }
+  return v;
+}
+
+/// If arg is "--NAME=VALUE", parses VALUE into out (an integer >= min, else exit code 2) and
+/// returns true; any other argument: false.
+template <class Int>
+bool integer_flag(const std::string& arg, const std::string& name, Int& out, long long min = 1) {
+  const std::string prefix = "--" + name + "=";
+  if (arg.rfind(prefix, 0) != 0) return false;
+  out = static_cast<Int>(parse_integer(arg.substr(prefix.size()), "--" + name, min));
+  return true;
+}
 
 inline size_t g_triad_elems = 0;  ///< elements per array; set_probe_mib() sets it
 inline void set_probe_mib(size_t mib) { g_triad_elems = (mib << 20) / 8 / 3; }

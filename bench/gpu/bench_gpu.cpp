@@ -235,14 +235,10 @@ int main(int argc, char** argv) {
   std::vector<char*> rest;
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a.rfind("--pmg_nodes=", 0) == 0) g_nodes = std::stoi(a.substr(12));
-    else if (a.rfind("--pmg_iterations=", 0) == 0) g_iterations = std::stoi(a.substr(17));
-    else if (a.rfind("--pmg_copy_mib=", 0) == 0) g_copy_mib = std::stoul(a.substr(15));
-    else rest.push_back(argv[i]);
-  }
-  if (g_nodes < 3 || g_iterations < 1 || g_copy_mib < 1) {
-    std::fprintf(stderr, "bench_gpu: need --pmg_nodes >= 3, --pmg_iterations >= 1, --pmg_copy_mib >= 1\n");
-    return 2;
+    if (!bench::integer_flag(a, "pmg_nodes", g_nodes, 3) &&
+        !bench::integer_flag(a, "pmg_iterations", g_iterations) &&
+        !bench::integer_flag(a, "pmg_copy_mib", g_copy_mib))
+      rest.push_back(argv[i]);
   }
   if (gpu::device_count() == 0) {
     std::puts("bench_gpu: no CUDA device or driver; nothing to measure");

@@ -128,14 +128,12 @@ int main(int argc, char** argv) {
   std::vector<char*> rest;
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a.rfind("--pmg_boxes=", 0) == 0) g_boxes = std::stoi(a.substr(12));
-    else if (a.rfind("--pmg_degree=", 0) == 0) g_degree = std::stoi(a.substr(13));
-    else if (a.rfind("--pmg_sweeps=", 0) == 0) g_sweeps = std::stoi(a.substr(13));
-    else if (a.rfind("--pmg_triad_mib=", 0) == 0) triad_mib = std::stoul(a.substr(16));
-    else rest.push_back(argv[i]);
+    if (!integer_flag(a, "pmg_boxes", g_boxes) && !integer_flag(a, "pmg_degree", g_degree, 2) &&
+        !integer_flag(a, "pmg_sweeps", g_sweeps) && !integer_flag(a, "pmg_triad_mib", triad_mib))
+      rest.push_back(argv[i]);
   }
-  if (g_boxes < 1 || g_degree < 2 || g_degree > 3 || g_sweeps < 1) {
-    std::fprintf(stderr, "bench_vcycle: need --pmg_boxes >= 1, --pmg_degree 2 or 3, --pmg_sweeps >= 1\n");
+  if (g_degree > 3) {
+    std::fprintf(stderr, "bench_vcycle: --pmg_degree must be 2 or 3\n");
     return 2;
   }
   start_benchmarks(rest, triad_mib);

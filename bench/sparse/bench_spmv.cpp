@@ -144,7 +144,8 @@ class SummaryReporter : public benchmark::ConsoleReporter {
 std::vector<int> parse_sizes(const std::string& s) {
   std::vector<int> out;
   std::stringstream ss(s);
-  for (std::string tok; std::getline(ss, tok, ',');) out.push_back(std::stoi(tok));
+  for (std::string tok; std::getline(ss, tok, ',');)
+    out.push_back(static_cast<int>(parse_integer(tok, "--pmg_sizes", 1)));
   return out;
 }
 
@@ -157,8 +158,7 @@ int main(int argc, char** argv) {
   for (int i = 0; i < argc; ++i) {
     const std::string a = argv[i];
     if (a.rfind("--pmg_sizes=", 0) == 0) sizes = parse_sizes(a.substr(12));
-    else if (a.rfind("--pmg_triad_mib=", 0) == 0) triad_mib = std::stoul(a.substr(16));
-    else rest.push_back(argv[i]);
+    else if (!integer_flag(a, "pmg_triad_mib", triad_mib)) rest.push_back(argv[i]);
   }
   start_benchmarks(rest, triad_mib);
   for (int n : sizes)
