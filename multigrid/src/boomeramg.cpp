@@ -207,7 +207,6 @@ void BoomerAMGCoarseSolver::apply_impl(const Vector& b, Vector& x) const {
   p.throw_on_failure = false;
   x.setZero(b.size());
   const SolveResult r = pcg(A_, &amg_, b, x, p);
-  last_iterations_ = r.iterations;
   if (r.status == SolveStatus::non_finite || r.status == SolveStatus::breakdown)
     throw SolveError(r);
 }

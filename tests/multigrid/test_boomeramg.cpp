@@ -98,13 +98,12 @@ TEST_CASE("BoomerAMG lowest levels: V-cycles keep the cycle symmetric for MGPCG,
     CHECK(r.status == SolveStatus::converged);
     CHECK(r.iterations <= ref.iterations + 2);
     CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
-    const auto& amg = dynamic_cast<const mg::BoomerAMGCoarseSolver&>(pmg->cycle->coarse_solver());
-    CHECK(amg.last_iterations() >= 1);
     // The inner CG makes the cycle depend on its input: MGPCG refuses it.
     CHECK_FALSE(pmg->cycle->is_symmetric());
     Vector y = Vector::Zero(bar.b.size());
     CHECK_THROWS_AS(mg::mgpcg(A, *pmg->cycle, bar.b, y, p), InputError);
-    // New values (as after a time step's re-assembly): the AMG set-up is redone.
+    // update() (as after a time step's re-assembly) redoes the AMG set-up; on unchanged values
+    // the refreshed cycle must behave exactly as the first one.
     pmg->update(bar.h);
     Vector x2 = Vector::Zero(bar.b.size());
     CHECK(mg::multigrid_solve(A, *pmg->cycle, bar.b, x2, p).iterations == r.iterations);

@@ -68,15 +68,12 @@ class BoomerAMGCoarseSolver final : public CoarseSolver {
   index_t cols() const override { return A_.cols(); }
   void update() override { amg_.setup(A_.to_csr()); }
   bool is_linear() const override { return rel_tol_ == 0.0; }
-  /// CG iterations of the last solve (0 in V-cycle mode).
-  int last_iterations() const { return last_iterations_; }
 
  private:
   void apply_impl(const Vector& b, Vector& x) const override;
   const Bcsr& A_;
   BoomerAMG amg_;
   double rel_tol_;
-  mutable int last_iterations_ = 0;
 };
 
 /// What solves a cycle's lowest level.

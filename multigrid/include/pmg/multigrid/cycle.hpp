@@ -73,7 +73,6 @@ class MultigridCycle final : public Preconditioner {
   /// True when R = Pᵀ on every level (the smoothers used here are adjoint pairs) and the
   /// lowest-level solver is a linear operator.
   bool is_symmetric() const;
-  const CoarseSolver& coarse_solver() const { return *coarse_; }
 
   /// Refresh smoothers and the lowest-level factorisation after the matrices' values changed.
   void update();
