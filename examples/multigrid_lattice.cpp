@@ -1,17 +1,20 @@
-// Multigrid without pmg::fem: you bring the level matrices and the transfer operators.
+// Multigrid without pmg::fem: you bring the level matrices and the prolongations.
 //
 // Geometric multigrid on the spring lattice: levels are lattices of 33³, 17³, 9³ nodes; P is
 // trilinear interpolation from a lattice to the next finer one, coarse matrices are Galerkin
-// products R A P with R = Pᵀ, the smoother is multicolour block Gauss–Seidel, the lowest level
-// is solved by CHOLMOD. Then PMG-style stationary cycles and MGPCG solve A x = b.
+// products R A P with R = Pᵀ (computed here by you; `coarse_operator=galerkin` would compute them
+// from the finest level instead). The solver factory builds the cycle (multicolour block
+// Gauss–Seidel, CHOLMOD on the lowest level by default), stationary multigrid and MGPCG.
 //
-//   1. Fine matrix and right-hand side (any BCSR / CSR matrix of yours works the same way).
-//   2. Scalar prolongations between node sets (BlockTransfer applies them to all 3 components).
-//   3. Coarse operators: Galerkin products.
-//   4. Smoothers and the lowest-level solver; the cycle.
-//   5. Solve, with the same stopping rules and monitor as the Krylov solvers.
-#include <pmg/multigrid/cycle.hpp>
+//   1. Fine matrix and right-hand side (any BCSR matrix of yours works the same way).
+//   2. Scalar prolongations between node sets (applied to all 3 components).
+//   3. Coarse operators: Galerkin products; the levels handed to a StoredLevels.
+//   4. Solvers from options (key=value or JSON), set up on the finest matrix.
+//   5. Solve, with the same stopping rules and monitor as every other solver.
+#include <pmg/multigrid/factory.hpp>
+#include <pmg/multigrid/transfer.hpp>
 #include <pmg/sparse/generators.hpp>
+#include <pmg/sparse/krylov.hpp>
 
 #include <cstdio>
 
@@ -42,31 +45,32 @@ Csr trilinear(index_t m) {
 int main() {
   // 1.
   const index_t n = 33;
-  const Bcsr A2 = spring_lattice(n);
+  Bcsr A2 = spring_lattice(n);
   Vector b;
   A2.apply(smooth_field(n), b);
 
   // 2. fine 33 <- 17 <- 9
-  const mg::BlockTransfer T1(trilinear(9)), T2(trilinear(17));
+  Csr P1 = trilinear(9), P2 = trilinear(17);
 
   // 3.
-  const Bcsr A1 = mg::galerkin_product(T2, A2);
-  const Bcsr A0 = mg::galerkin_product(T1, A1);
+  Bcsr A1 = mg::galerkin_product(mg::BlockTransfer(P2), A2);
+  Bcsr A0 = mg::galerkin_product(mg::BlockTransfer(P1), A1);
+  const mg::StoredLevels levels({A0, A1, A2}, {P1, P2});
 
   // 4.
-  std::vector<std::unique_ptr<mg::Smoother>> smoothers;
-  smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(A1));
-  smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(A2));
-  const mg::MultigridCycle cycle({&A0, &A1, &A2}, {&T1, &T2}, std::move(smoothers),
-                                 std::make_unique<mg::CholmodCoarseSolver>(A0));
+  SolverContext ctx;
+  ctx.levels = &levels;
+  auto pmg = make_solver(Config::from_pairs({"method=pmg", "tol=1e-8"}, "example"), ctx);
+  auto mgpcg = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-8"}, "example"), ctx);
+  auto cg = make_solver(Config::from_pairs({"method=cg", "tol=1e-8"}, "example"));
+  const Bcsr& A = levels.matrix(2);
+  for (Solver* s : {pmg.get(), mgpcg.get(), cg.get()}) s->setup(A);
 
   // 5.
-  KrylovParams params;
-  params.rel_tol = 1e-8;
   Vector x = Vector::Zero(b.size()), y = x, z = x;
-  const SolveResult r = mg::multigrid_solve(A2, cycle, b, x, params);
-  const SolveResult m = mg::mgpcg(A2, cycle, b, y, params);
-  const SolveResult c = cg(A2, b, z, params);
+  const SolveResult r = pmg->solve(b, x);
+  const SolveResult m = mgpcg->solve(b, y);
+  const SolveResult c = cg->solve(b, z);
   std::printf("%ld unknowns: multigrid %d cycles, MGPCG %d iterations, CG %d iterations\n",
               static_cast<long>(b.size()), r.iterations, m.iterations, c.iterations);
   return r.ok() && m.ok() && r.iterations < c.iterations / 5 ? 0 : 1;

@@ -1,7 +1,8 @@
 // A cubic cantilever sagging under gravity, simulated with the library alone (the README's
 // simulation snippet): implicit Euler, each step solved by PMG to 1e-3 with a warm start.
 #include <pmg/fem/generators.hpp>
-#include <pmg/fem/pmg_cycle.hpp>
+#include <pmg/fem/simulation.hpp>
+#include <pmg/multigrid/factory.hpp>
 
 #include <cstdio>
 
@@ -9,10 +10,9 @@ int main() {
   pmg::fem::TetMesh mesh = pmg::fem::box_mesh_24(4, 1, 1, 4.0, 1.0, 1.0);
   pmg::fem::DegreeHierarchy h(mesh, 3, {5e6, 0.3, 1000.0},  // E, nu, rho
                               [](const pmg::fem::Vec3& X) { return X.x() < 1e-9; });  // clamp
-  pmg::KrylovParams kp;
-  kp.rel_tol = 1e-3;
-  pmg::fem::PmgStepSolver solver(pmg::fem::PmgOptions{}, kp);
-  pmg::fem::ImplicitEuler sim(h, solver, h.finest().gravity({0, 0, -9.81}), {/*dt*/ 0.01});
+  auto solver = pmg::make_solver(  // PMG to 1e-3 per step, with a rounding floor for warm starts
+      pmg::Config::from_pairs({"method=pmg", "tol=1e-3", "rhs_floor=1e-12"}, "example"), {&h});
+  pmg::fem::ImplicitEuler sim(h, *solver, h.finest().gravity({0, 0, -9.81}), {/*dt*/ 0.01});
   int cycles = 0;
   for (int n = 0; n < 50; ++n) cycles += sim.step().iterations;  // throws on a failed solve
   const pmg::fem::Vec3 tip = h.finest().displacement_at(sim.displacement(), {4.0, 0.5, 0.5});

@@ -10,7 +10,8 @@
 #include "scene.hpp"
 #include "table.hpp"
 
-#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/factory.hpp"
 #include "pmg/fem/static_solve.hpp"
 
 #include <chrono>
@@ -46,26 +47,28 @@ void run(const CoarseOptions& o) {
   Table t({"coarse operator", "restriction", "update [ms]", "cycle [ms]", "1e2", "1e3", "1e4", "1e5"});
   for (const bool galerkin : {false, true})
     for (const bool interpolating : {false, true}) {
-      fem::PmgOptions po;
-      po.coarse_operator = galerkin ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
-      po.interpolating_restriction = interpolating;
-      auto pmg = fem::make_pmg(h, po);
+      const Config config = Config::from_pairs(
+          {"method=pmg", std::string("coarse_operator=") + (galerkin ? "galerkin" : "geometric"),
+           std::string("restriction=") + (interpolating ? "interpolating" : "transpose")},
+          "pmg coarse");
+      SolverContext ctx;
+      ctx.levels = &h;
+      auto solver = make_solver(config, ctx);
+      auto& cycle = dynamic_cast<mg::MultigridCycle&>(*solver);
+      cycle.setup(h.matrix(h.num_levels() - 1));
       // Update of the lower levels for new rotations (the finest level is common to both).
       double update = 1e300;
       for (int r = 0; r < o.repeats; ++r) {
         const auto t0 = Clock::now();
         if (galerkin) {
-          for (int l = h.num_levels() - 2; l >= 0; --l) {
-            Bcsr product = mg::galerkin_product(*pmg->transfers[l], pmg->level_matrix(h, l + 1));
-            pmg->galerkin[l].values() = std::move(product.values());
-          }
+          cycle.refresh_galerkin();
         } else {
           for (int l = 0; l + 1 < h.num_levels(); ++l)
             h.assemble_level(l, &R, nullptr, sys.mass_weight, sys.stiffness_weight);
         }
         update = std::min(update, since(t0));
       }
-      pmg->cycle->update();
+      cycle.update();
       // Cycles to reduce the residual by 1e2..1e5.
       const Bcsr& A = sys.matrix();
       Vector x = Vector::Zero(sys.b.size()), r;
@@ -74,7 +77,7 @@ void run(const CoarseOptions& o) {
       const auto t0 = Clock::now();
       int cycles = 0;
       for (; cycles < 500 && reached[3] < 0; ++cycles) {
-        pmg->cycle->cycle(sys.b, x);
+        cycle.cycle(sys.b, x);
         A.residual(sys.b, x, r);
         const double rel = r.norm() / r0;
         if (!std::isfinite(rel)) throw SolveError({SolveStatus::non_finite, cycles, rel, rel, 0, "PMG: residual became NaN"});

@@ -12,8 +12,11 @@
 #include "scene.hpp"
 #include "table.hpp"
 
-#include "pmg/fem/pmg_cycle.hpp"
 #include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/factory.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
@@ -24,6 +27,8 @@
 #include <omp.h>
 
 #include <cstdlib>
+#include <fstream>
+#include <set>
 
 #include <algorithm>
 #include <chrono>
@@ -47,6 +52,9 @@ struct Options {
   SceneOptions scene;
   bool reference = true;
   std::vector<std::string> solvers;  // default depends on the system
+  std::vector<std::string> overrides;  // --set key=value, for every solver of the run
+  std::string solver_config;           // --solver-config FILE.json: named configurations
+  std::set<std::string> given;         // multigrid flags given explicitly
   // PMG
   std::string coarse_operator = "geometric", restriction = "transpose", cycle = "V",
               smoother = "gauss-seidel", lowest_level = "cholmod";
@@ -61,17 +69,68 @@ struct Options {
   bool warm_up = false;
 };
 
-/// PMG/MGPCG settings from the command line (FEM scenes and user levels alike).
-fem::PmgOptions pmg_options(const Options& o) {
-  fem::PmgOptions po;
-  po.coarse_operator = o.coarse_operator == "galerkin" ? fem::CoarseOperator::galerkin : fem::CoarseOperator::geometric;
-  po.interpolating_restriction = o.restriction == "interpolating";
-  po.smoother.sweeps = o.sweeps;
-  po.chebyshev = o.smoother == "chebyshev";
-  po.smoother.pointwise = o.smoother == "point-gauss-seidel";
-  po.cycle.gamma = o.cycle == "W" ? 2 : 1;
-  set_lowest_level(po, o.lowest_level, o.lowest_level_cycles, o.lowest_level_tol);
-  return po;
+/// One solver's options from the command line: its method, the stopping flags where the method
+/// reads them, and the multigrid flags for multigrid methods (each translated to the factory key
+/// it stands for; the factory then refuses any that the chosen parts do not read).
+Config cli_config(const Options& o, const std::string& method) {
+  Config c = Config::from_pairs({"method=" + method}, "pmg compare (" + method + ")");
+  auto accepts = [&](const char* k) { return method_accepts_key(method, k); };
+  if (accepts("tol")) c.set("tol", fmt("%.17g", o.tol));
+  if (o.fixed_iterations > 0 && accepts("fixed_iterations"))
+    c.set("fixed_iterations", std::to_string(o.fixed_iterations));
+  else if (accepts("max_iterations"))
+    c.set("max_iterations", std::to_string(o.max_iterations));
+  if (accepts("check_every") && o.check_every != 1) c.set("check_every", std::to_string(o.check_every));
+  if (method_uses_levels(method)) {  // only the flags given: the factory's defaults are the same
+    auto given = [&](const char* flag) { return o.given.count(flag) > 0; };
+    if (given("--smoother")) c.set("smoother.method", o.smoother);
+    if (given("--sweeps")) c.set("smoother.sweeps", std::to_string(o.sweeps));  // chebyshev: refused, named
+    if (given("--cycle")) c.set("cycle", o.cycle);
+    if (given("--coarse-operator")) c.set("coarse_operator", o.coarse_operator);
+    if (given("--restriction")) c.set("restriction", o.restriction);
+    if (given("--lowest-level")) c.set("lowest_level.method", o.lowest_level);
+    if (given("--lowest-level-cycles")) c.set("lowest_level.cycles", std::to_string(o.lowest_level_cycles));
+    if (given("--lowest-level-tol")) c.set("lowest_level.tol", fmt("%.17g", o.lowest_level_tol));
+    if (given("--mgpcg-cycles") && method == "mgpcg") c.set("cycles", std::to_string(o.mgpcg_cycles));
+  }
+  return c;
+}
+
+/// Every solver of the run with its options: --solver-config's named configurations, else the
+/// --solvers list from the command-line flags; --set overrides go to each.
+std::vector<std::pair<std::string, Config>> solver_configs(const Options& o,
+                                                           const std::vector<std::string>& names) {
+  std::vector<std::pair<std::string, Config>> out;
+  if (!o.solver_config.empty()) {
+    std::ifstream in(o.solver_config);
+    if (!in) throw InputError(o.solver_config + ": cannot read");
+    std::stringstream text;
+    text << in.rdbuf();
+    nlohmann::ordered_json j;
+    try {
+      j = nlohmann::ordered_json::parse(text.str());
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(o.solver_config + ": not valid JSON: " + e.what());
+    }
+    if (!j.is_object() || j.empty())
+      throw InputError(o.solver_config + ": expected an object of named solver configurations "
+                       "({\"name\": {\"method\": ...}, ...})");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      if (!it.value().is_object())
+        throw InputError(o.solver_config + ": " + it.key() + ": expected an object of solver options");
+      Config c = Config::from_json(it.value().dump(), o.solver_config + ": " + it.key());
+      const std::string method = c.get_string("method", "cg");
+      if (method_accepts_key(method, "tol")) c.set_default("tol", fmt("%.17g", o.tol));
+      out.emplace_back(it.key(), c);
+    }
+  } else {
+    for (const auto& n : names) out.emplace_back(n, cli_config(o, n));
+  }
+  if (!o.overrides.empty()) {
+    const Config set = Config::from_pairs(o.overrides, "--set");
+    for (auto& [name, c] : out) c.merge(set);
+  }
+  return out;
 }
 
 struct System {
@@ -80,7 +139,7 @@ struct System {
   std::unique_ptr<Bcsr> bcsr;  // when the size is a multiple of 3
   Vector b, x_true;            // x_true empty when unknown
   std::unique_ptr<FemSystem> fem;
-  std::unique_ptr<UserLevels> levels;
+  std::unique_ptr<mg::StoredLevels> levels;
   std::string error_reference = "known solution";
 };
 
@@ -98,8 +157,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 System load_system(const Options& o) {
   System s;
   if (!o.levels.empty()) {
-    s.levels = std::make_unique<UserLevels>(read_levels(o.levels, o.prolongations));
-    s.bcsr = std::make_unique<Bcsr>(s.levels->matrices.back());
+    s.levels = std::make_unique<mg::StoredLevels>(mg::read_levels(o.levels, o.prolongations));
+    s.bcsr = std::make_unique<Bcsr>(s.levels->matrix(s.levels->num_levels() - 1));
     s.csr = s.bcsr->to_csr();
     s.description = "user levels, finest " + o.levels.back();
     if (!o.rhs.empty()) {
@@ -141,13 +200,13 @@ System load_system(const Options& o) {
     if (o.reference) {  // the error column is measured against a direct solve (not timed)
       CholmodSolver chol;
       try {
-        chol.compute(s.csr);
+        chol.setup(s.csr);
       } catch (const Error& e) {
         throw InputError(std::string(e.what()) + ": the clamped nodes (" +
                          std::to_string(s.fem->hierarchy->finest().num_fixed()) +
                          ") do not remove every rigid motion; raise --fix-fraction");
       }
-      chol.solve(s.b, s.x_true);
+      chol.apply(s.b, s.x_true);
       s.error_reference = "CHOLMOD solution";
     }
   } else {
@@ -185,44 +244,6 @@ Formats select_format(const Options& o, const System& s) {
   return f;
 }
 
-using Runner = std::function<void(Outcome&, Vector& x)>;
-
-/// Runs a Krylov solve whose preconditioner is built by make_precond (timed as setup).
-Outcome run_krylov(const std::string& name, const KrylovParams& params,
-                   const std::function<std::shared_ptr<void>()>& setup,
-                   const std::function<SolveResult(SolveMonitor&, Vector&)>& solve, Vector& x) {
-  Outcome out;
-  out.name = name;
-  auto t0 = std::chrono::steady_clock::now();
-  std::shared_ptr<void> keep;
-  try {
-    keep = setup();
-  } catch (const Error& e) {  // e.g. a lowest level that is not positive definite
-    out.setup = seconds_since(t0);
-    out.status = "set-up failed";
-    out.message = e.what();
-    x.setConstant(std::numeric_limits<double>::quiet_NaN());
-    return out;
-  }
-  out.setup = seconds_since(t0);
-  SolveMonitor mon;
-  t0 = std::chrono::steady_clock::now();
-  SolveResult r;
-  try {
-    r = solve(mon, x);
-  } catch (const SolveError& e) {
-    r = e.result;
-    out.message = e.what();
-  }
-  out.solve = seconds_since(t0);
-  out.history = mon.history();
-  out.iterations = r.iterations;
-  out.rel_residual = params.fixed_iterations ? r.rel_residual : r.true_rel_residual;
-  if (std::isnan(out.rel_residual)) out.rel_residual = r.rel_residual;
-  out.status = to_string(r.status);
-  return out;
-}
-
 void write_history(const std::string& path, const std::vector<Outcome>& outcomes) {
   std::ostringstream csv;
   csv.precision(10);
@@ -243,21 +264,64 @@ void plot_history(const std::string& csv, const std::string& png, const std::str
   std::cout << "plot: " << png << "\n";
 }
 
+/// The multigrid cycle inside a solver (itself, or CG's preconditioner), or nullptr.
+const mg::MultigridCycle* find_cycle(const Solver& s) {
+  if (const auto* c = dynamic_cast<const mg::MultigridCycle*>(&s)) return c;
+  if (const auto* cg = dynamic_cast<const Cg*>(&s))
+    if (cg->preconditioner()) return find_cycle(*cg->preconditioner());
+  return nullptr;
+}
+
 /// Where one cycle's time goes, averaged over the cycles run.
-std::string cycle_breakdown(const mg::MultigridCycle& c, int levels) {
+std::string cycle_breakdown(const mg::MultigridCycle& c) {
   const mg::CycleTimings& t = c.timings();
   if (t.cycles == 0) return "";
   const double n = static_cast<double>(t.cycles);
-  double total = t.transfer + t.residual + t.coarse;
+  double total = t.transfer + t.residual + t.lowest_level;
   for (double s : t.smoothing) total += s;
   std::ostringstream out;
   out << "one cycle " << fmt("%.2f", 1e3 * total / n) << " ms:";
-  for (int l = levels - 1; l >= 1; --l)
-    out << " smoothing degree " << l + 1 << " " << fmt("%.2f", 1e3 * t.smoothing[l] / n) << " ms,";
+  for (int l = c.num_levels() - 1; l >= 1; --l)
+    out << " smoothing " << c.levels().level_name(l) << " " << fmt("%.2f", 1e3 * t.smoothing[l] / n) << " ms,";
   out << " residuals " << fmt("%.2f", 1e3 * t.residual / n) << " ms, transfers "
-      << fmt("%.2f", 1e3 * t.transfer / n) << " ms, linear-level solve "
-      << fmt("%.2f", 1e3 * t.coarse / n) << " ms (" << t.cycles << " cycles)";
+      << fmt("%.2f", 1e3 * t.transfer / n) << " ms, lowest-level solve "
+      << fmt("%.2f", 1e3 * t.lowest_level / n) << " ms (" << t.cycles << " cycles)";
   return out.str();
+}
+
+/// Sets up (timed), solves from x (timed, monitored) and reports.
+Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator& A,
+                   const Vector& b, Vector& x, double extra_setup) {
+  Outcome out;
+  out.name = name;
+  auto t0 = std::chrono::steady_clock::now();
+  try {
+    solver.setup(A);
+  } catch (const Error& e) {  // e.g. a lowest level that is not positive definite
+    out.setup = seconds_since(t0) + extra_setup;
+    out.status = "set-up failed";
+    out.message = e.what();
+    x.setConstant(kNaN);
+    return out;
+  }
+  out.setup = seconds_since(t0) + extra_setup;
+  if (const auto* c = find_cycle(solver)) c->reset_timings();
+  SolveMonitor mon;
+  t0 = std::chrono::steady_clock::now();
+  SolveResult r;
+  try {
+    r = solver.solve(b, x, &mon);
+  } catch (const SolveError& e) {
+    r = e.result;
+    out.message = e.what();
+  }
+  out.solve = seconds_since(t0);
+  out.history = mon.history();
+  out.iterations = r.iterations;
+  out.rel_residual = std::isnan(r.true_rel_residual) ? r.rel_residual : r.true_rel_residual;
+  out.status = to_string(r.status);
+  if (const auto* c = find_cycle(solver)) out.breakdown = cycle_breakdown(*c);
+  return out;
 }
 
 /// Setup plus the time at which the history first reached rel (NaN if never).
@@ -298,22 +362,47 @@ void run(const Options& o) {
             << "\n\n";
 
   const LinearOperator& A = *fmt_.op;
-  std::vector<std::string> solvers = o.solvers;
-  if (solvers.empty()) {
-    solvers = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
-    if ((sys.fem && sys.fem->hierarchy->num_levels() > 1) || sys.levels) {
-      solvers.push_back("pmg");
-      if (o.lowest_level != "boomeramg-pcg") solvers.push_back("mgpcg");
+  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); the Krylov methods
+  // multiply in the requested format.
+  const LinearOperator& entries = sys.bcsr ? static_cast<const LinearOperator&>(*sys.bcsr) : sys.csr;
+  const mg::LevelProvider* levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())
+                                    : sys.fem ? sys.fem->hierarchy.get() : nullptr;
+  std::vector<std::string> names = o.solvers;
+  if (names.empty()) {
+    names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
+    if (levels && levels->num_levels() > 1) {
+      names.push_back("pmg");
+      if (o.lowest_level != "boomeramg-pcg") names.push_back("mgpcg");
     }
   }
-  if (o.lowest_level == "boomeramg-pcg" && std::count(solvers.begin(), solvers.end(), "mgpcg"))
-    throw InputError("mgpcg needs a fixed (linear) cycle, and --lowest-level boomeramg-pcg makes the "
-                     "cycle depend on its input: use it with pmg, or give mgpcg --lowest-level boomeramg");
+  // Every solver is built (and its options checked) before any runs.
+  SolverContext ctx;
+  ctx.levels = levels;
+  std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names);
+  std::vector<std::unique_ptr<Solver>> solvers;
+  std::set<std::string> set_keys;
+  for (const auto& kv : Config::from_pairs(o.overrides, "--set").items()) set_keys.insert(kv.first);
+  std::set<std::string> set_used;
+  bool uses_hypre = false;
+  for (auto& [name, c] : configs) {
+    if (!sys.bcsr && (c.get_string("method", "cg") != "cg" && c.get_string("method", "cg") != "jacobi-pcg" &&
+                      c.get_string("method", "cg") != "cholmod" && c.get_string("method", "cg") != "boomeramg-pcg"))
+      throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
+    solvers.push_back(build_solver(c, ctx, "cg"));
+    c.check_all_used(set_keys);
+    for (const auto& k : set_keys)
+      if (c.was_used(k)) set_used.insert(k);
+    for (const auto& kv : c.items()) uses_hypre |= kv.second.rfind("boomeramg", 0) == 0;
+    if (auto* cg = dynamic_cast<Cg*>(solvers.back().get())) cg->set_multiplication_operator(&A);
+    if (auto* mcg = dynamic_cast<MergedCg*>(solvers.back().get())) mcg->set_multiplication_operator(&A);
+  }
+  for (const auto& k : set_keys)
+    if (!set_used.count(k)) throw InputError("--set: " + k + ": no solver of this run reads it");
+  for (const auto& [name, c] : configs)
+    if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << name << ": " << c.to_string() << "\n";
+  if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << "\n";
   // hypre needs MPI, whose start-up (about half a second here) is paid once per process, not per
   // solve: start it before the clocks so that it is charged to no solver.
-  const bool uses_hypre =
-      o.lowest_level != "cholmod" ||
-      std::any_of(solvers.begin(), solvers.end(), [](const std::string& s) { return s.rfind("boomeramg", 0) == 0; });
   if (uses_hypre) {
     t0 = std::chrono::steady_clock::now();
     mg::mpi_size();
@@ -321,92 +410,16 @@ void run(const Options& o) {
   }
   std::vector<Outcome> outcomes;
   double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
-  // One solver's set-up and solve from x = 0, timed.
-  auto run_one = [&](const std::string& name, Vector& x) {
-    Outcome out;
-    if (name == "cg") {
-      out = run_krylov(name, params, [] { return nullptr; },
-                       [&](SolveMonitor& m, Vector& xx) { return cg(A, sys.b, xx, params, &m); }, x);
-    } else if (name == "jacobi-pcg") {
-      std::shared_ptr<JacobiPreconditioner> M;
-      out = run_krylov(
-          name, params, [&] { return M = std::make_shared<JacobiPreconditioner>(sys.csr); },
-          [&](SolveMonitor& m, Vector& xx) { return pcg(A, M.get(), sys.b, xx, params, &m); }, x);
-    } else if (name == "block-jacobi-pcg" || name == "mcg") {
-      if (!sys.bcsr) throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
-      std::shared_ptr<BlockJacobiPreconditioner> M;
-      const bool merged = name == "mcg";
-      out = run_krylov(
-          name, params, [&] { return M = std::make_shared<BlockJacobiPreconditioner>(*sys.bcsr); },
-          [&](SolveMonitor& m, Vector& xx) {
-            return merged ? mcg(A, *M, sys.b, xx, params, &m)
-                          : pcg(A, M.get(), sys.b, xx, params, &m);
-          },
-          x);
-    } else if (name == "boomeramg-pcg") {
-      std::shared_ptr<mg::BoomerAMG> M;
-      out = run_krylov(
-          name, params, [&] { return M = std::make_shared<mg::BoomerAMG>(sys.csr); },
-          [&](SolveMonitor& m, Vector& xx) { return pcg(A, M.get(), sys.b, xx, params, &m); }, x);
-    } else if ((name == "pmg" || name == "mgpcg") && sys.levels) {
-      std::unique_ptr<mg::MultigridCycle> cycle;
-      out = run_krylov(
-          name, params, [&] { cycle = make_cycle(*sys.levels, pmg_options(o)); return nullptr; },
-          [&](SolveMonitor& m, Vector& xx) {
-            return name == "pmg" ? mg::multigrid_solve(A, *cycle, sys.b, xx, params, &m)
-                                 : mg::mgpcg(A, *cycle, sys.b, xx, params, &m, o.mgpcg_cycles);
-          },
-          x);
-      if (cycle) out.breakdown = cycle_breakdown(*cycle, cycle->num_levels());
-    } else if (name == "pmg" || name == "mgpcg") {
-      if (!sys.fem)
-        throw InputError(name + " needs multigrid levels: an FEM scene (--box or --mesh) or --levels/--prolongations");
-      if (sys.fem->hierarchy->num_levels() < 2) throw InputError(name + " needs degree >= 2");
-      const fem::PmgOptions po = pmg_options(o);
-      std::unique_ptr<fem::PmgSolver> pmg;
-      // The lower levels are PMG's own set-up (re-discretised operators), assembled once here,
-      // outside run_krylov's clock, and charged below to every multigrid solver alike.
+  auto run_one = [&](size_t k, Vector& x) {
+    Solver& solver = *solvers[k];
+    double extra = 0.0;
+    if (solver.uses_levels() && sys.fem) {
+      // The lower levels are the multigrid's own set-up (re-discretised operators), assembled once
+      // here, outside the solver's clock, and charged to every multigrid solver alike.
       if (lower_levels < 0) lower_levels = sys.fem->assemble_lower_levels();
-      out = run_krylov(
-          name, params,
-          [&] {
-            pmg = fem::make_pmg(*sys.fem->hierarchy, po);
-            return nullptr;
-          },
-          [&](SolveMonitor& m, Vector& xx) {
-            return name == "pmg" ? mg::multigrid_solve(A, *pmg->cycle, sys.b, xx, params, &m)
-                                 : mg::mgpcg(A, *pmg->cycle, sys.b, xx, params, &m, o.mgpcg_cycles);
-          },
-          x);
-      out.setup += lower_levels;
-      if (pmg) out.breakdown = cycle_breakdown(*pmg->cycle, sys.fem->hierarchy->num_levels());
-    } else if (name == "cholmod") {
-      out.name = name;
-      CholmodSolver chol;
-      auto t = std::chrono::steady_clock::now();
-      try {
-        chol.analyze(sys.csr);
-        chol.factorize(sys.csr);
-        out.setup = seconds_since(t);
-        t = std::chrono::steady_clock::now();
-        chol.solve(sys.b, x);
-        out.solve = seconds_since(t);
-        Vector r;
-        sys.csr.residual(sys.b, x, r);
-        out.rel_residual = r.norm() / sys.b.norm();
-        out.iterations = 1;
-        out.history = {{0, 0.0, 1.0}, {1, out.solve, out.rel_residual}};
-        out.status = "solved";
-      } catch (const Error& e) {
-        out.setup = seconds_since(t);
-        out.status = "failed";
-        out.message = e.what();
-        x.setConstant(kNaN);
-      }
-    } else {
-      throw InputError("unknown solver '" + name +
-                       "' (cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, boomeramg-pcg, pmg, mgpcg)");
+      extra = lower_levels;
     }
+    Outcome out = run_solver(configs[k].first, solver, entries, sys.b, x, extra);
     if (sys.x_true.size() && out.message.empty())
       out.rel_error = (x - sys.x_true).norm() / sys.x_true.norm();
     return out;
@@ -414,13 +427,13 @@ void run(const Options& o) {
   if (o.warm_up)
     std::cout << "warm-up: each solver runs once untimed before its timed run (the first solver in a "
                  "process otherwise pays the first touch of its memory)\n\n";
-  for (const std::string& name : solvers) {
+  for (size_t k = 0; k < solvers.size(); ++k) {
     if (o.warm_up) {
       Vector w = Vector::Zero(sys.b.size());
-      run_one(name, w);
+      run_one(k, w);
     }
     Vector x = Vector::Zero(sys.b.size());
-    outcomes.push_back(run_one(name, x));
+    outcomes.push_back(run_one(k, x));
   }
 
   Table table({"solver", "status", "iters", "setup [s]", "solve [s]", "t(1e-3) [s]",
@@ -472,6 +485,14 @@ void register_compare(CLI::App& app) {
                   "mgpcg "
                   "(default: all that apply)")
       ->delimiter(',');
+  sub->add_option("--set", opts->overrides,
+                  "solver option key=value for every solver of the run (repeatable; e.g. "
+                  "smoother.sweeps=3 lowest_level=boomeramg; see docs/solvers.md)");
+  sub->add_option("--solver-config", opts->solver_config,
+                  "JSON file of named solver configurations run side by side "
+                  "({\"name\": {\"method\": \"mgpcg\", ...}, ...}); replaces --solvers")
+      ->check(CLI::ExistingFile)
+      ->excludes("--solvers");
   sub->add_option("-f,--format", opts->format, "matrix format for the Krylov solvers")
       ->check(CLI::IsMember({"csr", "bcsr", "bin-bcsr"}))
       ->capture_default_str();
@@ -546,6 +567,9 @@ void register_compare(CLI::App& app) {
       throw InputError("--lowest-level-cycles needs --lowest-level boomeramg or boomeramg-pcg");
     if (sub->count("--lowest-level-tol") && opts->lowest_level != "boomeramg-pcg")
       throw InputError("--lowest-level-tol needs --lowest-level boomeramg-pcg");
+    for (const char* flag : {"--sweeps", "--smoother", "--cycle", "--coarse-operator", "--restriction",
+                             "--lowest-level", "--lowest-level-cycles", "--lowest-level-tol", "--mgpcg-cycles"})
+      if (sub->count(flag)) opts->given.insert(flag);
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
     run(*opts);

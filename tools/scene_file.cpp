@@ -1,5 +1,7 @@
 #include "scene_file.hpp"
 
+#include "pmg/multigrid/factory.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -223,24 +225,20 @@ SimScene read_scene(const std::string& path) {
     s.rayleigh_beta = d.nonnegative("beta", 0.0);
   }
   if (root.has("solver")) {
-    Section v = root.sub("solver");
-    s.method = v.string("method", s.method, {"pmg", "mgpcg", "cg", "block-jacobi-pcg", "mcg", "cholmod"});
-    s.tol = v.positive("tol", s.tol);
-    if (s.tol >= 1) v.fail_key("tol", "must be < 1");
-    s.max_iterations = v.integer("max_iterations", s.max_iterations, 1, 1000000);
-    s.fixed_iterations = v.integer("fixed_iterations", 0, 0, 1000000);
-    s.sweeps = v.integer("sweeps", s.sweeps, 1, 100);
-    s.lowest_level = v.string("lowest_level", s.lowest_level, {"cholmod", "boomeramg", "boomeramg-pcg"});
-    s.lowest_level_cycles = v.integer("lowest_level_cycles", s.lowest_level_cycles, 1, 100);
-    s.lowest_level_tol = v.positive("lowest_level_tol", s.lowest_level_tol);
-    if (v.has("lowest_level_cycles") && s.lowest_level == "cholmod")
-      v.fail_key("lowest_level_cycles", "only with \"lowest_level\": \"boomeramg\" or \"boomeramg-pcg\"");
-    if (v.has("lowest_level_tol") && s.lowest_level != "boomeramg-pcg")
-      v.fail_key("lowest_level_tol", "only with \"lowest_level\": \"boomeramg-pcg\"");
-    if (s.lowest_level_tol >= 0.5) v.fail_key("lowest_level_tol", "must be < 0.5");
-    if (s.lowest_level == "boomeramg-pcg" && s.method == "mgpcg")
-      v.fail_key("lowest_level", "boomeramg-pcg makes the cycle nonlinear; mgpcg needs a fixed cycle "
-                                 "(use \"boomeramg\", or method \"pmg\")");
+    // Keys the solver factory renamed (pmgkit 0.1 scene files): a clear pointer, not "unknown key".
+    const json& sj = root.at("solver");
+    if (!sj.is_object()) root.fail_key("solver", "expected an object of solver options");
+    static const std::pair<const char*, const char*> renamed[] = {
+        {"sweeps", "smoother.sweeps"}, {"lowest_level_cycles", "lowest_level.cycles"},
+        {"lowest_level_tol", "lowest_level.tol"}};
+    for (const auto& [old_key, new_key] : renamed)
+      if (sj.contains(old_key))
+        root.fail_key(std::string("solver.") + old_key, std::string("renamed \"") + new_key +
+                                                            "\" (nested: {\"" +
+                                                            std::string(new_key).substr(0, std::string(new_key).find('.')) +
+                                                            "\": {...}})");
+    s.solver = Config::from_json(sj.dump(), path + ": solver");
+    SimScene::set_solver_defaults(s.solver);
   }
   if (root.has("output")) {
     Section o = root.sub("output");
@@ -257,8 +255,23 @@ SimScene read_scene(const std::string& path) {
     root.fail("initial.state spinning needs \"clamp\": \"none\" (a clamped body cannot spin freely)");
   if ((s.initial == "deflected" || s.initial == "compressed" || s.initial == "twisted") && s.clamp_axis < 0)
     root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
-  if (s.fixed_iterations > 0 && s.method == "cholmod") root.fail("solver.fixed_iterations: not for cholmod (a direct solve)");
   return s;
+}
+
+Config SimScene::default_solver() {
+  Config c = Config::from_pairs({}, "scene solver");
+  set_solver_defaults(c);
+  return c;
+}
+
+void SimScene::set_solver_defaults(Config& c) {
+  // PMG to 1e-3 per step (the seed's setting), at most 1000 iterations.
+  c.set_default("method", "pmg");
+  const std::string method = c.get_string("method", "pmg");
+  if (!c.has("fixed_iterations") && method_accepts_key(method, "tol")) {
+    c.set_default("tol", "1e-3");
+    c.set_default("max_iterations", "1000");
+  }
 }
 
 std::string scene_to_json(const SimScene& s) {
@@ -286,11 +299,7 @@ std::string scene_to_json(const SimScene& s) {
   if (s.dynamic) j["time"] = {{"dt", s.dt}, {"duration", s.duration}};
   else j["time"] = "static";
   j["damping"] = {{"alpha", s.rayleigh_alpha}, {"beta", s.rayleigh_beta}};
-  j["solver"] = {{"method", s.method}, {"tol", s.tol}, {"max_iterations", s.max_iterations},
-                 {"fixed_iterations", s.fixed_iterations}, {"sweeps", s.sweeps},
-                 {"lowest_level", s.lowest_level}};
-  if (s.lowest_level != "cholmod") j["solver"]["lowest_level_cycles"] = s.lowest_level_cycles;
-  if (s.lowest_level == "boomeramg-pcg") j["solver"]["lowest_level_tol"] = s.lowest_level_tol;
+  j["solver"] = json::parse(s.solver.to_json());
   json out = {{"directory", s.output}, {"frame_every", s.frame_every}, {"energy", s.energy}};
   if (s.probe) out["probe"] = vec(*s.probe);
   j["output"] = out;

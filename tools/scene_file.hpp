@@ -4,6 +4,7 @@
 #pragma once
 
 #include "pmg/fem/mesh.hpp"
+#include "pmg/sparse/config.hpp"
 
 #include <array>
 #include <optional>
@@ -42,15 +43,11 @@ struct SimScene {
   bool dynamic = true;
   double dt = 0.01, duration = 2.0;
   double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;
-  // solver
-  std::string method = "pmg";  ///< pmg, mgpcg, cg, block-jacobi-pcg, mcg, cholmod
-  double tol = 1e-3;
-  int max_iterations = 1000;
-  int fixed_iterations = 0;  ///< > 0: exactly this many iterations per step (seed's 20 CG)
-  int sweeps = 5;
-  std::string lowest_level = "cholmod";  ///< pmg/mgpcg linear level: cholmod, boomeramg, boomeramg-pcg
-  int lowest_level_cycles = 1;           ///< BoomerAMG V-cycles per application
-  double lowest_level_tol = 0.1;         ///< boomeramg-pcg: relative tolerance of the inner CG
+  // solver: the solver factory's options (pmg/multigrid/factory.hpp), checked when it is built
+  Config solver = default_solver();
+  static Config default_solver();
+  /// method pmg, tol 1e-3, max_iterations 1000 where the scene sets none.
+  static void set_solver_defaults(Config& c);
   // output
   std::string output;  ///< directory; empty: nothing written
   int frame_every = 10;

@@ -1,14 +1,15 @@
 // pmg simulate [scene.json]: a dynamic (or static) corotational simulation of a JSON scene; with
 // no file, the built-in default scene (a cubic cantilever released from a deflected state).
 #include "commands.hpp"
-#include "levels.hpp"
 #include "scene.hpp"
 #include "scene_file.hpp"
 #include "table.hpp"
 
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mesh_io.hpp"
-#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/fem/simulation.hpp"
+#include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/multigrid/factory.hpp"
 #include "pmg/fem/static_solve.hpp"
 #include "pmg/fem/vtk_writer.hpp"
 #include "pmg/sparse/file_io.hpp"
@@ -175,30 +176,32 @@ std::pair<Vector, Vector> initial_state(const SimScene& s, Built& b) {
   return {u, v};
 }
 
-std::unique_ptr<fem::StepSolver> make_solver(const SimScene& s, std::vector<std::string>& notes) {
-  KrylovParams kp;
-  kp.rel_tol = s.tol;
-  kp.max_iterations = s.fixed_iterations > 0 ? s.fixed_iterations : s.max_iterations;
-  kp.fixed_iterations = s.fixed_iterations > 0;
-  std::string method = s.method;
-  if ((method == "pmg" || method == "mgpcg") && s.degree == 1) {
+/// The step solver from the scene's solver options, through the one factory. Degree 1 has no
+/// lower degree: a multigrid method falls back to CHOLMOD (with a note).
+std::unique_ptr<Solver> make_step_solver(const SimScene& s, const fem::DegreeHierarchy& h,
+                                         std::string& method, std::string& settings,
+                                         std::vector<std::string>& notes) {
+  Config c = s.solver.clone();
+  method = c.get_string("method", "pmg");
+  if (method_uses_levels(method) && h.num_levels() < 2) {
     notes.push_back("multigrid: skipped (degree 1 has no lower degree; CHOLMOD solves each step)");
+    c = Config::from_pairs({"method=cholmod"}, c.origin());
     method = "cholmod";
   }
-  if (method == "pmg" || method == "mgpcg") {
-    fem::PmgOptions po;
-    po.smoother.sweeps = s.sweeps;
-    set_lowest_level(po, s.lowest_level, s.lowest_level_cycles, s.lowest_level_tol);
-    if (s.lowest_level != "cholmod") {  // hypre's MPI start-up, once per process: not a step's cost
-      const auto t0 = Clock::now();
-      mg::mpi_size();
-      notes.push_back("MPI start-up for hypre: " + std::to_string(since(t0)).substr(0, 5) + " s");
-    }
-    return std::make_unique<fem::PmgStepSolver>(po, kp, method == "mgpcg");
+  // Warm-started steps end at once when the start is within rounding of the solution.
+  if (method_accepts_key(method, "rhs_floor")) c.set_default("rhs_floor", "1e-12");
+  bool hypre = false;
+  for (const auto& [k, v] : c.items()) hypre |= v.rfind("boomeramg", 0) == 0;
+  if (hypre) {  // hypre's MPI start-up, once per process: not a step's cost
+    const auto t0 = Clock::now();
+    mg::mpi_size();
+    notes.push_back("MPI start-up for hypre: " + std::to_string(since(t0)).substr(0, 5) + " s");
   }
-  if (method == "cholmod") return std::make_unique<fem::CholmodStepSolver>();
-  using K = fem::KrylovStepSolver::Kind;
-  return std::make_unique<fem::KrylovStepSolver>(method == "cg" ? K::cg : method == "mcg" ? K::mcg : K::block_jacobi_pcg, kp);
+  SolverContext ctx;
+  ctx.levels = &h;
+  auto solver = make_solver(c, ctx, "pmg");
+  settings = c.to_string();
+  return solver;
 }
 
 std::string frame_name(int step) {
@@ -258,7 +261,8 @@ void run_dynamic(const SimScene& s, Built& b, const Cli& cli) {
   fem::ElasticityModel const& m = b.h->finest();
   std::vector<std::string>& notes = b.notes;
   const auto [u0, v0] = initial_state(s, b);
-  auto solver = make_solver(s, notes);
+  std::string method, settings;
+  auto solver = make_step_solver(s, *b.h, method, settings, notes);
   fem::SimulationParams sp;
   sp.dt = s.dt;
   sp.rayleigh_alpha = s.rayleigh_alpha;
@@ -268,7 +272,7 @@ void run_dynamic(const SimScene& s, Built& b, const Cli& cli) {
   sim.set_state(u0, v0);
   if (!s.corotational)
     notes.push_back("rotations: skipped (linear material); matrices assembled and factorised once");
-  if (!solver->needs_lower_levels() && b.h->num_levels() > 1)
+  if (!solver->uses_levels() && b.h->num_levels() > 1)
     notes.push_back("lower degrees: not assembled (" + solver->name() + " needs only the finest level)");
   if (!s.energy) notes.push_back("energies: not recorded (output.energy false)");
 
@@ -314,9 +318,7 @@ void run_dynamic(const SimScene& s, Built& b, const Cli& cli) {
 
   std::cout << "time:    " << steps << " steps of " << s.dt << " s (" << s.duration << " s), implicit Euler"
             << (s.rayleigh_alpha > 0 || s.rayleigh_beta > 0 ? ", Rayleigh damping" : ", undamped") << "\n"
-            << "solver:  " << solver->name() << (s.fixed_iterations > 0 ? ", " + std::to_string(s.fixed_iterations) + " fixed iterations"
-                                                               : ", relative residual <= " + fmt("%.0e", s.tol))
-            << " per step, warm start\n\n";
+            << "solver:  " << settings << " per step, warm start\n\n";
 
   std::array<double, fem::kNumStages> total{};
   long iterations = 0;
@@ -373,7 +375,7 @@ void run_dynamic(const SimScene& s, Built& b, const Cli& cli) {
   t.print(std::cout);
   const fem::Vec3 d = probe_displacement(b, sim.displacement());
   std::cout << "\nsteps:   " << done << " in " << fmt("%.2f", wall) << " s wall, " << fmt("%.2f", done > 0 ? static_cast<double>(iterations) / done : 0.0)
-            << " " << (solver->name() == "pmg" ? "cycles" : "iterations") << " per step (max " << max_iterations
+            << " " << (method == "pmg" ? "cycles" : "iterations") << " per step (max " << max_iterations
             << "), largest ||b - Av|| / ||b|| " << fmt("%.1e", max_residual) << "\n"
             << "probe:   (" << b.probe.transpose() << "): displacement now " << d.transpose() << ", z range ["
             << fmt("%.4f", zmin) << ", " << fmt("%.4f", zmax) << "] m\n";

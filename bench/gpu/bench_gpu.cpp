@@ -12,7 +12,9 @@
 // --pmg_nodes: BB nodes along each edge of the unit cube (p * boxes): 48 gives ~350k unknowns for
 // every degree. Without a CUDA device the program says so and exits 77.
 #include "pmg/fem/generators.hpp"
-#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/factory.hpp"
 #include "pmg/gpu/solvers.hpp"
 
 #include "../bandwidth.hpp"
@@ -146,7 +148,7 @@ void BM_LibraryPCG(benchmark::State& state) {
 }
 
 struct Cycles {
-  std::unique_ptr<fem::PmgSolver> cpu;
+  std::unique_ptr<Solver> cpu;  ///< a MultigridCycle with Chebyshev smoothing
   std::unique_ptr<gpu::VCycle> gpu;
 };
 
@@ -155,14 +157,16 @@ Cycles& cycles() {
   if (c) return *c;
   c = std::make_unique<Cycles>();
   const fem::DegreeHierarchy& h = *problem(3).h;
-  fem::PmgOptions o;
-  o.chebyshev = true;
-  c->cpu = fem::make_pmg(h, o);
+  SolverContext ctx;
+  ctx.levels = &h;
+  c->cpu = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev"}, "bench"), ctx);
+  c->cpu->setup(h.matrix(h.num_levels() - 1));
+  const auto& cycle = dynamic_cast<const mg::MultigridCycle&>(*c->cpu);
   std::vector<const Bcsr*> m;
   for (int l = 0; l < h.num_levels(); ++l) m.push_back(&h.matrix(l));
   std::vector<const mg::BlockTransfer*> t;
-  for (const auto& p : c->cpu->transfers) t.push_back(p.get());
-  c->gpu = std::make_unique<gpu::VCycle>(m, t, o.chebyshev_params);
+  for (int l = 1; l < h.num_levels(); ++l) t.push_back(&cycle.transfer(l));
+  c->gpu = std::make_unique<gpu::VCycle>(m, t, mg::ChebyshevParams{});
   return *c;
 }
 
@@ -175,7 +179,7 @@ void BM_VCycle_GPU(benchmark::State& state) {
 }
 
 void BM_VCycle_CPU(benchmark::State& state) {
-  const mg::MultigridCycle& C = *cycles().cpu->cycle;
+  const auto& C = dynamic_cast<const mg::MultigridCycle&>(*cycles().cpu);
   const Vector r = Vector::Ones(C.rows());
   Vector z;
   for (auto _ : state) {

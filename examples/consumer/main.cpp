@@ -28,8 +28,8 @@ int main() {
   params.rel_tol = 1e-12;
   const pmg::JacobiPreconditioner M(A);
   const pmg::SolveResult r = pmg::pcg(A, &M, b, x_cg, params);
-  pmg::CholmodSolver chol;
-  chol.compute(A);
+  pmg::CholmodSolver chol;  // any pmg::Solver: setup(A), then solve(b, x) or apply(b, x)
+  chol.setup(A);
   chol.solve(b, x_chol);
   const double diff = (x_cg - x_chol).norm() / x_chol.norm();
   std::cout << "PCG: " << pmg::to_string(r.status) << " in " << r.iterations

@@ -17,58 +17,9 @@ const char* stage_name(int stage) {
   return names[stage];
 }
 
-// ---- step solvers --------------------------------------------------------------------------------
-
-std::string KrylovStepSolver::name() const {
-  switch (kind_) {
-    case Kind::cg: return "cg";
-    case Kind::block_jacobi_pcg: return "block-jacobi-pcg";
-    case Kind::mcg: return "mcg";
-  }
-  return "?";
-}
-
-void KrylovStepSolver::update(DegreeHierarchy& h) {
-  if (kind_ == Kind::cg) return;
-  const Bcsr& A = h.matrix(h.num_levels() - 1);
-  if (jacobi_) jacobi_->update(A);
-  else jacobi_ = std::make_unique<BlockJacobiPreconditioner>(A);
-}
-
-SolveResult KrylovStepSolver::solve(const Bcsr& A, const Vector& b, Vector& x) {
-  const KrylovParams p = with_rounding_floor(params_, b);
-  switch (kind_) {
-    case Kind::cg: return cg(A, b, x, p);
-    case Kind::block_jacobi_pcg: return pcg(A, jacobi_.get(), b, x, p);
-    case Kind::mcg: return mcg(A, *jacobi_, b, x, p);
-  }
-  throw Error("unknown Krylov solver");
-}
-
-void CholmodStepSolver::update(DegreeHierarchy& h) {
-  const Csr A = h.matrix(h.num_levels() - 1).to_csr();
-  if (!analyzed_) chol_.analyze(A), analyzed_ = true;
-  chol_.factorize(A);
-}
-
-SolveResult CholmodStepSolver::solve(const Bcsr& A, const Vector& b, Vector& x) {
-  const auto t0 = Clock::now();
-  chol_.solve(b, x);
-  Vector r;
-  A.residual(b, x, r);
-  SolveResult res;
-  res.status = SolveStatus::converged;
-  res.iterations = 1;
-  const double bn = b.norm();
-  res.initial_residual = bn;  // a direct solve ignores x0: report relative to ||b||
-  res.rel_residual = res.true_rel_residual = bn > 0 ? r.norm() / bn : 0.0;
-  res.seconds = since(t0);
-  return res;
-}
-
 // ---- implicit Euler ------------------------------------------------------------------------------
 
-ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, StepSolver& solver, const Vector& f_ext,
+ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
                              const SimulationParams& p)
     : h_(h), solver_(solver), f_ext_(f_ext), p_(p) {
   const ElasticityModel& m = h_.finest();
@@ -123,9 +74,10 @@ StepStats ImplicitEuler::step() {
     assemble_level(L - 1, Rp);
     st.seconds[kAssembly] = since(t0);
     t0 = Clock::now();
-    if (solver_.needs_lower_levels())
+    if (solver_.uses_levels())
       for (int l = 0; l < L - 1; ++l) assemble_level(l, Rp);
-    solver_.update(h_);
+    if (solver_.is_set_up()) solver_.update();
+    else solver_.setup(h_.matrix(L - 1));
     st.seconds[kHierarchy] = since(t0);
     assembled_ = true;
   }
@@ -139,11 +91,10 @@ StepStats ImplicitEuler::step() {
   st.seconds[kForces] = since(t0);
 
   t0 = Clock::now();
-  const Bcsr& A = h_.matrix(L - 1);
   const double bn = b.norm();
   SolveResult res;
   try {
-    res = solver_.solve(A, b, v_free_);
+    res = solver_.solve(b, v_free_);
   } catch (const SolveError& e) {
     SolveResult r = e.result;
     r.message = "step " + std::to_string(step_ + 1) + " (t = " + std::to_string(t_ + p_.dt) +

@@ -28,16 +28,15 @@ StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, boo
     if (corotational) R = model.rotations(res.u);
     Vector rhs = f_free;
     model.assemble(corotational ? &R : nullptr, prescribed, K, &rhs);
-    const Csr A = K.to_csr();
-    if (it == 1) chol.analyze(A);
     try {
-      chol.factorize(A);
+      if (it == 1) chol.setup(K);  // symbolic analysis once; later iterations refactorise only
+      else chol.update();
     } catch (const Error& e) {
       throw Error(std::string("static solve: ") + e.what() +
                   "; the constraints may not remove every rigid motion");
     }
     Vector u_free;
-    chol.solve(rhs, u_free);
+    chol.apply(rhs, u_free);
     Vector u_new = model.expand(u_free, prescribed);
     const double change = (u_new - res.u).norm() / std::max(u_new.norm(), 1e-300);
     if (corotational && it > 1) {

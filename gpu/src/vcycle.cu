@@ -56,7 +56,8 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
       throw InputError("gpu::VCycle: transfer " + std::to_string(l - 1) + " does not match levels " +
                        std::to_string(l - 1) + " and " + std::to_string(l));
   }
-  coarse_ = std::make_unique<mg::CholmodCoarseSolver>(*matrices_[0]);
+  coarse_ = std::make_unique<CholmodSolver>();
+  coarse_->setup(*matrices_[0]);
   levels_.resize(matrices_.size());
   for (std::size_t l = 1; l < matrices_.size(); ++l) {
     auto L = std::make_unique<Level>();

@@ -1,5 +1,4 @@
 #include "pmg/multigrid/boomeramg.hpp"
-#include "pmg/sparse/krylov.hpp"
 
 #include <HYPRE.h>
 #include <HYPRE_parcsr_ls.h>
@@ -80,25 +79,37 @@ struct BoomerAMG::Impl {
   ~Impl() { destroy(); }
 };
 
-BoomerAMG::BoomerAMG(const Csr& A, const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()) {
+BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()), params_(params) {
   impl_->params = params;
-  setup(A);
+  if (params.num_functions < 1) throw InputError("BoomerAMG: num_functions must be >= 1");
+  if (params.cycles < 1) throw InputError("BoomerAMG: cycles must be >= 1");
+  if (!(params.strong_threshold > 0 && params.strong_threshold < 1))
+    throw InputError("BoomerAMG: strong_threshold must lie in (0, 1)");
 }
 
 BoomerAMG::~BoomerAMG() = default;
 
-void BoomerAMG::setup(const Csr& A) {
-  if (A.rows() != A.cols()) throw InputError("BoomerAMG: matrix must be square");
+void BoomerAMG::setup_impl(const LinearOperator& A) {
+  scalar_.setup(A, "BoomerAMG");
+  build(scalar_.csr());
+}
+
+void BoomerAMG::update_impl() {
+  scalar_.refresh();
+  build(scalar_.csr());
+}
+
+void BoomerAMG::build(const Csr& A) {
   if (A.rows() % impl_->params.num_functions != 0)
     throw InputError("BoomerAMG: size is not a multiple of the number of functions");
   for (double v : A.values())
     if (!std::isfinite(v)) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
   Impl& d = *impl_;
   d.destroy();
-  n_ = A.rows();
+  const index_t n = A.rows();
   const int size = mpi_size(), rank = mpi_rank();
   // Contiguous row blocks, whole nodes per rank.
-  const index_t nodes = n_ / d.params.num_functions;
+  const index_t nodes = n / d.params.num_functions;
   d.counts.assign(size, 0);
   d.displs.assign(size, 0);
   for (int r = 0; r < size; ++r) {
@@ -185,38 +196,6 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
     MPI_Allgatherv(local.data(), nlocal, MPI_DOUBLE, z.data(), d.counts.data(), d.displs.data(),
                    MPI_DOUBLE, MPI_COMM_WORLD);
   }
-}
-
-BoomerAMGCoarseSolver::BoomerAMGCoarseSolver(const Bcsr& A, const BoomerAMGParams& params,
-                                             double rel_tol)
-    : A_(A), amg_(A.to_csr(), params), rel_tol_(rel_tol) {
-  if (!(rel_tol >= 0.0 && rel_tol < 1.0))
-    throw InputError("BoomerAMG lowest level: the relative tolerance must be in [0, 1)");
-}
-
-void BoomerAMGCoarseSolver::apply_impl(const Vector& b, Vector& x) const {
-  if (rel_tol_ == 0.0) {
-    amg_.apply(b, x);
-    return;
-  }
-  KrylovParams p;
-  p.rel_tol = rel_tol_;
-  p.max_iterations = 500;
-  // Inside a cycle a loose solve is still a usable correction: the outer iteration judges it.
-  // Only a broken one (NaN, not positive definite) is an error.
-  p.throw_on_failure = false;
-  x.setZero(b.size());
-  const SolveResult r = pcg(A_, &amg_, b, x, p);
-  if (r.status == SolveStatus::non_finite || r.status == SolveStatus::breakdown)
-    throw SolveError(r);
-}
-
-std::unique_ptr<CoarseSolver> make_lowest_level(const Bcsr& A, LowestLevel kind,
-                                                const BoomerAMGParams& params, double rel_tol) {
-  if (kind == LowestLevel::boomeramg) return std::make_unique<BoomerAMGCoarseSolver>(A, params);
-  if (kind == LowestLevel::boomeramg_pcg)
-    return std::make_unique<BoomerAMGCoarseSolver>(A, params, rel_tol);
-  return std::make_unique<CholmodCoarseSolver>(A);
 }
 
 }  // namespace pmg::mg

@@ -13,100 +13,139 @@ using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 }  // namespace
 
-CholmodCoarseSolver::CholmodCoarseSolver(const Bcsr& A) : A_(A) {
-  chol_.analyze(A.to_csr());
-  update();
+MultigridCycle::MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
+                               const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level)
+    : levels_(levels), params_(params), lowest_(std::move(lowest_level)) {
+  const int L = levels_.num_levels();
+  if (L < 1) throw InputError("multigrid: no levels");
+  if (params_.gamma < 1 || params_.gamma > 2) throw InputError("multigrid: gamma must be 1 (V) or 2 (W)");
+  if (params_.cycles < 1) throw InputError("multigrid: cycles per application must be >= 1");
+  if (!lowest_) throw InputError("multigrid: no lowest-level solver");
+  for (int l = 1; l < L; ++l) {
+    smoothers_.push_back(smoothers(l));
+    if (!smoothers_.back()) throw InputError("multigrid: no smoother for " + levels_.level_name(l));
+  }
 }
 
-void CholmodCoarseSolver::update() { chol_.factorize(A_.to_csr()); }
+std::string MultigridCycle::name() const {
+  return params_.gamma == 1 ? "multigrid (V-cycle)" : "multigrid (W-cycle)";
+}
 
-MultigridCycle::MultigridCycle(std::vector<const Bcsr*> matrices,
-                               std::vector<const BlockTransfer*> transfers,
-                               std::vector<std::unique_ptr<Smoother>> smoothers,
-                               std::unique_ptr<CoarseSolver> coarse, const CycleParams& params)
-    : matrices_(std::move(matrices)),
-      transfers_(std::move(transfers)),
-      smoothers_(std::move(smoothers)),
-      coarse_(std::move(coarse)),
-      params_(params) {
-  const size_t L = matrices_.size();
-  if (L == 0) throw InputError("multigrid: no levels");
-  if (transfers_.size() != L - 1 || smoothers_.size() != L - 1)
-    throw InputError("multigrid: " + std::to_string(L) + " levels need " + std::to_string(L - 1) +
-                     " transfers and smoothers");
-  if (!coarse_ || coarse_->rows() != matrices_[0]->rows())
-    throw InputError("multigrid: the lowest-level solver does not match level 0");
-  for (size_t l = 1; l < L; ++l)
-    if (transfers_[l - 1]->fine_size() != matrices_[l]->rows() ||
-        transfers_[l - 1]->coarse_size() != matrices_[l - 1]->rows())
-      throw InputError("multigrid: transfer " + std::to_string(l - 1) + " does not map level " +
-                       std::to_string(l - 1) + " to level " + std::to_string(l));
-  if (params_.gamma < 1 || params_.gamma > 2) throw InputError("multigrid: gamma must be 1 or 2");
-  reset_timings();
+bool MultigridCycle::is_linear() const {
+  for (const auto& s : smoothers_)
+    if (!s->is_linear()) return false;
+  return lowest_->is_linear();
 }
 
 bool MultigridCycle::is_symmetric() const {
-  for (const auto* t : transfers_)
-    if (!t->restriction_is_transpose()) return false;
-  return coarse_->is_linear();
+  if (params_.interpolating_restriction) return false;
+  for (const auto& s : smoothers_)
+    if (!s->is_linear()) return false;
+  return lowest_->is_linear() && lowest_->is_symmetric();
 }
 
-void MultigridCycle::update() {
+const Bcsr& MultigridCycle::level_matrix(int l) const {
+  const int L = num_levels();
+  if (params_.coarse_operator == CoarseOperator::galerkin && l < L - 1) return galerkin_.at(l);
+  return levels_.matrix(l);
+}
+
+void MultigridCycle::setup_impl(const LinearOperator& A) {
+  const int L = num_levels();
+  if (A.rows() != levels_.matrix(L - 1).rows())
+    throw InputError("multigrid: the operator has " + std::to_string(A.rows()) + " rows, the finest " +
+                     "level (" + levels_.level_name(L - 1) + ") " +
+                     std::to_string(levels_.matrix(L - 1).rows()));
+  transfers_.clear();
+  for (int l = 1; l < L; ++l) {
+    if (params_.interpolating_restriction)
+      transfers_.emplace_back(levels_.prolongation(l), levels_.interpolating_restriction(l));
+    else
+      transfers_.emplace_back(levels_.prolongation(l));
+    const BlockTransfer& T = transfers_.back();
+    if (T.fine_size() != levels_.matrix(l).rows() ||
+        (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != levels_.matrix(l - 1).rows()))
+      throw InputError("multigrid: the prolongation of " + levels_.level_name(l) + " does not map " +
+                       levels_.level_name(l - 1) + " to it");
+  }
+  galerkin_.clear();
+  if (params_.coarse_operator == CoarseOperator::galerkin) {
+    galerkin_.resize(L > 0 ? L - 1 : 0);
+    for (int l = L - 2; l >= 0; --l) galerkin_[l] = galerkin_product(transfers_[l], level_matrix(l + 1));
+  }
+  for (int l = 1; l < L; ++l) smoothers_[l - 1]->setup(level_matrix(l));
+  lowest_->setup(level_matrix(0));
+  work_.assign(L, Work{});
+  for (int l = 1; l < L; ++l) {
+    work_[l].r.resize(level_matrix(l).rows());
+    work_[l].rc.resize(level_matrix(l - 1).rows());
+    work_[l].xc.resize(level_matrix(l - 1).rows());
+  }
+  solve_r_.resize(A.rows());
+  reset_timings();
+}
+
+void MultigridCycle::refresh_galerkin() {
+  for (int l = num_levels() - 2; l >= 0; --l) {
+    Bcsr product = galerkin_product(transfers_[l], level_matrix(l + 1));
+    if (product.values().size() != galerkin_[l].values().size())
+      throw Error("multigrid: the Galerkin product's pattern changed on update()");
+    galerkin_[l].values() = std::move(product.values());
+  }
+}
+
+void MultigridCycle::update_impl() {
+  if (params_.coarse_operator == CoarseOperator::galerkin) refresh_galerkin();
   for (auto& s : smoothers_) s->update();
-  coarse_->update();
+  lowest_->update();
 }
 
 void MultigridCycle::reset_timings() const {
   timings_ = CycleTimings{};
-  timings_.smoothing.assign(matrices_.size(), 0.0);
+  timings_.smoothing.assign(num_levels(), 0.0);
 }
 
 void MultigridCycle::apply_impl(const Vector& r, Vector& z) const {
-  z.setZero();
-  cycle(num_levels() - 1, r, z);
+  z.setZero(r.size());
+  for (int k = 0; k < params_.cycles; ++k) cycle(num_levels() - 1, r, z);
 }
 
 void MultigridCycle::cycle(int l, const Vector& b, Vector& x) const {
   if (l == 0) {
     const auto t0 = Clock::now();
-    coarse_->apply(b, x);
-    timings_.coarse += since(t0);
+    lowest_->apply(b, x);
+    timings_.lowest_level += since(t0);
     return;
   }
   if (l == num_levels() - 1) ++timings_.cycles;
+  Work& w = work_[l];
   auto t0 = Clock::now();
   smoothers_[l - 1]->pre_smooth(b, x);
   timings_.smoothing[l] += since(t0);
   t0 = Clock::now();
-  Vector r, rc, xc;
-  matrices_[l]->residual(b, x, r);
+  level_matrix(l).residual(b, x, w.r);
   timings_.residual += since(t0);
   t0 = Clock::now();
-  transfers_[l - 1]->restrict_to_coarse(r, rc);
+  transfers_[l - 1].restrict_to_coarse(w.r, w.rc);
   timings_.transfer += since(t0);
-  xc = Vector::Zero(rc.size());
-  for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle(l - 1, rc, xc);
+  w.xc.setZero();
+  for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle(l - 1, w.rc, w.xc);
   t0 = Clock::now();
-  transfers_[l - 1]->prolongate_add(xc, x);
+  transfers_[l - 1].prolongate_add(w.xc, x);
   timings_.transfer += since(t0);
   t0 = Clock::now();
   smoothers_[l - 1]->post_smooth(b, x);
   timings_.smoothing[l] += since(t0);
 }
 
-SolveResult multigrid_solve(const LinearOperator& A, const MultigridCycle& C, const Vector& b,
-                            Vector& x, const KrylovParams& params, SolveMonitor* monitor) {
-  if (A.rows() != C.rows() || b.size() != A.rows())
-    throw InputError("multigrid solve: sizes of operator, cycle and right-hand side differ");
-  if (x.size() != b.size()) x = Vector::Zero(b.size());
-  if (!ops::all_finite(b) || !ops::all_finite(x))
-    throw InputError("multigrid solve: right-hand side or initial guess has NaN/Inf");
-  detail::ConvergenceTracker track("PMG", params, monitor);
-  Vector r;
+SolveResult MultigridCycle::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  const LinearOperator& A = system();
+  detail::ConvergenceTracker track("PMG", with_rhs_floor(params_.iteration, b), monitor);
+  Vector& r = solve_r_;
   A.residual(b, x, r);
   if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
   for (int it = 1; !track.done(); ++it) {
-    C.cycle(b, x);  // the cycle works on the full equation with x as initial guess
+    cycle(b, x);  // the cycle works on the full equation with x as initial guess
     A.residual(b, x, r);
     const double norm = ops::norm2(r);
     // The residual here is the true one: a converged iteration is confirmed at once.
@@ -114,31 +153,6 @@ SolveResult multigrid_solve(const LinearOperator& A, const MultigridCycle& C, co
   }
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
   return track.finish(ops::norm2(r));
-}
-
-SolveResult mgpcg(const LinearOperator& A, const MultigridCycle& C, const Vector& b, Vector& x,
-                  const KrylovParams& params, SolveMonitor* monitor, int cycles_per_apply) {
-  if (!C.is_symmetric())
-    throw InputError("MGPCG needs a symmetric cycle (restriction = prolongation transposed, a linear "
-                     "lowest-level solver)");
-  if (cycles_per_apply < 1) throw InputError("MGPCG: cycles_per_apply must be >= 1");
-  // z = M r with M = cycles_per_apply cycles from z = 0 (symmetric: forward pre-, backward
-  // post-smoothing, R = Pᵀ).
-  class Repeated final : public LinearOperator {
-   public:
-    Repeated(const MultigridCycle& c, int k) : c_(c), k_(k) {}
-    index_t rows() const override { return c_.rows(); }
-    index_t cols() const override { return c_.cols(); }
-
-   private:
-    void apply_impl(const Vector& r, Vector& z) const override {
-      z.setZero();
-      for (int i = 0; i < k_; ++i) c_.cycle(r, z);
-    }
-    const MultigridCycle& c_;
-    int k_;
-  } M(C, cycles_per_apply);
-  return pcg(A, &M, b, x, params, monitor);
 }
 
 }  // namespace pmg::mg

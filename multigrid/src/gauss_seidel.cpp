@@ -7,8 +7,8 @@
 
 namespace pmg::mg {
 
-std::vector<double> inverse_diagonal_blocks(const Bcsr& A) {
-  return BlockJacobiPreconditioner(A).inverse_blocks();
+std::vector<double> inverse_diagonal_blocks(const LinearOperator& A) {
+  return invert_diagonal_blocks(diagonal_blocks_of(A, "smoother"), "smoother");
 }
 
 namespace {
@@ -77,11 +77,16 @@ inline void relax_row_pointwise(const index_t* cols, const double* v, offset_t b
 }
 }  // namespace
 
-BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params)
-    : A_(A), params_(params) {
-  if (A.block_rows() != A.block_cols()) throw InputError("Gauss-Seidel: matrix must be square");
+BlockGaussSeidel::BlockGaussSeidel(const GaussSeidelParams& params) : params_(params) {
   if (params.sweeps < 0) throw InputError("Gauss-Seidel: sweeps must be >= 0");
-  if (params.ordering == Ordering::multicolor) {
+}
+
+void BlockGaussSeidel::setup_impl(const LinearOperator& op) {
+  const Bcsr& A = as_bcsr(op, "Gauss-Seidel");
+  A_ = &A;
+  colors_.clear(), order_.clear(), color_start_.clear(), source_.clear();
+  colored_ = BlockPattern{};
+  if (params_.ordering == Ordering::multicolor) {
     colors_ = color_rows(A.pattern());
     const BlockPattern& p = A.pattern();
     colored_.rows = colored_.cols = p.rows;
@@ -103,13 +108,13 @@ BlockGaussSeidel::BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& param
     colors_.assign(1, std::vector<index_t>(A.block_rows()));
     for (index_t I = 0; I < A.block_rows(); ++I) colors_[0][I] = I;
   }
-  update();
+  update_impl();
 }
 
-void BlockGaussSeidel::update() {
-  inv_diag_ = inverse_diagonal_blocks(A_);  // also refuses diagonal blocks that are not SPD
-  if (params_.pointwise) diag_ = A_.diagonal_blocks();
-  const double* src = A_.values().data();
+void BlockGaussSeidel::update_impl() {
+  inv_diag_ = inverse_diagonal_blocks(*A_);  // also refuses diagonal blocks that are not SPD
+  if (params_.pointwise) diag_ = A_->diagonal_blocks();
+  const double* src = A_->values().data();
   double* dst = colored_values_.data();
   const offset_t n = static_cast<offset_t>(source_.size());
 #pragma omp parallel for schedule(static)
@@ -138,8 +143,8 @@ void BlockGaussSeidel::sweep(const Vector& b, Vector& x, bool forward) const {
     }
     return;
   }
-  const BlockPattern& p = A_.pattern();
-  const double* v = A_.values().data();
+  const BlockPattern& p = A_->pattern();
+  const double* v = A_->values().data();
   const index_t n = p.rows;
   if (params_.pointwise) {
     for (index_t s = 0; s < n; ++s) {

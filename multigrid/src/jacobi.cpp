@@ -1,25 +1,28 @@
 #include "pmg/multigrid/smoothers.hpp"
 
-#include <cmath>
-
 namespace pmg::mg {
 
-BlockJacobi::BlockJacobi(const Bcsr& A, const JacobiParams& params) : A_(A), params_(params) {
+BlockJacobi::BlockJacobi(const JacobiParams& params) : params_(params) {
   if (!(params.omega > 0)) throw InputError("Jacobi: omega must be positive");
-  update();
+  if (params.sweeps < 0) throw InputError("Jacobi: sweeps must be >= 0");
 }
 
-void BlockJacobi::update() { inv_diag_ = inverse_diagonal_blocks(A_); }
+void BlockJacobi::setup_impl(const LinearOperator& A) {
+  inv_diag_ = inverse_diagonal_blocks(A);
+  r_.resize(A.rows());
+}
+
+void BlockJacobi::update_impl() { inv_diag_ = inverse_diagonal_blocks(system()); }
 
 void BlockJacobi::smooth(const Vector& b, Vector& x) const {
-  Vector r;
+  const LinearOperator& A = system();
   const Eigen::Index nb = x.size() / 3;
   for (int s = 0; s < params_.sweeps; ++s) {
-    A_.residual(b, x, r);
+    A.residual(b, x, r_);
 #pragma omp parallel for schedule(static)
     for (Eigen::Index I = 0; I < nb; ++I) {
       const double* d = inv_diag_.data() + 9 * I;
-      const double r0 = r[3 * I], r1 = r[3 * I + 1], r2 = r[3 * I + 2];
+      const double r0 = r_[3 * I], r1 = r_[3 * I + 1], r2 = r_[3 * I + 2];
       x[3 * I] += params_.omega * (d[0] * r0 + d[1] * r1 + d[2] * r2);
       x[3 * I + 1] += params_.omega * (d[3] * r0 + d[4] * r1 + d[5] * r2);
       x[3 * I + 2] += params_.omega * (d[6] * r0 + d[7] * r1 + d[8] * r2);
@@ -27,62 +30,24 @@ void BlockJacobi::smooth(const Vector& b, Vector& x) const {
   }
 }
 
-Chebyshev::Chebyshev(const Bcsr& A, const ChebyshevParams& params) : A_(A), params_(params) {
-  if (params.degree < 1) throw InputError("Chebyshev: degree must be >= 1");
-  if (!(params.lower_fraction > 0 && params.lower_fraction < 1))
-    throw InputError("Chebyshev: lower_fraction must lie in (0, 1)");
-  update();
+Richardson::Richardson(std::unique_ptr<Solver> M, const RichardsonParams& params)
+    : M_(std::move(M)), params_(params) {
+  if (!M_) throw InputError("Richardson: no preconditioner");
+  if (params.iterations < 0) throw InputError("Richardson: iterations must be >= 0");
+  if (!(params.omega > 0)) throw InputError("Richardson: omega must be positive");
 }
 
-void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
-  const Eigen::Index nb = r.size() / 3;
-  z.resize(r.size());
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index I = 0; I < nb; ++I) {
-    const double* d = inv_diag_.data() + 9 * I;
-    const double r0 = r[3 * I], r1 = r[3 * I + 1], r2 = r[3 * I + 2];
-    z[3 * I] = d[0] * r0 + d[1] * r1 + d[2] * r2;
-    z[3 * I + 1] = d[3] * r0 + d[4] * r1 + d[5] * r2;
-    z[3 * I + 2] = d[6] * r0 + d[7] * r1 + d[8] * r2;
-  }
+void Richardson::setup_impl(const LinearOperator& A) {
+  M_->setup(A);
+  r_.resize(A.rows()), z_.resize(A.rows());
 }
 
-void Chebyshev::update() {
-  inv_diag_ = inverse_diagonal_blocks(A_);
-  // Power iteration on D⁻¹A from a fixed, non-smooth start vector.
-  Vector v(A_.rows()), w, z;
-  for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * i);
-  v.normalize();
-  double lambda = 0.0;
-  for (int k = 0; k < params_.power_iterations; ++k) {
-    A_.apply(v, w);
-    apply_inverse_diagonal(w, z);
-    lambda = z.norm();
-    if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
-    v = z / lambda;
-  }
-  lambda_max_ = 1.1 * lambda;
-}
-
-// Chebyshev iteration for D⁻¹A on [λmin, λmax] (Saad, Alg. 12.1), x improved in place.
-void Chebyshev::smooth(const Vector& b, Vector& x) const {
-  const double lmax = lambda_max_, lmin = params_.lower_fraction * lambda_max_;
-  const double theta = 0.5 * (lmax + lmin), delta = 0.5 * (lmax - lmin);
-  const double sigma = theta / delta;
-  double rho = 1.0 / sigma;
-  Vector r, d;
-  A_.residual(b, x, r);
-  apply_inverse_diagonal(r, d);
-  d /= theta;
-  for (int k = 1; k <= params_.degree; ++k) {
-    x += d;
-    if (k == params_.degree) break;
-    A_.residual(b, x, r);
-    Vector z;
-    apply_inverse_diagonal(r, z);
-    const double rho_new = 1.0 / (2.0 * sigma - rho);
-    d = (rho_new * rho) * d + (2.0 * rho_new / delta) * z;
-    rho = rho_new;
+void Richardson::smooth(const Vector& b, Vector& x) const {
+  const LinearOperator& A = system();
+  for (int k = 0; k < params_.iterations; ++k) {
+    A.residual(b, x, r_);
+    M_->apply(r_, z_);
+    x += params_.omega * z_;
   }
 }
 

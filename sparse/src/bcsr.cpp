@@ -83,6 +83,23 @@ Csr Bcsr::to_csr() const {
   return Csr(s, std::move(v));
 }
 
+void Bcsr::copy_values_to(Csr& out) const {
+  const BlockPattern& p = *pattern_;
+  if (out.rows() != rows() || out.cols() != cols() || out.nnz() != BB * p.nnz())
+    throw InputError("BCSR copy_values_to: the target is not this pattern's to_csr()");
+  const offset_t* rp = out.pattern().row_ptr.data();
+  double* v = out.values().data();
+#pragma omp parallel for schedule(static)
+  for (index_t I = 0; I < p.rows; ++I) {
+    const offset_t first = p.row_ptr[I], len = p.row_ptr[I + 1] - first;
+    for (int r = 0; r < B; ++r) {
+      double* dst = v + rp[B * I + r];
+      for (offset_t k = 0; k < len; ++k)
+        for (int c = 0; c < B; ++c) dst[B * k + c] = values_[BB * (first + k) + B * r + c];
+    }
+  }
+}
+
 void Bcsr::set_values(const Csr& A) {
   if (A.rows() != rows() || A.cols() != cols())
     throw InputError("BCSR set_values: size mismatch");

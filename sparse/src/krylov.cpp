@@ -3,6 +3,7 @@
 #include "pmg/sparse/convergence.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <limits>
 
@@ -30,13 +31,17 @@ SolveResult cg(const LinearOperator& A, const Vector& b, Vector& x, const Krylov
 
 // Textbook PCG (Saad, Alg. 9.1) on the primitives of vector_ops; with M == nullptr, z aliases r.
 SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& b, Vector& x,
-                const KrylovParams& params, SolveMonitor* monitor) {
+                const KrylovParams& params, SolveMonitor* monitor, KrylovWorkspace* work) {
   const char* method = M ? "PCG" : "CG";
   check_inputs(method, A, M, b, x);
   detail::ConvergenceTracker track(method, params, monitor);
   const Eigen::Index n = b.size();
-  Vector r(n), q(n), p(n), zbuf(M ? n : 0);
-  Vector& z = M ? zbuf : r;
+  KrylovWorkspace local;
+  KrylovWorkspace& w = work ? *work : local;
+  w.r.resize(n), w.q.resize(n), w.p.resize(n);
+  if (M) w.z.resize(n);
+  Vector &r = w.r, &q = w.q, &p = w.p;
+  Vector& z = M ? w.z : r;
   A.residual(b, x, r);
   if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
 
@@ -72,6 +77,45 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
   A.residual(b, x, q);
   return track.finish(ops::norm2(q));
+}
+
+KrylovParams with_rhs_floor(KrylovParams params, const Vector& b) {
+  if (!(params.rhs_floor >= 0.0)) throw InputError("Krylov: rhs_floor must be >= 0");
+  params.abs_tol = std::max(params.abs_tol, params.rhs_floor * ops::norm2(b));
+  return params;
+}
+
+// ---- Cg ------------------------------------------------------------------------------------------
+
+Cg::Cg(const KrylovParams& params, std::unique_ptr<Solver> preconditioner)
+    : params_(params), M_(std::move(preconditioner)) {
+  if (M_ && (!M_->is_linear() || !M_->is_symmetric()))
+    throw InputError("CG: the preconditioner '" + M_->name() + "' is not a fixed symmetric "
+                     "operator (a solve to a tolerance inside it, a restriction other than the "
+                     "transposed prolongation, or non-adjoint smoothing); CG needs one");
+}
+
+std::string Cg::name() const { return M_ ? "cg(" + M_->name() + ")" : "cg"; }
+
+void Cg::setup_impl(const LinearOperator& A) {
+  if (M_) M_->setup(A);
+  const Eigen::Index n = A.rows();
+  work_.r.resize(n), work_.q.resize(n), work_.p.resize(n);
+  if (M_) work_.z.resize(n);
+}
+
+void Cg::update_impl() {
+  if (M_) M_->update();
+}
+
+SolveResult Cg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  const LinearOperator& A = spmv_ ? *spmv_ : system();
+  return pcg(A, M_.get(), b, x, with_rhs_floor(params_, b), monitor, &work_);
+}
+
+void Cg::apply_impl(const Vector& b, Vector& x) const {
+  x.setZero();
+  solve_impl(b, x, nullptr);
 }
 
 }  // namespace pmg

@@ -44,7 +44,8 @@ Step2Sums update_and_precondition(double alpha, const Vector& s, const Vector& q
 }  // namespace
 
 SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, const Vector& b,
-                Vector& x, const KrylovParams& params, SolveMonitor* monitor) {
+                Vector& x, const KrylovParams& params, SolveMonitor* monitor,
+                KrylovWorkspace* work) {
   if (A.rows() != A.cols() || A.rows() % 3 != 0)
     throw InputError("MCG: operator must be square with a size divisible by 3");
   if (b.size() != A.rows() || M.rows() != A.rows())
@@ -54,7 +55,10 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
     throw InputError("MCG: right-hand side or initial guess has NaN/Inf");
   detail::ConvergenceTracker track("MCG", params, monitor);
   const Eigen::Index n = b.size();
-  Vector r(n), z(n), s(n), q(n);
+  KrylovWorkspace local;
+  KrylovWorkspace& w = work ? *work : local;
+  w.r.resize(n), w.z.resize(n), w.p.resize(n), w.q.resize(n);
+  Vector &r = w.r, &z = w.z, &s = w.p, &q = w.q;
   A.residual(b, x, r);
   if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
 
@@ -91,6 +95,23 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
   A.residual(b, x, q);
   return track.finish(ops::norm2(q));
+}
+
+void MergedCg::setup_impl(const LinearOperator& A) {
+  if (A.rows() % 3 != 0) throw InputError("MCG: the size is not divisible by 3 (3x3 blocks)");
+  M_.setup(A);
+  const Eigen::Index n = A.rows();
+  work_.r.resize(n), work_.z.resize(n), work_.p.resize(n), work_.q.resize(n);
+}
+
+SolveResult MergedCg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  const LinearOperator& A = spmv_ ? *spmv_ : system();
+  return mcg(A, M_, b, x, with_rhs_floor(params_, b), monitor, &work_);
+}
+
+void MergedCg::apply_impl(const Vector& b, Vector& x) const {
+  x.setZero();
+  solve_impl(b, x, nullptr);
 }
 
 }  // namespace pmg

@@ -5,7 +5,8 @@
 
 namespace pmg {
 
-void JacobiPreconditioner::update(const Vector& diagonal) {
+void JacobiPreconditioner::setup_impl(const LinearOperator& A) {
+  const Vector diagonal = diagonal_of(A, "Jacobi");
   inv_diag_.resize(diagonal.size());
   for (Eigen::Index i = 0; i < diagonal.size(); ++i) {
     const double d = diagonal[i];
@@ -22,19 +23,25 @@ void JacobiPreconditioner::apply_impl(const Vector& r, Vector& z) const {
   for (Eigen::Index i = 0; i < n; ++i) z[i] = inv_diag_[i] * r[i];
 }
 
-void BlockJacobiPreconditioner::update(const std::vector<double>& diagonal_blocks) {
+std::vector<double> invert_diagonal_blocks(const std::vector<double>& diagonal_blocks,
+                                           const std::string& who) {
   if (diagonal_blocks.size() % 9 != 0)
-    throw InputError("block Jacobi: diagonal block array is not a multiple of 9");
-  inv_blocks_.resize(diagonal_blocks.size());
+    throw InputError(who + ": diagonal block array is not a multiple of 9");
+  std::vector<double> inv(diagonal_blocks.size());
   const size_t nb = diagonal_blocks.size() / 9;
   for (size_t I = 0; I < nb; ++I) {
     const Eigen::Map<const Block3> D(diagonal_blocks.data() + 9 * I);
     Eigen::LLT<Eigen::Matrix3d> llt(D);
     if (!D.allFinite() || llt.info() != Eigen::Success)
-      throw InputError("block Jacobi: diagonal block " + std::to_string(I) +
+      throw InputError(who + ": diagonal block " + std::to_string(I) +
                        " is not symmetric positive definite");
-    Eigen::Map<Block3>(inv_blocks_.data() + 9 * I) = llt.solve(Eigen::Matrix3d::Identity());
+    Eigen::Map<Block3>(inv.data() + 9 * I) = llt.solve(Eigen::Matrix3d::Identity());
   }
+  return inv;
+}
+
+void BlockJacobiPreconditioner::setup_impl(const LinearOperator& A) {
+  inv_blocks_ = invert_diagonal_blocks(diagonal_blocks_of(A, "block Jacobi"), "block Jacobi");
 }
 
 void BlockJacobiPreconditioner::apply_impl(const Vector& r, Vector& z) const {

@@ -4,7 +4,7 @@
 #include "../sparse/fixture.hpp"
 #include "hierarchy.hpp"
 #include "pmg/gpu/detail/row_kernels.hpp"
-#include "pmg/multigrid/smoothers.hpp"
+#include "pmg/multigrid/chebyshev.hpp"
 
 #include <catch2/catch.hpp>
 

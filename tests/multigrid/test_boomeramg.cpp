@@ -1,6 +1,8 @@
 #include "pmg/fem/generators.hpp"
-#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/fem/hierarchy.hpp"
 #include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/factory.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -18,13 +20,23 @@ struct Bar {
     h.assemble(nullptr);
     b = h.finest().restrict_to_free(h.finest().gravity(Vec3(0, 0, -9.81)));
   }
+  /// A factory-built solver on the bar's levels, set up on the finest matrix.
+  std::unique_ptr<Solver> build(std::vector<std::string> options) const {
+    options.push_back("tol=1e-8");
+    options.push_back("max_iterations=200");
+    SolverContext ctx;
+    ctx.levels = &h;
+    auto s = make_solver(Config::from_pairs(options, "test"), ctx);
+    s->setup(h.matrix(1));
+    return s;
+  }
 };
 }  // namespace
 
 TEST_CASE("BoomerAMG-preconditioned CG solves the quadratic bar (also on 2 MPI ranks)", "[multigrid][boomeramg]") {
   Bar bar;
   const Bcsr& A = bar.h.matrix(1);
-  const mg::BoomerAMG amg(A.to_csr());
+  const mg::BoomerAMG amg(A, {});
   KrylovParams p;
   p.rel_tol = 1e-8;
   Vector x = Vector::Zero(bar.b.size());
@@ -41,46 +53,34 @@ TEST_CASE("BoomerAMG-preconditioned CG solves the quadratic bar (also on 2 MPI r
 
 TEST_CASE("BoomerAMG as PMG's lowest-level solver", "[multigrid][boomeramg]") {
   Bar bar;
-  const mg::BlockTransfer T(bar.h.prolongation(1));
-  std::vector<std::unique_ptr<mg::Smoother>> smoothers;
-  smoothers.push_back(std::make_unique<mg::BlockGaussSeidel>(bar.h.matrix(1)));
-  const mg::MultigridCycle cycle({&bar.h.matrix(0), &bar.h.matrix(1)}, {&T}, std::move(smoothers),
-                                 std::make_unique<mg::BoomerAMGCoarseSolver>(bar.h.matrix(0)));
   Vector x = Vector::Zero(bar.b.size());
-  KrylovParams p;
-  p.rel_tol = 1e-8;
-  p.max_iterations = 200;
   // One AMG cycle is an inexact lowest-level solve: the PMG cycle still converges, more slowly.
-  const SolveResult r = mg::mgpcg(bar.h.matrix(1), cycle, bar.b, x, p);
+  const SolveResult r = bar.build({"method=mgpcg", "lowest_level=boomeramg"})->solve(bar.b, x);
   CHECK(r.status == SolveStatus::converged);
 }
 
 TEST_CASE("BoomerAMG lowest levels: V-cycles keep the cycle symmetric for MGPCG, CG on top restores stationary PMG", "[multigrid][boomeramg]") {
   Bar bar;  // slender (10x2x2): its bending modes are what one AMG V-cycle contracts slowly
   const Bcsr& A = bar.h.matrix(1);
-  KrylovParams p;
-  p.rel_tol = 1e-8;
-  p.max_iterations = 200;
   Vector x_ref = Vector::Zero(bar.b.size());
-  const auto exact = make_pmg(bar.h);  // CHOLMOD on the linear level
-  const SolveResult ref = mg::multigrid_solve(A, *exact->cycle, bar.b, x_ref, p);
+  const SolveResult ref = bar.build({"method=pmg"})->solve(bar.b, x_ref);  // CHOLMOD on the linear level
   REQUIRE(ref.status == SolveStatus::converged);
 
   SECTION("fixed V-cycles: a symmetric cycle, MGPCG converges; more V-cycles, fewer iterations") {
     int previous = 1 << 30;
     for (int cycles : {1, 4}) {
-      PmgOptions o;
-      o.lowest_level = mg::LowestLevel::boomeramg;
-      o.boomeramg.cycles = cycles;
-      const auto pmg = make_pmg(bar.h, o);
+      const auto cycle = bar.build({"method=pmg", "lowest_level=boomeramg",
+                                    "lowest_level.cycles=" + std::to_string(cycles)});
       INFO(cycles << " AMG V-cycles per linear-level solve");
       const Vector u = Vector::Random(A.rows()), v = Vector::Random(A.rows());
       Vector Cu, Cv;
-      pmg->cycle->apply(u, Cu);
-      pmg->cycle->apply(v, Cv);
+      cycle->apply(u, Cu);
+      cycle->apply(v, Cv);
       CHECK(std::abs(Cu.dot(v) - u.dot(Cv)) <= 1e-10 * Cu.norm() * v.norm());
       Vector y = Vector::Zero(bar.b.size());
-      const SolveResult r = mg::mgpcg(A, *pmg->cycle, bar.b, y, p);
+      const SolveResult r = bar.build({"method=mgpcg", "cycles=1", "lowest_level=boomeramg",
+                                       "lowest_level.cycles=" + std::to_string(cycles)})
+                                ->solve(bar.b, y);
       CHECK(r.status == SolveStatus::converged);
       CHECK((y - x_ref).norm() <= 1e-6 * x_ref.norm());
       CHECK(r.iterations < previous);
@@ -88,33 +88,31 @@ TEST_CASE("BoomerAMG lowest levels: V-cycles keep the cycle symmetric for MGPCG,
     }
   }
   SECTION("CG to 1e-1 on the linear level: stationary PMG within two cycles of the exact lowest level") {
-    PmgOptions o;
-    o.lowest_level = mg::LowestLevel::boomeramg_pcg;
-    o.lowest_level_tol = 1e-1;
-    const auto pmg = make_pmg(bar.h, o);
+    const auto pmg = bar.build({"method=pmg", "lowest_level=boomeramg-pcg", "lowest_level.tol=0.1"});
     Vector x = Vector::Zero(bar.b.size());
-    const SolveResult r = mg::multigrid_solve(A, *pmg->cycle, bar.b, x, p);
+    const SolveResult r = pmg->solve(bar.b, x);
     INFO("PMG cycles: " << r.iterations << " (CHOLMOD lowest level: " << ref.iterations << ")");
     CHECK(r.status == SolveStatus::converged);
     CHECK(r.iterations <= ref.iterations + 2);
     CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
     // The inner CG makes the cycle depend on its input: MGPCG refuses it.
-    CHECK_FALSE(pmg->cycle->is_symmetric());
-    Vector y = Vector::Zero(bar.b.size());
-    CHECK_THROWS_AS(mg::mgpcg(A, *pmg->cycle, bar.b, y, p), InputError);
+    CHECK_FALSE(pmg->is_symmetric());
+    CHECK_THROWS_AS(bar.build({"method=mgpcg", "lowest_level=boomeramg-pcg"}), InputError);
     // update() (as after a time step's re-assembly) redoes the AMG set-up; on unchanged values
     // the refreshed cycle must behave exactly as the first one.
-    pmg->update(bar.h);
+    pmg->update();
     Vector x2 = Vector::Zero(bar.b.size());
-    CHECK(mg::multigrid_solve(A, *pmg->cycle, bar.b, x2, p).iterations == r.iterations);
+    CHECK(pmg->solve(bar.b, x2).iterations == r.iterations);
   }
-  SECTION("a tolerance outside [0, 1) is refused") {
-    CHECK_THROWS_AS(mg::BoomerAMGCoarseSolver(bar.h.matrix(0), {}, 1.5), InputError);
-    CHECK_THROWS_AS(mg::BoomerAMGCoarseSolver(bar.h.matrix(0), {}, std::nan("")), InputError);
+  SECTION("a tolerance outside [0, 1) is refused, naming the key") {
+    CHECK_THROWS_WITH(bar.build({"method=pmg", "lowest_level=boomeramg-pcg", "lowest_level.tol=1.5"}),
+                      Catch::Contains("lowest_level.tol"));
+    CHECK_THROWS_WITH(bar.build({"method=pmg", "lowest_level=boomeramg-pcg", "lowest_level.tol=nan"}),
+                      Catch::Contains("lowest_level.tol"));
   }
 }
 
 TEST_CASE("BoomerAMG refuses a matrix with NaN", "[multigrid][boomeramg][errors]") {
   Csr A = Csr::from_triplets(3, 3, {{0, 0, 1.0}, {1, 1, std::nan("")}, {2, 2, 1.0}});
-  CHECK_THROWS_WITH(mg::BoomerAMG(A), Catch::Contains("NaN"));
+  CHECK_THROWS_WITH(mg::BoomerAMG(A, {}), Catch::Contains("NaN"));
 }

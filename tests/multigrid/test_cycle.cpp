@@ -1,12 +1,17 @@
 #include "pmg/fem/generators.hpp"
-#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/cholmod_solver.hpp"
 
 #include <catch2/catch.hpp>
 
 #include <cstdio>
+#include <sstream>
 
 using namespace pmg;
 using namespace pmg::fem;
+using pmg::Config;
 
 namespace {
 bool clamped(const Vec3& X) { return X.x() < 1e-12; }
@@ -25,54 +30,66 @@ struct Cantilever {
   const Bcsr& A() const { return h.matrix(h.num_levels() - 1); }
   Vector direct() const {
     CholmodSolver c;
-    c.compute(A().to_csr());
+    c.setup(A());
     Vector x;
-    c.solve(b, x);
+    c.apply(b, x);
     return x;
   }
 };
 
-KrylovParams tolerance(double tol) {
-  KrylovParams p;
-  p.rel_tol = tol;
-  p.max_iterations = 200;
-  return p;
+/// A solver from the factory on the hierarchy, set up on its finest matrix.
+std::unique_ptr<Solver> build(const DegreeHierarchy& h, std::vector<std::string> options) {
+  options.push_back("max_iterations=200");
+  SolverContext ctx;
+  ctx.levels = &h;
+  auto s = make_solver(Config::from_pairs(options, "test"), ctx);
+  s->setup(h.matrix(h.num_levels() - 1));
+  return s;
+}
+std::string tol(double t) {
+  std::ostringstream s;
+  s << "tol=" << t;
+  return s.str();
 }
 }  // namespace
 
 TEST_CASE("PMG V-cycles solve the cubic cantilever; MGPCG needs fewer iterations", "[multigrid][cycle]") {
   Cantilever c(2, 3);
   const Vector x_ref = c.direct();
-  const auto pmg = make_pmg(c.h);
-  CHECK(pmg->cycle->num_levels() == 3);
-  CHECK(pmg->cycle->is_symmetric());
+  const auto pmg = build(c.h, {"method=pmg", tol(1e-10)});
+  const auto& cycle = dynamic_cast<const mg::MultigridCycle&>(*pmg);
+  CHECK(cycle.num_levels() == 3);
+  CHECK(cycle.is_symmetric());
   Vector x = Vector::Zero(c.b.size());
-  const SolveResult r = mg::multigrid_solve(c.A(), *pmg->cycle, c.b, x, tolerance(1e-10));
+  const SolveResult r = pmg->solve(c.b, x);
   CHECK(r.status == SolveStatus::converged);
   CHECK((x - x_ref).norm() <= 1e-8 * x_ref.norm());
   Vector y = Vector::Zero(c.b.size());
-  const SolveResult m = mg::mgpcg(c.A(), *pmg->cycle, c.b, y, tolerance(1e-10));
+  const SolveResult m = build(c.h, {"method=mgpcg", tol(1e-10)})->solve(c.b, y);
   CHECK(m.status == SolveStatus::converged);
   CHECK(m.iterations < r.iterations);
   CHECK((y - x_ref).norm() <= 1e-8 * x_ref.norm());
   std::printf("cubic cantilever 10x2x2, %ld dofs: PMG %d cycles, MGPCG %d iterations to 1e-10\n",
               static_cast<long>(c.b.size()), r.iterations, m.iterations);
   // Per-level timings were recorded.
-  CHECK(pmg->cycle->timings().cycles > 0);
-  CHECK(pmg->cycle->timings().smoothing[2] > 0.0);
+  CHECK(cycle.timings().cycles > 0);
+  CHECK(cycle.timings().smoothing[2] > 0.0);
 }
 
 TEST_CASE("W-cycles, Galerkin coarse operators and Chebyshev smoothing converge", "[multigrid][cycle]") {
   Cantilever c(1, 3);
   const Vector x_ref = c.direct();
-  PmgOptions w, gal, cheb;
-  w.cycle.gamma = 2;
-  gal.coarse_operator = CoarseOperator::galerkin;
-  cheb.chebyshev = true;
-  for (const PmgOptions& o : {w, gal, cheb}) {
-    const auto pmg = make_pmg(c.h, o);
+  for (const std::vector<std::string>& o : std::vector<std::vector<std::string>>{
+           {"cycle=W"}, {"coarse_operator=galerkin"}, {"smoother=chebyshev"},
+           {"smoother=damped-jacobi", "smoother.omega=0.3", "smoother.sweeps=10"},
+           {"smoother.method=richardson", "smoother.iterations=4", "smoother.omega=0.3"}}) {
+    INFO(o.front());
+    std::vector<std::string> options = o;
+    options.push_back("method=pmg");
+    options.push_back(tol(1e-9));
+    const auto pmg = build(c.h, options);
     Vector x = Vector::Zero(c.b.size());
-    const SolveResult r = mg::multigrid_solve(c.A(), *pmg->cycle, c.b, x, tolerance(1e-9));
+    const SolveResult r = pmg->solve(c.b, x);
     CHECK(r.status == SolveStatus::converged);
     CHECK((x - x_ref).norm() <= 1e-7 * x_ref.norm());
   }
@@ -81,33 +98,31 @@ TEST_CASE("W-cycles, Galerkin coarse operators and Chebyshev smoothing converge"
 TEST_CASE("the seed's interpolating restriction converges more slowly than Pᵀ; Galerkin recovers part",
           "[multigrid][cycle]") {
   Cantilever c(1, 3);
-  PmgOptions transpose, interp, interp_galerkin;
-  interp.interpolating_restriction = true;
-  interp_galerkin.interpolating_restriction = true;
-  interp_galerkin.coarse_operator = CoarseOperator::galerkin;
+  const std::vector<std::vector<std::string>> variants = {
+      {"restriction=transpose"},
+      {"restriction=interpolating"},
+      {"restriction=interpolating", "coarse_operator=galerkin"}};
   int cycles[3];
   int k = 0;
-  for (const PmgOptions& o : {transpose, interp, interp_galerkin}) {
-    const auto pmg = make_pmg(c.h, o);
+  for (auto o : variants) {
+    o.push_back("method=pmg");
+    o.push_back(tol(1e-3));
     Vector x = Vector::Zero(c.b.size());
-    cycles[k++] = mg::multigrid_solve(c.A(), *pmg->cycle, c.b, x, tolerance(1e-3)).iterations;
+    cycles[k++] = build(c.h, o)->solve(c.b, x).iterations;
   }
   std::printf("cycles to 1e-3: R = P^T %d, interpolating R %d, interpolating R + Galerkin %d\n",
               cycles[0], cycles[1], cycles[2]);
   CHECK(cycles[0] < cycles[2]);
   CHECK(cycles[2] < cycles[1]);
-  const auto asymmetric = make_pmg(c.h, interp);
-  Vector x;
-  CHECK_THROWS_WITH(mg::mgpcg(c.A(), *asymmetric->cycle, c.b, x), Catch::Contains("symmetric"));
+  CHECK_THROWS_WITH(build(c.h, {"method=mgpcg", "restriction=interpolating"}), Catch::Contains("symmetric"));
 }
 
 TEST_CASE("cycles to 1e-6 do not grow with the mesh", "[multigrid][cycle]") {
   std::vector<int> cycles;
   for (index_t k : {2, 3, 4}) {
     Cantilever c(k, 2);
-    const auto pmg = make_pmg(c.h);
     Vector x = Vector::Zero(c.b.size());
-    cycles.push_back(mg::multigrid_solve(c.A(), *pmg->cycle, c.b, x, tolerance(1e-6)).iterations);
+    cycles.push_back(build(c.h, {"method=pmg", tol(1e-6)})->solve(c.b, x).iterations);
   }
   std::printf("quadratic cantilever 10x2x2 / 15x3x3 / 20x4x4: %d / %d / %d V-cycles to 1e-6\n",
               cycles[0], cycles[1], cycles[2]);
@@ -118,16 +133,18 @@ TEST_CASE("cycles to 1e-6 do not grow with the mesh", "[multigrid][cycle]") {
 
 TEST_CASE("an unstable smoother makes the cycle diverge, and that is reported", "[multigrid][cycle][errors]") {
   Cantilever c(1, 2);
-  std::vector<std::unique_ptr<mg::Smoother>> smoothers;
+  // Built by hand (the library API without the factory): ω ρ(D⁻¹A) > 2.
   mg::JacobiParams bad;
-  bad.omega = 3.0;  // ω ρ(D⁻¹A) > 2
-  smoothers.push_back(std::make_unique<mg::BlockJacobi>(c.h.matrix(1), bad));
-  const mg::BlockTransfer T(c.h.prolongation(1));
-  const mg::MultigridCycle cycle({&c.h.matrix(0), &c.h.matrix(1)}, {&T}, std::move(smoothers),
-                                 std::make_unique<mg::CholmodCoarseSolver>(c.h.matrix(0)));
+  bad.omega = 3.0;
+  mg::MultigridParams params;
+  params.iteration.rel_tol = 1e-8;
+  mg::MultigridCycle cycle(
+      c.h, params, [&](int) { return std::make_unique<mg::BlockJacobi>(bad); },
+      std::make_unique<CholmodSolver>());
+  cycle.setup(c.A());
   Vector x = Vector::Zero(c.b.size());
   try {
-    mg::multigrid_solve(c.A(), cycle, c.b, x, tolerance(1e-8));
+    cycle.solve(c.b, x);
     FAIL("no error");
   } catch (const SolveError& e) {
     CHECK(e.result.status == SolveStatus::diverged);
@@ -138,7 +155,7 @@ TEST_CASE("a hierarchy with nothing fixed is singular and says so", "[multigrid]
   const TetMesh m = box_mesh_24(1, 1, 1, 1.0, 1.0, 1.0);
   DegreeHierarchy h(m, 2, Material{}, [](const Vec3&) { return false; });
   h.assemble(nullptr);
-  CHECK_THROWS_WITH(make_pmg(h), Catch::Contains("not positive definite"));
+  CHECK_THROWS_WITH(build(h, {"method=pmg"}), Catch::Contains("not positive definite"));
 }
 
 TEST_CASE("CG whose residual stays above its start for long is not declared stagnant",
@@ -157,4 +174,59 @@ TEST_CASE("CG whose residual stays above its start for long is not declared stag
   INFO("iterations with the residual above its start: " << above);
   CHECK(above > 50);  // the old residual-window test would have stopped here
   CHECK(r.status == SolveStatus::converged);
+}
+
+TEST_CASE("the factory names unknown keys, bad values and unknown methods", "[multigrid][factory][errors]") {
+  Cantilever c(1, 2);
+  SolverContext ctx;
+  ctx.levels = &c.h;
+  auto make = [&](std::vector<std::string> o) { return make_solver(Config::from_pairs(o, "test"), ctx); };
+  CHECK_THROWS_WITH(make({"method=pmg", "smoother.sweep=3"}), Catch::Contains("smoother.sweep"));
+  CHECK_THROWS_WITH(make({"method=pmg", "smoother=chebyshev", "smoother.sweeps=3"}),
+                    Catch::Contains("smoother.sweeps"));
+  CHECK_THROWS_WITH(make({"method=pmg", "cycle=X"}), Catch::Contains("cycle: 'X' is not one of V, W"));
+  CHECK_THROWS_WITH(make({"method=cg", "tol=abc"}), Catch::Contains("tol: expected a finite number"));
+  CHECK_THROWS_WITH(make({"method=cg", "tol=2"}), Catch::Contains("tol: must lie in"));
+  CHECK_THROWS_WITH(make({"method=nope"}), Catch::Contains("unknown method 'nope'"));
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=pmg"}, "test")), Catch::Contains("levels"));
+  CHECK_THROWS_WITH(make({"method=mgpcg", "lowest_level=boomeramg-pcg"}), Catch::Contains("symmetric"));
+  CHECK_THROWS_WITH(Config::from_json("{\"tol\": 1, \"tol\": 2}", "j"), Catch::Contains("appears twice"));
+  CHECK_THROWS_WITH(Config::from_pairs({"tol"}, "p"), Catch::Contains("key=value"));
+  // JSON and key=value are the same tree; a string value of an object key is its method.
+  const Config j = Config::from_json(R"({"method": "mgpcg", "smoother": "chebyshev", "lowest_level": {"method": "cholmod"}})", "j");
+  CHECK(j.to_string() == "lowest_level.method=cholmod method=mgpcg smoother=chebyshev");
+  CHECK(make_solver(j, ctx)->name() == "cg(multigrid (V-cycle))");
+}
+
+TEST_CASE("any solver composes: CG as the lowest level, a cycle inside Richardson, CG preconditioned by "
+          "Chebyshev", "[multigrid][factory]") {
+  Cantilever c(1, 3);
+  const Vector x_ref = c.direct();
+  for (const auto& o : std::vector<std::vector<std::string>>{
+           {"method=pmg", "lowest_level=cg", "lowest_level.preconditioner=block-jacobi", tol(1e-9)},
+           {"method=mgpcg", "lowest_level=boomeramg", "smoother=chebyshev", "smoother.degree=3", tol(1e-9)},
+           {"method=cg", "preconditioner=chebyshev", tol(1e-9)},
+           {"method=cg", "preconditioner=gauss-seidel", "preconditioner.sweeps=2", tol(1e-9)}}) {
+    std::string all;
+    for (const auto& s : o) all += s + " ";
+    INFO(all);
+    Vector x = Vector::Zero(c.b.size());
+    const SolveResult r = build(c.h, o)->solve(c.b, x);
+    CHECK(r.status == SolveStatus::converged);
+    CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
+  }
+}
+
+TEST_CASE("update() on new values refreshes the cycle without rebuilding it", "[multigrid][cycle]") {
+  // The same matrix scaled by 2: the solution halves; the solver object, colouring and symbolic
+  // factorisation are kept.
+  Cantilever c(1, 3);
+  const Vector x_ref = c.direct();
+  const auto s = build(c.h, {"method=mgpcg", tol(1e-10), "coarse_operator=galerkin"});
+  for (int l = 0; l < c.h.num_levels(); ++l)
+    for (double& v : c.h.matrix(l).values()) v *= 2.0;
+  s->update();
+  Vector x = Vector::Zero(c.b.size());
+  CHECK(s->solve(c.b, x).status == SolveStatus::converged);
+  CHECK((2.0 * x - x_ref).norm() <= 1e-8 * x_ref.norm());
 }

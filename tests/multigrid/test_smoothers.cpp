@@ -1,4 +1,4 @@
-#include "pmg/multigrid/smoothers.hpp"
+#include "pmg/multigrid/chebyshev.hpp"
 #include "pmg/sparse/generators.hpp"
 
 #include <catch2/catch.hpp>

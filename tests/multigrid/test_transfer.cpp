@@ -1,5 +1,6 @@
 #include "pmg/fem/generators.hpp"
-#include "pmg/fem/pmg_cycle.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/multigrid/transfer.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -1,7 +1,8 @@
 // pmg/fem/hierarchy.hpp — the degree hierarchy of p-multigrid on one mesh: models of degree
 // p, p-1, ..., 1 with the same material and Dirichlet set, their matrices (re-discretised with the
 // same rotations: the "geometric" coarse operators), and the transfers between them over the free
-// nodes. pmg::multigrid consumes the matrices and transfers; fem knows nothing of cycles.
+// nodes. It is a mg::LevelProvider: pmg::multigrid builds its cycles from it (through the solver
+// factory, pmg/multigrid/factory.hpp) exactly as from a user's own levels.
 //
 // Prolongation by degree elevation (exact: the BB spaces are nested):
 //   b^p_α = Σ_{k: α_k>0} (α_k/p) b^{p-1}_{α-e_k}
@@ -11,6 +12,7 @@
 #pragma once
 
 #include "pmg/fem/elasticity.hpp"
+#include "pmg/multigrid/levels.hpp"
 
 #include <functional>
 #include <memory>
@@ -25,7 +27,7 @@ Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
 Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& fine_free,
                               const BBSpace& coarse, const std::vector<index_t>& coarse_free);
 
-class DegreeHierarchy {
+class DegreeHierarchy final : public mg::LevelProvider {
  public:
   /// Levels l = 0..degree-1 hold degree l+1; `fixed` selects the clamped mesh vertices by rest
   /// position, and every level fixes the BB nodes whose support has only clamped vertices
@@ -33,7 +35,8 @@ class DegreeHierarchy {
   DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
                   const std::function<bool(const Vec3&)>& fixed);
 
-  int num_levels() const { return static_cast<int>(models_.size()); }
+  int num_levels() const override { return static_cast<int>(models_.size()); }
+  std::string level_name(int level) const override { return "degree " + std::to_string(level + 1); }
   const ElasticityModel& model(int level) const { return *models_[level]; }
   const ElasticityModel& finest() const { return *models_.back(); }
   const std::vector<char>& clamped_vertices() const { return clamped_; }
@@ -44,10 +47,10 @@ class DegreeHierarchy {
   /// Consistent mass matrix of a level over its free nodes (assembled on first use, then kept).
   const Bcsr& mass(int level);
   Bcsr& matrix(int level) { return matrices_[level]; }
-  const Bcsr& matrix(int level) const { return matrices_[level]; }
+  const Bcsr& matrix(int level) const override { return matrices_[level]; }
   /// Prolongation from level-1 to level (level >= 1).
-  const Csr& prolongation(int level) const { return prolongations_[level - 1]; }
-  Csr interpolating_restriction(int level) const;
+  const Csr& prolongation(int level) const override { return prolongations_[level - 1]; }
+  Csr interpolating_restriction(int level) const override;
 
   /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
   /// level, and on the finest level also the right-hand side correction (see

@@ -8,12 +8,16 @@
 //
 // A step only pays for what the scene uses: linear material computes no rotations and assembles
 // the matrices once; a solver that needs no lower levels (CG, CHOLMOD) never assembles them.
+//
+// The step system is solved by any Solver (pmg/sparse/solver.hpp; build one with
+// pmg::make_solver, giving the hierarchy as its levels): set up on the first step, update()d when
+// the matrices change. The solve is warm-started from the last velocity; give the solver a
+// rounding floor (rhs_floor, e.g. 1e-12) so that a step whose warm start is already within
+// rounding of the solution ends at once.
 #pragma once
 
 #include "pmg/fem/hierarchy.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
-#include "pmg/sparse/krylov.hpp"
-#include "pmg/sparse/preconditioners.hpp"
+#include "pmg/sparse/solver.hpp"
 
 #include <algorithm>
 #include <array>
@@ -21,54 +25,6 @@
 #include <string>
 
 namespace pmg::fem {
-
-/// Solves the step system A v = b on the finest level (A = the hierarchy's finest matrix).
-class StepSolver {
- public:
-  virtual ~StepSolver() = default;
-  virtual std::string name() const = 0;
-  /// Whether the hierarchy's lower levels must be assembled (multigrid).
-  virtual bool needs_lower_levels() const { return false; }
-  /// The matrices' values changed (patterns never do): refresh factorisations and smoothers.
-  virtual void update(DegreeHierarchy& h) = 0;
-  /// x holds the initial guess (the last velocity: a warm start) and receives the solution.
-  /// Throws SolveError when the solve fails (divergence, breakdown, iteration limit).
-  virtual SolveResult solve(const Bcsr& A, const Vector& b, Vector& x) = 0;
-};
-
-/// The step solvers' stopping rule: relative to the warm start's residual, with a floor at
-/// 1e-12 ||b|| (a warm start can be so good that tol ||r_0|| lies below rounding).
-inline KrylovParams with_rounding_floor(KrylovParams p, const Vector& b) {
-  p.abs_tol = std::max(p.abs_tol, 1e-12 * b.norm());
-  return p;
-}
-
-/// CG (fixed_iterations: the seed's "20 CG iterations" per step), block-Jacobi PCG or merged CG.
-class KrylovStepSolver final : public StepSolver {
- public:
-  enum class Kind { cg, block_jacobi_pcg, mcg };
-  KrylovStepSolver(Kind kind, const KrylovParams& params) : kind_(kind), params_(params) {}
-  std::string name() const override;
-  void update(DegreeHierarchy& h) override;
-  SolveResult solve(const Bcsr& A, const Vector& b, Vector& x) override;
-
- private:
-  Kind kind_;
-  KrylovParams params_;
-  std::unique_ptr<BlockJacobiPreconditioner> jacobi_;
-};
-
-/// Sparse Cholesky: symbolic analysis once, numeric factorisation on each update.
-class CholmodStepSolver final : public StepSolver {
- public:
-  std::string name() const override { return "cholmod"; }
-  void update(DegreeHierarchy& h) override;
-  SolveResult solve(const Bcsr& A, const Vector& b, Vector& x) override;
-
- private:
-  CholmodSolver chol_;
-  bool analyzed_ = false;
-};
 
 struct SimulationParams {
   double dt = 0.01;
@@ -93,7 +49,9 @@ struct StepStats {
 class ImplicitEuler {
  public:
   /// f_ext: full external force vector (constant in time). The hierarchy is assembled here.
-  ImplicitEuler(DegreeHierarchy& h, StepSolver& solver, const Vector& f_ext, const SimulationParams& p);
+  /// The solver is set up on the finest matrix at the first step (its levels, if it uses any,
+  /// must be h).
+  ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext, const SimulationParams& p);
 
   /// Full displacement (3 per node) and velocity; fixed nodes must be zero in both.
   void set_state(const Vector& u, const Vector& v);
@@ -115,7 +73,7 @@ class ImplicitEuler {
   void assemble_level(int level, const Rotations* R);
 
   DegreeHierarchy& h_;
-  StepSolver& solver_;
+  Solver& solver_;
   Vector f_ext_;
   SimulationParams p_;
   Vector u_, v_, v_free_;

@@ -10,7 +10,9 @@
 #pragma once
 
 #include "pmg/gpu/matrices.hpp"
+#include "pmg/multigrid/chebyshev.hpp"
 #include "pmg/multigrid/cycle.hpp"
+#include "pmg/sparse/cholmod_solver.hpp"
 #include "pmg/sparse/krylov.hpp"
 
 #include <memory>
@@ -109,7 +111,7 @@ class VCycle {
   mg::ChebyshevParams chebyshev_;
   /// levels_[0] holds only the lowest level's b and x on the device (its matrix is the host's)
   std::vector<std::unique_ptr<Level>> levels_;
-  std::unique_ptr<mg::CholmodCoarseSolver> coarse_;
+  std::unique_ptr<CholmodSolver> coarse_;
   mutable Vector coarse_b_, coarse_x_;
 };
 

@@ -1,5 +1,5 @@
-// pmg/multigrid/boomeramg.hpp — hypre's BoomerAMG, the algebraic-multigrid baseline, as a
-// Preconditioner (one V-cycle per apply, for PCG) and as a lowest-level solver for PMG.
+// pmg/multigrid/boomeramg.hpp — hypre's BoomerAMG, the algebraic-multigrid baseline, as a Solver
+// (V-cycles per apply, for PCG, or as the lowest-level solver of PMG). The one hypre adapter.
 //
 // Settings for 3-D elasticity (3 unknowns per node, interleaved), as a careful user would choose:
 //   systems AMG with 3 functions and nodal coarsening on the row-sum norm of the 3x3 blocks
@@ -14,7 +14,8 @@
 // block of rows, every rank holds the whole matrix and vectors, and results are gathered).
 #pragma once
 
-#include "pmg/multigrid/cycle.hpp"
+#include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/solver.hpp"
 
 #include <memory>
 
@@ -31,63 +32,30 @@ struct BoomerAMGParams {
   int cycles = 1;  ///< V-cycles per apply
 };
 
-class BoomerAMG final : public Preconditioner {
+class BoomerAMG final : public Solver {
  public:
-  explicit BoomerAMG(const Csr& A, const BoomerAMGParams& params = {});
+  explicit BoomerAMG(const BoomerAMGParams& params = {});
+  /// Sets up on A at once (CSR or BCSR).
+  BoomerAMG(const LinearOperator& A, const BoomerAMGParams& params) : BoomerAMG(params) { setup(A); }
   ~BoomerAMG() override;
   BoomerAMG(const BoomerAMG&) = delete;
   BoomerAMG& operator=(const BoomerAMG&) = delete;
 
-  /// New values (or a new matrix): BoomerAMG's set-up depends on the values, so it is redone.
-  void setup(const Csr& A);
-
-  index_t rows() const override { return n_; }
-  index_t cols() const override { return n_; }
   std::string name() const override { return "boomeramg"; }
+  const BoomerAMGParams& params() const { return params_; }
 
  private:
+  /// A: Csr, or Bcsr (its scalar copy's pattern is built once; update() copies values only).
+  void setup_impl(const LinearOperator& A) override;
+  /// BoomerAMG's set-up depends on the values (coarsening, interpolation), so it is redone.
+  void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
+  void build(const Csr& A);
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  index_t n_ = 0;
+  BoomerAMGParams params_;
+  ScalarMatrix scalar_;
 };
-
-/// BoomerAMG as PMG's lowest-level solver (the seed's "future work" for large meshes), in one of
-/// two modes:
-///   rel_tol == 0: params.cycles V-cycles from a zero guess: a fixed symmetric linear operator,
-///                 so the PMG cycle stays symmetric and can precondition CG (MGPCG);
-///   rel_tol  > 0: CG preconditioned by those V-cycles, to ||r|| <= rel_tol ||b||: a sharper but
-///                 iteration-dependent (nonlinear) solve, for stationary PMG only. One AMG V-cycle
-///                 contracts the long bending modes of a slender body slowly, and stationary PMG
-///                 inherits that rate; CG on top removes it.
-class BoomerAMGCoarseSolver final : public CoarseSolver {
- public:
-  explicit BoomerAMGCoarseSolver(const Bcsr& A, const BoomerAMGParams& params = {},
-                                 double rel_tol = 0.0);
-  index_t rows() const override { return A_.rows(); }
-  index_t cols() const override { return A_.cols(); }
-  void update() override { amg_.setup(A_.to_csr()); }
-  bool is_linear() const override { return rel_tol_ == 0.0; }
-
- private:
-  void apply_impl(const Vector& b, Vector& x) const override;
-  const Bcsr& A_;
-  BoomerAMG amg_;
-  double rel_tol_;
-};
-
-/// What solves a cycle's lowest level.
-enum class LowestLevel {
-  cholmod,        ///< sparse Cholesky, refactorised on update(): exact; cost grows like n^1.5 in 3-D
-  boomeramg,      ///< BoomerAMG V-cycle(s) (params.cycles): inexact, symmetric (MGPCG can use it)
-  boomeramg_pcg,  ///< CG preconditioned by BoomerAMG to a relative tolerance (stationary PMG only)
-};
-
-/// The lowest-level solver for A (kept by reference: A must outlive it). rel_tol: boomeramg_pcg's
-/// tolerance (> 0), ignored otherwise.
-std::unique_ptr<CoarseSolver> make_lowest_level(const Bcsr& A, LowestLevel kind,
-                                                const BoomerAMGParams& params = {},
-                                                double rel_tol = 0.1);
 
 /// Rank and number of ranks of MPI_COMM_WORLD (initialising MPI if needed).
 int mpi_rank();

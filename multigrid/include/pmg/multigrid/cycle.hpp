@@ -1,109 +1,116 @@
-// pmg/multigrid/cycle.hpp — multigrid cycles over any number of levels, PMG and MGPCG.
+// pmg/multigrid/cycle.hpp — multigrid cycles over any number of levels: PMG, and MGPCG's
+// preconditioner.
 //
-// Levels are numbered from the coarsest (0) to the finest (L-1). Level l >= 1 has a matrix A_l, a
-// smoother, and a transfer from level l-1; level 0 has a matrix and a lowest-level solver (CHOLMOD
-// by default). One cycle, applied to r with x = 0, approximates A_{L-1}^{-1} r:
+// Levels are numbered from the coarsest (0) to the finest (L-1) and come from a LevelProvider
+// (pmg/multigrid/levels.hpp). Level l >= 1 has a matrix A_l, a smoother and a transfer from level
+// l-1; level 0 has a matrix and a lowest-level solver (any Solver: CHOLMOD by default, BoomerAMG,
+// a CG). One cycle improves x for A_{L-1} x = b:
 //
-//   cycle(l, b, x):  l == 0: x = A_0^{-1} b
+//   cycle(l, b, x):  l == 0: x = S_0 b                      (the lowest-level solver)
 //                    else:   pre-smooth; r_c = R (b - A_l x); x_c = 0; cycle(l-1, r_c, x_c) γ times
 //                            (γ = 1: V, γ = 2: W); x += P x_c; post-smooth
 //
-// With R = Pᵀ and adjoint pre/post smoothing the cycle is a symmetric operator, so it can
-// precondition CG (MGPCG). The cycle keeps references to the matrices: after their values change
-// (new rotations), call update() to refresh the smoothers and refactorise the lowest level.
+// With R = Pᵀ, adjoint pre/post smoothing and a symmetric linear lowest-level solver the cycle is
+// a symmetric operator, so it can precondition CG: MGPCG is Cg with a MultigridCycle as its
+// preconditioner (the factory's "mgpcg"). As a Solver:
+//   setup(A)   A is the finest level's operator (its size is checked against the provider's);
+//              builds the transfers, the Galerkin products (if asked for), sets up each level's
+//              smoother and the lowest-level solver, and allocates every work vector;
+//   update()   the provider's matrices have new values: Galerkin products, smoothers and the
+//              lowest-level solver refresh their numbers (patterns and colourings are kept);
+//   apply      `cycles` cycles from x = 0 (the preconditioner);
+//   solve      stationary multigrid x <- x + C (b - A x), one cycle per iteration, with the Krylov
+//              solvers' stopping rules (relative residual, divergence, NaN, stagnation).
 #pragma once
 
+#include "pmg/multigrid/levels.hpp"
 #include "pmg/multigrid/smoothers.hpp"
 #include "pmg/multigrid/transfer.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
 #include "pmg/sparse/krylov.hpp"
 
+#include <functional>
 #include <memory>
 #include <vector>
 
 namespace pmg::mg {
 
-/// The lowest-level solver of a cycle.
-class CoarseSolver : public LinearOperator {
- public:
-  /// The matrix values changed (same pattern).
-  virtual void update() = 0;
-  /// False when the solve depends on its input beyond linearly (an inner Krylov solve to a
-  /// tolerance): the cycle is then no fixed symmetric operator and cannot precondition CG.
-  virtual bool is_linear() const { return true; }
+enum class CoarseOperator {
+  geometric,  ///< the provider's own level matrices (re-discretised, same rotations on every level)
+  galerkin,   ///< R A P from the finest matrix down (two sparse products per level)
 };
 
-/// Sparse Cholesky of the lowest level: symbolic analysis once, numeric factorisation per update().
-class CholmodCoarseSolver final : public CoarseSolver {
- public:
-  explicit CholmodCoarseSolver(const Bcsr& A);
-  index_t rows() const override { return A_.rows(); }
-  index_t cols() const override { return A_.cols(); }
-  void update() override;
-
- private:
-  void apply_impl(const Vector& b, Vector& x) const override { chol_.solve(b, x); }
-  const Bcsr& A_;
-  CholmodSolver chol_;
-};
-
-struct CycleParams {
-  int gamma = 1;  ///< 1: V-cycle, 2: W-cycle
+struct MultigridParams {
+  int gamma = 1;   ///< 1: V-cycle, 2: W-cycle
+  int cycles = 1;  ///< cycles per apply() (as a preconditioner; the seed's MGPCG uses 2)
+  CoarseOperator coarse_operator = CoarseOperator::geometric;
+  /// The provider's interpolating restriction instead of Pᵀ (the cycle is then not symmetric).
+  bool interpolating_restriction = false;
+  /// solve(): the stationary iteration's stopping rule.
+  KrylovParams iteration;
 };
 
 /// Time spent in each part of the cycles applied so far (seconds), for cost breakdowns.
 struct CycleTimings {
   std::vector<double> smoothing;  ///< per level
-  double transfer = 0.0, residual = 0.0, coarse = 0.0;
+  double transfer = 0.0, residual = 0.0, lowest_level = 0.0;
   long cycles = 0;
 };
 
-class MultigridCycle final : public Preconditioner {
+/// Builds the smoother of level l (1 <= l <= L-1); called at construction.
+using SmootherFactory = std::function<std::unique_ptr<Smoother>(int level)>;
+
+class MultigridCycle final : public Solver {
  public:
-  /// matrices[l], l = 0..L-1 (coarsest first); transfers[l-1] maps level l-1 to level l;
-  /// smoothers[l-1] belongs to level l.
-  MultigridCycle(std::vector<const Bcsr*> matrices, std::vector<const BlockTransfer*> transfers,
-                 std::vector<std::unique_ptr<Smoother>> smoothers,
-                 std::unique_ptr<CoarseSolver> coarse, const CycleParams& params = {});
+  /// The provider must outlive the cycle; its matrices stay where they are.
+  MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
+                 const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level);
 
-  index_t rows() const override { return matrices_.back()->rows(); }
-  index_t cols() const override { return rows(); }
-  std::string name() const override { return params_.gamma == 1 ? "V-cycle" : "W-cycle"; }
-  int num_levels() const { return static_cast<int>(matrices_.size()); }
-  /// True when R = Pᵀ on every level (the smoothers used here are adjoint pairs) and the
-  /// lowest-level solver is a linear operator.
-  bool is_symmetric() const;
+  std::string name() const override;
+  bool is_linear() const override;
+  /// R = Pᵀ on every level, the smoothers adjoint pairs (every Smoother here is) and the
+  /// lowest-level solver linear and symmetric.
+  bool is_symmetric() const override;
+  bool uses_levels() const override { return true; }
 
-  /// Refresh smoothers and the lowest-level factorisation after the matrices' values changed.
-  void update();
+  int num_levels() const { return levels_.num_levels(); }
+  const LevelProvider& levels() const { return levels_; }
+  const MultigridParams& params() const { return params_; }
+  MultigridParams& params() { return params_; }
+  /// The matrix a level's smoother and residual use (a Galerkin product below the finest level
+  /// when asked for).
+  const Bcsr& level_matrix(int level) const;
+  const BlockTransfer& transfer(int level) const { return transfers_.at(level - 1); }
+  const Smoother& smoother(int level) const { return *smoothers_.at(level - 1); }
+  const Solver& lowest_level() const { return *lowest_; }
+
   /// One cycle improving x for A x = b in place (x is the initial guess).
   void cycle(const Vector& b, Vector& x) const { cycle(num_levels() - 1, b, x); }
 
   const CycleTimings& timings() const { return timings_; }
   void reset_timings() const;
+  /// Galerkin coarse operators only: recomputes the products R A P from the finest level down into
+  /// their kept patterns (update() does this, then refreshes smoothers and the lowest level).
+  void refresh_galerkin();
 
  private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
   void cycle(int level, const Vector& b, Vector& x) const;
 
-  std::vector<const Bcsr*> matrices_;
-  std::vector<const BlockTransfer*> transfers_;
-  std::vector<std::unique_ptr<Smoother>> smoothers_;
-  std::unique_ptr<CoarseSolver> coarse_;
-  CycleParams params_;
+  const LevelProvider& levels_;
+  MultigridParams params_;
+  std::vector<std::unique_ptr<Smoother>> smoothers_;  ///< [l-1]: level l
+  std::unique_ptr<Solver> lowest_;
+  std::vector<BlockTransfer> transfers_;              ///< [l-1]: level l-1 -> l
+  std::vector<Bcsr> galerkin_;                        ///< [l]: level l < L-1 (Galerkin only)
+  struct Work {
+    Vector r, rc, xc;  ///< level l's residual, and the coarse right-hand side and correction
+  };
+  mutable std::vector<Work> work_;  ///< [l]: level l >= 1
+  mutable Vector solve_r_;
   mutable CycleTimings timings_;
 };
-
-/// PMG as a solver: x <- x + C (b - A x), one cycle per iteration, with the Krylov solvers'
-/// stopping rules (relative residual, divergence, NaN, stagnation) and monitor.
-SolveResult multigrid_solve(const LinearOperator& A, const MultigridCycle& C, const Vector& b,
-                            Vector& x, const KrylovParams& params = {},
-                            SolveMonitor* monitor = nullptr);
-
-/// MGPCG: CG preconditioned by `cycles_per_apply` cycles (the seed uses two). Needs a symmetric
-/// cycle; throws InputError otherwise.
-SolveResult mgpcg(const LinearOperator& A, const MultigridCycle& C, const Vector& b, Vector& x,
-                  const KrylovParams& params = {}, SolveMonitor* monitor = nullptr,
-                  int cycles_per_apply = 2);
 
 }  // namespace pmg::mg

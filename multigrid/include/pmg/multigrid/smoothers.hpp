@@ -1,24 +1,36 @@
 // pmg/multigrid/smoothers.hpp — smoothers on 3x3-block matrices.
 //
-// A smoother improves x for A x = b in place. pre_smooth() and post_smooth() are adjoint to each
-// other (forward then backward Gauss–Seidel), so a V-cycle that uses them is symmetric. set-up is
-// split: the ordering (colouring) depends on the pattern and is built once; update() takes new
-// values on the same pattern (inverted diagonal blocks).
+// A smoother is a Solver (pmg/sparse/solver.hpp) with two extra variants: pre_smooth() and
+// post_smooth() improve x for A x = b in place, and are adjoint to each other (forward then
+// backward Gauss–Seidel), so a V-cycle that uses them is symmetric. Set-up is split as for every
+// Solver: setup(A) builds what depends on the pattern (colouring, the colour-ordered copy) once;
+// update() takes new values on the same pattern (inverted diagonal blocks). apply(b, x) is one pre-
+// and one post-smoothing from x = 0 (symmetric), so a smoother can also precondition CG.
+//
+// Any other Solver can smooth a cycle's level too: the cycle then uses it as a correction
+// x += M (b - A x) (see Richardson below).
 #pragma once
 
 #include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/solver.hpp"
 
+#include <memory>
 #include <vector>
 
 namespace pmg::mg {
 
-class Smoother {
+class Smoother : public Solver {
  public:
-  virtual ~Smoother() = default;
   virtual void pre_smooth(const Vector& b, Vector& x) const = 0;
   virtual void post_smooth(const Vector& b, Vector& x) const = 0;
-  /// New values of the matrix the smoother was built for (same pattern, same object).
-  virtual void update() = 0;
+
+ protected:
+  /// x = post(pre(0)): the symmetric smoothing step as a preconditioner.
+  void apply_impl(const Vector& b, Vector& x) const override {
+    x.setZero(b.size());
+    pre_smooth(b, x);
+    post_smooth(b, x);
+  }
 };
 
 enum class Ordering {
@@ -36,22 +48,25 @@ struct GaussSeidelParams {
 };
 
 /// 3x3-block Gauss–Seidel: x_I <- D_I⁻¹ (b_I - Σ_{J≠I} A_IJ x_J). pre: forward sweeps; post:
-/// backward sweeps (colours in reverse order). Keeps a reference to A. Multicolour: the block rows
-/// are copied in colour order (pattern once, values on update()), so that a colour streams a
+/// backward sweeps (colours in reverse order). Needs a Bcsr. Multicolour: the block rows are
+/// copied in colour order (pattern once, values on update()), so that a colour streams a
 /// contiguous part of the matrix instead of rows scattered over all of it.
 class BlockGaussSeidel final : public Smoother {
  public:
-  BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params = {});
+  explicit BlockGaussSeidel(const GaussSeidelParams& params = {});
+  BlockGaussSeidel(const Bcsr& A, const GaussSeidelParams& params = {}) : BlockGaussSeidel(params) { setup(A); }
+  std::string name() const override { return params_.pointwise ? "point-gauss-seidel" : "gauss-seidel"; }
   void pre_smooth(const Vector& b, Vector& x) const override;
   void post_smooth(const Vector& b, Vector& x) const override;
-  void update() override;
   /// Block rows grouped by colour (one group holding every row in natural order).
   const std::vector<std::vector<index_t>>& colors() const { return colors_; }
   /// One sweep, forward or backward.
   void sweep(const Vector& b, Vector& x, bool forward) const;
 
  private:
-  const Bcsr& A_;
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
+  const Bcsr* A_ = nullptr;
   GaussSeidelParams params_;
   std::vector<std::vector<index_t>> colors_;
   std::vector<double> inv_diag_;
@@ -68,51 +83,54 @@ struct JacobiParams {
   double omega = 0.6;  ///< damping; block Jacobi diverges for ω too large (ω ρ(D⁻¹A) ≥ 2)
 };
 
-/// Damped 3x3-block Jacobi: x <- x + ω D⁻¹ (b - A x). Symmetric by construction.
+/// Damped 3x3-block Jacobi: x <- x + ω D⁻¹ (b - A x). Symmetric by construction. Any matrix with
+/// 3x3 diagonal blocks (CSR, BCSR, BIN-BCSR).
 class BlockJacobi final : public Smoother {
  public:
-  BlockJacobi(const Bcsr& A, const JacobiParams& params = {});
+  explicit BlockJacobi(const JacobiParams& params = {});
+  BlockJacobi(const Bcsr& A, const JacobiParams& params = {}) : BlockJacobi(params) { setup(A); }
+  std::string name() const override { return "jacobi-smoother"; }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
-  void update() override;
 
  private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
   void smooth(const Vector& b, Vector& x) const;
-  const Bcsr& A_;
   JacobiParams params_;
   std::vector<double> inv_diag_;
+  mutable Vector r_;
 };
 
-struct ChebyshevParams {
-  int degree = 4;               ///< polynomial degree = residual evaluations per smoothing
-  double lower_fraction = 0.1;  ///< smooth eigenvalues in [f λmax, λmax] of D⁻¹A
-  int power_iterations = 15;    ///< estimate of λmax (then raised by 10%)
+struct RichardsonParams {
+  int iterations = 1;   ///< corrections per pre- and per post-smoothing
+  double omega = 1.0;   ///< damping of each correction
 };
 
-/// Chebyshev polynomial smoother on D⁻¹A (D: 3x3 diagonal blocks): damps the upper part of the
-/// spectrum with no ordering or colouring, so it parallelises like SpMV. The same polynomial before
-/// and after keeps the cycle symmetric.
-class Chebyshev final : public Smoother {
+/// Richardson iteration with any Solver M as its preconditioner: x <- x + ω M (b - A x). With
+/// M = CHOLMOD it is an exact solve, with M = block Jacobi the damped block-Jacobi smoother, with
+/// M = a multigrid cycle a stationary multigrid method. Symmetric when M is.
+class Richardson final : public Smoother {
  public:
-  Chebyshev(const Bcsr& A, const ChebyshevParams& params = {});
+  Richardson(std::unique_ptr<Solver> M, const RichardsonParams& params = {});
+  std::string name() const override { return "richardson(" + M_->name() + ")"; }
+  bool is_linear() const override { return M_->is_linear(); }
+  bool is_symmetric() const override { return M_->is_symmetric(); }
+  bool uses_levels() const override { return M_->uses_levels(); }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
-  void update() override;
-  double lambda_max() const { return lambda_max_; }
-  /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update()).
-  const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
 
  private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override { M_->update(); }
   void smooth(const Vector& b, Vector& x) const;
-  void apply_inverse_diagonal(const Vector& r, Vector& z) const;
-  const Bcsr& A_;
-  ChebyshevParams params_;
-  std::vector<double> inv_diag_;
-  double lambda_max_ = 0.0;
+  std::unique_ptr<Solver> M_;
+  RichardsonParams params_;
+  mutable Vector r_, z_;
 };
 
 /// Inverts the 3x3 diagonal blocks of A (Cholesky); throws InputError naming a block that is not
 /// SPD.
-std::vector<double> inverse_diagonal_blocks(const Bcsr& A);
+std::vector<double> inverse_diagonal_blocks(const LinearOperator& A);
 
 }  // namespace pmg::mg

@@ -42,6 +42,10 @@ class Bcsr final : public LinearOperator {
   static Bcsr from_csr(const Csr& A);
   /// Scalar CSR with all 9 entries of every block (explicit zeros kept).
   Csr to_csr() const;
+  /// Writes this matrix's values into `out`, a matrix made by to_csr() from a Bcsr of the same
+  /// pattern: no pattern is built (the per-step refresh of a scalar copy). Throws InputError when
+  /// out's size or number of entries does not match.
+  void copy_values_to(Csr& out) const;
 
   index_t rows() const override { return kBlock * pattern_->rows; }
   index_t cols() const override { return kBlock * pattern_->cols; }

@@ -1,16 +1,20 @@
 // pmg/sparse/cholmod_solver.hpp — sparse Cholesky through CHOLMOD (supernodal), with the symbolic
 // analysis (ordering, elimination tree, supernodes: once per pattern) separate from the numeric
-// factorisation (once per change of values), as Eigen's analyzePattern/factorize.
+// factorisation (once per change of values), as Eigen's analyzePattern/factorize. The one adapter
+// of CHOLMOD in pmgkit: as a Solver (setup(A) analyses and factorises, update() refactorises
+// numerically with the pattern kept) or through analyze/factorize directly.
 #pragma once
 
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/solver.hpp"
 
 #include <memory>
 
 namespace pmg {
 
-class CholmodSolver final : public LinearOperator {
+class CholmodSolver final : public Solver {
  public:
+  std::string name() const override { return "cholmod"; }
   CholmodSolver();
   ~CholmodSolver() override;
   CholmodSolver(const CholmodSolver&) = delete;
@@ -21,12 +25,9 @@ class CholmodSolver final : public LinearOperator {
   /// Numeric factorisation; A must have the analysed pattern. Throws Error naming the column where
   /// positive definiteness fails.
   void factorize(const Csr& A);
-  void compute(const Csr& A) {
-    analyze(A);
-    factorize(A);
-  }
-  /// x = A^{-1} b (same as apply).
-  void solve(const Vector& b, Vector& x) const { apply(b, x); }
+  /// analyze + factorize through the Solver interface: the same as setup(A) (A must then outlive
+  /// the solver, as for every Solver); solve() and update() work afterwards.
+  void compute(const Csr& A) { setup(A); }
 
   index_t rows() const override { return n_; }
   index_t cols() const override { return n_; }
@@ -34,7 +35,13 @@ class CholmodSolver final : public LinearOperator {
   double factor_nnz() const;
 
  private:
+  /// A: Csr or Bcsr (converted once; update() copies the values into the same scalar pattern).
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
+  /// x = A⁻¹ b (the guess is not used), reported relative to ||b||.
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
   void apply_impl(const Vector& b, Vector& x) const override;
+  ScalarMatrix scalar_;
   struct Impl;
   std::unique_ptr<Impl> impl_;
   index_t n_ = 0;

@@ -11,6 +11,9 @@
 #include "pmg/sparse/monitor.hpp"
 #include "pmg/sparse/operator.hpp"
 #include "pmg/sparse/preconditioners.hpp"
+#include "pmg/sparse/solver.hpp"
+
+#include <memory>
 
 namespace pmg {
 
@@ -19,6 +22,9 @@ struct KrylovParams {
   /// Also converged when ||r|| <= abs_tol (0: off). A warm-started time step can begin so close to
   /// its solution that rel_tol ||r_0|| lies below rounding; a floor such as 1e-12 ||b|| ends it.
   double abs_tol = 0.0;
+  /// Also converged when ||r|| <= rhs_floor ||b|| (0: off): the rounding floor of warm-started
+  /// solves, independent of the size of the right-hand side (simulations use 1e-12).
+  double rhs_floor = 0.0;
   int max_iterations = 10000;
   /// Run exactly max_iterations (the seed's "20 CG iterations"); only failures stop it early.
   bool fixed_iterations = false;
@@ -36,13 +42,20 @@ struct KrylovParams {
   bool throw_on_failure = true;
 };
 
+/// Work vectors of one CG-type solve; reused across calls of the same size (no allocation per
+/// solve when a solver object keeps one).
+struct KrylovWorkspace {
+  Vector r, q, p, z;
+};
+
 /// Unpreconditioned CG on an SPD operator. x holds the initial guess and receives the solution.
 SolveResult cg(const LinearOperator& A, const Vector& b, Vector& x, const KrylovParams& params = {},
                SolveMonitor* monitor = nullptr);
 
 /// Preconditioned CG; M approximates A^{-1} and must be SPD (M == nullptr: plain CG).
 SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& b, Vector& x,
-                const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
+                const KrylovParams& params = {}, SolveMonitor* monitor = nullptr,
+                KrylovWorkspace* work = nullptr);
 
 /// Merged CG with block-Jacobi preconditioning, in three fused steps per iteration:
 ///   (1) q = A s and sigma = s.q                                  (one pass: A, s; writes q)
@@ -52,6 +65,63 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
 /// Vector traffic 16n doubles per iteration besides the matrix, against 21n for the unfused PCG.
 /// Mathematically identical to pcg() with BlockJacobiPreconditioner: agrees to round-off.
 SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, const Vector& b,
-                Vector& x, const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
+                Vector& x, const KrylovParams& params = {}, SolveMonitor* monitor = nullptr,
+                KrylovWorkspace* work = nullptr);
+
+/// CG as a Solver, preconditioned by any Solver set up on the same matrix (none: plain CG). The
+/// preconditioner must be a fixed symmetric map (setup() refuses one that is not, naming it).
+/// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditions no outer
+/// CG, but it can solve a multigrid cycle's lowest level. Work vectors live in the object.
+class Cg final : public Solver {
+ public:
+  explicit Cg(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr);
+  std::string name() const override;
+  bool is_linear() const override { return false; }
+  bool is_symmetric() const override { return false; }
+  bool uses_levels() const override { return M_ && M_->uses_levels(); }
+  KrylovParams& params() { return params_; }
+  const KrylovParams& params() const { return params_; }
+  Solver* preconditioner() const { return M_.get(); }
+  /// Multiply with `op` instead of the set-up matrix (the same matrix in another format, e.g.
+  /// BIN-BCSR, while the preconditioner reads the BCSR entries). nullptr: the set-up matrix.
+  void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }
+
+ private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+  void apply_impl(const Vector& b, Vector& x) const override;
+
+  KrylovParams params_;
+  std::unique_ptr<Solver> M_;
+  const LinearOperator* spmv_ = nullptr;
+  mutable KrylovWorkspace work_;
+};
+
+/// The merged CG with its built-in block-Jacobi preconditioner as a Solver.
+class MergedCg final : public Solver {
+ public:
+  explicit MergedCg(const KrylovParams& params = {}) : params_(params) {}
+  std::string name() const override { return "mcg"; }
+  bool is_linear() const override { return false; }
+  bool is_symmetric() const override { return false; }
+  KrylovParams& params() { return params_; }
+  void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }
+  const BlockJacobiPreconditioner& preconditioner() const { return M_; }
+
+ private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override { M_.update(); }
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+  void apply_impl(const Vector& b, Vector& x) const override;
+
+  KrylovParams params_;
+  BlockJacobiPreconditioner M_;
+  const LinearOperator* spmv_ = nullptr;
+  mutable KrylovWorkspace work_;
+};
+
+/// params with abs_tol raised to rhs_floor ||b|| (the solvers' stopping rule for one solve).
+KrylovParams with_rhs_floor(KrylovParams params, const Vector& b);
 
 }  // namespace pmg

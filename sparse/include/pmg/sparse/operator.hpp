@@ -1,7 +1,9 @@
 // pmg/sparse/operator.hpp — the one interface that maps a vector to a vector.
 //
-// Matrices (Csr, Bcsr, BinBcsr), preconditioners, direct solvers and (later) smoothers and V-cycles
-// all implement LinearOperator, so any of them can precondition or smooth any other. The public
+// Matrices (Csr, Bcsr, BinBcsr) implement it directly; everything that approximates an inverse
+// (Krylov solvers, preconditioners, smoothers, cycles, direct solvers) is a Solver
+// (pmg/sparse/solver.hpp), which is a LinearOperator too, so any of them can precondition or smooth
+// any other. The public
 // apply() checks sizes and then calls the private virtual apply_impl(); kernels never re-check.
 #pragma once
 
@@ -36,12 +38,5 @@ class LinearOperator {
   void check_square(const char* what) const;
 };
 
-/// Approximates the inverse of an operator: apply(r, z) gives z = M^{-1} r. A preconditioner is set
-/// up from values that change (a matrix); update() recomputes from new values on the same pattern.
-class Preconditioner : public LinearOperator {
- public:
-  /// Short human-readable name for tables ("jacobi", "block-jacobi", ...).
-  virtual std::string name() const = 0;
-};
 
 }  // namespace pmg

@@ -1,0 +1,59 @@
+// pmg/multigrid/levels.hpp — where a multigrid cycle gets its levels from.
+//
+// A LevelProvider hands out level matrices (3x3-block BCSR, coarsest first) and scalar node
+// prolongations between them; MultigridCycle builds everything else (transfers, Galerkin
+// products, smoothers, the lowest-level solver). fem::DegreeHierarchy (the BB degree hierarchy),
+// StoredLevels (matrices a user read from files or built in their own code) and any class of a
+// user's implement it the same way (MFEM's Multigrid::AddLevel, with ownership made explicit).
+//
+// Values change, patterns do not: after new values are written into the provider's matrices (a
+// corotational time step re-assembles them), MultigridCycle::update() refreshes smoothers,
+// Galerkin products and the lowest-level factorisation; nothing symbolic is redone.
+#pragma once
+
+#include "pmg/sparse/bcsr.hpp"
+
+#include <string>
+#include <vector>
+
+namespace pmg::mg {
+
+class LevelProvider {
+ public:
+  virtual ~LevelProvider() = default;
+  /// Number of levels L >= 1; level 0 is the coarsest, L-1 the finest.
+  virtual int num_levels() const = 0;
+  /// The matrix of a level (3 unknowns per node, interleaved). It must stay at the same address
+  /// while a cycle built from the provider lives. With Galerkin coarse operators only the finest
+  /// one is read.
+  virtual const Bcsr& matrix(int level) const = 0;
+  /// Scalar prolongation from level-1 to level (nodes of level x nodes of level-1), level >= 1.
+  virtual const Csr& prolongation(int level) const = 0;
+  /// An explicit restriction (nodes of level-1 x nodes of level) instead of the transpose; only
+  /// providers that define one (the BB hierarchy's interpolating restriction) override this.
+  virtual Csr interpolating_restriction(int level) const;
+  /// For messages and timing breakdowns ("degree 3", "level 2").
+  virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
+};
+
+/// Levels owned in memory: matrices and prolongations handed over by value. Sizes are checked
+/// (3 x nodes per level, prolongations nodes x nodes) with the level named.
+class StoredLevels final : public LevelProvider {
+ public:
+  StoredLevels(std::vector<Bcsr> matrices, std::vector<Csr> prolongations);
+  int num_levels() const override { return static_cast<int>(matrices_.size()); }
+  const Bcsr& matrix(int level) const override { return matrices_.at(level); }
+  Bcsr& matrix(int level) { return matrices_.at(level); }
+  const Csr& prolongation(int level) const override { return prolongations_.at(level - 1); }
+
+ private:
+  std::vector<Bcsr> matrices_;
+  std::vector<Csr> prolongations_;
+};
+
+/// Reads level matrices (Matrix Market, coarsest first, square, symmetric, 3 unknowns per node)
+/// and the scalar prolongations between them; every error names the file.
+StoredLevels read_levels(const std::vector<std::string>& matrix_files,
+                         const std::vector<std::string>& prolongation_files);
+
+}  // namespace pmg::mg
