@@ -171,25 +171,21 @@ Registry::Registry() {
       [](const Config&, const SolverContext&) { return std::make_unique<JacobiPreconditioner>(); });
   add({"block-jacobi", "3x3 block Jacobi D^-1", ""},
       [](const Config&, const SolverContext&) { return std::make_unique<BlockJacobiPreconditioner>(); });
+  auto gauss_seidel = [](bool pointwise) {
+    return [pointwise](const Config& c, const SolverContext&) {
+      mg::GaussSeidelParams p;
+      p.pointwise = pointwise;
+      p.sweeps = c.get_int("sweeps", p.sweeps, 0, 1000);
+      p.ordering = c.get_choice("ordering", "multicolor", {"multicolor", "natural"}) == "natural"
+                       ? mg::Ordering::natural
+                       : mg::Ordering::multicolor;
+      return std::make_unique<mg::BlockGaussSeidel>(p);
+    };
+  };
   add({"gauss-seidel", "3x3-block Gauss-Seidel (forward pre-, backward post-smoothing)", "sweeps ordering"},
-      [](const Config& c, const SolverContext&) {
-        mg::GaussSeidelParams p;
-        p.sweeps = c.get_int("sweeps", p.sweeps, 0, 1000);
-        p.ordering = c.get_choice("ordering", "multicolor", {"multicolor", "natural"}) == "natural"
-                         ? mg::Ordering::natural
-                         : mg::Ordering::multicolor;
-        return std::make_unique<mg::BlockGaussSeidel>(p);
-      });
+      gauss_seidel(false));
   add({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows", "sweeps ordering"},
-      [](const Config& c, const SolverContext&) {
-        mg::GaussSeidelParams p;
-        p.pointwise = true;
-        p.sweeps = c.get_int("sweeps", p.sweeps, 0, 1000);
-        p.ordering = c.get_choice("ordering", "multicolor", {"multicolor", "natural"}) == "natural"
-                         ? mg::Ordering::natural
-                         : mg::Ordering::multicolor;
-        return std::make_unique<mg::BlockGaussSeidel>(p);
-      });
+      gauss_seidel(true));
   add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)", "degree lower_fraction power_iterations"},
       [](const Config& c, const SolverContext&) {
         mg::ChebyshevParams p;
