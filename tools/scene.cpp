@@ -2,6 +2,7 @@
 
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mesh_io.hpp"
+#include "pmg/multigrid/boomeramg.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -32,6 +33,15 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
       ->capture_default_str();
   sub->add_option("--dt", o.dt, "> 0: the implicit-Euler system M + dt^2 K of one time step")
       ->check(CLI::NonNegativeNumber);
+}
+
+double start_mpi_for_hypre(const Config& config) {
+  bool hypre = false;
+  for (const auto& kv : config.items()) hypre |= kv.second.rfind("boomeramg", 0) == 0;
+  if (!hypre) return -1.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  mg::mpi_size();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 double FemSystem::assemble_lower_levels() {

@@ -4,6 +4,7 @@
 
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/mesh.hpp"
+#include "pmg/sparse/config.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -40,6 +41,11 @@ struct FemSystem {
 };
 
 FemSystem build_fem_system(const SceneOptions& o);
+
+/// When a solver configuration uses hypre (a method starting "boomeramg" anywhere in it), starts
+/// MPI now — its start-up is paid once per process, not per solve — and returns the seconds it
+/// took; otherwise returns a negative number and does nothing.
+double start_mpi_for_hypre(const Config& config);
 
 /// A mesh file (warnings to stderr), or with an empty path the box bar of nx x ny x nz boxes.
 fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3]);

@@ -190,13 +190,8 @@ std::unique_ptr<Solver> make_step_solver(const SimScene& s, const fem::DegreeHie
   }
   // Warm-started steps end at once when the start is within rounding of the solution.
   if (method_accepts_key(method, "rhs_floor")) c.set_default("rhs_floor", "1e-12");
-  bool hypre = false;
-  for (const auto& [k, v] : c.items()) hypre |= v.rfind("boomeramg", 0) == 0;
-  if (hypre) {  // hypre's MPI start-up, once per process: not a step's cost
-    const auto t0 = Clock::now();
-    mg::mpi_size();
-    notes.push_back("MPI start-up for hypre: " + std::to_string(since(t0)).substr(0, 5) + " s");
-  }
+  const double mpi = start_mpi_for_hypre(c);  // once per process: not a step's cost
+  if (mpi >= 0) notes.push_back("MPI start-up for hypre: " + fmt("%.3f", mpi) + " s");
   SolverContext ctx;
   ctx.levels = &h;
   auto solver = make_solver(c, ctx, "pmg");

@@ -79,7 +79,7 @@ struct BoomerAMG::Impl {
   ~Impl() { destroy(); }
 };
 
-BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()), params_(params) {
+BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()) {
   impl_->params = params;
   if (params.num_functions < 1) throw InputError("BoomerAMG: num_functions must be >= 1");
   if (params.cycles < 1) throw InputError("BoomerAMG: cycles must be >= 1");
@@ -88,6 +88,8 @@ BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Imp
 }
 
 BoomerAMG::~BoomerAMG() = default;
+
+const BoomerAMGParams& BoomerAMG::params() const { return impl_->params; }
 
 void BoomerAMG::setup_impl(const LinearOperator& A) {
   scalar_.setup(A, "BoomerAMG");

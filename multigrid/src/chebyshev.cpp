@@ -33,8 +33,9 @@ void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
 
 void Chebyshev::update_impl() {
   inv_diag_ = inverse_diagonal_blocks(*A_);
-  // Power iteration on D⁻¹A from a fixed, non-smooth start vector.
-  Vector v(A_->rows()), w, z;
+  // Power iteration on D⁻¹A from a fixed, non-smooth start vector (in the smoother's work
+  // vectors: an update per time step allocates nothing).
+  Vector &v = d_, &w = r_, &z = z_;
   for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * i);
   v.normalize();
   double lambda = 0.0;

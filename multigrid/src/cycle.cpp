@@ -39,8 +39,10 @@ bool MultigridCycle::is_linear() const {
 
 bool MultigridCycle::is_symmetric() const {
   if (params_.interpolating_restriction) return false;
+  // Pre- and post-smoothing are adjoint for every Smoother whose own apply (pre then post) is
+  // symmetric: Gauss–Seidel's forward/backward pair, or Richardson with a symmetric M.
   for (const auto& s : smoothers_)
-    if (!s->is_linear()) return false;
+    if (!s->is_linear() || !s->is_symmetric()) return false;
   return lowest_->is_linear() && lowest_->is_symmetric();
 }
 

@@ -115,7 +115,13 @@ SolveResult Cg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) co
 
 void Cg::apply_impl(const Vector& b, Vector& x) const {
   x.setZero();
-  solve_impl(b, x, nullptr);
+  require_usable(solve_impl(b, x, nullptr));
+}
+
+void require_usable(const SolveResult& r) {
+  // With throw_on_failure off an inner solve that stopped early (iteration limit, stagnation) is
+  // still a usable correction that the outer iteration judges; NaN or a breakdown is not.
+  if (r.status == SolveStatus::non_finite || r.status == SolveStatus::breakdown) throw SolveError(r);
 }
 
 }  // namespace pmg

@@ -111,7 +111,7 @@ SolveResult MergedCg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monit
 
 void MergedCg::apply_impl(const Vector& b, Vector& x) const {
   x.setZero();
-  solve_impl(b, x, nullptr);
+  require_usable(solve_impl(b, x, nullptr));
 }
 
 }  // namespace pmg

@@ -111,7 +111,7 @@ void ScalarMatrix::setup(const LinearOperator& A, const std::string& who) {
   direct_ = dynamic_cast<const Csr*>(&A);
   block_ = dynamic_cast<const Bcsr*>(&A);
   copy_.reset();
-  if (block_) copy_ = std::make_shared<Csr>(block_->to_csr());
+  if (block_) copy_ = std::make_unique<Csr>(block_->to_csr());
   else if (!direct_)
     throw InputError(who + " needs the matrix entries as CSR or BCSR (convert BIN-BCSR or a "
                            "matrix-free operator first)");

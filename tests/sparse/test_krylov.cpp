@@ -205,3 +205,22 @@ TEST_CASE("the iteration limit is a failure in tolerance mode", "[sparse][krylov
   Vector x = Vector::Zero(s.b.size());
   CHECK_THROWS_WITH(cg(s.A, s.b, x, p), Catch::Contains("after 5 iterations"));
 }
+
+TEST_CASE("CG used as an operator returns an early stop but refuses a breakdown", "[sparse][krylov][solver]") {
+  // apply() is how a cycle uses an inner CG: stopping at its iteration limit is a usable
+  // correction, a breakdown (an indefinite operator) is an error even with throw_on_failure off.
+  KrylovParams p;
+  p.throw_on_failure = false;
+  p.max_iterations = 2;
+  p.rel_tol = 1e-14;
+  const Bcsr A = spring_lattice(4);
+  Cg cg(p);
+  cg.setup(A);
+  Vector z;
+  CHECK_NOTHROW(cg.apply(Vector::Ones(A.rows()), z));
+  CHECK(z.allFinite());
+  const Csr S = Csr::from_triplets(2, 2, {{0, 0, 1.0}, {1, 1, -1.0}});
+  Cg indefinite(p);
+  indefinite.setup(S);
+  CHECK_THROWS_AS(indefinite.apply(Vector::Ones(2), z), SolveError);
+}

@@ -42,7 +42,7 @@ class BoomerAMG final : public Solver {
   BoomerAMG& operator=(const BoomerAMG&) = delete;
 
   std::string name() const override { return "boomeramg"; }
-  const BoomerAMGParams& params() const { return params_; }
+  const BoomerAMGParams& params() const;
 
  private:
   /// A: Csr, or Bcsr (its scalar copy's pattern is built once; update() copies values only).
@@ -53,7 +53,6 @@ class BoomerAMG final : public Solver {
   void build(const Csr& A);
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  BoomerAMGParams params_;
   ScalarMatrix scalar_;
 };
 

@@ -67,8 +67,8 @@ class MultigridCycle final : public Solver {
 
   std::string name() const override;
   bool is_linear() const override;
-  /// R = Pᵀ on every level, the smoothers adjoint pairs (every Smoother here is) and the
-  /// lowest-level solver linear and symmetric.
+  /// R = Pᵀ on every level, the smoothers linear adjoint pairs (is_symmetric) and the lowest-level
+  /// solver linear and symmetric.
   bool is_symmetric() const override;
   bool uses_levels() const override { return true; }
 

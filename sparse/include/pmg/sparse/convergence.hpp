@@ -167,7 +167,7 @@ class ConvergenceTracker {
   }
 
   const char* method_;
-  const KrylovParams& p_;
+  const KrylovParams p_;  // a copy: callers pass temporaries (with_rhs_floor)
   SolveMonitor* monitor_;
   SolveResult result_;
   double r0_ = 0.0;

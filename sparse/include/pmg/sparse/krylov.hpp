@@ -69,7 +69,8 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
                 KrylovWorkspace* work = nullptr);
 
 /// CG as a Solver, preconditioned by any Solver set up on the same matrix (none: plain CG). The
-/// preconditioner must be a fixed symmetric map (setup() refuses one that is not, naming it).
+/// preconditioner must be a fixed symmetric map (the constructor refuses one that is not, naming
+/// it).
 /// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditions no outer
 /// CG, but it can solve a multigrid cycle's lowest level. Work vectors live in the object.
 class Cg final : public Solver {
@@ -120,6 +121,10 @@ class MergedCg final : public Solver {
   const LinearOperator* spmv_ = nullptr;
   mutable KrylovWorkspace work_;
 };
+
+/// Throws SolveError when an inner solve (a Krylov method used through apply()) produced NaN or
+/// broke down; other failures are returned (see Cg::apply).
+void require_usable(const SolveResult& r);
 
 /// params with abs_tol raised to rhs_floor ||b|| (the solvers' stopping rule for one solve).
 KrylovParams with_rhs_floor(KrylovParams params, const Vector& b);

@@ -20,6 +20,7 @@
 #pragma once
 
 #include "pmg/sparse/monitor.hpp"
+#include "pmg/sparse/csr.hpp"
 #include "pmg/sparse/operator.hpp"
 
 #include <memory>
@@ -28,7 +29,6 @@
 
 namespace pmg {
 
-class Csr;
 class Bcsr;
 
 class Solver : public LinearOperator {
@@ -93,7 +93,7 @@ class ScalarMatrix {
  private:
   const Csr* direct_ = nullptr;
   const Bcsr* block_ = nullptr;
-  std::shared_ptr<Csr> copy_;
+  std::unique_ptr<Csr> copy_;
 };
 
 }  // namespace pmg
