@@ -45,7 +45,7 @@ namespace {
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Options {
-  std::string matrix, rhs, solution, history, plot, export_levels;
+  std::string matrix, rhs, solution, history, plot, export_levels, json_report;
   std::vector<std::string> levels, prolongations;  // user multigrid levels (Matrix Market)
   int grid = 24;
   bool fem = false;  // set when a scene option is given
@@ -456,6 +456,46 @@ void run(const Options& o) {
     std::cout << "history: " << history << "\n";
   }
   if (!o.plot.empty()) plot_history(history, o.plot, sys.description);
+  if (!o.json_report.empty()) {
+    // Every figure of the table, with units in the key names; NaN (not measured) is null.
+    auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+    nlohmann::json solvers_json = nlohmann::json::array();
+    for (size_t k = 0; k < outcomes.size(); ++k) {
+      const Outcome& out = outcomes[k];
+      solvers_json.push_back({{"name", out.name},
+                              {"config", configs[k].second.to_string()},
+                              {"status", out.status},
+                              {"message", out.message},
+                              {"iterations", out.iterations},
+                              {"setup_s", out.setup},
+                              {"solve_s", out.solve},
+                              {"time_to_1e-3_s", num(time_to(out, 1e-3))},
+                              {"time_to_1e-6_s", num(time_to(out, 1e-6))},
+                              {"rel_residual", num(out.rel_residual)},
+                              {"rel_error", num(out.rel_error)},
+                              {"breakdown", out.breakdown}});
+    }
+    nlohmann::json report = {
+        {"command", "pmg compare"},
+        {"system", {{"description", sys.description},
+                    {"unknowns", sys.csr.rows()},
+                    {"nonzeros", sys.csr.nnz()},
+                    {"blocks", sys.bcsr ? nlohmann::json(sys.bcsr->num_blocks()) : nlohmann::json(nullptr)}}},
+        {"format", o.format},
+        {"load_s", load_time},
+        {"convert_s", convert_time},
+        {"threads", omp_get_max_threads()},
+        {"stop", params.fixed_iterations ? nlohmann::json({{"fixed_iterations", o.fixed_iterations}})
+                                         : nlohmann::json({{"rel_tol", o.tol}})},
+        {"warm_up", o.warm_up},
+        {"mpi_startup_s", mpi >= 0 ? nlohmann::json(mpi) : nlohmann::json(nullptr)},
+        {"lower_levels_s", lower_levels >= 0 ? nlohmann::json(lower_levels) : nlohmann::json(nullptr)},
+        {"error_reference", sys.x_true.size() ? nlohmann::json(sys.error_reference) : nlohmann::json(nullptr)},
+        {"history", history},
+        {"solvers", solvers_json}};
+    write_file_atomically(o.json_report, report.dump(2) + "\n");
+    std::cout << "report:  " << o.json_report << "\n";
+  }
   if (failed) throw Exit{kSolveFailed};
 }
 
@@ -507,6 +547,8 @@ void register_compare(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("-o,--history", opts->history,
                   "write the per-iteration history as CSV (solver,iteration,seconds,rel_residual)");
+  sub->add_option("--json", opts->json_report,
+                  "also write every figure of the table to this JSON file (units in the key names)");
   sub->add_flag("--warm-up", opts->warm_up,
                 "run each solver once untimed first: warm timings, independent of the solvers' order");
   sub->add_option("--threads", opts->threads, "OpenMP threads (default: OMP_NUM_THREADS)")

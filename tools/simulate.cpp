@@ -5,6 +5,8 @@
 #include "scene_file.hpp"
 #include "table.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mesh_io.hpp"
 #include "pmg/fem/simulation.hpp"
@@ -22,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -33,8 +36,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+using json = nlohmann::json;
+
 struct Cli {
-  std::string scene, output;
+  std::string scene, output, json_report;
   double duration = 0, dt = 0;
   bool print_scene = false, quiet = false;
   int threads = 0;
@@ -46,8 +51,10 @@ struct Built {
   Vector f_ext;
   double lo = 0, hi = 0;     // extent along the clamp axis
   fem::Vec3 centre;          // of the bounding box
-  index_t probe_vertex = -1;  // -1: probe by location
+  index_t probe_vertex = -1;  // -1: probe by location, in probe_element at probe_barycentric
   fem::Vec3 probe;
+  index_t probe_element = -1;
+  Eigen::Vector4d probe_barycentric;
   std::vector<std::string> notes;  // what was done once or skipped, for the report
 };
 
@@ -113,7 +120,7 @@ Built build(const SimScene& s) {
   if (s.probe) {
     b.probe = *s.probe;
     try {
-      (void)m.locate(b.probe);
+      std::tie(b.probe_element, b.probe_barycentric) = m.locate(b.probe);  // once, not per step
     } catch (const Error&) {
       throw InputError("output.probe: the point lies outside the mesh");
     }
@@ -130,9 +137,11 @@ Built build(const SimScene& s) {
   return b;
 }
 
+json vec3(const fem::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
 fem::Vec3 probe_displacement(const Built& b, const Vector& u) {
   if (b.probe_vertex >= 0) return u.segment<3>(3 * b.probe_vertex);  // node v = vertex v
-  return b.h->finest().displacement_at(u, b.probe);
+  return b.h->finest().displacement_at(u, b.probe_element, b.probe_barycentric);
 }
 
 /// Initial displacement and velocity (full vectors; clamped nodes at rest).
@@ -233,7 +242,7 @@ class Progress {
   Clock::time_point t0_;
 };
 
-void run_static(const SimScene& s, Built& b, const Cli& cli) {
+void run_static(const SimScene& s, Built& b, const Cli& cli, json& report) {
   const fem::ElasticityModel& m = b.h->finest();
   const auto t0 = Clock::now();
   fem::StaticOptions so;
@@ -245,14 +254,17 @@ void run_static(const SimScene& s, Built& b, const Cli& cli) {
             << r.iterations << " iteration(s), " << fmt("%.3f", solve) << " s\n"
             << "probe (" << b.probe.transpose() << ") displacement: " << d.transpose() << "\n"
             << "skipped: mass matrix, time loop (static scene)\n";
+  report["static"] = {{"solver", "cholmod"}, {"iterations", r.iterations}, {"seconds", solve}};
+  report["probe"] = {{"point_m", vec3(b.probe)}, {"displacement_m", vec3(d)}};
   if (!cli.output.empty()) {
     make_dir(cli.output);
     fem::write_vtu(cli.output + "/static.vtu", m.space(), r.u);
     std::cout << "wrote " << cli.output << "/static.vtu\n";
+    report["outputs"] = {cli.output + "/static.vtu"};
   }
 }
 
-void run_dynamic(const SimScene& s, Built& b, const Cli& cli) {
+void run_dynamic(const SimScene& s, Built& b, const Cli& cli, json& report) {
   fem::ElasticityModel const& m = b.h->finest();
   std::vector<std::string>& notes = b.notes;
   const auto [u0, v0] = initial_state(s, b);
@@ -380,6 +392,27 @@ void run_dynamic(const SimScene& s, Built& b, const Cli& cli) {
               << fmt("%.3e", E0 != 0 ? (Epeak - E0) / std::abs(E0) : 0.0) << " above the start, largest one-step rise "
               << fmt("%.2e", Emax_growth) << " J\n";
   for (const auto& note : notes) std::cout << "note:    " << note << "\n";
+  report["time"] = {{"dt_s", s.dt}, {"duration_s", s.duration}, {"steps_planned", steps}};
+  report["solver"] = {{"method", method}, {"settings", settings}};
+  json stages = json::array();
+  for (int k = 0; k < fem::kNumStages; ++k)
+    stages.push_back({{"stage", fem::stage_name(k)}, {"total_s", total[k]}, {"per_step_ms", 1e3 * total[k] / std::max(done, 1)}});
+  if (!out.empty()) stages.push_back({{"stage", "output"}, {"total_s", out_seconds}, {"per_step_ms", 1e3 * out_seconds / std::max(done, 1)}});
+  report["stages"] = stages;
+  report["steps"] = {{"done", done},
+                     {"wall_s", wall},
+                     {"iterations_per_step", done > 0 ? static_cast<double>(iterations) / done : 0.0},
+                     {"max_iterations", max_iterations},
+                     {"iterations_are", method == "pmg" ? "cycles" : "iterations"},
+                     {"largest_residual_b", max_residual}};
+  report["probe"] = {{"point_m", vec3(b.probe)}, {"displacement_m", vec3(d)}, {"z_range_m", {zmin, zmax}}};
+  if (s.energy)
+    report["energy"] = {{"initial_J", E0}, {"final_J", E_prev}, {"peak_J", Epeak}, {"largest_step_rise_J", Emax_growth}};
+  if (!out.empty()) {
+    report["outputs"] = {out + "/steps.csv"};
+    if (frames) report["outputs"].push_back(out + "/simulation.pvd");
+  }
+  if (failed_step) report["failure"] = {{"step", failed_step}, {"message", failure}};
   if (!out.empty())
     std::cout << "output:  " << out << "/steps.csv" << (frames ? ", " + out + "/simulation.pvd (" + std::to_string(pvd.size()) + " frames)" : "") << "\n";
   if (failed_step) {
@@ -411,8 +444,31 @@ void run(const Cli& cli_in) {
             << "model:   " << (s.corotational ? "corotational" : "linear") << ", E = " << s.young << " Pa, nu = " << s.poisson
             << ", rho = " << s.density << " kg/m^3; initial state " << s.initial << "\n"
             << "set-up:  " << fmt("%.3f", since(t0)) << " s, " << omp_get_max_threads() << " threads\n";
-  if (s.dynamic) run_dynamic(s, b, cli);
-  else run_static(s, b, cli);
+  json report = {{"command", "pmg simulate"},
+                 {"scene", s.source},
+                 {"mesh", {{"source", s.mesh_file.empty() ? "box" : s.mesh_file},
+                           {"tets", b.mesh.num_tets()},
+                           {"degree", s.degree},
+                           {"unknowns", m.num_free_dofs()},
+                           {"clamped_nodes", m.num_fixed()}}},
+                 {"model", {{"material", s.corotational ? "corotational" : "linear"},
+                            {"young_Pa", s.young},
+                            {"poisson", s.poisson},
+                            {"density_kg_m3", s.density},
+                            {"initial_state", s.initial}}},
+                 {"setup_s", since(t0)},
+                 {"threads", omp_get_max_threads()}};
+  auto write_report = [&] {
+    if (!cli.json_report.empty()) write_file_atomically(cli.json_report, report.dump(2) + "\n");
+  };
+  try {
+    if (s.dynamic) run_dynamic(s, b, cli, report);
+    else run_static(s, b, cli, report);
+  } catch (const Exit&) {  // a failed step: the report says where and why
+    write_report();
+    throw;
+  }
+  write_report();
 }
 
 }  // namespace
@@ -427,6 +483,8 @@ void register_simulate(CLI::App& app) {
   sub->add_option("--threads", cli->threads, "OpenMP threads");
   sub->add_flag("--print-scene", cli->print_scene, "print the scene as JSON (a template to edit) and stop");
   sub->add_flag("-q,--quiet", cli->quiet, "no progress lines");
+  sub->add_option("--json", cli->json_report,
+                  "also write every figure of the report to this JSON file (units in the key names)");
   sub->callback([cli] { run(*cli); });
 }
 

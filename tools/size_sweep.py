@@ -18,18 +18,10 @@ import argparse
 import csv
 import math
 import os
-import re
-import subprocess
 import sys
 import tempfile
 
-
-def atomic_write(path, text):
-    d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp_")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
+from pmgreport import atomic_write, run
 
 
 def first_reach(rows, tol):
@@ -82,12 +74,11 @@ def main():
                 cmd.append("--warm-up")
             cmd += extra if "--solvers" in extra else extra + ["--solvers", a.solvers]
             print("$", " ".join(cmd), flush=True)
-            p = subprocess.run(cmd, capture_output=True, text=True)
+            p, report = run(cmd)
             print(p.stdout, p.stderr, sep="", flush=True)
-            m = re.search(r"size: +(\d+) unknowns", p.stdout)
-            if not m or not os.path.exists(hist):
+            if report is None or not os.path.exists(hist):
                 sys.exit("size_sweep: pmg compare failed for n = %d (exit %d)" % (n, p.returncode))
-            unknowns = int(m.group(1))
+            unknowns = report["system"]["unknowns"]
             hist_rows = {}
             with open(hist) as f:
                 for r in csv.DictReader(f):

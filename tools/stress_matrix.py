@@ -14,11 +14,12 @@ import argparse
 import json
 import math
 import os
-import re
 import subprocess
 import sys
 import tempfile
 import time
+
+import pmgreport
 
 BAR = {"mesh": {"box": [8, 2, 2], "size": [4, 1, 1]}, "degree": 2,
        "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
@@ -94,18 +95,22 @@ def run_case(pmg, name, scene, d):
         json.dump(scene, f)
     t0 = time.time()
     try:
-        p = subprocess.run([pmg, "simulate", path, "-q"], capture_output=True, text=True, timeout=600)
+        p, report = pmgreport.run([pmg, "simulate", path, "-q"], timeout=600)
     except subprocess.TimeoutExpired:
         return "FAIL", "hung (no result in 600 s)", time.time() - t0
     wall = time.time() - t0
-    text = p.stdout + p.stderr
     if p.returncode not in (0, 1, 2):
         return "FAIL", "crashed (exit %d)" % p.returncode, wall
     if p.returncode != 0:
-        m = re.search(r"(simulation failed at step .*|pmg: error: .*)", text)
-        if not m:
+        if report and "failure" in report:  # a step failed: the report names it
+            f = report["failure"]
+            return "clear error", ("simulation failed at step %d: %s" % (f["step"], f["message"]))[:150], wall
+        message = pmgreport.error_line(p)  # bad input: no report, the tool's error line
+        if not message:
             return "FAIL", "exit %d without a message" % p.returncode, wall
-        return "clear error", m.group(1).strip()[:150], wall
+        return "clear error", message[:150], wall
+    if report is None:
+        return "FAIL", "exit 0 without a report", wall
     steps = os.path.join(out, "steps.csv")
     rows = open(steps).read().strip().splitlines()[1:]
     energy = [float(r.split(",")[7]) for r in rows]
@@ -113,9 +118,9 @@ def run_case(pmg, name, scene, d):
         return "FAIL", "non-finite values in steps.csv", wall
     e0, peak = energy[0], max(energy)
     rise = (peak - e0) / abs(e0) if e0 else 0.0
-    cycles = re.search(r"steps: +(\d+) .*?, ([0-9.]+) (?:cycles|iterations) per step", text)
-    detail = "%s steps, %s per step, energy %+.1f%%, peak rise %.1e" % (
-        cycles.group(1) if cycles else "?", cycles.group(2) if cycles else "?",
+    st = report["steps"]
+    detail = "%d steps, %.2f %s per step, energy %+.1f%%, peak rise %.1e" % (
+        st["done"], st["iterations_per_step"], st["iterations_are"],
         100 * (energy[-1] - e0) / abs(e0) if e0 else 0.0, rise)
     if rise > 1e-4:
         return "FAIL", "energy rose: " + detail, wall

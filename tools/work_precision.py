@@ -20,10 +20,10 @@ quantity is the probe point's displacement along the clamp axis.
 import argparse
 import json
 import os
-import re
-import subprocess
 import tempfile
 import time
+
+import pmgreport
 
 
 def scene(p, mesh, tol, duration, dt, model=None, method=None):
@@ -51,13 +51,11 @@ def run(pmg, sc, axis=2):
         with open(path, "w") as f:
             json.dump(sc, f)
         t0 = time.time()
-        p = subprocess.run([pmg, "simulate", path, "-q"], capture_output=True, text=True)
+        p, report = pmgreport.run([pmg, "simulate", path, "-q"])
         wall = time.time() - t0
-    if p.returncode != 0:
+    if p.returncode != 0 or report is None:
         raise SystemExit("work_precision: pmg simulate failed:\n" + p.stdout + p.stderr)
-    m = re.search(r"displacement now +([^\s,]+),? +([^\s,]+),? +([^\s,]+)", p.stdout)
-    u = re.search(r"mesh: .*?(\d+) unknowns", p.stdout)
-    return float(m.group(1 + axis)), int(u.group(1)), wall
+    return report["probe"]["displacement_m"][axis], report["mesh"]["unknowns"], wall
 
 
 def main():

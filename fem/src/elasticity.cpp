@@ -149,68 +149,107 @@ void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
   stiffness_scale_ = std::move(scale);
 }
 
-void ElasticityModel::element_matrix(index_t e, Eigen::MatrixXd& K) const {
-  const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
-  element_stiffness(tables_, geometry_[e], s * material_.lambda(), s * material_.mu(), K);
-}
-
-namespace {
-/// d_a = Rᵀ (X_a + u_a) - X_a for the element's nodes (u == nullptr: u = 0).
-Eigen::VectorXd corotated_displacement(const BBSpace& s, index_t e, const Vector* u, const Mat3& R) {
-  const int n = s.nodes_per_element();
-  Eigen::VectorXd d(3 * n);
-  for (int a = 0; a < n; ++a) {
-    const index_t i = s.node(e, a);
-    const Vec3& X = s.positions()[i];
-    d.segment<3>(3 * a) = R.transpose() * (u ? Vec3(X + u->segment<3>(3 * i)) : X) - X;
-  }
-  return d;
-}
-}  // namespace
-
-void ElasticityModel::assemble(const Rotations* R, const Vector& prescribed, Bcsr& K,
-                               Vector* rhs) const {
+void ElasticityModel::evaluate(const ElementPass& pass) const {
   const BlockAssembler& as = assembler();
-  if (K.shared_pattern().get() == nullptr || K.block_rows() != as.num_free())
+  if (pass.stiffness && (pass.stiffness->shared_pattern().get() == nullptr ||
+                         pass.stiffness->block_rows() != as.num_free()))
     throw InputError("assemble: matrix does not have the assembler's pattern");
-  if (R && R->size() != static_cast<size_t>(mesh_.num_tets()))
+  if (pass.R && pass.R->size() != static_cast<size_t>(mesh_.num_tets()))
     throw InputError("assemble: one rotation per element expected");
-  if (rhs && rhs->size() != num_free_dofs()) throw InputError("assemble: rhs has the wrong size");
-  std::fill(K.values().begin(), K.values().end(), 0.0);
+  if (pass.u && pass.u->size() != num_dofs())
+    throw InputError("elastic state: the displacement has " + std::to_string(pass.u->size()) +
+                     " entries for " + std::to_string(num_dofs()) + " unknowns");
+  if (pass.rhs && pass.rhs->size() != num_free_dofs()) throw InputError("assemble: rhs has the wrong size");
+  if (pass.stiffness && !pass.add_to_stiffness)
+    std::fill(pass.stiffness->values().begin(), pass.stiffness->values().end(), 0.0);
+  const double weight = pass.stiffness_weight;
+  if (pass.force) pass.force->setZero(num_dofs());
   const int n = space_.nodes_per_element();
   const auto& fi = as.free_index();
-  const bool has_prescribed = prescribed.size() == num_dofs() && prescribed.cwiseAbs().maxCoeff() > 0;
+  const auto& X = space_.positions();
+  const bool has_prescribed = pass.rhs && pass.prescribed && pass.prescribed->size() == num_dofs() &&
+                              pass.prescribed->cwiseAbs().maxCoeff() > 0;
+  // The element's state enters only through y = x_e - R X_e (zero at rest for R = I).
+  const bool need_y = pass.force || pass.energy || (pass.rhs && pass.R);
+  double energy = 0.0;
   for (const auto& elements : as.colors()) {
 #pragma omp parallel
     {
       Eigen::MatrixXd Ke;
-      Eigen::VectorXd c;
-#pragma omp for schedule(dynamic, 16)
+      Eigen::VectorXd y(3 * n), g(3 * n);
+      ElementGeometry geo;
+#pragma omp for schedule(dynamic, 16) reduction(+ : energy)
       for (size_t k = 0; k < elements.size(); ++k) {
         const index_t e = elements[k];
-        element_matrix(e, Ke);
-        if (R && rhs) {
-          // c_e = R K_e (Rᵀ X_e - X_e), the rest-state force of the rotated element.
-          c = Ke * corotated_displacement(space_, e, nullptr, (*R)[e]);
+        const index_t* nodes = space_.element_nodes(e);
+        // R K_e Rᵀ is the stiffness of the element with rotated gradients ∇λ_k → R ∇λ_k.
+        geo = geometry_[e];
+        if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
+        const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
+        element_stiffness(tables_, geo, s * material_.lambda(), s * material_.mu(), Ke);
+        if (need_y) {
+          for (int a = 0; a < n; ++a) {
+            const Vec3& Xa = X[nodes[a]];
+            const Vec3 x = pass.u ? Vec3(Xa + pass.u->segment<3>(3 * nodes[a])) : Xa;
+            y.segment<3>(3 * a) = pass.R ? Vec3(x - (*pass.R)[e] * Xa) : Vec3(x - Xa);
+          }
+          g.noalias() = Ke * y;
+          energy += 0.5 * y.dot(g);
         }
         for (int a = 0; a < n; ++a) {
-          const index_t ia = space_.node(e, a);
+          const index_t ia = nodes[a];
+          if (pass.force) pass.force->segment<3>(3 * ia) -= g.segment<3>(3 * a);
           const index_t I = fi[ia];
-          if (I < 0) continue;
+          if (I < 0 || !(pass.stiffness || pass.rhs)) continue;
           Vec3 r = Vec3::Zero();
           for (int b = 0; b < n; ++b) {
-            Mat3 Kab = Ke.block<3, 3>(3 * a, 3 * b);
-            if (R) Kab = (*R)[e] * Kab * (*R)[e].transpose();
-            const offset_t s = as.slot(e, a, b);
-            if (s >= 0) K.block(s) += Kab;
-            else if (rhs && has_prescribed) r -= Kab * prescribed.segment<3>(3 * space_.node(e, b));
+            const offset_t slot = as.slot(e, a, b);
+            if (slot >= 0) {
+              if (pass.stiffness) pass.stiffness->block(slot) += weight * Ke.block<3, 3>(3 * a, 3 * b);
+            } else if (has_prescribed) {
+              r -= Ke.block<3, 3>(3 * a, 3 * b) * pass.prescribed->segment<3>(3 * nodes[b]);
+            }
           }
-          if (R && rhs) r -= (*R)[e] * c.segment<3>(3 * a);
-          if (rhs) rhs->segment<3>(3 * I) += r;
+          if (pass.rhs) {
+            if (need_y) r -= g.segment<3>(3 * a);
+            pass.rhs->segment<3>(3 * I) += r;
+          }
         }
       }
     }
   }
+  if (pass.energy) *pass.energy = energy;
+}
+
+void ElasticityModel::assemble(const Rotations* R, const Vector& prescribed, Bcsr& K,
+                               Vector* rhs) const {
+  // rhs -= K_fd u_d + Σ_e R K_e (Rᵀ X_e - X_e): the rest state's force is -Σ_e K_R,e (X_e - R X_e).
+  ElementPass pass;
+  pass.R = R;
+  pass.stiffness = &K;
+  pass.rhs = rhs;
+  pass.prescribed = &prescribed;
+  evaluate(pass);
+}
+
+Vector ElasticityModel::elastic_force(const Vector& u, const Rotations* R) const {
+  Vector f;
+  ElementPass pass;
+  pass.u = &u;
+  pass.R = R;
+  pass.force = &f;
+  evaluate(pass);
+  return f;
+}
+
+double ElasticityModel::elastic_energy(const Vector& u, const Rotations* R) const {
+  double energy = 0.0;
+  ElementPass pass;
+  pass.u = &u;
+  pass.R = R;
+  pass.energy = &energy;
+  evaluate(pass);
+  return energy;
 }
 
 void ElasticityModel::assemble_mass(Bcsr& M) const {
@@ -244,30 +283,6 @@ Vector ElasticityModel::lumped_mass() const {
     for (int a = 0; a < space_.nodes_per_element(); ++a) m[space_.node(e, a)] += me;
   }
   return m;
-}
-
-Vector ElasticityModel::elastic_force(const Vector& u, const Rotations* R) const {
-  Vector f = Vector::Zero(num_dofs());
-  const int n = space_.nodes_per_element();
-  Eigen::MatrixXd Ke;
-  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
-    element_matrix(e, Ke);
-    const Mat3 Re = R ? (*R)[e] : Mat3::Identity();
-    const Eigen::VectorXd fe = Ke * corotated_displacement(space_, e, &u, Re);
-    for (int a = 0; a < n; ++a) f.segment<3>(3 * space_.node(e, a)) -= Re * fe.segment<3>(3 * a);
-  }
-  return f;
-}
-
-double ElasticityModel::elastic_energy(const Vector& u, const Rotations* R) const {
-  double energy = 0.0;
-  Eigen::MatrixXd Ke;
-  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
-    element_matrix(e, Ke);
-    const Eigen::VectorXd d = corotated_displacement(space_, e, &u, R ? (*R)[e] : Mat3::Identity());
-    energy += 0.5 * d.dot(Ke * d);
-  }
-  return energy;
 }
 
 Vector ElasticityModel::gravity(const Vec3& g) const {
@@ -357,6 +372,11 @@ Vector ElasticityModel::body_force(const std::function<Vec3(const Vec3&)>& b,
 
 Vec3 ElasticityModel::displacement_at(const Vector& u, const Vec3& X) const {
   const auto [e, l] = locate(X);
+  return displacement_at(u, e, l);
+}
+
+Vec3 ElasticityModel::displacement_at(const Vector& u, index_t e, const Eigen::Vector4d& l) const {
+  if (e < 0 || e >= mesh_.num_tets()) throw InputError("displacement_at: no element " + std::to_string(e));
   const auto& alpha = multi_indices(space_.degree());
   Vec3 v = Vec3::Zero();
   for (int a = 0; a < space_.nodes_per_element(); ++a)

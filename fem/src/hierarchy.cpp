@@ -124,21 +124,43 @@ const Bcsr& DegreeHierarchy::mass(int l) {
 
 void DegreeHierarchy::assemble_level(int l, const Rotations* R, Vector* rhs, double mass_weight,
                                      double stiffness_weight) {
-  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
-  const Vector none;
   Vector correction;
   if (rhs) correction = Vector::Zero(rhs->size());
-  models_[l]->assemble(R, none, matrices_[l], rhs ? &correction : nullptr);
+  const Vector none;
+  ElasticityModel::ElementPass pass;
+  pass.R = R;
+  pass.rhs = rhs ? &correction : nullptr;
+  pass.prescribed = &none;
+  assemble_level(l, pass, mass_weight, stiffness_weight);
   if (rhs) *rhs += stiffness_weight * correction;
-  if (mass_weight == 0.0 && stiffness_weight == 1.0) return;
+}
+
+void DegreeHierarchy::assemble_level(int l, const Rotations* R, double mass_weight,
+                                     double stiffness_weight, const Vector& u, Vector* force,
+                                     double* energy) {
+  ElasticityModel::ElementPass pass;
+  pass.u = &u;
+  pass.R = R;
+  pass.force = force;
+  pass.energy = energy;
+  assemble_level(l, pass, mass_weight, stiffness_weight);
+}
+
+void DegreeHierarchy::assemble_level(int l, ElasticityModel::ElementPass pass, double mass_weight,
+                                     double stiffness_weight) {
+  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
+  // mass_weight M written first, stiffness_weight K_R added during the element pass: the matrix
+  // is swept once more, not three times (zero, scatter, combine).
   std::vector<double>& a = matrices_[l].values();
   if (mass_weight != 0.0) {
     const std::vector<double>& m = mass(l).values();
 #pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < a.size(); ++k) a[k] = mass_weight * m[k] + stiffness_weight * a[k];
-  } else {
-    for (double& v : a) v *= stiffness_weight;
+    for (size_t k = 0; k < a.size(); ++k) a[k] = mass_weight * m[k];
   }
+  pass.stiffness = &matrices_[l];
+  pass.stiffness_weight = stiffness_weight;
+  pass.add_to_stiffness = mass_weight != 0.0;
+  models_[l]->evaluate(pass);
 }
 
 }  // namespace pmg::fem

@@ -49,46 +49,62 @@ void ImplicitEuler::set_state(const Vector& u, const Vector& v) {
       throw InputError("simulation: clamped node " + std::to_string(i) + " must start at rest");
   u_ = u;
   v_ = v;
+  state_.valid = false;
   v_free_ = m.restrict_to_free(v);
 }
 
-void ImplicitEuler::assemble_level(int level, const Rotations* R) {
-  // (1 + Δt α) M + (Δt β + Δt²) K_R: the same weights on every level.
-  h_.assemble_level(level, R, nullptr, 1.0 + p_.dt * p_.rayleigh_alpha,
-                    p_.dt * p_.rayleigh_beta + p_.dt * p_.dt);
+void ImplicitEuler::evaluate_state() const {
+  if (state_.valid) return;
+  state_.seconds = {};
+  const int L = h_.num_levels();
+  auto t0 = Clock::now();
+  if (p_.corotational) {
+    state_.R = h_.finest().rotations(u_);
+    state_.seconds[kRotations] = since(t0);
+  }
+  const Rotations* R = p_.corotational ? &state_.R : nullptr;
+  t0 = Clock::now();
+  state_.matrix_assembled = p_.corotational || !assembled_;
+  if (state_.matrix_assembled) {
+    h_.assemble_level(L - 1, R, mass_weight(), stiffness_weight(), u_, &state_.force, &state_.energy);
+    state_.seconds[kAssembly] = since(t0);
+    assembled_ = true;
+  } else {  // linear material, matrix kept: force and energy only
+    ElasticityModel::ElementPass pass;
+    pass.u = &u_;
+    pass.force = &state_.force;
+    pass.energy = &state_.energy;
+    h_.finest().evaluate(pass);
+    state_.seconds[kForces] = since(t0);
+  }
+  state_.valid = true;
 }
 
 StepStats ImplicitEuler::step() {
-  StepStats st;
   const ElasticityModel& m = h_.finest();
   const int L = h_.num_levels();
-  Rotations R;
-  auto t0 = Clock::now();
-  if (p_.corotational) {
-    R = m.rotations(u_);
-    st.seconds[kRotations] = since(t0);
-  }
-  const Rotations* Rp = p_.corotational ? &R : nullptr;
-  if (p_.corotational || !assembled_) {
-    t0 = Clock::now();
-    assemble_level(L - 1, Rp);
-    st.seconds[kAssembly] = since(t0);
-    t0 = Clock::now();
+  evaluate_state();
+  StepStats st;
+  st.seconds = state_.seconds;
+  if (state_.matrix_assembled) {
+    // The lower degrees get the same rotations and weights: (1 + Δt α) M + (Δt β + Δt²) K_R.
+    const auto t0 = Clock::now();
+    const Rotations* R = p_.corotational ? &state_.R : nullptr;
     if (solver_.uses_levels())
-      for (int l = 0; l < L - 1; ++l) assemble_level(l, Rp);
+      for (int l = 0; l < L - 1; ++l)
+        h_.assemble_level(l, R, nullptr, mass_weight(), stiffness_weight());
     if (solver_.is_set_up()) solver_.update();
     else solver_.setup(h_.matrix(L - 1));
     st.seconds[kHierarchy] = since(t0);
-    assembled_ = true;
   }
   // b = M v + Δt (f_ext + f_el(x)) on the free nodes.
-  t0 = Clock::now();
-  const Vector f = m.restrict_to_free(f_ext_ + m.elastic_force(u_, Rp));
+  auto t0 = Clock::now();
+  const Vector f = m.restrict_to_free(f_ext_ + state_.force);
   const Bcsr& M = h_.mass(L - 1);
   Vector b(v_free_.size());
   M.multiply(v_free_.data(), b.data());
   b += p_.dt * f;
-  st.seconds[kForces] = since(t0);
+  st.seconds[kForces] += since(t0);
 
   t0 = Clock::now();
   const double bn = b.norm();
@@ -107,6 +123,7 @@ StepStats ImplicitEuler::step() {
 
   v_ = m.expand(v_free_, Vector());
   u_ += p_.dt * v_;
+  state_.valid = false;
   t_ += p_.dt;
   ++step_;
   st.step = step_;
@@ -127,10 +144,8 @@ double ImplicitEuler::kinetic_energy() const {
 }
 
 double ImplicitEuler::elastic_energy() const {
-  const ElasticityModel& m = h_.finest();
-  if (!p_.corotational) return m.elastic_energy(u_, nullptr);
-  const Rotations R = m.rotations(u_);
-  return m.elastic_energy(u_, &R);
+  evaluate_state();
+  return state_.energy;
 }
 
 double ImplicitEuler::external_work() const { return f_ext_.dot(u_); }

@@ -1,4 +1,4 @@
-// Implicit Euler (SPEC §5): exact modal recurrence for linear material, rigid spinning for
+// Implicit Euler (docs/method.md §3): exact modal recurrence for linear material, rigid spinning for
 // corotational, and what a step skips.
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/simulation.hpp"
@@ -93,7 +93,7 @@ TEST_CASE("a spinning free bar: corotational keeps its shape, energy never grows
     sim.step();
     e_max = std::max(e_max, sim.total_energy());
   }
-  // With the rotations lagged by one step (SPEC §5) the step is not exactly dissipative for a
+  // With the rotations lagged by one step (docs/method.md §3) the step is not exactly dissipative for a
   // spinning body: energy moves between kinetic and a breathing mode and the total wobbles by
   // ~1e-5 relative from step to step (seen: +2.0e-5 at most), but it never rises above its start
   // by more than that and falls over the turn.

@@ -1,4 +1,4 @@
-// The seed's validation cases (SPEC §7, Tables 2.6 and 2.7). The small meshes run with the suite;
+// The seed's validation cases (docs/method.md §5, Tables 2.6 and 2.7). The small meshes run with the suite;
 // the refined ones are tagged [.validation] and run with `ctest -L validation`.
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/static_solve.hpp"
@@ -13,7 +13,7 @@ using namespace pmg::fem;
 namespace {
 
 // Cantilever 1.0 x 0.2 x 0.2 m, E = 500 kPa, ν = 0.3, fixed at x = 0, 10 N downwards at the free end.
-constexpr double kReference = 0.05087;  // converged 3-D deflection of the end-face centre (SPEC §7)
+constexpr double kReference = 0.05087;  // converged 3-D deflection of the end-face centre (docs/method.md §5)
 const Vec3 kTip(1.0, 0.1, 0.1);
 
 struct Deflections {

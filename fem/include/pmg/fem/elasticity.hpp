@@ -68,6 +68,25 @@ class ElasticityModel {
 
   // ---- rotations, matrices, forces --------------------------------------------------------------
   Rotations rotations(const Vector& u) const;
+
+  /// What one pass over the elements computes (every output optional). Each element's rotated
+  /// stiffness K_R,e = R K_e Rᵀ is built once — as the stiffness of the element whose gradients
+  /// ∇λ_k are rotated to R ∇λ_k, so it costs no more than K_e — and gives the matrix, the force
+  /// f_e = -K_R,e (x_e - R X_e) and the energy ½ (x_e - R X_e)ᵀ K_R,e (x_e - R X_e) of the
+  /// element (x_e = X_e + u_e). Colour by colour, elements of a colour in parallel, no locks.
+  struct ElementPass {
+    const Vector* u = nullptr;           ///< full displacement; nullptr: the rest state (u = 0)
+    const Rotations* R = nullptr;        ///< one per element; nullptr: R = I (linear elasticity)
+    Bcsr* stiffness = nullptr;           ///< K_ff (assembler()'s pattern), overwritten with
+                                         ///< stiffness_weight K_ff, or that added to it
+    double stiffness_weight = 1.0;
+    bool add_to_stiffness = false;       ///< keep the values (e.g. m M) and add to them
+    Vector* force = nullptr;             ///< elastic force, full vector, overwritten
+    double* energy = nullptr;            ///< elastic energy
+    Vector* rhs = nullptr;               ///< free vector: += f_el|free - K_fd u_d (see assemble)
+    const Vector* prescribed = nullptr;  ///< u_d for rhs (full vector; empty or nullptr: zero)
+  };
+  void evaluate(const ElementPass& pass) const;
   /// K_ff for rotations R (nullptr: linear elasticity) into K (a matrix of assembler()'s pattern),
   /// and if rhs != nullptr: rhs -= K_fd u_d + Σ_e R K_e (Rᵀ X_e - X_e) restricted to the free nodes,
   /// with u_d the prescribed values in `prescribed` (a full vector; may be empty for zero).
@@ -97,6 +116,8 @@ class ElasticityModel {
   /// Element containing rest point X and its barycentric coordinates; throws if outside.
   std::pair<index_t, Eigen::Vector4d> locate(const Vec3& X) const;
   Vec3 displacement_at(const Vector& u, const Vec3& X) const;
+  /// The same at a point located once (element and barycentric coordinates from locate()).
+  Vec3 displacement_at(const Vector& u, index_t element, const Eigen::Vector4d& barycentric) const;
   /// BB coefficients of the interpolant of u(X) at every node's domain point (exact for
   /// polynomials of degree <= p).
   Vector interpolate(const std::function<Vec3(const Vec3&)>& u) const;
@@ -109,7 +130,6 @@ class ElasticityModel {
   const std::vector<double>& stiffness_scale() const { return stiffness_scale_; }
 
  private:
-  void element_matrix(index_t e, Eigen::MatrixXd& K) const;
 
   const TetMesh& mesh_;
   BBSpace space_;

@@ -62,9 +62,17 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// The same for one level.
   void assemble_level(int level, const Rotations* R, Vector* rhs = nullptr,
                       double mass_weight = 0.0, double stiffness_weight = 1.0);
+  /// Level l's matrix  mass_weight M + stiffness_weight K_R  and, from the same pass over the
+  /// elements (ElasticityModel::evaluate), the elastic force (full vector) and energy of the
+  /// displacement u; either may be nullptr.
+  void assemble_level(int level, const Rotations* R, double mass_weight, double stiffness_weight,
+                      const Vector& u, Vector* force, double* energy);
 
  private:
   std::vector<std::unique_ptr<ElasticityModel>> models_;
+  void assemble_level(int level, ElasticityModel::ElementPass pass, double mass_weight,
+                      double stiffness_weight);
+
   std::vector<Bcsr> matrices_;
   std::vector<Bcsr> masses_;  ///< per level, assembled on first use
   std::vector<Csr> prolongations_;

@@ -1,4 +1,4 @@
-// pmg/fem/simulation.hpp — linearised implicit Euler for (corotational) elasticity, SPEC §5.
+// pmg/fem/simulation.hpp — linearised implicit Euler for (corotational) elasticity (docs/method.md §3).
 //
 // Per step, with the rotations R of the current state (R = I for linear material):
 //   (m M + s K_R) v⁺ = M v + Δt (f_ext + f_el(x)),   x⁺ = x + Δt v⁺,
@@ -8,6 +8,11 @@
 //
 // A step only pays for what the scene uses: linear material computes no rotations and assembles
 // the matrices once; a solver that needs no lower levels (CG, CHOLMOD) never assembles them.
+// Everything the state x contributes — its rotations, the finest matrix, the elastic force and the
+// elastic energy — comes from one pass over the elements (ElasticityModel::evaluate), made once
+// per state: by step(), or earlier by elastic_energy(), whose pass the next step then reuses. So
+// recording the energy after every step costs nothing extra, and the finest matrix in the
+// hierarchy may already be the next step's once the energy of the new state has been asked for.
 //
 // The step system is solved by any Solver (pmg/sparse/solver.hpp; build one with
 // pmg::make_solver, giving the hierarchy as its levels): set up on the first step, update()d when
@@ -65,12 +70,16 @@ class ImplicitEuler {
   StepStats step();
 
   double kinetic_energy() const;  ///< ½ vᵀ M v (consistent mass)
-  double elastic_energy() const;  ///< corotational (or linear) strain energy of the state
+  /// Corotational (or linear) strain energy of the state, from the pass the next step uses.
+  double elastic_energy() const;
   double external_work() const;   ///< f_extᵀ u (the potential of the constant loads is -f_extᵀ u)
   double total_energy() const { return kinetic_energy() + elastic_energy() - external_work(); }
 
  private:
-  void assemble_level(int level, const Rotations* R);
+  double mass_weight() const { return 1.0 + p_.dt * p_.rayleigh_alpha; }
+  double stiffness_weight() const { return p_.dt * p_.rayleigh_beta + p_.dt * p_.dt; }
+  /// The pass over the elements for the current state, once per state.
+  void evaluate_state() const;
 
   DegreeHierarchy& h_;
   Solver& solver_;
@@ -79,7 +88,17 @@ class ImplicitEuler {
   Vector u_, v_, v_free_;
   double t_ = 0.0;
   int step_ = 0;
-  bool assembled_ = false;  ///< linear material: assembled once
+  /// What the state u_ contributes (valid until u_ changes).
+  struct StateTerms {
+    bool valid = false;
+    bool matrix_assembled = false;  ///< the pass assembled the finest matrix (lower levels follow)
+    Rotations R;
+    Vector force;                   ///< f_el(u), full
+    double energy = 0.0;
+    std::array<double, kNumStages> seconds{};
+  };
+  mutable StateTerms state_;
+  mutable bool assembled_ = false;  ///< linear material: assembled once
 };
 
 }  // namespace pmg::fem
