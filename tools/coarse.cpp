@@ -33,7 +33,7 @@ struct CoarseOptions {
 
 void run(const CoarseOptions& o) {
   FemSystem sys = build_fem_system(o.scene);
-  fem::DegreeHierarchy& h = *sys.hierarchy;
+  fem::DegreeHierarchy& h = sys.hierarchy();
   if (h.num_levels() < 2) throw InputError("pmg coarse needs degree >= 2");
   const fem::ElasticityModel& fine = h.finest();
   // Rotations of the deformed state under the load (linear static solution).

@@ -203,7 +203,7 @@ System load_system(const Options& o) {
         chol.setup(s.csr);
       } catch (const Error& e) {
         throw InputError(std::string(e.what()) + ": the clamped nodes (" +
-                         std::to_string(s.fem->hierarchy->finest().num_fixed()) +
+                         std::to_string(s.fem->hierarchy().finest().num_fixed()) +
                          ") do not remove every rigid motion; raise --fix-fraction");
       }
       chol.apply(s.b, s.x_true);
@@ -366,7 +366,7 @@ void run(const Options& o) {
   // multiply in the requested format.
   const LinearOperator& entries = sys.bcsr ? static_cast<const LinearOperator&>(*sys.bcsr) : sys.csr;
   const mg::LevelProvider* levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())
-                                    : sys.fem ? sys.fem->hierarchy.get() : nullptr;
+                                    : sys.fem ? &sys.fem->hierarchy() : nullptr;
   std::vector<std::string> names = o.solvers;
   if (names.empty()) {
     names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
@@ -384,9 +384,8 @@ void run(const Options& o) {
   for (const auto& kv : Config::from_pairs(o.overrides, "--set").items()) set_keys.insert(kv.first);
   std::set<std::string> set_used;
   double mpi = -1.0;
-  const std::set<std::string> scalar = {"cg", "jacobi-pcg", "cholmod", "boomeramg-pcg"};
   for (auto& [name, c] : configs) {
-    if (!sys.bcsr && !scalar.count(c.get_string("method", "cg")))
+    if (!sys.bcsr && method_needs_blocks(c.get_string("method", "cg")))
       throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
     solvers.push_back(build_solver(c, ctx, "cg"));
     c.check_all_used(set_keys);
@@ -394,7 +393,7 @@ void run(const Options& o) {
       if (c.was_used(k)) set_used.insert(k);
     // hypre's MPI start-up (about half a second here) is paid once per process: started here,
     // before the clocks, so that it is charged to no solver.
-    mpi = std::max(mpi, start_mpi_for_hypre(c));
+    mpi = std::max(mpi, mg::start_mpi_for_hypre(c));
     if (auto* cg = dynamic_cast<Cg*>(solvers.back().get())) cg->set_multiplication_operator(&A);
     if (auto* mcg = dynamic_cast<MergedCg*>(solvers.back().get())) mcg->set_multiplication_operator(&A);
   }

@@ -10,7 +10,7 @@ namespace pmg::tools {
 void export_levels(FemSystem& system, const std::string& dir) {
   std::filesystem::create_directories(dir);
   system.assemble_lower_levels();
-  const fem::DegreeHierarchy& h = *system.hierarchy;
+  const fem::DegreeHierarchy& h = system.hierarchy();
   for (int l = 0; l < h.num_levels(); ++l) {
     write_matrix_market(dir + "/A" + std::to_string(l) + ".mtx", h.matrix(l).to_csr(), true);
     if (l > 0) write_matrix_market(dir + "/P" + std::to_string(l) + ".mtx", h.prolongation(l));

@@ -1,8 +1,6 @@
 #include "scene.hpp"
 
-#include "pmg/fem/generators.hpp"
-#include "pmg/fem/mesh_io.hpp"
-#include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/sim/setup.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -35,66 +33,39 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
       ->check(CLI::NonNegativeNumber);
 }
 
-double start_mpi_for_hypre(const Config& config) {
-  bool hypre = false;
-  for (const auto& kv : config.items()) hypre |= kv.second.rfind("boomeramg", 0) == 0;
-  if (!hypre) return -1.0;
-  const auto t0 = std::chrono::steady_clock::now();
-  mg::mpi_size();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 double FemSystem::assemble_lower_levels() {
   const auto t0 = std::chrono::steady_clock::now();
-  for (int l = 0; l + 1 < hierarchy->num_levels(); ++l)
-    hierarchy->assemble_level(l, nullptr, nullptr, mass_weight, stiffness_weight);
+  for (int l = 0; l + 1 < hierarchy().num_levels(); ++l)
+    hierarchy().assemble_level(l, nullptr, nullptr, mass_weight, stiffness_weight);
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3]) {
-  if (file.empty()) return fem::box_mesh_24(box[0], box[1], box[2], size[0], size[1], size[2]);
-  std::vector<std::string> warnings;
-  fem::TetMesh mesh = fem::read_mesh(file, &warnings);
-  for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
-  return mesh;
+sim::Scene scene_of(const SceneOptions& o) {
+  sim::Scene s;
+  s.source = "pmg compare options";
+  s.mesh_file = o.mesh;
+  for (int d = 0; d < 3; ++d) s.box[d] = o.box[d], s.size[d] = o.size[d];
+  s.degree = o.degree;
+  s.young = o.young, s.poisson = o.poisson, s.density = o.density;
+  s.clamp_axis = o.fix[0] - 'x';
+  s.clamp_fraction = o.fix_fraction;
+  if (o.load == "gravity") s.gravity = fem::Vec3(0, 0, -9.81);
+  else s.end_force = fem::Vec3(0, 0, -10.0);  // 10 N in total on the far face
+  s.dynamic = o.dt > 0;
+  if (o.dt > 0) s.dt = o.dt;
+  return s;
 }
 
 FemSystem build_fem_system(const SceneOptions& o) {
+  const sim::Scene scene = scene_of(o);
   FemSystem s;
-  s.mesh = load_mesh_or_box(o.mesh, o.box.data(), o.size.data());
-  if (!o.mesh.empty()) {
-    s.description = o.mesh;
-  } else {
-    s.description = "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
-                    std::to_string(o.box[2]) + " boxes";
-  }
-  const int axis = o.fix[0] - 'x';
-  double lo = 1e300, hi = -1e300;
-  for (const auto& v : s.mesh.vertices) lo = std::min(lo, v[axis]), hi = std::max(hi, v[axis]);
-  const double tol = 1e-9 * (hi - lo), limit = lo + o.fix_fraction * (hi - lo) + tol;
-  s.hierarchy = std::make_unique<fem::DegreeHierarchy>(
-      s.mesh, o.degree, fem::Material{o.young, o.poisson, o.density},
-      [axis, limit](const fem::Vec3& X) { return X[axis] <= limit; });
-  const fem::ElasticityModel& m = s.hierarchy->finest();
-  const std::vector<char>& clamped = s.hierarchy->clamped_vertices();
-  const int dim = fem::clamped_dimension(s.mesh, clamped);
-  if (dim < 2) {
-    std::ostringstream msg;
-    msg << "scene: the clamped vertices (" << std::count(clamped.begin(), clamped.end(), 1)
-        << " within --fix-fraction " << o.fix_fraction << " of the minimum " << o.fix << ") "
-        << (dim < 0 ? "are none" : dim == 0 ? "are a single point" : "lie on one line")
-        << ": the body could still move rigidly; raise --fix-fraction";
-    throw InputError(msg.str());
-  }
-  Vector f = Vector::Zero(m.num_dofs());
-  if (o.load == "gravity") {
-    f = m.gravity(fem::Vec3(0, 0, -9.81));
-  } else {
-    const double area = m.add_traction(f, [axis, hi, tol](const fem::Vec3& X) { return X[axis] >= hi - tol; },
-                                       fem::Vec3(0, 0, -1.0));
-    if (!(area > 0)) throw InputError("scene: no boundary face at the maximum of axis " + o.fix);
-    f *= 10.0 / area;  // 10 N in total
-  }
+  s.setup = sim::set_up(scene);
+  for (const auto& w : s.setup.warnings) std::cerr << "warning: " << w << "\n";
+  s.description = o.mesh.empty() ? "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
+                                       std::to_string(o.box[2]) + " boxes"
+                                 : o.mesh;
+  const fem::ElasticityModel& m = s.setup.finest();
+  Vector f = s.setup.f_ext;
   if (o.dt > 0) {
     s.mass_weight = 1.0;
     s.stiffness_weight = o.dt * o.dt;
@@ -102,9 +73,9 @@ FemSystem build_fem_system(const SceneOptions& o) {
   }
   s.b = m.restrict_to_free(f);
   const auto t0 = std::chrono::steady_clock::now();
-  s.hierarchy->assemble_level(o.degree - 1, nullptr, nullptr, s.mass_weight, s.stiffness_weight);
+  s.hierarchy().assemble_level(o.degree - 1, nullptr, nullptr, s.mass_weight, s.stiffness_weight);
   s.finest_assembly = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  s.description += ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.mesh.num_tets()) +
+  s.description += ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
                    " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " + o.load +
                    (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");
   return s;

@@ -4,6 +4,7 @@
 
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/mesh.hpp"
+#include "pmg/sim/setup.hpp"
 #include "pmg/sparse/config.hpp"
 
 #include <CLI/CLI.hpp>
@@ -28,26 +29,22 @@ struct SceneOptions {
 /// Registers the scene options on a subcommand.
 void add_scene_options(CLI::App* sub, SceneOptions& o);
 
+/// The FEM system of a tool: a sim::SceneSetup (mesh, hierarchy, clamp, load — the same code as
+/// pmg simulate's scenes) and the right-hand side of the static or one-step system.
 struct FemSystem {
-  fem::TetMesh mesh;
-  std::unique_ptr<fem::DegreeHierarchy> hierarchy;
+  sim::SceneSetup setup;
   Vector b;                      ///< right-hand side over the free dofs of the finest level
   std::string description;
   double finest_assembly = 0.0;  ///< seconds to assemble the finest level
   double mass_weight = 0.0, stiffness_weight = 1.0;
-  const Bcsr& matrix() const { return hierarchy->matrix(hierarchy->num_levels() - 1); }
+  fem::DegreeHierarchy& hierarchy() const { return *setup.hierarchy; }
+  const Bcsr& matrix() const { return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1); }
   /// Assembles the lower levels (PMG's extra set-up work); returns the seconds it took.
   double assemble_lower_levels();
 };
 
+/// The sim::Scene these options describe (clamp, material, load); build_fem_system sets it up.
+sim::Scene scene_of(const SceneOptions& o);
 FemSystem build_fem_system(const SceneOptions& o);
-
-/// When a solver configuration uses hypre (a method starting "boomeramg" anywhere in it), starts
-/// MPI now — its start-up is paid once per process, not per solve — and returns the seconds it
-/// took; otherwise returns a negative number and does nothing.
-double start_mpi_for_hypre(const Config& config);
-
-/// A mesh file (warnings to stderr), or with an empty path the box bar of nx x ny x nz boxes.
-fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3]);
 
 }  // namespace pmg::tools

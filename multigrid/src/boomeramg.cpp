@@ -4,6 +4,7 @@
 #include <HYPRE_parcsr_ls.h>
 #include <mpi.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -198,6 +199,15 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
     MPI_Allgatherv(local.data(), nlocal, MPI_DOUBLE, z.data(), d.counts.data(), d.displs.data(),
                    MPI_DOUBLE, MPI_COMM_WORLD);
   }
+}
+
+double start_mpi_for_hypre(const Config& config) {
+  bool hypre = false;
+  for (const auto& kv : config.items()) hypre |= kv.second.rfind("boomeramg", 0) == 0;
+  if (!hypre) return -1.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  mpi_size();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace pmg::mg

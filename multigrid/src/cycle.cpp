@@ -48,7 +48,7 @@ bool MultigridCycle::is_symmetric() const {
 
 const Bcsr& MultigridCycle::level_matrix(int l) const {
   const int L = num_levels();
-  if (params_.coarse_operator == CoarseOperator::galerkin && l < L - 1) return galerkin_.at(l);
+  if (params_.coarse_operator == CoarseOperator::galerkin && l < L - 1) return galerkin_.at(l).matrix();
   return levels_.matrix(l);
 }
 
@@ -73,7 +73,7 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
   galerkin_.clear();
   if (params_.coarse_operator == CoarseOperator::galerkin) {
     galerkin_.resize(L > 0 ? L - 1 : 0);
-    for (int l = L - 2; l >= 0; --l) galerkin_[l] = galerkin_product(transfers_[l], level_matrix(l + 1));
+    for (int l = L - 2; l >= 0; --l) galerkin_[l] = GalerkinProduct(transfers_[l], level_matrix(l + 1));
   }
   for (int l = 1; l < L; ++l) smoothers_[l - 1]->setup(level_matrix(l));
   lowest_->setup(level_matrix(0));
@@ -88,12 +88,8 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
 }
 
 void MultigridCycle::refresh_galerkin() {
-  for (int l = num_levels() - 2; l >= 0; --l) {
-    Bcsr product = galerkin_product(transfers_[l], level_matrix(l + 1));
-    if (product.values().size() != galerkin_[l].values().size())
-      throw Error("multigrid: the Galerkin product's pattern changed on update()");
-    galerkin_[l].values() = std::move(product.values());
-  }
+  // Pattern and plan kept from setup(): values only, finest first (level l reads level l + 1).
+  for (int l = num_levels() - 2; l >= 0; --l) galerkin_[l].update(level_matrix(l + 1));
 }
 
 void MultigridCycle::update_impl() {

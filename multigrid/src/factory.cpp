@@ -143,9 +143,10 @@ Registry::Registry() {
       });
   add({"jacobi-pcg", "CG preconditioned by point Jacobi", kKrylovKeys},
       [](const Config& c, const SolverContext&) { return pcg_with(c, std::make_unique<JacobiPreconditioner>()); });
-  add({"block-jacobi-pcg", "CG preconditioned by 3x3 block Jacobi", kKrylovKeys},
+  add({"block-jacobi-pcg", "CG preconditioned by 3x3 block Jacobi", kKrylovKeys, false, true},
       [](const Config& c, const SolverContext&) { return pcg_with(c, std::make_unique<BlockJacobiPreconditioner>()); });
-  add({"mcg", "merged CG (three fused steps) with block Jacobi", std::string(kKrylovKeys) + " check_every"},
+  add({"mcg", "merged CG (three fused steps) with block Jacobi", std::string(kKrylovKeys) + " check_every",
+       false, true},
       [](const Config& c, const SolverContext&) { return std::make_unique<MergedCg>(read_krylov(c)); });
   add({"boomeramg-pcg", "CG preconditioned by hypre BoomerAMG V-cycles", std::string(kKrylovKeys) + " " + kAmgKeys},
       [](const Config& c, const SolverContext&) {
@@ -153,10 +154,11 @@ Registry::Registry() {
         return std::make_unique<Cg>(k, std::make_unique<mg::BoomerAMG>(read_boomeramg(c)));
       });
   // Multigrid
-  add({"pmg", "stationary multigrid: one cycle per iteration", std::string(kKrylovKeys) + " " + kCycleKeys, true},
+  add({"pmg", "stationary multigrid: one cycle per iteration", std::string(kKrylovKeys) + " " + kCycleKeys, true,
+       true},
       [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c)); });
   add({"mgpcg", "CG preconditioned by multigrid cycles (cycles: per application, default 2)",
-       std::string(kKrylovKeys) + " " + kCycleKeys, true},
+       std::string(kKrylovKeys) + " " + kCycleKeys, true, true},
       [](const Config& c, const SolverContext& ctx) {
         const KrylovParams k = read_krylov(c);
         return std::make_unique<Cg>(k, build_cycle(c, ctx, 2, KrylovParams{}));
@@ -169,7 +171,7 @@ Registry::Registry() {
   // Preconditioners and smoothers
   add({"jacobi", "point Jacobi D^-1", ""},
       [](const Config&, const SolverContext&) { return std::make_unique<JacobiPreconditioner>(); });
-  add({"block-jacobi", "3x3 block Jacobi D^-1", ""},
+  add({"block-jacobi", "3x3 block Jacobi D^-1", "", false, true},
       [](const Config&, const SolverContext&) { return std::make_unique<BlockJacobiPreconditioner>(); });
   auto gauss_seidel = [](bool pointwise) {
     return [pointwise](const Config& c, const SolverContext&) {
@@ -182,11 +184,13 @@ Registry::Registry() {
       return std::make_unique<mg::BlockGaussSeidel>(p);
     };
   };
-  add({"gauss-seidel", "3x3-block Gauss-Seidel (forward pre-, backward post-smoothing)", "sweeps ordering"},
+  add({"gauss-seidel", "3x3-block Gauss-Seidel (forward pre-, backward post-smoothing)", "sweeps ordering",
+       false, true},
       gauss_seidel(false));
-  add({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows", "sweeps ordering"},
+  add({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows", "sweeps ordering", false, true},
       gauss_seidel(true));
-  add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)", "degree lower_fraction power_iterations"},
+  add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)", "degree lower_fraction power_iterations",
+       false, true},
       [](const Config& c, const SolverContext&) {
         mg::ChebyshevParams p;
         p.degree = c.get_int("degree", p.degree, 1, 100);
@@ -194,7 +198,7 @@ Registry::Registry() {
         p.power_iterations = c.get_int("power_iterations", p.power_iterations, 1, 1000);
         return std::make_unique<mg::Chebyshev>(p);
       });
-  add({"damped-jacobi", "damped 3x3 block Jacobi x += omega D^-1 (b - A x)", "sweeps omega"},
+  add({"damped-jacobi", "damped 3x3 block Jacobi x += omega D^-1 (b - A x)", "sweeps omega", false, true},
       [](const Config& c, const SolverContext&) {
         mg::JacobiParams p;
         p.sweeps = c.get_int("sweeps", p.sweeps, 0, 1000);
@@ -260,6 +264,13 @@ bool method_uses_levels(const std::string& method) {
   std::lock_guard<std::mutex> lock(r.mutex);
   const Entry* e = r.find(method);
   return e && e->info.uses_levels;
+}
+
+bool method_needs_blocks(const std::string& method) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  const Entry* e = r.find(method);
+  return e && e->info.needs_blocks;
 }
 
 bool method_accepts_key(const std::string& method, const std::string& key) {

@@ -1,5 +1,7 @@
 #include "pmg/multigrid/transfer.hpp"
 
+#include <algorithm>
+
 namespace pmg::mg {
 
 namespace {
@@ -77,6 +79,64 @@ Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A) {
   Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> AP = A.to_csr().to_eigen() * P;
   Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> RAP = R * AP;
   return Bcsr::from_csr(Csr::from_eigen(RAP));
+}
+
+GalerkinProduct::GalerkinProduct(const BlockTransfer& T, const Bcsr& A) : fine_pattern_(A.shared_pattern()) {
+  if (A.rows() != T.fine_size()) throw InputError("Galerkin product: matrix size does not match the transfer");
+  const CsrPattern& R = T.restriction().pattern();
+  const CsrPattern& P = T.prolongation().pattern();
+  const std::vector<double>& rv = T.restriction().values();
+  const std::vector<double>& pv = T.prolongation().values();
+  const BlockPattern& a = A.pattern();
+  const index_t nc = R.rows;
+  auto pattern = std::make_shared<BlockPattern>();
+  pattern->rows = pattern->cols = nc;
+  pattern->row_ptr.assign(nc + 1, 0);
+  start_.assign(1, 0);
+  struct Term {
+    index_t J;
+    offset_t s;
+    double w;
+  };
+  std::vector<Term> terms;
+  for (index_t I = 0; I < nc; ++I) {
+    terms.clear();
+    for (offset_t k = R.row_ptr[I]; k < R.row_ptr[I + 1]; ++k) {
+      const index_t i = R.col_idx[k];
+      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
+        const index_t j = a.col_idx[s];
+        for (offset_t m = P.row_ptr[j]; m < P.row_ptr[j + 1]; ++m) terms.push_back({P.col_idx[m], s, rv[k] * pv[m]});
+      }
+    }
+    std::stable_sort(terms.begin(), terms.end(), [](const Term& x, const Term& y) { return x.J < y.J; });
+    for (size_t t = 0; t < terms.size(); ++t) {
+      if (t == 0 || terms[t].J != terms[t - 1].J) {
+        if (t > 0) start_.push_back(static_cast<offset_t>(fine_slot_.size()));
+        pattern->col_idx.push_back(terms[t].J);
+      }
+      fine_slot_.push_back(terms[t].s);
+      weight_.push_back(terms[t].w);
+    }
+    if (!terms.empty()) start_.push_back(static_cast<offset_t>(fine_slot_.size()));
+    pattern->row_ptr[I + 1] = static_cast<offset_t>(pattern->col_idx.size());
+  }
+  C_ = Bcsr(pattern, std::vector<double>(9 * pattern->col_idx.size(), 0.0));
+  update(A);
+}
+
+void GalerkinProduct::update(const Bcsr& A) {
+  if (A.shared_pattern() != fine_pattern_ && !(A.pattern().row_ptr == fine_pattern_->row_ptr &&
+                                               A.pattern().col_idx == fine_pattern_->col_idx))
+    throw InputError("Galerkin product: the fine matrix's pattern changed (build a new product)");
+  const index_t nc = C_.block_rows();
+  const offset_t* row_ptr = C_.pattern().row_ptr.data();
+#pragma omp parallel for schedule(dynamic, 64)
+  for (index_t I = 0; I < nc; ++I)
+    for (offset_t c = row_ptr[I]; c < row_ptr[I + 1]; ++c) {
+      Block3 sum = Block3::Zero();
+      for (offset_t t = start_[c]; t < start_[c + 1]; ++t) sum += weight_[t] * A.block(fine_slot_[t]);
+      C_.block(c) = sum;
+    }
 }
 
 }  // namespace pmg::mg

@@ -70,3 +70,33 @@ TEST_CASE("Galerkin RAP equals the re-discretised operator to round-off (R = Páµ
     }
   }
 }
+
+TEST_CASE("a kept Galerkin product refreshes values only and matches the sparse-product reference",
+          "[multigrid][transfer][galerkin]") {
+  DegreeHierarchy h(bar(), 3, Material{500e3, 0.3, 1000.0}, clamped);
+  h.assemble(nullptr);
+  for (int l = h.num_levels() - 1; l >= 1; --l) {
+    for (bool interpolating : {false, true}) {
+      const mg::BlockTransfer T = interpolating ? mg::BlockTransfer(h.prolongation(l), h.interpolating_restriction(l))
+                                                : mg::BlockTransfer(h.prolongation(l));
+      mg::GalerkinProduct G(T, h.matrix(l));
+      const auto pattern = G.matrix().shared_pattern();
+      for (unsigned seed : {1u, 2u}) {
+        const Rotations R = random_rotations(bar().num_tets(), seed);
+        h.assemble(&R, nullptr, 2.0, 0.5);  // new values, same pattern
+        G.update(h.matrix(l));
+        const Eigen::MatrixXd got = G.matrix().to_csr().to_eigen();
+        const Eigen::MatrixXd ref = mg::galerkin_product(T, h.matrix(l)).to_csr().to_eigen();
+        INFO("level " << l << (interpolating ? ", interpolating restriction" : ", R = Páµ€") << ", seed " << seed);
+        CHECK((got - ref).norm() <= 1e-13 * ref.norm());
+        CHECK(G.matrix().shared_pattern() == pattern);  // the pattern object is kept
+      }
+    }
+  }
+  // A fine matrix of another pattern is refused.
+  const mg::BlockTransfer T(h.prolongation(2));
+  mg::GalerkinProduct G(T, h.matrix(2));
+  DegreeHierarchy other(bar(), 3, Material{}, nothing);
+  other.assemble(nullptr);
+  CHECK_THROWS_AS(G.update(other.matrix(2)), InputError);
+}

@@ -14,6 +14,7 @@
 // block of rows, every rank holds the whole matrix and vectors, and results are gathered).
 #pragma once
 
+#include "pmg/sparse/config.hpp"
 #include "pmg/sparse/csr.hpp"
 #include "pmg/sparse/solver.hpp"
 
@@ -59,5 +60,10 @@ class BoomerAMG final : public Solver {
 /// Rank and number of ranks of MPI_COMM_WORLD (initialising MPI if needed).
 int mpi_rank();
 int mpi_size();
+
+/// When a solver configuration uses hypre (a method starting "boomeramg" anywhere in it), starts
+/// MPI now — its start-up is paid once per process, not per solve, so a caller does this before
+/// its clocks — and returns the seconds it took; otherwise returns a negative number.
+double start_mpi_for_hypre(const Config& config);
 
 }  // namespace pmg::mg

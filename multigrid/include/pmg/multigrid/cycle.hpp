@@ -104,7 +104,7 @@ class MultigridCycle final : public Solver {
   std::vector<std::unique_ptr<Smoother>> smoothers_;  ///< [l-1]: level l
   std::unique_ptr<Solver> lowest_;
   std::vector<BlockTransfer> transfers_;              ///< [l-1]: level l-1 -> l
-  std::vector<Bcsr> galerkin_;                        ///< [l]: level l < L-1 (Galerkin only)
+  std::vector<GalerkinProduct> galerkin_;             ///< [l]: level l < L-1 (Galerkin only)
   struct Work {
     Vector r, rc, xc;  ///< level l's residual, and the coarse right-hand side and correction
   };

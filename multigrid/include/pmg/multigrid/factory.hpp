@@ -46,6 +46,7 @@ struct SolverInfo {
   std::string description;
   std::string keys;          ///< its options, e.g. "tol max_iterations preconditioner.*"
   bool uses_levels = false;  ///< needs SolverContext::levels
+  bool needs_blocks = false; ///< reads 3x3 blocks (BCSR): refuses a scalar system
 };
 
 /// Registers a method (replacing one of the same name).
@@ -58,5 +59,7 @@ bool method_uses_levels(const std::string& method);
 /// Whether a method reads `key` at its top level (per its SolverInfo::keys) — for tools that set a
 /// default only where it applies (e.g. rhs_floor for iterative methods).
 bool method_accepts_key(const std::string& method, const std::string& key);
+/// Whether a method needs 3x3 blocks (a size divisible by 3, given as BCSR).
+bool method_needs_blocks(const std::string& method);
 
 }  // namespace pmg

@@ -9,6 +9,9 @@
 
 #include "pmg/sparse/bcsr.hpp"
 
+#include <memory>
+#include <vector>
+
 namespace pmg::mg {
 
 class BlockTransfer {
@@ -36,7 +39,27 @@ class BlockTransfer {
   bool transpose_ = true;
 };
 
-/// Galerkin coarse operator (R ⊗ I₃) A (P ⊗ I₃) as BCSR (two sparse products).
+/// Galerkin coarse operator (R ⊗ I₃) A (P ⊗ I₃) as BCSR (two sparse products): the reference.
 Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A);
+
+/// The Galerkin coarse operator C = (R ⊗ I₃) A (P ⊗ I₃) kept across value updates: the pattern
+/// of C and a plan — for every block of C the blocks of A and weights R_Ii P_jJ that sum into it —
+/// are built once; update() then refreshes C's values only, C_IJ = Σ R_Ii P_jJ A_ij, in parallel
+/// over the block rows of C without locks or allocation.
+class GalerkinProduct {
+ public:
+  GalerkinProduct() = default;
+  GalerkinProduct(const BlockTransfer& T, const Bcsr& A);
+  /// New values of A on the pattern the product was built on (InputError otherwise).
+  void update(const Bcsr& A);
+  const Bcsr& matrix() const { return C_; }
+
+ private:
+  Bcsr C_;
+  std::shared_ptr<const BlockPattern> fine_pattern_;
+  std::vector<offset_t> start_;      ///< per block of C: its terms [start_[c], start_[c+1])
+  std::vector<offset_t> fine_slot_;  ///< the block of A of each term
+  std::vector<double> weight_;       ///< R_Ii P_jJ of each term
+};
 
 }  // namespace pmg::mg

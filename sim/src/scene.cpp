@@ -1,4 +1,4 @@
-#include "scene_file.hpp"
+#include "pmg/sim/scene.hpp"
 
 #include "pmg/multigrid/factory.hpp"
 
@@ -9,7 +9,7 @@
 #include <set>
 #include <sstream>
 
-namespace pmg::tools {
+namespace pmg::sim {
 
 namespace {
 
@@ -128,16 +128,22 @@ int axis_index(Section& sec, const std::string& k, const std::string& name) {
 
 }  // namespace
 
-SimScene read_scene(const std::string& path) {
+Scene read_scene(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open the scene file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_scene(text.str(), path);
+}
+
+Scene parse_scene(const std::string& text, const std::string& path) {
   json j;
   try {
-    j = json::parse(in);
+    j = json::parse(text);
   } catch (const json::parse_error& e) {
     throw InputError(path + ": not valid JSON: " + e.what());
   }
-  SimScene s;
+  Scene s;
   s.source = path;
   Section root(path, "", j);
   if (root.has("mesh")) {
@@ -238,7 +244,7 @@ SimScene read_scene(const std::string& path) {
                                                             std::string(new_key).substr(0, std::string(new_key).find('.')) +
                                                             "\": {...}})");
     s.solver = Config::from_json(sj.dump(), path + ": solver");
-    SimScene::set_solver_defaults(s.solver);
+    Scene::set_solver_defaults(s.solver);
   }
   if (root.has("output")) {
     Section o = root.sub("output");
@@ -258,13 +264,13 @@ SimScene read_scene(const std::string& path) {
   return s;
 }
 
-Config SimScene::default_solver() {
+Config Scene::default_solver() {
   Config c = Config::from_pairs({}, "scene solver");
   set_solver_defaults(c);
   return c;
 }
 
-void SimScene::set_solver_defaults(Config& c) {
+void Scene::set_solver_defaults(Config& c) {
   // PMG to 1e-3 per step (the seed's setting), at most 1000 iterations.
   c.set_default("method", "pmg");
   const std::string method = c.get_string("method", "pmg");
@@ -274,7 +280,7 @@ void SimScene::set_solver_defaults(Config& c) {
   }
 }
 
-std::string scene_to_json(const SimScene& s) {
+std::string scene_to_json(const Scene& s) {
   json j;
   if (s.mesh_file.empty()) j["mesh"] = {{"box", s.box}, {"size", s.size}};
   else j["mesh"] = {{"file", s.mesh_file}};
@@ -306,4 +312,4 @@ std::string scene_to_json(const SimScene& s) {
   return j.dump(2) + "\n";
 }
 
-}  // namespace pmg::tools
+}  // namespace pmg::sim

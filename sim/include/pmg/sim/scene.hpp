@@ -1,4 +1,5 @@
-// Simulation scenes: a JSON file (nlohmann::json) read into SimScene, every key checked before any
+// pmg/sim/scene.hpp — a simulation scene: mesh, material, clamp, loads, initial state, time,
+// solver options and outputs. Read from JSON (nlohmann::json), every key checked before any
 // work starts. An unknown key, a wrong type or an impossible value is an InputError naming the key
 // ("scene.json: material.poisson: must lie in (-1, 0.5), got 0.7").
 #pragma once
@@ -10,9 +11,9 @@
 #include <optional>
 #include <string>
 
-namespace pmg::tools {
+namespace pmg::sim {
 
-struct SimScene {
+struct Scene {
   std::string source = "built-in default scene";
   // geometry
   std::string mesh_file;                  ///< empty: the box bar
@@ -56,8 +57,11 @@ struct SimScene {
 };
 
 /// Reads and checks a scene; `path` names the file in every message.
-SimScene read_scene(const std::string& path);
+Scene read_scene(const std::string& path);
+/// The same from JSON text; `path` names it in messages, and a relative mesh.file is taken
+/// relative to its folder.
+Scene parse_scene(const std::string& text, const std::string& path);
 /// The scene as JSON (what --print-scene shows; read_scene accepts it back).
-std::string scene_to_json(const SimScene& s);
+std::string scene_to_json(const Scene& s);
 
-}  // namespace pmg::tools
+}  // namespace pmg::sim

@@ -1,0 +1,69 @@
+// pmg/sim/setup.hpp — a scene made concrete: the mesh (a file, or the box bar of 24-tetrahedron
+// boxes), the degree hierarchy with its clamped vertices and material (with an optional
+// inclusion), the constant external force, the probe (located once), the initial state and the
+// step solver from the solver factory. `pmg simulate` is a printer around this and run.hpp.
+//
+//   pmg::sim::Scene scene = pmg::sim::read_scene("scenes/twisted.json");
+//   pmg::sim::SceneSetup setup = pmg::sim::set_up(scene);
+//   auto [u0, v0] = pmg::sim::initial_state(scene, setup);
+#pragma once
+
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/mesh.hpp"
+#include "pmg/sim/scene.hpp"
+#include "pmg/sparse/solver.hpp"
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pmg::sim {
+
+/// A mesh file (its reader's warnings appended to `warnings` if given), or with an empty path the
+/// box bar of box[0] x box[1] x box[2] boxes of 24 tetrahedra with the given side lengths.
+fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3],
+                              std::vector<std::string>* warnings = nullptr);
+
+/// The point whose displacement a run records: a mesh vertex (node v = vertex v on every degree),
+/// or an element and barycentric coordinates found once.
+struct Probe {
+  fem::Vec3 point = fem::Vec3::Zero();
+  index_t vertex = -1;   ///< >= 0: the probe is this vertex
+  index_t element = -1;  ///< otherwise: this element, at `barycentric`
+  Eigen::Vector4d barycentric = Eigen::Vector4d::Zero();
+  fem::Vec3 displacement(const fem::ElasticityModel& m, const Vector& u) const;
+};
+
+struct SceneSetup {
+  std::unique_ptr<const fem::TetMesh> mesh;  ///< held by pointer: the hierarchy refers to it
+  std::unique_ptr<fem::DegreeHierarchy> hierarchy;
+  Vector f_ext;                     ///< constant external force, full vector of the finest degree
+  fem::Vec3 lo, hi, centre;         ///< bounding box
+  Probe probe;
+  std::vector<std::string> notes;     ///< what was done once or skipped, for the report
+  std::vector<std::string> warnings;  ///< the mesh reader's (e.g. unused vertices)
+  const fem::ElasticityModel& finest() const { return hierarchy->finest(); }
+};
+
+/// Mesh, hierarchy, clamp (refuses a clamp that leaves a rigid motion), inclusion, loads and the
+/// probe (the scene's point, or the vertex nearest the centre of the far face; the vertex
+/// farthest from the centre when nothing is clamped). InputError names the scene key at fault.
+SceneSetup set_up(const Scene& s);
+
+/// Force F spread as a uniform traction over the boundary faces at the maximum of `axis` (total
+/// force F). Throws InputError if there is no such face.
+Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol, const fem::Vec3& F);
+
+/// Initial displacement and velocity (full vectors; clamped nodes at rest): rest, deflected (a
+/// static solve under the scene's initial force), compressed, twisted or spinning.
+std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& setup);
+
+/// The step solver from the scene's solver options, through the one factory, with a rounding
+/// floor for warm starts. Degree 1 has no lower degree: a multigrid method falls back to CHOLMOD
+/// (with a note). `method` and `settings` receive the method and the options used.
+std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierarchy& h,
+                                         std::string& method, std::string& settings,
+                                         std::vector<std::string>& notes);
+
+}  // namespace pmg::sim

@@ -1,0 +1,183 @@
+#include "pmg/sim/setup.hpp"
+
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/mesh_io.hpp"
+#include "pmg/fem/static_solve.hpp"
+#include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/multigrid/factory.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <tuple>
+
+namespace pmg::sim {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+std::string seconds(double s, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, s);
+  return buf;
+}
+}  // namespace
+
+fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3],
+                              std::vector<std::string>* warnings) {
+  if (file.empty()) return fem::box_mesh_24(box[0], box[1], box[2], size[0], size[1], size[2]);
+  std::vector<std::string> w;
+  fem::TetMesh mesh = fem::read_mesh(file, &w);
+  if (warnings) warnings->insert(warnings->end(), w.begin(), w.end());
+  return mesh;
+}
+
+fem::Vec3 Probe::displacement(const fem::ElasticityModel& m, const Vector& u) const {
+  if (vertex >= 0) return u.segment<3>(3 * vertex);  // node v = vertex v on every degree
+  return m.displacement_at(u, element, barycentric);
+}
+
+Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol, const fem::Vec3& F) {
+  Vector f = Vector::Zero(m.num_dofs());
+  const double area = m.add_traction(f, [=](const fem::Vec3& X) { return X[axis] >= hi - tol; }, F);
+  if (!(area > 0)) throw InputError("scene: no boundary face at the maximum of the clamp axis to load");
+  return f / area;  // the traction F/area on each face: total force F
+}
+
+SceneSetup set_up(const Scene& s) {
+  SceneSetup b;
+  b.mesh = std::make_unique<const fem::TetMesh>(
+      fem::refine_uniform(load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings), s.refine));
+  const fem::TetMesh& mesh = *b.mesh;
+  b.lo = fem::Vec3::Constant(1e300), b.hi = fem::Vec3::Constant(-1e300);
+  for (const auto& v : mesh.vertices) b.lo = b.lo.cwiseMin(v), b.hi = b.hi.cwiseMax(v);
+  b.centre = 0.5 * (b.lo + b.hi);
+  const int axis = s.clamp_axis;
+  const double extent = (b.hi - b.lo).maxCoeff(), tol = 1e-9 * extent;
+  const double limit = axis >= 0 ? b.lo[axis] + s.clamp_fraction * (b.hi[axis] - b.lo[axis]) + tol : -1e300;
+  b.hierarchy = std::make_unique<fem::DegreeHierarchy>(
+      mesh, s.degree, fem::Material{s.young, s.poisson, s.density},
+      [axis, limit](const fem::Vec3& X) { return axis >= 0 && X[axis] <= limit; });
+  if (axis >= 0) {
+    const std::vector<char>& clamped = b.hierarchy->clamped_vertices();
+    const int dim = fem::clamped_dimension(mesh, clamped);
+    if (dim < 2) {
+      std::ostringstream msg;
+      msg << "scene: the clamped vertices (" << std::count(clamped.begin(), clamped.end(), 1) << " within fraction "
+          << s.clamp_fraction << " of the minimum of " << static_cast<char>('x' + axis) << ") "
+          << (dim < 0 ? "are none" : dim == 0 ? "are a single point" : "lie on one line")
+          << ": the body could still move rigidly; clamp a larger fraction (scene clamp.fraction, "
+             "pmg compare --fix-fraction)";
+      throw InputError(msg.str());
+    }
+  }
+  if (s.inclusion) {
+    std::vector<double> scale(mesh.num_tets(), 1.0);
+    index_t inside = 0;
+    for (index_t e = 0; e < mesh.num_tets(); ++e) {
+      fem::Vec3 c = fem::Vec3::Zero();
+      for (index_t v : mesh.tets[e]) c += 0.25 * mesh.vertices[v];
+      if ((c.array() >= s.inclusion_min.array()).all() && (c.array() <= s.inclusion_max.array()).all())
+        scale[e] = s.inclusion_young / s.young, ++inside;
+    }
+    if (inside == 0) throw InputError("material.inclusion: no element centroid lies inside [min, max]");
+    b.hierarchy->set_stiffness_scale(scale);
+    std::ostringstream note;
+    note << "material: inclusion of " << inside << " elements with E = " << s.inclusion_young << " Pa (contrast "
+         << s.inclusion_young / s.young << ")";
+    b.notes.push_back(note.str());
+  }
+  const fem::ElasticityModel& m = b.hierarchy->finest();
+  b.f_ext = Vector::Zero(m.num_dofs());
+  if (s.gravity.norm() > 0) b.f_ext += m.gravity(s.gravity);
+  else b.notes.push_back("gravity load: skipped (none in the scene)");
+  if (s.end_force.norm() > 0) {
+    if (axis < 0) throw InputError("loads.end_force: needs a clamp axis (it loads the far face)");
+    b.f_ext += end_force(m, axis, b.hi[axis], tol, s.end_force);
+  }
+  Probe& p = b.probe;
+  if (s.probe) {
+    p.point = *s.probe;
+    try {
+      std::tie(p.element, p.barycentric) = m.locate(p.point);  // once, not per step
+    } catch (const Error&) {
+      throw InputError("output.probe: the point lies outside the mesh");
+    }
+  } else {
+    fem::Vec3 target = b.centre;
+    if (axis >= 0) target[axis] = b.hi[axis];
+    double best = 1e300;
+    for (index_t v = 0; v < static_cast<index_t>(mesh.vertices.size()); ++v) {
+      const double d = axis >= 0 ? (mesh.vertices[v] - target).norm() : -(mesh.vertices[v] - b.centre).norm();
+      if (d < best) best = d, p.vertex = v;
+    }
+    p.point = mesh.vertices[p.vertex];
+  }
+  return b;
+}
+
+std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
+  const fem::ElasticityModel& m = b.finest();
+  Vector u = Vector::Zero(m.num_dofs()), v = Vector::Zero(m.num_dofs());
+  const int axis = s.clamp_axis;
+  const double lo = axis >= 0 ? b.lo[axis] : 0.0, L = axis >= 0 ? b.hi[axis] - lo : 0.0;
+  if (s.initial != "rest" && s.initial != "spinning" && axis < 0)
+    throw InputError("initial.state " + s.initial + ": needs a clamp axis");
+  if (s.initial == "deflected") {
+    const auto t0 = Clock::now();
+    const Vector f = end_force(m, axis, b.hi[axis], 1e-9 * L, s.initial_force);
+    fem::StaticOptions so;
+    so.corotational_tol = 1e-6;
+    const fem::StaticResult r = fem::solve_static(m, f, s.corotational, so);
+    u = r.u;
+    b.notes.push_back("initial state: static deflection under the end force, " +
+                      std::to_string(r.iterations) + " fixed-point iterations, " + seconds(since(t0), 2) + " s");
+  } else if (s.initial == "compressed") {
+    u = m.interpolate([&](const fem::Vec3& X) {
+      fem::Vec3 d = fem::Vec3::Zero();
+      d[axis] = -s.strain * (X[axis] - lo);
+      return d;
+    });
+  } else if (s.initial == "twisted") {
+    const double total = s.twist_degrees * M_PI / 180.0;
+    u = m.interpolate([&](const fem::Vec3& X) {
+      const double a = total * (X[axis] - lo) / L;
+      const int i = (axis + 1) % 3, j = (axis + 2) % 3;
+      const double yi = X[i] - b.centre[i], yj = X[j] - b.centre[j];
+      fem::Vec3 d = fem::Vec3::Zero();
+      d[i] = std::cos(a) * yi - std::sin(a) * yj - yi;
+      d[j] = std::sin(a) * yi + std::cos(a) * yj - yj;
+      return d;
+    });
+  } else if (s.initial == "spinning") {
+    v = m.interpolate([&](const fem::Vec3& X) -> fem::Vec3 { return s.omega.cross(X - b.centre); });
+  }
+  for (index_t i = 0; i < m.num_nodes(); ++i)
+    if (m.is_fixed(i)) u.segment<3>(3 * i).setZero(), v.segment<3>(3 * i).setZero();
+  return {u, v};
+}
+
+std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierarchy& h,
+                                         std::string& method, std::string& settings,
+                                         std::vector<std::string>& notes) {
+  Config c = s.solver.clone();
+  method = c.get_string("method", "pmg");
+  if (method_uses_levels(method) && h.num_levels() < 2) {
+    notes.push_back("multigrid: skipped (degree 1 has no lower degree; CHOLMOD solves each step)");
+    c = Config::from_pairs({"method=cholmod"}, c.origin());
+    method = "cholmod";
+  }
+  // Warm-started steps end at once when the start is within rounding of the solution.
+  if (method_accepts_key(method, "rhs_floor")) c.set_default("rhs_floor", "1e-12");
+  const double mpi = mg::start_mpi_for_hypre(c);  // once per process: not a step's cost
+  if (mpi >= 0) notes.push_back("MPI start-up for hypre: " + seconds(mpi, 3) + " s");
+  SolverContext ctx;
+  ctx.levels = &h;
+  auto solver = make_solver(c, ctx, "pmg");
+  settings = c.to_string();
+  return solver;
+}
+
+}  // namespace pmg::sim
