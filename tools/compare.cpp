@@ -135,13 +135,19 @@ std::vector<std::pair<std::string, Config>> solver_configs(const Options& o,
 
 struct System {
   std::string description;
-  Csr csr;
-  std::unique_ptr<Bcsr> bcsr;  // when the size is a multiple of 3
+  Csr csr;                            // scalar entries: kept only where a solve reads them
+  std::shared_ptr<const Bcsr> bcsr;   // when the size is a multiple of 3 (FEM: the hierarchy's own)
   Vector b, x_true;            // x_true empty when unknown
   std::unique_ptr<FemSystem> fem;
   std::unique_ptr<mg::StoredLevels> levels;
   std::string error_reference = "known solution";
+  bool reference_pending = false;  // FEM: x_true is a direct solve made after the timed runs
+  index_t unknowns() const { return bcsr ? bcsr->rows() : csr.rows(); }
+  offset_t nonzeros() const { return bcsr ? 9 * static_cast<offset_t>(bcsr->num_blocks()) : csr.nnz(); }
 };
+
+/// A non-owning pointer to a matrix that outlives the system's users (the FEM hierarchy's).
+std::shared_ptr<const Bcsr> borrow(const Bcsr& A) { return std::shared_ptr<const Bcsr>(std::shared_ptr<void>(), &A); }
 
 struct Outcome {
   std::string name, status = "ok", message, breakdown;
@@ -158,15 +164,16 @@ System load_system(const Options& o) {
   System s;
   if (!o.levels.empty()) {
     s.levels = std::make_unique<mg::StoredLevels>(mg::read_levels(o.levels, o.prolongations));
-    s.bcsr = std::make_unique<Bcsr>(s.levels->matrix(s.levels->num_levels() - 1));
-    s.csr = s.bcsr->to_csr();
+    s.bcsr = borrow(s.levels->matrix(s.levels->num_levels() - 1));
+    if (o.format == "csr") s.csr = s.bcsr->to_csr();
     s.description = "user levels, finest " + o.levels.back();
     if (!o.rhs.empty()) {
       s.b = read_matrix_market_vector(o.rhs);
-      if (s.b.size() != s.csr.rows()) throw InputError(o.rhs + ": size does not match the finest level");
+      if (s.b.size() != s.bcsr->rows()) throw InputError(o.rhs + ": size does not match the finest level");
     } else {
-      s.x_true = Vector::LinSpaced(s.csr.rows(), 1.0, 2.0);
-      s.b = s.csr.to_eigen() * s.x_true;
+      s.x_true = Vector::LinSpaced(s.bcsr->rows(), 1.0, 2.0);
+      s.b.resize(s.x_true.size());
+      s.bcsr->multiply(s.x_true.data(), s.b.data());
     }
   } else if (!o.matrix.empty()) {
     s.csr = read_matrix_market(o.matrix);
@@ -190,27 +197,18 @@ System load_system(const Options& o) {
     if (s.x_true.size() != 0 && s.x_true.size() != s.csr.rows())
       throw InputError("solution has " + std::to_string(s.x_true.size()) +
                        " entries, matrix has " + std::to_string(s.csr.rows()) + " rows");
-    if (s.csr.rows() % 3 == 0) s.bcsr = std::make_unique<Bcsr>(Bcsr::from_csr(s.csr));
+    if (s.csr.rows() % 3 == 0) s.bcsr = std::make_shared<const Bcsr>(Bcsr::from_csr(s.csr));
   } else if (o.fem) {
     s.fem = std::make_unique<FemSystem>(build_fem_system(o.scene));
-    s.bcsr = std::make_unique<Bcsr>(s.fem->matrix());
-    s.csr = s.bcsr->to_csr();
+    s.bcsr = borrow(s.fem->matrix());  // the hierarchy's matrix itself, not a copy
+    if (o.format == "csr") s.csr = s.bcsr->to_csr();
     s.b = s.fem->b;
     s.description = s.fem->description;
-    if (o.reference) {  // the error column is measured against a direct solve (not timed)
-      CholmodSolver chol;
-      try {
-        chol.setup(s.csr);
-      } catch (const Error& e) {
-        throw InputError(std::string(e.what()) + ": the clamped nodes (" +
-                         std::to_string(s.fem->hierarchy().finest().num_fixed()) +
-                         ") do not remove every rigid motion; raise --fix-fraction");
-      }
-      chol.apply(s.b, s.x_true);
-      s.error_reference = "CHOLMOD solution";
-    }
+    // The error column is measured against a direct solve, made after the timed runs (or taken
+    // from the run's own cholmod solver): no second factorisation held while the others run.
+    s.reference_pending = o.reference;
   } else {
-    s.bcsr = std::make_unique<Bcsr>(spring_lattice(o.grid));
+    s.bcsr = std::make_shared<const Bcsr>(spring_lattice(o.grid));
     s.csr = s.bcsr->to_csr();
     s.x_true = smooth_field(o.grid);
     s.b = s.csr.to_eigen() * s.x_true;
@@ -351,7 +349,7 @@ void run(const Options& o) {
   params.check_every = o.check_every;
 
   std::cout << "system:  " << sys.description << "\n"
-            << "size:    " << sys.csr.rows() << " unknowns, " << sys.csr.nnz() << " nonzeros"
+            << "size:    " << sys.unknowns() << " unknowns, " << sys.nonzeros() << " nonzeros"
             << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "")
             << "\n"
             << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
@@ -414,22 +412,43 @@ void run(const Options& o) {
       if (lower_levels < 0) lower_levels = sys.fem->assemble_lower_levels();
       extra = lower_levels;
     }
-    Outcome out = run_solver(configs[k].first, solver, entries, sys.b, x, extra);
-    if (sys.x_true.size() && out.message.empty())
-      out.rel_error = (x - sys.x_true).norm() / sys.x_true.norm();
-    return out;
+    return run_solver(configs[k].first, solver, entries, sys.b, x, extra);
   };
   if (o.warm_up)
     std::cout << "warm-up: each solver runs once untimed before its timed run (the first solver in a "
                  "process otherwise pays the first touch of its memory)\n\n";
+  std::vector<Vector> solutions(solvers.size());
   for (size_t k = 0; k < solvers.size(); ++k) {
     if (o.warm_up) {
       Vector w = Vector::Zero(sys.b.size());
       run_one(k, w);
     }
-    Vector x = Vector::Zero(sys.b.size());
-    outcomes.push_back(run_one(k, x));
+    solutions[k] = Vector::Zero(sys.b.size());
+    outcomes.push_back(run_one(k, solutions[k]));
+    solvers[k].reset();  // its factors and hierarchies are not held while the next one runs
   }
+  if (sys.reference_pending) {
+    // The reference: this run's own CHOLMOD solution if it has one, else one direct solve now.
+    for (size_t k = 0; k < outcomes.size() && sys.x_true.size() == 0; ++k)
+      if (configs[k].second.get_string("method", "cg") == "cholmod" && outcomes[k].message.empty())
+        sys.x_true = solutions[k];
+    if (sys.x_true.size() == 0) {
+      CholmodSolver chol;
+      try {
+        chol.setup(*sys.bcsr);
+      } catch (const Error& e) {
+        throw InputError(std::string(e.what()) + ": the clamped nodes (" +
+                         std::to_string(sys.fem->hierarchy().finest().num_fixed()) +
+                         ") do not remove every rigid motion; raise --fix-fraction");
+      }
+      chol.apply(sys.b, sys.x_true);
+    }
+    sys.error_reference = "CHOLMOD solution";
+  }
+  if (sys.x_true.size())
+    for (size_t k = 0; k < outcomes.size(); ++k)
+      if (outcomes[k].message.empty())
+        outcomes[k].rel_error = (solutions[k] - sys.x_true).norm() / sys.x_true.norm();
 
   Table table({"solver", "status", "iters", "setup [s]", "solve [s]", "t(1e-3) [s]",
                "t(1e-6) [s]", "rel. residual", "rel. error"});
@@ -477,8 +496,8 @@ void run(const Options& o) {
     nlohmann::json report = {
         {"command", "pmg compare"},
         {"system", {{"description", sys.description},
-                    {"unknowns", sys.csr.rows()},
-                    {"nonzeros", sys.csr.nnz()},
+                    {"unknowns", sys.unknowns()},
+                    {"nonzeros", sys.nonzeros()},
                     {"blocks", sys.bcsr ? nlohmann::json(sys.bcsr->num_blocks()) : nlohmann::json(nullptr)}}},
         {"format", o.format},
         {"load_s", load_time},

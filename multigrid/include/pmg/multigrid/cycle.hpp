@@ -70,7 +70,8 @@ class MultigridCycle final : public Solver {
   /// R = Pᵀ on every level, the smoothers linear adjoint pairs (is_symmetric) and the lowest-level
   /// solver linear and symmetric.
   bool is_symmetric() const override;
-  bool uses_levels() const override { return true; }
+  /// Geometric lower levels are the provider's matrices; Galerkin ones are formed here from A.
+  bool uses_levels() const override { return params_.coarse_operator != CoarseOperator::galerkin; }
 
   int num_levels() const { return levels_.num_levels(); }
   const LevelProvider& levels() const { return levels_; }

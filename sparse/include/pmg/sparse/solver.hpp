@@ -58,8 +58,8 @@ class Solver : public LinearOperator {
   virtual bool is_linear() const { return true; }
   /// apply() is a symmetric map, so that it can precondition CG.
   virtual bool is_symmetric() const { return true; }
-  /// The solver needs a hierarchy of level matrices besides A (multigrid): a simulation then
-  /// assembles its lower levels too.
+  /// The solver reads the lower level matrices of a hierarchy besides A (geometric multigrid): a
+  /// simulation then assembles its lower levels too. (A Galerkin cycle forms its own from A.)
   virtual bool uses_levels() const { return false; }
 
  protected:
