@@ -388,7 +388,8 @@ void run(const Options& o) {
     solvers.push_back(build_solver(c, ctx, "cg"));
     c.check_all_used(set_keys);
     for (const auto& k : set_keys)
-      if (c.was_used(k)) set_used.insert(k);
+      // "smoother=X" is stored as smoother.method where the solver's options have a smoother tree.
+      if (c.was_used(k) || c.was_used(k + ".method")) set_used.insert(k);
     // hypre's MPI start-up (about half a second here) is paid once per process: started here,
     // before the clocks, so that it is charged to no solver.
     mpi = std::max(mpi, mg::start_mpi_for_hypre(c));
