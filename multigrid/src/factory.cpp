@@ -205,6 +205,15 @@ Registry::Registry() {
         p.omega = c.get_double("omega", p.omega, 1e-6, 2.0);
         return std::make_unique<mg::BlockJacobi>(p);
       });
+  add({"l1-jacobi", "l1 block Jacobi x += (D + l1 row sums)^-1 (b - A x): no damping to tune", "sweeps", false,
+       true},
+      [](const Config& c, const SolverContext&) {
+        mg::JacobiParams p;
+        p.sweeps = c.get_int("sweeps", 2, 0, 1000);
+        p.omega = 1.0;
+        p.l1 = true;
+        return std::make_unique<mg::BlockJacobi>(p);
+      });
   add({"richardson", "x += omega M (b - A x) with any solver M", "iterations omega preconditioner.*"},
       [](const Config& c, const SolverContext& ctx) {
         mg::RichardsonParams p;
