@@ -3,6 +3,7 @@
 #include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/cholmod_solver.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -115,4 +116,19 @@ TEST_CASE("BoomerAMG lowest levels: V-cycles keep the cycle symmetric for MGPCG,
 TEST_CASE("BoomerAMG refuses a matrix with NaN", "[multigrid][boomeramg][errors]") {
   Csr A = Csr::from_triplets(3, 3, {{0, 0, 1.0}, {1, 1, std::nan("")}, {2, 2, 1.0}});
   CHECK_THROWS_WITH(mg::BoomerAMG(A, {}), Catch::Contains("NaN"));
+}
+
+TEST_CASE("any solver composes with BoomerAMG: MGPCG on a BoomerAMG lowest level with Chebyshev smoothing",
+          "[multigrid][boomeramg][factory]") {
+  Bar bar;
+  const Bcsr& A = bar.h.matrix(1);
+  CholmodSolver chol;
+  chol.setup(A);
+  Vector x_ref;
+  chol.apply(bar.b, x_ref);
+  Vector x = Vector::Zero(bar.b.size());
+  const SolveResult r =
+      bar.build({"method=mgpcg", "lowest_level=boomeramg", "smoother=chebyshev", "smoother.degree=3"})->solve(bar.b, x);
+  CHECK(r.status == SolveStatus::converged);
+  CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
 }

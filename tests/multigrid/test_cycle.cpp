@@ -200,11 +200,12 @@ TEST_CASE("the factory names unknown keys, bad values and unknown methods", "[mu
 
 TEST_CASE("any solver composes: CG as the lowest level, a cycle inside Richardson, CG preconditioned by "
           "Chebyshev", "[multigrid][factory]") {
+  // (BoomerAMG as a lowest level is composed in test_boomeramg.cpp: it starts MPI, whose
+  // allocations LeakSanitizer cannot attribute, and that executable runs without leak checks.)
   Cantilever c(1, 3);
   const Vector x_ref = c.direct();
   for (const auto& o : std::vector<std::vector<std::string>>{
            {"method=pmg", "lowest_level=cg", "lowest_level.preconditioner=block-jacobi", tol(1e-9)},
-           {"method=mgpcg", "lowest_level=boomeramg", "smoother=chebyshev", "smoother.degree=3", tol(1e-9)},
            {"method=cg", "preconditioner=chebyshev", tol(1e-9)},
            {"method=cg", "preconditioner=gauss-seidel", "preconditioner.sweeps=2", tol(1e-9)}}) {
     std::string all;
