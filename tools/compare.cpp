@@ -7,6 +7,7 @@
 //   2. Convert once to the formats the solvers need (CSR, BCSR 3x3, BIN-BCSR).
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
 //   4. Write the per-iteration history as CSV and print the summary table.
+#include "checks.hpp"
 #include "commands.hpp"
 #include "levels.hpp"
 #include "scene.hpp"
@@ -20,6 +21,7 @@
 
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/generators.hpp"
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/matrix_market.hpp"
@@ -331,6 +333,14 @@ double time_to(const Outcome& o, double rel) {
 
 void run(const Options& o) {
   if (o.threads > 0) omp_set_num_threads(o.threads);
+  // Output paths are checked before any work: a run must not fail at its end for a bad path.
+  if (!o.history.empty()) check_output_file(o.history, "--history");
+  if (!o.plot.empty()) check_output_file(o.plot, "--plot");
+  if (!o.json_report.empty()) check_output_file(o.json_report, "--json");
+  if (!o.export_levels.empty()) {
+    if (!o.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");
+    prepare_output_directory(o.export_levels, "--export-levels");
+  }
   auto t0 = std::chrono::steady_clock::now();
   System sys = load_system(o);
   if (!o.export_levels.empty()) {
@@ -552,7 +562,7 @@ void register_compare(CLI::App& app) {
       ->check(CLI::IsMember({"csr", "bcsr", "bin-bcsr"}))
       ->capture_default_str();
   sub->add_option("-t,--tol", opts->tol, "relative residual tolerance")
-      ->check(CLI::PositiveNumber)
+      ->check(Tolerance())
       ->capture_default_str();
   sub->add_option("--max-iter", opts->max_iterations, "iteration limit")
       ->check(CLI::PositiveNumber)
@@ -571,7 +581,7 @@ void register_compare(CLI::App& app) {
   sub->add_flag("--warm-up", opts->warm_up,
                 "run each solver once untimed first: warm timings, independent of the solvers' order");
   sub->add_option("--threads", opts->threads, "OpenMP threads (default: OMP_NUM_THREADS)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(ThreadCount());
   sub->add_option("--plot", opts->plot, "draw residual against time and iterations to this PNG");
   sub->add_option("--levels", opts->levels,
                   "multigrid level matrices, coarsest first (Matrix Market, 3 unknowns per node)")
@@ -612,7 +622,7 @@ void register_compare(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--lowest-level-tol", opts->lowest_level_tol,
                   "relative tolerance of the linear-level CG (boomeramg-pcg)")
-      ->check(CLI::Range(1e-14, 0.5))
+      ->check(FiniteRange(1e-14, 0.5))
       ->capture_default_str();
   sub->add_option("--mgpcg-cycles", opts->mgpcg_cycles, "cycles per MGPCG preconditioner application")
       ->check(CLI::PositiveNumber)

@@ -1,5 +1,7 @@
 #include "levels.hpp"
 
+#include "pmg/sparse/file_io.hpp"
+
 #include "pmg/sparse/matrix_market.hpp"
 
 #include <filesystem>
@@ -8,7 +10,7 @@
 namespace pmg::tools {
 
 void export_levels(FemSystem& system, const std::string& dir) {
-  std::filesystem::create_directories(dir);
+  prepare_output_directory(dir, "--export-levels");
   system.assemble_lower_levels();
   const fem::DegreeHierarchy& h = system.hierarchy();
   for (int l = 0; l < h.num_levels(); ++l) {

@@ -8,6 +8,7 @@
 //      elements, so the volume bound is rescaled from the counts obtained (up to 6 runs) until the
 //      count is within 15% of the request.
 //   3. Read TetGen's output back (checks every element), write .node/.ele, print the counts.
+#include "checks.hpp"
 #include "commands.hpp"
 #include "surface_simplify.hpp"
 #include "table.hpp"
@@ -41,6 +42,7 @@ struct MeshOptions {
   std::string tetgen = "tetgen";
   int refine = 0;
   bool vtu = false;
+  std::vector<std::string> allow;
 };
 
 void write_off(const fs::path& path, const fem::Surface& s) {
@@ -79,6 +81,9 @@ void print_counts(const fem::TetMesh& m) {
 }
 
 void run(const MeshOptions& o) {
+  if (!o.output.empty()) check_output_file(o.output + ".node", "-o");  // before TetGen runs
+  if (!o.allow.empty() && (fs::path(o.input).extension() == ".off" || fs::path(o.input).extension() == ".stl"))
+    throw InputError("--allow applies to mesh files (.msh, .node, .ele), not to surfaces");
   const std::string ext = fs::path(o.input).extension().string();
   fem::TetMesh mesh;
   if (ext == ".off" || ext == ".stl") {
@@ -128,7 +133,9 @@ void run(const MeshOptions& o) {
     fs::remove_all(scratch);
   } else {
     std::vector<std::string> warnings;
-    mesh = fem::read_mesh(o.input, &warnings);
+    fem::MeshCheckOptions checks;
+    for (const auto& a : o.allow) (a == "tangled" ? checks.allow_tangled : checks.allow_cracked) = true;
+    mesh = fem::read_mesh(o.input, &warnings, checks);
     for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
   }
   if (o.refine > 0) {
@@ -169,12 +176,13 @@ void register_mesh(CLI::App& app) {
                   "decimate the surface to this many triangles first (default: N^(2/3); 0: never)")
       ->check(CLI::Range(-1L, 100000000L));
   sub->add_option("-q,--quality", o->quality, "TetGen radius-edge bound (-q)")
-      ->check(CLI::Range(1.1, 10.0))
+      ->check(FiniteRange(1.1, 10.0))
       ->capture_default_str();
   sub->add_option("--tetgen", o->tetgen, "TetGen executable")->capture_default_str();
   sub->add_option("--refine", o->refine, "then refine uniformly this many times (8x elements each)")
       ->check(CLI::Range(0, 4));
   sub->add_flag("--vtu", o->vtu, "also write BASE.vtu for viewing");
+  add_allow_option(sub, o->allow);
   sub->callback([o] { run(*o); });
 }
 

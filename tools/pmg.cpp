@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <iostream>
+#include <new>
 
 namespace pmg::tools {
 
@@ -31,6 +32,10 @@ int main(int argc, char** argv) {
   pmg::tools::register_mesh(app);
   pmg::tools::register_coarse(app);
   pmg::tools::register_simulate(app);
+  // The one error path: every failure becomes one "pmg: error:" line and a non-zero exit, never
+  // an abort. Input errors (bad files, options, meshes) exit 2; failed solves and everything
+  // else exit 1.
+  const std::string command = argc > 1 ? std::string("pmg ") + argv[1] : "pmg";
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -42,6 +47,19 @@ int main(int argc, char** argv) {
     return pmg::tools::kBadInput;
   } catch (const pmg::Error& e) {
     std::cerr << "pmg: error: " << e.what() << "\n";
+    return pmg::tools::kSolveFailed;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "pmg: error: " << command
+              << ": out of memory (the problem is larger than this machine can hold; try a smaller size)\n";
+    return pmg::tools::kSolveFailed;
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::cerr << "pmg: error: " << command << ": " << e.what() << "\n";
+    return pmg::tools::kBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "pmg: error: " << command << ": unexpected failure: " << e.what() << "\n";
+    return pmg::tools::kSolveFailed;
+  } catch (...) {
+    std::cerr << "pmg: error: " << command << ": unexpected failure of unknown type\n";
     return pmg::tools::kSolveFailed;
   }
   return pmg::tools::kOk;

@@ -1,5 +1,7 @@
 #include "scene.hpp"
 
+#include "checks.hpp"
+
 #include "pmg/sim/setup.hpp"
 
 #include <algorithm>
@@ -12,25 +14,34 @@ namespace pmg::tools {
 void add_scene_options(CLI::App* sub, SceneOptions& o) {
   sub->add_option("--mesh", o.mesh, "tetrahedral mesh (.msh, .node/.ele) instead of the box bar")
       ->check(CLI::ExistingFile);
-  sub->add_option("--box", o.box, "box bar: boxes of 24 tets along x y z")->expected(3)->capture_default_str();
-  sub->add_option("--size", o.size, "box bar: side lengths [m]")->expected(3)->capture_default_str();
+  sub->add_option("--box", o.box, "box bar: boxes of 24 tets along x y z")
+      ->expected(3)
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  sub->add_option("--size", o.size, "box bar: side lengths [m]")
+      ->expected(3)
+      ->check(FinitePositive())
+      ->capture_default_str();
   sub->add_option("-p,--degree", o.degree, "element degree")->check(CLI::Range(1, 3))->capture_default_str();
-  sub->add_option("--young", o.young, "Young's modulus [Pa]")->capture_default_str();
-  sub->add_option("--poisson", o.poisson, "Poisson's ratio")->capture_default_str();
-  sub->add_option("--density", o.density, "density [kg/m^3]")->capture_default_str();
+  sub->add_option("--young", o.young, "Young's modulus [Pa]")->check(FinitePositive())->capture_default_str();
+  sub->add_option("--poisson", o.poisson, "Poisson's ratio")
+      ->check(FiniteRange(-1.0, 0.5, true, true))
+      ->capture_default_str();
+  sub->add_option("--density", o.density, "density [kg/m^3]")->check(FiniteNonNegative())->capture_default_str();
   sub->add_option("--fix", o.fix, "clamp the minimum face of this axis")
       ->check(CLI::IsMember({"x", "y", "z"}))
       ->capture_default_str();
   sub->add_option("--fix-fraction", o.fix_fraction,
                   "clamp nodes within this fraction of the extent from that face (meshes of curved "
                   "shapes need > 0)")
-      ->check(CLI::Range(0.0, 0.5))
+      ->check(FiniteRange(0.0, 0.5))
       ->capture_default_str();
   sub->add_option("--load", o.load, "traction: 10 N (-z) on the opposite face; gravity: 9.81 m/s^2 (-z)")
       ->check(CLI::IsMember({"traction", "gravity"}))
       ->capture_default_str();
   sub->add_option("--dt", o.dt, "> 0: the implicit-Euler system M + dt^2 K of one time step")
-      ->check(CLI::NonNegativeNumber);
+      ->check(FiniteNonNegative());
+  add_allow_option(sub, o.allow);
 }
 
 double FemSystem::assemble_lower_levels() {
@@ -51,6 +62,7 @@ sim::Scene scene_of(const SceneOptions& o) {
   s.clamp_fraction = o.fix_fraction;
   if (o.load == "gravity") s.gravity = fem::Vec3(0, 0, -9.81);
   else s.end_force = fem::Vec3(0, 0, -10.0);  // 10 N in total on the far face
+  for (const auto& a : o.allow) (a == "tangled" ? s.allow_tangled : s.allow_cracked) = true;
   s.dynamic = o.dt > 0;
   if (o.dt > 0) s.dt = o.dt;
   return s;

@@ -24,6 +24,7 @@ struct SceneOptions {
   double fix_fraction = 0.0;        ///< of the extent along that axis
   std::string load = "traction";    ///< traction (10 N on the max face of `fix`'s axis, -z) | gravity
   double dt = 0.0;                  ///< > 0: implicit-Euler system M + dt² K, b = dt f
+  std::vector<std::string> allow;   ///< mesh defects accepted on purpose: tangled, cracked
 };
 
 /// Registers the scene options on a subcommand.

@@ -1,6 +1,7 @@
 // pmg simulate [scene.json]: a dynamic (or static) corotational simulation of a JSON scene; with
 // no file, the built-in default scene (a cubic cantilever released from a deflected state). The
 // scene, its set-up and its run are pmg::sim's; this prints them (and --json writes them).
+#include "checks.hpp"
 #include "commands.hpp"
 #include "table.hpp"
 
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -66,6 +68,19 @@ class Progress {
 
 json vec3(const fem::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
+/// SIGINT (Ctrl-C): the run stops after the step in progress with its outputs complete; a second
+/// SIGINT ends the process at once (SA_RESETHAND restores the default action).
+volatile std::sig_atomic_t g_interrupted = 0;
+extern "C" void on_interrupt(int) { g_interrupted = 1; }
+void catch_interrupt() {
+  struct sigaction sa {};
+  sa.sa_handler = on_interrupt;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND;
+  sigaction(SIGINT, &sa, nullptr);
+}
+constexpr int kInterrupted = 130;  // 128 + SIGINT, the shell's convention
+
 void run_static(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& report) {
   const sim::StaticOutcome r = sim::solve_static(s, b, cli.output);
   std::cout << "static solve (CHOLMOD" << (s.corotational ? ", corotational fixed point" : "") << "): "
@@ -80,6 +95,7 @@ void run_static(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& r
 
 void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& report) {
   sim::DynamicRun run(s, b, cli.output);
+  run.set_stop_flag(&g_interrupted);
   const std::string& method = run.method();
   std::cout << "time:    " << run.steps() << " steps of " << s.dt << " s (" << s.duration << " s), implicit Euler"
             << (s.rayleigh_alpha > 0 || s.rayleigh_beta > 0 ? ", Rayleigh damping" : ", undamped") << "\n"
@@ -137,6 +153,16 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
     report["energy"] = {{"initial_J", E0}, {"final_J", E1}, {"peak_J", r.energy_peak}, {"largest_step_rise_J", r.energy_max_rise}};
   if (!r.outputs.empty()) report["outputs"] = r.outputs;
   report["notes"] = b.notes;
+  if (r.interrupted) {
+    progress.interrupt();
+    const std::string where = cli.output.empty() ? "nothing was written (no output folder)"
+                                                 : "steps.csv" + std::string(r.frames ? " and " + std::to_string(r.frames) + " frames" : "") +
+                                                       " in " + cli.output + " are complete";
+    report["interrupted"] = {{"step", done}, {"time_s", done * s.dt}};
+    std::cout << "\ninterrupted after step " << done << " of " << r.steps_planned << " (t = " << fmt("%.3f", done * s.dt)
+              << " s): " << where << "\n";
+    throw Exit{kInterrupted};
+  }
   if (r.failed_step) {
     report["failure"] = {{"step", r.failed_step}, {"message", r.failure}};
     std::cout << "\nsimulation failed at step " << r.failed_step << ": " << r.failure << "\n";
@@ -145,17 +171,26 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
 }
 
 void run(const Cli& cli_in) {
+  catch_interrupt();
   Cli cli = cli_in;
   if (cli.threads > 0) omp_set_num_threads(cli.threads);
   sim::Scene s = cli.scene.empty() ? sim::Scene{} : sim::read_scene(cli.scene);
   if (cli.scene.empty()) s.initial = "deflected";  // the default scene: a released cantilever
   if (cli.duration > 0) s.duration = cli.duration;
   if (cli.dt > 0) s.dt = cli.dt;
+  if (s.dynamic && (cli.duration > 0 || cli.dt > 0))
+    if (const std::string why = s.check_time(); !why.empty())
+      throw InputError(std::string(cli.duration > 0 ? "--duration" : "--dt") + ": " + why);
+  const bool output_from_cli = !cli.output.empty();
   if (cli.output.empty()) cli.output = s.output;
   if (cli.print_scene) {
     std::cout << sim::scene_to_json(s);
     return;
   }
+  // Output paths are checked before any work: a run must not fail at its end for a bad path.
+  if (!cli.output.empty())
+    prepare_output_directory(cli.output, output_from_cli ? "-o" : s.source + ": output.directory");
+  if (!cli.json_report.empty()) check_output_file(cli.json_report, "--json");
   const auto t0 = Clock::now();
   sim::SceneSetup b = sim::set_up(s);
   for (const auto& w : b.warnings) std::cerr << "warning: " << w << "\n";
@@ -188,7 +223,7 @@ void run(const Cli& cli_in) {
   try {
     if (s.dynamic) run_dynamic(s, b, cli, report);
     else run_static(s, b, cli, report);
-  } catch (const Exit&) {  // a failed step: the report says where and why
+  } catch (const Exit&) {  // a failed or interrupted run: the report says where and why
     write_report();
     throw;
   }
@@ -202,9 +237,9 @@ void register_simulate(CLI::App& app) {
   auto* sub = app.add_subcommand("simulate", "run a simulation scene (JSON); no file: the built-in cantilever");
   sub->add_option("scene", cli->scene, "scene file (JSON)")->check(CLI::ExistingFile);
   sub->add_option("-o,--output", cli->output, "write steps.csv and .vtu frames here (overrides output.directory)");
-  sub->add_option("--duration", cli->duration, "override time.duration [s]")->check(CLI::PositiveNumber);
-  sub->add_option("--dt", cli->dt, "override time.dt [s]")->check(CLI::PositiveNumber);
-  sub->add_option("--threads", cli->threads, "OpenMP threads");
+  sub->add_option("--duration", cli->duration, "override time.duration [s]")->check(FinitePositive());
+  sub->add_option("--dt", cli->dt, "override time.dt [s]")->check(FinitePositive());
+  sub->add_option("--threads", cli->threads, "OpenMP threads (default: OMP_NUM_THREADS)")->check(ThreadCount());
   sub->add_flag("--print-scene", cli->print_scene, "print the scene as JSON (a template to edit) and stop");
   sub->add_flag("-q,--quiet", cli->quiet, "no progress lines");
   sub->add_option("--json", cli->json_report,

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <tuple>
 
 namespace pmg::fem {
 
@@ -71,8 +72,20 @@ void check_mesh(TetMesh& mesh, const MeshCheckOptions& options) {
     }
   }
 
+  // Faces: each interior face joins two elements, which must lie on opposite sides of it.
+  struct FaceUse {
+    index_t element, opposite;
+    int count;
+  };
   std::map<std::array<index_t, 4>, index_t> seen;
-  std::map<std::array<index_t, 3>, int> face_count;
+  std::map<std::array<index_t, 3>, FaceUse> faces;
+  auto side = [&](const std::array<index_t, 3>& f, index_t p) {
+    const Vec3& a = mesh.vertices[f[0]];
+    return (mesh.vertices[f[1]] - a).cross(mesh.vertices[f[2]] - a).dot(mesh.vertices[p] - a);
+  };
+  auto face_name = [](const std::array<index_t, 3>& f) {
+    return "face (" + std::to_string(f[0]) + ", " + std::to_string(f[1]) + ", " + std::to_string(f[2]) + ")";
+  };
   for (index_t e = 0; e < mesh.num_tets(); ++e) {
     Tet s = mesh.tets[e];
     std::sort(s.begin(), s.end());
@@ -83,12 +96,47 @@ void check_mesh(TetMesh& mesh, const MeshCheckOptions& options) {
       std::array<index_t, 3> f;
       for (int i = 0, k = 0; i < 4; ++i)
         if (i != skip) f[k++] = s[i];
-      if (++face_count[f] > 2)
-        throw MeshError("face (" + std::to_string(f[0]) + ", " + std::to_string(f[1]) + ", " +
-                        std::to_string(f[2]) + ") of " + elem(e) +
+      auto [use, fresh] = faces.emplace(f, FaceUse{e, s[skip], 0});
+      if (++use->second.count > 2)
+        throw MeshError(face_name(f) + " of " + elem(e) +
                         " is shared by more than two elements (non-manifold)");
+      if (use->second.count == 2 && !options.allow_tangled &&
+          side(f, use->second.opposite) * side(f, s[skip]) > 0)
+        throw MeshError(elem(e) + " and " + elem(use->second.element) + " lie on the same side of their shared " +
+                        face_name(f) + ": the mesh is tangled (a vertex pushed through a face, or overlapping "
+                        "elements); untangle it, or allow it on purpose (allow_tangled; pmg: --allow tangled)");
     }
   }
+  if (options.allow_cracked) return;
+  // Cracks: distinct vertices at the same point (an unwelded seam) ...
+  std::vector<index_t> order(nv);
+  for (index_t v = 0; v < nv; ++v) order[v] = v;
+  auto less = [&](index_t a, index_t b) {
+    const Vec3 &x = mesh.vertices[a], &y = mesh.vertices[b];
+    return std::tie(x[0], x[1], x[2]) < std::tie(y[0], y[1], y[2]);
+  };
+  std::sort(order.begin(), order.end(), less);
+  for (index_t k = 1; k < nv; ++k)
+    if (mesh.vertices[order[k]] == mesh.vertices[order[k - 1]]) {
+      const Vec3& x = mesh.vertices[order[k]];
+      throw MeshError("vertices " + std::to_string(std::min(order[k], order[k - 1])) + " and " +
+                      std::to_string(std::max(order[k], order[k - 1])) + " lie at the same point (" +
+                      std::to_string(x[0]) + ", " + std::to_string(x[1]) + ", " + std::to_string(x[2]) +
+                      "): the mesh is cracked (an unwelded seam); weld them, or allow it on purpose "
+                      "(allow_cracked; pmg: --allow cracked)");
+    }
+  // ... and a boundary that is not a closed 2-manifold: every boundary edge in two boundary faces.
+  std::map<std::pair<index_t, index_t>, int> boundary_edges;
+  for (const auto& [f, use] : faces)
+    if (use.count == 1)
+      for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j) ++boundary_edges[{f[i], f[j]}];
+  for (const auto& [edge, count] : boundary_edges)
+    if (count != 2)
+      throw MeshError("boundary edge (" + std::to_string(edge.first) + ", " + std::to_string(edge.second) +
+                      ") belongs to " + std::to_string(count) +
+                      " boundary faces, not 2: the boundary is not a manifold (elements touching along an "
+                      "edge only?); allow it on purpose with allow_cracked (pmg: --allow cracked)");
 }
 
 namespace {

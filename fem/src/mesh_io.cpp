@@ -39,7 +39,7 @@ struct MeshBuilder {
       rd.fail("node " + std::to_string(tag) + " is defined twice");
     nodes.push_back(x);
   }
-  TetMesh build(const std::string& name, std::vector<std::string>* warnings) {
+  TetMesh build(const std::string& name, std::vector<std::string>* warnings, MeshCheckOptions opt) {
     if (tets.empty()) throw MeshError(name + ": no tetrahedra in the file");
     TetMesh m;
     std::vector<index_t> compact(nodes.size(), -1);
@@ -64,8 +64,7 @@ struct MeshBuilder {
     if (dropped && warnings)
       warnings->push_back(name + ": " + std::to_string(dropped) +
                           " nodes belong to no tetrahedron and were dropped");
-    MeshCheckOptions opt;
-    opt.fix_orientation = true;
+    opt.fix_orientation = true;  // files follow either orientation convention
     try {
       check_mesh(m, opt);
     } catch (const MeshError& e) {
@@ -101,15 +100,18 @@ void gmsh_expect_end(TextReader& rd, const char* end) {
 
 }  // namespace
 
-TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings) {
-  auto in = open(path);
+TetMesh read_gmsh(std::istream& in, const std::string& path, std::vector<std::string>* warnings,
+                  const MeshCheckOptions& options) {
   TextReader rd(in, path, '\0');
   MeshBuilder b;
   double version = 0.0;
   bool higher_order = false;
   std::string line;
+  // The fewest bytes a node or element line takes ("1 0 0 0\n", "1 4 0 1 2 3 4\n"): every count
+  // is checked against what the rest of the file could hold before anything is read or reserved.
+  auto most = [&](long long bytes_per_item) { return rd.remaining_bytes() / bytes_per_item; };
   while (rd.next_data_line(line)) {
-    const std::string section = split_tokens(line).at(0);
+    const std::string section = split_tokens(line).front();  // a data line has a token
     if (section == "$MeshFormat") {
       const auto t = rd.next_tokens("the format line");
       if (t.size() < 3) rd.fail("format line must read 'version file-type data-size'");
@@ -121,7 +123,7 @@ TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings) {
     } else if (section == "$Nodes") {
       if (version == 0.0) rd.fail("$Nodes before $MeshFormat");
       if (version < 4) {
-        const long long n = rd.to_integer(rd.next_tokens("the node count").at(0), "node count");
+        const long long n = rd.to_count(rd.next_tokens("the node count")[0], "node count", most(8));
         for (long long k = 0; k < n; ++k) {
           const auto t = rd.next_tokens("a node line");
           if (t.size() < 4) rd.fail("node line must read 'tag x y z'");
@@ -131,14 +133,19 @@ TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings) {
       } else {
         const auto h = rd.next_tokens("the nodes header");
         if (h.size() < 2) rd.fail("nodes header must read 'numEntityBlocks numNodes minTag maxTag'");
-        const long long blocks = rd.to_integer(h[0], "block count");
+        const long long blocks = rd.to_count(h[0], "block count", most(8));
         for (long long blk = 0; blk < blocks; ++blk) {
           const auto bh = rd.next_tokens("a node block header");
           if (bh.size() != 4) rd.fail("node block header must read 'dim tag parametric numNodes'");
           if (bh[2] != "0") rd.fail("parametric node coordinates are not supported");
-          const long long n = rd.to_integer(bh[3], "node count");
-          std::vector<long long> tags(n);
-          for (auto& tag : tags) tag = rd.to_integer(rd.next_tokens("a node tag").at(0), "node tag");
+          // A tag line and a coordinate line per node: at least 2 + 6 bytes.
+          const long long n = rd.to_count(bh[3], "node count", most(8));
+          std::vector<long long> tags;
+          for (long long k = 0; k < n; ++k) {
+            const auto t = rd.next_tokens("a node tag");
+            if (t.size() != 1) rd.fail("a node tag line holds one tag");
+            tags.push_back(rd.to_integer(t[0], "node tag"));
+          }
           for (long long tag : tags) {
             const auto t = rd.next_tokens("node coordinates");
             if (t.size() != 3) rd.fail("node coordinates must read 'x y z'");
@@ -160,21 +167,23 @@ TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings) {
         b.tet_lines.push_back(rd.line_number());
       };
       if (version < 4) {
-        const long long n = rd.to_integer(rd.next_tokens("the element count").at(0), "element count");
+        const long long n = rd.to_count(rd.next_tokens("the element count")[0], "element count", most(6));
         for (long long k = 0; k < n; ++k) {
           const auto t = rd.next_tokens("an element line");
           if (t.size() < 3) rd.fail("element line must read 'tag type ntags tags... nodes...'");
           const int nodes = gmsh_tet_nodes(rd.to_integer(t[1], "element type"));
-          if (nodes) add_tet(t, 3 + rd.to_integer(t[2], "tag count"), nodes);
+          const long long tags = rd.to_count(t[2], "tag count", static_cast<long long>(t.size()) - 3,
+                                             "fields that follow it on the line");
+          if (nodes) add_tet(t, 3 + static_cast<size_t>(tags), nodes);
         }
       } else {
         const auto h = rd.next_tokens("the elements header");
-        const long long blocks = rd.to_integer(h.at(0), "block count");
+        const long long blocks = rd.to_count(h[0], "block count", most(8));
         for (long long blk = 0; blk < blocks; ++blk) {
           const auto bh = rd.next_tokens("an element block header");
           if (bh.size() != 4) rd.fail("element block header must read 'dim tag type numElements'");
           const int nodes = gmsh_tet_nodes(rd.to_integer(bh[2], "element type"));
-          const long long n = rd.to_integer(bh[3], "element count");
+          const long long n = rd.to_count(bh[3], "element count", most(2));
           for (long long k = 0; k < n; ++k) {
             const auto t = rd.next_tokens("an element line");
             if (nodes) add_tet(t, 1, nodes);
@@ -182,29 +191,33 @@ TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings) {
         }
       }
       gmsh_expect_end(rd, "$EndElements");
-    } else if (!section.empty() && section[0] == '$') {
+    } else if (section[0] == '$') {
       gmsh_skip_section(rd, section);
     } else {
-      rd.fail("expected a $Section, found '" + line + "'");
+      rd.fail("expected a $Section, found '" + line.substr(0, 80) + "'");
     }
   }
   if (version == 0.0) throw MeshError(path + ": no $MeshFormat section: not a Gmsh .msh file");
   if (higher_order && warnings)
     warnings->push_back(path + ": higher-order tetrahedra: only their corner nodes are used");
-  return b.build(path, warnings);
+  return b.build(path, warnings, options);
 }
 
-TetMesh read_tetgen(const std::string& base_in, std::vector<std::string>* warnings) {
-  std::string base = base_in;
-  for (const char* ext : {".node", ".ele"})
-    if (ends_with(base, ext)) base.erase(base.size() - std::strlen(ext));
+TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings,
+                  const MeshCheckOptions& options) {
+  auto in = open(path);
+  return read_gmsh(in, path, warnings, options);
+}
+
+TetMesh read_tetgen(std::istream& node_in, const std::string& node_name, std::istream& ele_in,
+                    const std::string& ele_name, std::vector<std::string>* warnings,
+                    const MeshCheckOptions& options) {
   MeshBuilder b;
   {
-    auto in = open(base + ".node");
-    TextReader rd(in, base + ".node", '#');
+    TextReader rd(node_in, node_name, '#');
     const auto h = rd.next_tokens("the header");
     if (h.size() < 2) rd.fail("header must read '<#points> <dimension> [<#attributes> <markers>]'");
-    const long long n = rd.to_integer(h[0], "point count");
+    const long long n = rd.to_count(h[0], "point count", rd.remaining_bytes() / 8);
     if (rd.to_integer(h[1], "dimension") != 3) rd.fail("dimension must be 3");
     for (long long k = 0; k < n; ++k) {
       const auto t = rd.next_tokens("a point line");
@@ -214,11 +227,10 @@ TetMesh read_tetgen(const std::string& base_in, std::vector<std::string>* warnin
     }
   }
   {
-    auto in = open(base + ".ele");
-    TextReader rd(in, base + ".ele", '#');
+    TextReader rd(ele_in, ele_name, '#');
     const auto h = rd.next_tokens("the header");
     if (h.size() < 2) rd.fail("header must read '<#tetrahedra> <nodes per tetrahedron> [<#attributes>]'");
-    const long long n = rd.to_integer(h[0], "tetrahedron count");
+    const long long n = rd.to_count(h[0], "tetrahedron count", rd.remaining_bytes() / 10);
     const long long per = rd.to_integer(h[1], "nodes per tetrahedron");
     if (per != 4 && per != 10) rd.fail("nodes per tetrahedron must be 4 or 10");
     for (long long k = 0; k < n; ++k) {
@@ -230,12 +242,23 @@ TetMesh read_tetgen(const std::string& base_in, std::vector<std::string>* warnin
       b.tet_lines.push_back(rd.line_number());
     }
   }
-  return b.build(base + ".ele", warnings);
+  return b.build(ele_name, warnings, options);
 }
 
-TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings) {
-  if (ends_with(path, ".msh")) return read_gmsh(path, warnings);
-  if (ends_with(path, ".node") || ends_with(path, ".ele")) return read_tetgen(path, warnings);
+TetMesh read_tetgen(const std::string& base_in, std::vector<std::string>* warnings,
+                    const MeshCheckOptions& options) {
+  std::string base = base_in;
+  for (const char* ext : {".node", ".ele"})
+    if (ends_with(base, ext)) base.erase(base.size() - std::strlen(ext));
+  auto node = open(base + ".node");
+  auto ele = open(base + ".ele");
+  return read_tetgen(node, base + ".node", ele, base + ".ele", warnings, options);
+}
+
+TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings,
+                  const MeshCheckOptions& options) {
+  if (ends_with(path, ".msh")) return read_gmsh(path, warnings, options);
+  if (ends_with(path, ".node") || ends_with(path, ".ele")) return read_tetgen(path, warnings, options);
   throw InputError(path + ": unknown mesh format (expected .msh, .node or .ele)");
 }
 
@@ -263,15 +286,16 @@ double Surface::volume() const {
 
 namespace {
 
-Surface read_off(const std::string& path) {
-  auto in = open(path);
+Surface read_off_text(std::istream& in, const std::string& path) {
   TextReader rd(in, path, '#');
   auto t = rd.next_tokens("the OFF header");
-  if (t.empty() || t[0] != "OFF") rd.fail("an .off file starts with 'OFF'");
+  if (t[0] != "OFF") rd.fail("an .off file starts with 'OFF'");
   if (t.size() == 1) t = rd.next_tokens("the counts line");
   else t.erase(t.begin());
   if (t.size() < 2) rd.fail("counts line must read '<#vertices> <#faces> <#edges>'");
-  const long long nv = rd.to_integer(t[0], "vertex count"), nf = rd.to_integer(t[1], "face count");
+  // "0 0 0\n" and "3 0 0 0\n": the fewest bytes of a vertex and a face line.
+  const long long nv = rd.to_count(t[0], "vertex count", rd.remaining_bytes() / 6);
+  const long long nf = rd.to_count(t[1], "face count", rd.remaining_bytes() / 8);
   Surface s;
   for (long long k = 0; k < nv; ++k) {
     const auto v = rd.next_tokens("a vertex line");
@@ -280,8 +304,9 @@ Surface read_off(const std::string& path) {
   }
   for (long long k = 0; k < nf; ++k) {
     const auto f = rd.next_tokens("a face line");
-    const long long n = rd.to_integer(f.at(0), "face size");
-    if (n < 3 || static_cast<long long>(f.size()) < n + 1) rd.fail("face line must read 'n i1 ... in'");
+    const long long n = rd.to_count(f[0], "face size", static_cast<long long>(f.size()) - 1,
+                                     "vertex indices on the line");
+    if (n < 3) rd.fail("face line must read 'n i1 ... in' with n >= 3");
     std::vector<index_t> ids;
     for (long long i = 0; i < n; ++i) {
       const long long id = rd.to_integer(f[1 + i], "vertex index");
@@ -293,14 +318,16 @@ Surface read_off(const std::string& path) {
   return s;
 }
 
-Surface read_stl(const std::string& path) {
-  auto in = open(path, std::ios::binary);
+Surface read_stl_data(std::istream& in, const std::string& path) {
   std::string head(80, '\0');
   in.read(head.data(), 80);
   std::uint32_t count = 0;
   in.read(reinterpret_cast<char*>(&count), 4);
+  in.clear();
   in.seekg(0, std::ios::end);
-  const auto size = static_cast<std::uint64_t>(in.tellg());
+  const auto end = in.tellg();
+  if (end < 0) throw InputError(path + ": cannot determine the file size");
+  const auto size = static_cast<std::uint64_t>(end);
   Surface s;
   std::unordered_map<std::string, index_t> ids;  // merge coincident vertices
   auto vertex = [&](const Vec3& v) {
@@ -309,7 +336,7 @@ Surface read_stl(const std::string& path) {
     if (inserted) s.vertices.push_back(v);
     return it->second;
   };
-  if (size == 84 + 50ull * count && count > 0) {  // binary
+  if (size == 84 + 50ull * count && count > 0) {  // binary: the size backs the count
     in.seekg(84);
     for (std::uint32_t k = 0; k < count; ++k) {
       float data[12];
@@ -317,7 +344,12 @@ Surface read_stl(const std::string& path) {
       in.read(reinterpret_cast<char*>(data), sizeof data);
       in.read(attr, 2);
       std::array<index_t, 3> t;
-      for (int i = 0; i < 3; ++i) t[i] = vertex(Vec3(data[3 + 3 * i], data[4 + 3 * i], data[5 + 3 * i]));
+      for (int i = 0; i < 3; ++i) {
+        const Vec3 x(data[3 + 3 * i], data[4 + 3 * i], data[5 + 3 * i]);
+        if (!x.allFinite())
+          throw InputError(path + ": triangle " + std::to_string(k) + " has a non-finite coordinate");
+        t[i] = vertex(x);
+      }
       s.triangles.push_back(t);
     }
     return s;
@@ -328,9 +360,10 @@ Surface read_stl(const std::string& path) {
   std::string line;
   std::vector<index_t> facet;
   while (rd.next_data_line(line)) {
-    const auto t = split_tokens(line);
+    const auto t = split_tokens(line);  // a data line has a token
     if (t[0] == "vertex") {
       if (t.size() != 4) rd.fail("vertex line must read 'vertex x y z'");
+      if (facet.size() == 3) rd.fail("a facet must have 3 vertices, this one has more");
       facet.push_back(vertex(Vec3(rd.to_real(t[1]), rd.to_real(t[2]), rd.to_real(t[3]))));
     } else if (t[0] == "endfacet") {
       if (facet.size() != 3) rd.fail("a facet must have 3 vertices");
@@ -344,9 +377,18 @@ Surface read_stl(const std::string& path) {
 
 }  // namespace
 
+Surface read_off(std::istream& in, const std::string& name) { return read_off_text(in, name); }
+Surface read_stl(std::istream& in, const std::string& name) { return read_stl_data(in, name); }
+
 Surface read_surface(const std::string& path) {
-  if (ends_with(path, ".off")) return read_off(path);
-  if (ends_with(path, ".stl")) return read_stl(path);
+  if (ends_with(path, ".off")) {
+    auto in = open(path);
+    return read_off_text(in, path);
+  }
+  if (ends_with(path, ".stl")) {
+    auto in = open(path, std::ios::binary);
+    return read_stl_data(in, path);
+  }
   throw InputError(path + ": unknown surface format (expected .off or .stl)");
 }
 

@@ -129,6 +129,11 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     csv << "\n";
     if (frames && (n % scene_.frame_every == 0 || n == steps_)) write_outputs(true);
     if (progress) progress(n, st.time);
+    if (stop_ && *stop_ && n < steps_) {
+      r.interrupted = true;
+      if (frames && n % scene_.frame_every != 0) write_outputs(true);  // the last finished step
+      break;
+    }
   }
   r.wall_s = since(t_run);
   if (!output_.empty()) write_outputs(false);

@@ -1,6 +1,7 @@
 #include "pmg/sim/scene.hpp"
 
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/file_io.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -137,12 +138,9 @@ Scene read_scene(const std::string& path) {
 }
 
 Scene parse_scene(const std::string& text, const std::string& path) {
-  json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
-  }
+  // Syntax, duplicate keys and numbers beyond double range, named before the content is read.
+  check_json_text(text, path);
+  const json j = json::parse(text);
   Scene s;
   s.source = path;
   Section root(path, "", j);
@@ -168,6 +166,16 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         if (!(L > 0)) m.fail_key("size", "side lengths must be > 0");
     }
     s.refine = m.integer("refine", 0, 0, 4);
+    if (m.has("allow")) {
+      const json& a = m.at("allow");
+      if (!a.is_array()) m.fail_key("allow", "expected an array of \"tangled\", \"cracked\"");
+      for (const json& v : a) {
+        const std::string what = v.is_string() ? v.get<std::string>() : v.dump();
+        if (what == "tangled") s.allow_tangled = true;
+        else if (what == "cracked") s.allow_cracked = true;
+        else m.fail_key("allow", "'" + what + "' is not one of: tangled, cracked");
+      }
+    }
   }
   s.degree = root.integer("degree", s.degree, 1, 3);
   if (root.has("material")) {
@@ -222,7 +230,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       Section t = root.sub("time");
       s.dt = t.positive("dt", s.dt);
       s.duration = t.positive("duration", s.duration);
-      if (s.duration / s.dt > 1e7) t.fail_key("duration", "more than 10 million steps");
+      if (const std::string why = s.check_time(); !why.empty()) t.fail(why);
     }
   }
   if (root.has("damping")) {
@@ -264,6 +272,18 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   return s;
 }
 
+std::string Scene::check_time() const {
+  std::ostringstream why;
+  if (!(std::isfinite(dt) && dt > 0)) why << "dt must be a finite time > 0, got " << dt;
+  else if (!(std::isfinite(duration) && duration > 0)) why << "duration must be a finite time > 0, got " << duration;
+  else if (duration / dt > kMaxSteps)
+    why << "duration " << duration << " s at dt " << dt << " s is " << duration / dt << " steps, more than "
+        << kMaxSteps;
+  else if (duration < 0.5 * dt)
+    why << "duration " << duration << " s is shorter than half a step of dt " << dt << " s: no step would run";
+  return why.str();
+}
+
 Config Scene::default_solver() {
   Config c = Config::from_pairs({}, "scene solver");
   set_solver_defaults(c);
@@ -285,6 +305,11 @@ std::string scene_to_json(const Scene& s) {
   if (s.mesh_file.empty()) j["mesh"] = {{"box", s.box}, {"size", s.size}};
   else j["mesh"] = {{"file", s.mesh_file}};
   if (s.refine > 0) j["mesh"]["refine"] = s.refine;
+  if (s.allow_tangled || s.allow_cracked) {
+    j["mesh"]["allow"] = json::array();
+    if (s.allow_tangled) j["mesh"]["allow"].push_back("tangled");
+    if (s.allow_cracked) j["mesh"]["allow"].push_back("cracked");
+  }
   j["degree"] = s.degree;
   j["material"] = {{"model", s.corotational ? "corotational" : "linear"},
                    {"young", s.young}, {"poisson", s.poisson}, {"density", s.density}};

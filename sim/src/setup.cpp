@@ -5,6 +5,7 @@
 #include "pmg/fem/static_solve.hpp"
 #include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/file_io.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -26,10 +27,10 @@ std::string seconds(double s, int digits) {
 }  // namespace
 
 fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3],
-                              std::vector<std::string>* warnings) {
+                              std::vector<std::string>* warnings, const fem::MeshCheckOptions& mesh_checks) {
   if (file.empty()) return fem::box_mesh_24(box[0], box[1], box[2], size[0], size[1], size[2]);
   std::vector<std::string> w;
-  fem::TetMesh mesh = fem::read_mesh(file, &w);
+  fem::TetMesh mesh = fem::read_mesh(file, &w, mesh_checks);
   if (warnings) warnings->insert(warnings->end(), w.begin(), w.end());
   return mesh;
 }
@@ -46,10 +47,33 @@ Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol,
   return f / area;  // the traction F/area on each face: total force F
 }
 
+double estimated_memory_bytes(double tets, int degree) {
+  static constexpr double kBytesPerTet[] = {0.0, 2e3, 10e3, 50e3};
+  return tets * kBytesPerTet[std::clamp(degree, 1, 3)];
+}
+
+namespace {
+/// Refuses, before anything is built, a scene whose element count overflows the index type or
+/// whose memory estimate exceeds the machine's.
+void check_size(double tets, const Scene& s) {
+  char what[160];
+  std::snprintf(what, sizeof what, "scene: %.3g tetrahedra of degree %d%s", tets, s.degree,
+                s.refine > 0 ? " (after mesh.refine)" : "");
+  if (tets > 2e9) throw InputError(std::string(what) + ": more elements than a 32-bit index can number");
+  require_memory(estimated_memory_bytes(tets, s.degree), what);
+}
+}  // namespace
+
 SceneSetup set_up(const Scene& s) {
   SceneSetup b;
-  b.mesh = std::make_unique<const fem::TetMesh>(
-      fem::refine_uniform(load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings), s.refine));
+  const double refined = std::pow(8.0, s.refine);
+  if (s.mesh_file.empty()) check_size(24.0 * s.box[0] * s.box[1] * s.box[2] * refined, s);
+  fem::MeshCheckOptions checks;
+  checks.allow_tangled = s.allow_tangled;
+  checks.allow_cracked = s.allow_cracked;
+  fem::TetMesh loaded = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings, checks);
+  check_size(loaded.num_tets() * refined, s);
+  b.mesh = std::make_unique<const fem::TetMesh>(fem::refine_uniform(loaded, s.refine));
   const fem::TetMesh& mesh = *b.mesh;
   b.lo = fem::Vec3::Constant(1e300), b.hi = fem::Vec3::Constant(-1e300);
   for (const auto& v : mesh.vertices) b.lo = b.lo.cwiseMin(v), b.hi = b.hi.cwiseMax(v);

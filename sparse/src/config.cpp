@@ -1,5 +1,7 @@
 #include "pmg/sparse/config.hpp"
 
+#include "pmg/sparse/file_io.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cerrno>
@@ -38,23 +40,9 @@ void flatten(const json& j, const std::string& prefix, Config& out, const std::s
 Config::Config() : tree_(std::make_shared<Tree>()) {}
 
 Config Config::from_json(const std::string& text, const std::string& origin) {
-  json j;
-  // Duplicate keys are an error: a configuration whose last value silently wins hides mistakes.
-  std::vector<std::set<std::string>> open;
-  std::string duplicate;
-  try {
-    j = json::parse(text, [&](int, json::parse_event_t event, json& parsed) {
-      if (event == json::parse_event_t::object_start) open.emplace_back();
-      else if (event == json::parse_event_t::object_end && !open.empty()) open.pop_back();
-      else if (event == json::parse_event_t::key && !open.empty() &&
-               !open.back().insert(parsed.get<std::string>()).second && duplicate.empty())
-        duplicate = parsed.get<std::string>();
-      return true;
-    });
-  } catch (const json::exception& e) {
-    throw InputError(origin + ": not valid JSON: " + e.what());
-  }
-  if (!duplicate.empty()) throw InputError(origin + ": key '" + duplicate + "' appears twice");
+  // Duplicate keys and numbers beyond double range are errors, not a silent last-wins or an abort.
+  check_json_text(text, origin);
+  const json j = json::parse(text);
   if (!j.is_object()) throw InputError(origin + ": expected a JSON object of solver options");
   Config c;
   c.tree_->origin = origin;

@@ -57,6 +57,9 @@ index_t checked_size(const TextReader& rd, long long v, const char* what) {
   return static_cast<index_t>(v);
 }
 
+/// Rows or columns a coordinate file may declare beyond 16 per stored entry.
+constexpr long long kFreeDimension = 1 << 20;
+
 struct Parsed {
   index_t rows = 0, cols = 0;
   std::vector<Triplet> entries;
@@ -76,15 +79,29 @@ Parsed parse(std::istream& in, const std::string& name) {
   out.rows = checked_size(rd, rd.to_integer(t[0], "row count"), "row count");
   out.cols = checked_size(rd, rd.to_integer(t[1], "column count"), "column count");
   if (h.symmetric && out.rows != out.cols) rd.fail("a symmetric matrix must be square");
+  // Every entry line holds at least `fields` one-character tokens and their separators, so the
+  // rest of the file bounds the entry count before anything is allocated.
+  const size_t fields = h.coordinate ? (h.pattern ? 2 : 3) : 1;
+  const long long most_entries = rd.remaining_bytes() / static_cast<long long>(2 * fields);
   long long count;
   if (h.coordinate) {
-    count = rd.to_integer(t[2], "entry count");
-    if (count < 0) rd.fail("negative entry count");
+    count = rd.to_count(t[2], "entry count", most_entries);
+    // Rows and columns the entries do not back would still cost memory (row pointers, vectors):
+    // a declared size far beyond the stored entries is a damaged header, not a sparse matrix.
+    const long long backed = kFreeDimension + 16 * count;
+    for (const auto& [dim, what] : {std::pair{out.rows, "rows"}, std::pair{out.cols, "columns"}})
+      if (dim > backed)
+        rd.fail("declares " + std::to_string(dim) + " " + what + " but only " + std::to_string(count) +
+                " entries: at most " + std::to_string(backed) +
+                " are accepted for that many entries (a damaged size line?)");
   } else {
     count = static_cast<long long>(out.rows) * out.cols;
+    if (count > most_entries)
+      rd.fail("declares " + std::to_string(out.rows) + " x " + std::to_string(out.cols) +
+              " values, more than the rest of the file can hold");
   }
-  out.entries.reserve(static_cast<size_t>(std::min<long long>(count, 1LL << 26)));
-  const size_t fields = h.coordinate ? (h.pattern ? 2 : 3) : 1;
+  const bool sized = rd.remaining_bytes() != std::numeric_limits<long long>::max();
+  out.entries.reserve(static_cast<size_t>(sized ? count : std::min<long long>(count, 1 << 20)));
   for (long long e = 0; e < count; ++e) {
     if (!rd.next_data_line(line))
       rd.fail("file ends after " + std::to_string(e) + " of the " + std::to_string(count) +

@@ -2,14 +2,26 @@
 
 #include <cerrno>
 #include <cmath>
+#include <algorithm>
+#include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <istream>
 #include <sstream>
 
 namespace pmg {
 
 TextReader::TextReader(std::istream& in, std::string name, char comment)
-    : in_(in), name_(std::move(name)), comment_(comment) {}
+    : in_(in), name_(std::move(name)), comment_(comment) {
+  // The size of a seekable input bounds every count read from it (remaining_bytes()).
+  const auto here = in_.tellg();
+  if (here >= 0 && in_.seekg(0, std::ios::end)) {
+    const auto end = in_.tellg();
+    if (end >= 0) size_ = static_cast<long long>(end);
+  }
+  in_.clear();
+  if (here >= 0) in_.seekg(here);
+}
 
 bool TextReader::next_line(std::string& line) {
   ++line_no_;
@@ -18,9 +30,15 @@ bool TextReader::next_line(std::string& line) {
   return true;
 }
 
+namespace {
+// Every character isspace() accepts in the C locale: a line of only \v or \f is blank, as it is to
+// the tokenizer.
+constexpr const char* kBlank = " \t\r\n\v\f";
+}  // namespace
+
 bool TextReader::next_data_line(std::string& line) {
   while (next_line(line)) {
-    const auto first = line.find_first_not_of(" \t");
+    const auto first = line.find_first_not_of(kBlank);
     if (first == std::string::npos || line[first] == comment_) continue;
     return true;
   }
@@ -30,28 +48,66 @@ bool TextReader::next_data_line(std::string& line) {
 std::vector<std::string> TextReader::next_tokens(const char* what) {
   std::string line;
   if (!next_data_line(line)) fail(std::string("file ends where ") + what + " was expected");
-  return split_tokens(line);
+  auto tokens = split_tokens(line);
+  if (tokens.empty()) fail(std::string("expected ") + what + ", found a blank line");
+  return tokens;
 }
 
 void TextReader::fail(const std::string& what) const {
   throw InputError(name_ + ":" + std::to_string(line_no_) + ": " + what);
 }
 
+namespace {
+/// The token as an error message shows it: control bytes (an embedded NUL, say) as \xNN.
+std::string printable(const std::string& tok) {
+  std::string out;
+  for (unsigned char c : tok.substr(0, 64)) {
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  if (tok.size() > 64) out += "...";
+  return out;
+}
+}  // namespace
+
 long long TextReader::to_integer(const std::string& tok, const char* what) const {
   errno = 0;
   char* end = nullptr;
   const long long v = std::strtoll(tok.c_str(), &end, 10);
-  if (end == tok.c_str() || *end != '\0' || errno == ERANGE)
-    fail(std::string("expected an integer ") + what + ", found '" + tok + "'");
+  // The whole token must be the number: strtoll stops at an embedded NUL, the token does not.
+  if (end == tok.c_str() || end != tok.c_str() + tok.size() || errno == ERANGE)
+    fail(std::string("expected an integer ") + what + ", found '" + printable(tok) + "'");
   return v;
+}
+
+long long TextReader::to_count(const std::string& tok, const char* what, long long limit,
+                               const char* limit_is) const {
+  const long long n = to_integer(tok, what);
+  if (n < 0) fail(std::string("negative ") + what + " " + tok);
+  if (n > limit)
+    fail(std::string(what) + " " + tok + " is more than the " + std::to_string(limit) + " " + limit_is +
+         " (a truncated file, or a damaged count)");
+  return n;
+}
+
+long long TextReader::remaining_bytes() const {
+  if (size_ < 0) return std::numeric_limits<long long>::max();
+  const auto pos = in_.tellg();
+  if (pos < 0) return 0;
+  return std::max<long long>(0, size_ - static_cast<long long>(pos));
 }
 
 double TextReader::to_real(const std::string& tok, const char* what) const {
   char* end = nullptr;
   const double v = std::strtod(tok.c_str(), &end);
-  if (end == tok.c_str() || *end != '\0')
-    fail(std::string("expected ") + what + ", found '" + tok + "'");
-  if (!std::isfinite(v)) fail("value '" + tok + "' is not finite");
+  if (end == tok.c_str() || end != tok.c_str() + tok.size())
+    fail(std::string("expected ") + what + ", found '" + printable(tok) + "'");
+  if (!std::isfinite(v)) fail("value '" + printable(tok) + "' is not finite");
   return v;
 }
 

@@ -121,7 +121,9 @@ TEST_CASE("malformed mesh files name the line", "[fem][mesh_io][errors]") {
   CHECK_THROWS_WITH(read_mesh(d.write("x.obj", "")), Catch::Contains("unknown mesh format"));
   d.write("t.node", "2 3 0 0\n1 0 0 0\n");
   d.write("t.ele", "1 4 0\n");
-  CHECK_THROWS_WITH(read_tetgen((d.path / "t").string()), Catch::Contains("t.node:3: file ends where a point line was expected"));
+  CHECK_THROWS_WITH(read_tetgen((d.path / "t").string()), Catch::Contains("t.node:1: point count 2 is more than the 1 the rest of the file could hold"));
+  d.write("t.node", "2 3 0 0\n1 0 0 0\n# padding that a reader must not take for a point\n");
+  CHECK_THROWS_WITH(read_tetgen((d.path / "t").string()), Catch::Contains("t.node:4: file ends where a point line was expected"));
 }
 
 TEST_CASE("surfaces: OFF and STL give the enclosed volume", "[fem][mesh_io]") {

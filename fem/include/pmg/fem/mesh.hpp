@@ -37,12 +37,20 @@ struct MeshCheckOptions {
   double degenerate_volume = 1e-10;
   /// Reorder the vertices of negatively oriented elements instead of rejecting them.
   bool fix_orientation = false;
+  /// Accept a tangled mesh (two elements on the same side of their shared face: a vertex pushed
+  /// through a face, elements overlapping) instead of rejecting it.
+  bool allow_tangled = false;
+  /// Accept a cracked mesh (distinct vertices at the same coordinates: an unwelded seam; boundary
+  /// edges not shared by exactly two boundary faces: a non-manifold boundary).
+  bool allow_cracked = false;
 };
 
 /// Checks a mesh and throws MeshError naming the first problem: no elements, non-finite
 /// coordinates, vertex ids out of range or repeated within an element, zero-volume (degenerate) or
 /// inverted elements, duplicate elements, faces shared by more than two elements (non-manifold),
-/// vertices used by no element.
+/// vertices used by no element; unless allowed, tangled meshes (the two elements of an interior
+/// face on the same side of it, once each is positively oriented) and cracked meshes (two vertices
+/// at the same coordinates, a boundary edge not shared by exactly two boundary faces).
 void check_mesh(TetMesh& mesh, const MeshCheckOptions& options = {});
 
 /// Uniform ("red") refinement, levels times: every tetrahedron is split into 8 through its edge

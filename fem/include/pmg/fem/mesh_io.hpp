@@ -9,15 +9,29 @@
 
 #include "pmg/fem/mesh.hpp"
 
+#include <iosfwd>
 #include <string>
 #include <vector>
 
 namespace pmg::fem {
 
 /// Reads .msh (Gmsh), or .node/.ele (TetGen: give either file or the common base name).
-TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings = nullptr);
-TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings = nullptr);
-TetMesh read_tetgen(const std::string& base, std::vector<std::string>* warnings = nullptr);
+/// `options` are check_mesh()'s (orientation is always fixed); its `allow` flags let a user accept
+/// a tangled or cracked mesh on purpose.
+TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings = nullptr,
+                  const MeshCheckOptions& options = {});
+TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings = nullptr,
+                  const MeshCheckOptions& options = {});
+TetMesh read_tetgen(const std::string& base, std::vector<std::string>* warnings = nullptr,
+                    const MeshCheckOptions& options = {});
+/// The same from streams; `name` (`node_name`, `ele_name`) names the input in every message.
+/// Counts read from a seekable stream are checked against its remaining size before anything is
+/// allocated.
+TetMesh read_gmsh(std::istream& in, const std::string& name, std::vector<std::string>* warnings = nullptr,
+                  const MeshCheckOptions& options = {});
+TetMesh read_tetgen(std::istream& node, const std::string& node_name, std::istream& ele,
+                    const std::string& ele_name, std::vector<std::string>* warnings = nullptr,
+                    const MeshCheckOptions& options = {});
 
 /// Writes TetGen .node/.ele (1-based), atomically.
 void write_tetgen(const std::string& base, const TetMesh& mesh);
@@ -30,5 +44,7 @@ struct Surface {
   double volume() const;
 };
 Surface read_surface(const std::string& path);  ///< .off or .stl
+Surface read_off(std::istream& in, const std::string& name);
+Surface read_stl(std::istream& in, const std::string& name);  ///< ASCII or binary (needs seeking)
 
 }  // namespace pmg::fem

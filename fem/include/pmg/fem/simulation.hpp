@@ -47,8 +47,8 @@ struct StepStats {
   double time = 0.0;                       ///< simulated time after the step
   std::array<double, kNumStages> seconds{};  ///< wall time per stage (0 when skipped)
   int iterations = 0;                      ///< iterations or cycles of the solve
-  double rel_residual = 0.0;  ///< true residual of the solve relative to the warm start's
-  double residual = 0.0;      ///< true residual ||b - A v|| / ||b||
+  double rel_residual = 0.0;  ///< true residual of the solve relative to its start (warm or zero)
+  double residual = 0.0;      ///< true residual ||b - A v|| / ||b|| (<= 2 tol: see step())
 };
 
 class ImplicitEuler {
@@ -86,6 +86,7 @@ class ImplicitEuler {
   Vector f_ext_;
   SimulationParams p_;
   Vector u_, v_, v_free_;
+  Vector start_residual_;  ///< b - A v_0 of the step (reused: no per-step allocation)
   double t_ = 0.0;
   int step_ = 0;
   /// What the state u_ contributes (valid until u_ changes).

@@ -13,6 +13,7 @@
 #include "pmg/sim/setup.hpp"
 
 #include <array>
+#include <csignal>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -37,6 +38,7 @@ struct RunSummary {
   std::vector<std::string> outputs;  ///< files written
   int failed_step = 0;               ///< 0: every step succeeded
   std::string failure;
+  bool interrupted = false;          ///< stopped early by the stop flag (set_stop_flag)
 };
 
 class DynamicRun {
@@ -47,6 +49,10 @@ class DynamicRun {
   const std::string& solver_settings() const { return settings_; }
   /// The solver's method ("pmg", "cg", …; "cholmod" for degree 1 with a multigrid method).
   const std::string& method() const { return method_; }
+  /// A flag (set by a signal handler, say) that run() reads after every step: when it is non-zero
+  /// the run stops after the step in progress, writes its outputs complete and reports
+  /// RunSummary::interrupted.
+  void set_stop_flag(const volatile std::sig_atomic_t* flag) { stop_ = flag; }
   int steps() const { return steps_; }
   /// Runs every step; progress(step, time) after each. A failed step (a solve that fails, a
   /// non-finite state) ends the run: the summary names it, the outputs so far stay written.
@@ -59,6 +65,7 @@ class DynamicRun {
   std::unique_ptr<Solver> solver_;
   std::unique_ptr<fem::ImplicitEuler> sim_;
   int steps_ = 0;
+  const volatile std::sig_atomic_t* stop_ = nullptr;
 };
 
 struct StaticOutcome {

@@ -20,6 +20,8 @@ struct Scene {
   std::array<int, 3> box{8, 2, 2};       ///< boxes of 24 tets along x y z
   std::array<double, 3> size{4.0, 1.0, 1.0};
   int refine = 0;                         ///< uniform refinements of the mesh (8x elements each)
+  /// mesh.allow: ["tangled", "cracked"] accepts a mesh file check_mesh() would refuse.
+  bool allow_tangled = false, allow_cracked = false;
   int degree = 3;
   // material
   bool corotational = true;
@@ -43,6 +45,11 @@ struct Scene {
   // time
   bool dynamic = true;
   double dt = 0.01, duration = 2.0;
+  /// The most time steps a scene may ask for.
+  static constexpr double kMaxSteps = 1e7;
+  /// Empty if dt and duration are usable (finite, > 0, between one and kMaxSteps steps), else why
+  /// not. read_scene checks it; so must anything that overrides dt or duration.
+  std::string check_time() const;
   double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;
   // solver: the solver factory's options (pmg/multigrid/factory.hpp), checked when it is built
   Config solver = default_solver();

@@ -23,7 +23,14 @@ namespace pmg::sim {
 /// A mesh file (its reader's warnings appended to `warnings` if given), or with an empty path the
 /// box bar of box[0] x box[1] x box[2] boxes of 24 tetrahedra with the given side lengths.
 fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3],
-                              std::vector<std::string>* warnings = nullptr);
+                              std::vector<std::string>* warnings = nullptr,
+                              const fem::MeshCheckOptions& mesh_checks = {});
+
+/// A lower estimate of the peak memory of a run on `tets` tetrahedra of `degree` (measured peaks of
+/// `pmg simulate` on box bars: about 4, 14 and 70 KB per tetrahedron at p = 1, 2, 3; the estimate
+/// takes 2, 10 and 50 so that it never refuses a run that fits). set_up() refuses a scene whose
+/// estimate exceeds the machine's memory before it builds anything.
+double estimated_memory_bytes(double tets, int degree);
 
 /// The point whose displacement a run records: a mesh vertex (node v = vertex v on every degree),
 /// or an element and barycentric coordinates found once.

@@ -1,11 +1,35 @@
-// pmg/sparse/file_io.hpp — writing files so that an interrupted run never leaves half a file.
+// pmg/sparse/file_io.hpp — files in and out, safely: writes that an interrupted run never leaves
+// half done, output paths checked before any work, JSON text checked strictly, and sizes checked
+// against the machine's memory before they are allocated.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 namespace pmg {
 
 /// Writes contents to "path.tmp.<pid>" and renames it to path (atomic on POSIX file systems).
+/// Errors name `path` and the reason (errno's text).
 void write_file_atomically(const std::string& path, const std::string& contents);
+
+/// Checks, before any work, that a file can be written at `path`: its folder exists and is
+/// writable, and `path` is not a folder. `what` names the option in the message ("--json").
+/// Throws InputError.
+void check_output_file(const std::string& path, const std::string& what);
+
+/// Creates the folder `path` (and its parents) if needed and checks that it is a writable folder,
+/// not a file. `what` names the option. Throws InputError.
+void prepare_output_directory(const std::string& path, const std::string& what);
+
+/// Checks JSON text strictly: valid syntax, no key twice in one object (the last value would win
+/// silently), every number within double range. Throws InputError "origin: ...".
+void check_json_text(const std::string& text, const std::string& origin);
+
+/// Physical memory of this machine in bytes (0 if unknown).
+std::size_t physical_memory_bytes();
+
+/// Throws InputError when `bytes` (an estimate of what `what` will need) exceeds the machine's
+/// physical memory, naming both; a run that would be killed for memory is refused before it starts.
+void require_memory(double bytes, const std::string& what);
 
 }  // namespace pmg

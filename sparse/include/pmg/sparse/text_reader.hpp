@@ -19,11 +19,20 @@ class TextReader {
   bool next_line(std::string& line);
   /// Next line that is neither blank nor a comment.
   bool next_data_line(std::string& line);
-  /// Next data line split on white space; fails with `what` at end of file.
+  /// Next data line split on white space (never empty); fails with `what` at end of file.
   std::vector<std::string> next_tokens(const char* what);
 
   [[noreturn]] void fail(const std::string& what) const;
+  /// The whole token as an integer (an embedded NUL or trailing junk is an error).
   long long to_integer(const std::string& token, const char* what) const;
+  /// A count read from the file: an integer in [0, limit]. Readers pass as limit what the rest of
+  /// the input could hold (remaining_bytes() / the fewest bytes an item takes), so that nothing is
+  /// allocated for a declared size the data does not back.
+  /// `limit_is` says what sets the limit in the message.
+  long long to_count(const std::string& token, const char* what, long long limit,
+                     const char* limit_is = "the rest of the file could hold") const;
+  /// Bytes left after the current position (the largest long long for an unseekable stream).
+  long long remaining_bytes() const;
   /// A finite real number.
   double to_real(const std::string& token, const char* what = "a real value") const;
 
@@ -35,6 +44,7 @@ class TextReader {
   std::string name_;
   char comment_;
   long line_no_ = 0;
+  long long size_ = -1;  ///< of a seekable input, else -1
 };
 
 std::vector<std::string> split_tokens(const std::string& line);
