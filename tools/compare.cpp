@@ -108,12 +108,8 @@ std::vector<std::pair<std::string, Config>> solver_configs(const Options& o,
     if (!in) throw InputError(o.solver_config + ": cannot read");
     std::stringstream text;
     text << in.rdbuf();
-    nlohmann::ordered_json j;
-    try {
-      j = nlohmann::ordered_json::parse(text.str());
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(o.solver_config + ": not valid JSON: " + e.what());
-    }
+    check_json_text(text.str(), o.solver_config);  // syntax, duplicate keys, out-of-range numbers
+    const nlohmann::ordered_json j = nlohmann::ordered_json::parse(text.str());
     if (!j.is_object() || j.empty())
       throw InputError(o.solver_config + ": expected an object of named solver configurations "
                        "({\"name\": {\"method\": ...}, ...})");

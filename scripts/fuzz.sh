@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# Fuzzes every reader of untrusted input with libFuzzer (clang, ASan + UBSan): Matrix Market,
+# Gmsh, TetGen, OFF, STL and scene JSON. Each target starts from its corpus in tests/fuzz/corpus/
+# (seeds and every input that once crashed a reader) and runs SECONDS (default 30); the corpus it
+# grows stays in build-fuzz/corpus/, crashes go to build-fuzz/crashes/<target>/ and fail the run.
+#   scripts/fuzz.sh [SECONDS] [TARGET...]     e.g. scripts/fuzz.sh 600 gmsh scene
+#   scripts/fuzz.sh --install ...             first install clang and its runtimes (apt, Debian 12)
+# A crash found here is fixed, then its input is copied into tests/fuzz/corpus/<target>/ as
+# crash-<what>: the normal test suite replays that folder (ctest -L fuzz).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if [ "${1:-}" = "--install" ]; then
+  shift
+  need=()
+  for p in clang-14 libclang-rt-14-dev libomp-14-dev; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || need+=("$p")
+  done
+  if [ ${#need[@]} -gt 0 ]; then
+    SUDO=""
+    [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${need[@]}"
+  fi
+fi
+seconds=${1:-30}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(matrix_market gmsh tetgen off stl scene)
+clangxx=$(command -v clang++-14 || command -v clang++ || true)
+if [ -z "$clangxx" ]; then
+  echo "fuzz: clang++ not found (scripts/fuzz.sh --install, or apt install clang-14 libclang-rt-14-dev libomp-14-dev)" >&2
+  exit 2
+fi
+build=build-fuzz
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$clangxx" -DPMG_FUZZ=ON \
+  -DPMG_BUILD_BENCHMARKS=OFF > /dev/null
+cmake --build "$build" -j "$(nproc)" --target $(printf 'fuzz_%s ' "${targets[@]}")
+# Leaks are LeakSanitizer's business in the sanitizer suite; a reader refusing input by exception
+# must not be reported as a crash because of OpenMP's or MPI's start-up allocations.
+export ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+status=0
+summary=()
+for t in "${targets[@]}"; do
+  work="$build/corpus/$t" crashes="$build/crashes/$t"
+  mkdir -p "$work" "$crashes"
+  log="$build/fuzz_$t.log"
+  echo "== fuzz_$t: $seconds s =="
+  # -rss_limit_mb/-malloc_limit_mb: a reader allocating for a count its input does not back is a
+  # finding; -timeout: a reader looping on its input is one too.
+  if "$build/tests/fuzz/fuzz_$t" "$work" "tests/fuzz/corpus/$t" -max_total_time="$seconds" \
+      -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
+      -artifact_prefix="$crashes/" > "$log" 2>&1; then
+    result=ok
+  else
+    result="FAILED (see $log; inputs in $crashes/)"
+    status=1
+    tail -40 "$log"
+  fi
+  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo "?")
+  summary+=("$(printf '%-14s %10s executions  %6s edges  %s' "$t" "$runs" "$cov" "$result")")
+done
+echo "== fuzz summary ($seconds s per target) =="
+printf '%s\n' "${summary[@]}"
+exit $status

@@ -1,0 +1,147 @@
+# Hostile and careless input (issue #16): each finding of the fuzzing and bad-command-line campaign
+# has a regression test here — a clear "pmg: error:" line naming what is wrong and a non-zero exit,
+# never an abort, a hang or silent garbage. The reader inputs live in tests/fuzz/corpus/, which the
+# fuzz replay tests (ctest -L fuzz) also run through the readers directly.
+set(CORPUS ${CMAKE_SOURCE_DIR}/tests/fuzz/corpus)
+
+# 1-5: the Gmsh and STL readers on blank-looking lines and unchecked counts.
+add_test(NAME "hostile: #1 a Gmsh file of only a vertical tab is not a mesh"
+  COMMAND ${EXPECT} 2
+  "crash-01-vertical-tab-file.msh: no .MeshFormat section" ${PMG} mesh ${CORPUS}/gmsh/crash-01-vertical-tab-file.msh)
+add_test(NAME "hostile: #1 a Gmsh line of only a form feed is blank"
+  COMMAND ${EXPECT} 2
+  "crash-01-form-feed-line.msh: no tetrahedra" ${PMG} mesh ${CORPUS}/gmsh/crash-01-form-feed-line.msh)
+add_test(NAME "hostile: #1 a Gmsh file of carriage returns is not a mesh"
+  COMMAND ${EXPECT} 2
+  "no .MeshFormat section" ${PMG} mesh ${CORPUS}/gmsh/crash-01-carriage-returns.msh)
+add_test(NAME "hostile: #2 a blank Gmsh 2.2 node count is named"
+  COMMAND ${EXPECT} 2
+  "crash-02-v22-blank-node-count.msh:6: file ends where the node count was expected" ${PMG} mesh ${CORPUS}/gmsh/crash-02-v22-blank-node-count.msh)
+add_test(NAME "hostile: #3 a negative Gmsh 4.1 node count is named"
+  COMMAND ${EXPECT} 2
+  "crash-03-v41-negative-node-count.msh:6: negative node count -1" ${PMG} mesh ${CORPUS}/gmsh/crash-03-v41-negative-node-count.msh)
+add_test(NAME "hostile: #3 a Gmsh 4.1 node count of 1e9 allocates nothing"
+  COMMAND ${EXPECT} 2
+  "node count 1000000000 is more than the 0 the rest of the file could hold" ${PMG} mesh ${CORPUS}/gmsh/crash-03-v41-node-count-1e9.msh)
+add_test(NAME "hostile: #3 a Gmsh 4.1 node count of 1e11 allocates nothing"
+  COMMAND ${EXPECT} 2
+  "node count 100000000000 is more than" ${PMG} mesh ${CORPUS}/gmsh/crash-03-v41-node-count-1e11.msh)
+add_test(NAME "hostile: #4 a negative Gmsh 2.2 tag count is named"
+  COMMAND ${EXPECT} 2
+  "crash-04-v22-negative-tag-count.msh:13: negative tag count -4" ${PMG} mesh ${CORPUS}/gmsh/crash-04-v22-negative-tag-count.msh)
+add_test(NAME "hostile: #5 an STL line of only a form feed is blank"
+  COMMAND ${EXPECT} 2
+  "crash-05-form-feed-line.stl: no triangles" ${PMG} mesh ${CORPUS}/stl/crash-05-form-feed-line.stl)
+add_test(NAME "hostile: #5 an STL facet with a vertical-tab line is named"
+  COMMAND ${EXPECT} 2
+  "crash-05-vertical-tab-line.stl:4: a facet must have 3 vertices" ${PMG} mesh ${CORPUS}/stl/crash-05-vertical-tab-line.stl)
+# 6: an OFF face size that would overflow.
+add_test(NAME "hostile: #6 an OFF face size of 2^63-1 is checked against its line"
+  COMMAND ${EXPECT} 2
+  "crash-06-face-size-overflow.off:6: face size 9223372036854775807 is more than the 3 vertex indices on the line"
+  ${PMG} mesh ${CORPUS}/off/crash-06-face-size-overflow.off)
+# 7: a scene number beyond double range.
+add_test(NAME "hostile: #7 a scene number beyond double range names its key"
+  COMMAND ${EXPECT} 2
+  "crash-07-number-beyond-double.json: material.young: a number outside the range of a double"
+  ${PMG} simulate ${CORPUS}/scene/crash-07-number-beyond-double.json)
+# 8-9: Matrix Market sizes the data does not back; an embedded NUL.
+add_test(NAME "hostile: #8 a Matrix Market file declaring 1e8 rows for one entry allocates nothing"
+  COMMAND ${EXPECT} 2
+  "crash-08-declared-1e8-rows.mtx:2: declares 100000000 rows but only 1 entries"
+  ${PMG} compare --matrix ${CORPUS}/matrix_market/crash-08-declared-1e8-rows.mtx --format csr --solvers cg)
+add_test(NAME "hostile: #8 a Matrix Market file declaring 2^31-1 rows allocates nothing"
+  COMMAND ${EXPECT} 2
+  "declares 2147483647 rows but only 1 entries"
+  ${PMG} compare --matrix ${CORPUS}/matrix_market/crash-08-declared-2e31-rows.mtx --format csr --solvers cg)
+add_test(NAME "hostile: #8 a Matrix Market array declaring 1e8 values is checked against the file"
+  COMMAND ${EXPECT} 2
+  "declares 100000000 x 1 values, more than the rest of the file can hold"
+  ${PMG} compare --matrix ${DATA}/spd.mtx --rhs ${CORPUS}/matrix_market/crash-08-declared-1e8-array.mtx --format csr --solvers cg)
+add_test(NAME "hostile: #9 an embedded NUL inside a number is refused"
+  COMMAND ${EXPECT} 2
+  "crash-09-embedded-nul.mtx:3: expected a real value, found '2.x00junk'"
+  ${PMG} compare --matrix ${CORPUS}/matrix_market/crash-09-embedded-nul.mtx --format csr --solvers cg)
+# 10: output folders that cannot be made.
+add_test(NAME "hostile: #10 --export-levels under /proc is refused before any work"
+  COMMAND ${EXPECT} 2
+  "--export-levels /proc/x: cannot create the folder" ${PMG} compare --box 2 1 1 -p 2 --solvers cg --export-levels /proc/x)
+add_test(NAME "hostile: #10 --export-levels under a file is refused before any work"
+  COMMAND sh -c
+  "d=$(mktemp -d) && touch $d/f && ${EXPECT} 2 'export-levels .*/f/sub: cannot create the folder' $<TARGET_FILE:pmg> compare --box 2 1 1 -p 2 --solvers cg --export-levels $d/f/sub; rc=$?; rm -rf $d; exit $rc")
+# 11: durations that overflow the step count or are not numbers.
+add_test(NAME "hostile: #11 simulate --duration 1e300 is refused with the step count"
+  COMMAND ${EXPECT} 2
+  "--duration: duration 1e.300 s at dt 0.01 s is 1e.302 steps, more than 1e.07" ${PMG} simulate --duration 1e300)
+add_test(NAME "hostile: #11 simulate --duration nan is refused"
+  COMMAND ${EXPECT} 105
+  "--duration: 'nan' is not a finite number" ${PMG} simulate --duration nan)
+add_test(NAME "hostile: #11 simulate --duration shorter than half a step is refused"
+  COMMAND ${EXPECT} 2
+  "--duration: duration 0.001 s is shorter than half a step" ${PMG} simulate --duration 0.001)
+# 12: sizes beyond the machine.
+add_test(NAME "hostile: #12 a scene box of 1000^3 boxes is refused before it is built"
+  COMMAND sh -c
+  "d=$(mktemp -d) && echo '{\"mesh\": {\"box\": [1000, 1000, 1000]}}' > $d/s.json && ${EXPECT} 2 '2.4e.10 tetrahedra of degree 3: more elements than a 32-bit index' $<TARGET_FILE:pmg> simulate $d/s.json; rc=$?; rm -rf $d; exit $rc")
+add_test(NAME "hostile: #12 a scene whose memory estimate exceeds the machine is refused with the estimate"
+  COMMAND sh -c
+  "d=$(mktemp -d) && echo '{\"mesh\": {\"box\": [200, 200, 200]}}' > $d/s.json && ${EXPECT} 2 '1.92e.08 tetrahedra of degree 3 would need an estimated 9600.0 GB of memory; this machine has' $<TARGET_FILE:pmg> simulate $d/s.json; rc=$?; rm -rf $d; exit $rc")
+add_test(NAME "hostile: #12 compare --box beyond 1000 boxes is refused"
+  COMMAND ${EXPECT} 105
+  "--box: Value 5000 not in range 1 to 1000" ${PMG} compare --box 5000 1 1 --solvers cg)
+# 13: tangled and cracked meshes.
+add_test(NAME "hostile: #13 a tangled mesh names the two overlapping elements"
+  COMMAND ${EXPECT} 2
+  "tangled.ele: element 1 and element 0 lie on the same side of their shared face .0, 1, 3.: the mesh is tangled"
+  ${PMG} mesh ${DATA}/tangled.ele)
+add_test(NAME "hostile: #13 a cracked mesh names the coincident vertices"
+  COMMAND ${EXPECT} 2
+  "cracked.ele: vertices 0 and 6 lie at the same point .*: the mesh is cracked" ${PMG} mesh ${DATA}/cracked.ele)
+add_test(NAME "hostile: #13 a tangled mesh given to compare is refused"
+  COMMAND ${EXPECT} 2
+  "the mesh is tangled" ${PMG} compare --mesh ${DATA}/tangled.ele -p 2 --fix z --fix-fraction 0.5 --solvers cholmod)
+add_test(NAME "hostile: #13 --allow cracked accepts a cracked mesh on purpose"
+  COMMAND ${EXPECT} 0
+  "mesh: 4 tetrahedra, 8 vertices" ${PMG} mesh ${DATA}/cracked.ele --allow cracked)
+add_test(NAME "hostile: #13 --allow tangled accepts a tangled mesh on purpose"
+  COMMAND ${EXPECT} 0
+  "mesh: 4 tetrahedra, 6 vertices" ${PMG} mesh ${DATA}/tangled.ele --allow tangled)
+# 14: impossible option values and duplicate keys.
+add_test(NAME "hostile: #14 compare --tol nan is refused"
+  COMMAND ${EXPECT} 105 "--tol: 'nan' is not a finite number" ${PMG} compare --grid 4 --tol nan)
+add_test(NAME "hostile: #14 compare --tol 2 is refused"
+  COMMAND ${EXPECT} 105 "--tol: '2' is outside .0 - 1." ${PMG} compare --grid 4 --tol 2)
+add_test(NAME "hostile: #14 compare --threads 0 is refused"
+  COMMAND ${EXPECT} 105 "--threads: Value 0 not in range 1 to 1024" ${PMG} compare --grid 4 --threads 0)
+add_test(NAME "hostile: #14 simulate --threads -3 is refused"
+  COMMAND ${EXPECT} 105 "--threads: Value -3 not in range 1 to 1024" ${PMG} simulate --threads -3)
+add_test(NAME "hostile: #14 compare --young nan is refused"
+  COMMAND ${EXPECT} 105 "--young: 'nan' is not a finite number" ${PMG} compare --box 2 1 1 --young nan)
+add_test(NAME "hostile: #14 a duplicate scene key is named"
+  COMMAND ${EXPECT} 2
+  "crash-14-duplicate-key.json: key 'degree' appears twice" ${PMG} simulate ${CORPUS}/scene/crash-14-duplicate-key.json)
+add_test(NAME "hostile: #14 a duplicate nested key in --solver-config is named with its path"
+  COMMAND sh -c
+  "d=$(mktemp -d) && echo '{\"a\": {\"method\": \"cg\", \"tol\": 1e-6, \"tol\": 1e-8}}' > $d/c.json && ${EXPECT} 2 \"key 'a.tol' appears twice\" $<TARGET_FILE:pmg> compare --grid 4 --solver-config $d/c.json; rc=$?; rm -rf $d; exit $rc")
+# 15: output paths checked before the work.
+add_test(NAME "hostile: #15 compare -o under a missing folder is refused before any solve"
+  COMMAND ${EXPECT} 2
+  "--history /proc/x/h.csv: folder /proc/x does not exist" ${PMG} compare --grid 4 -o /proc/x/h.csv)
+add_test(NAME "hostile: #15 compare --json under a missing folder is refused before any solve"
+  COMMAND ${EXPECT} 2
+  "--json /nonexistent/r.json: folder /nonexistent does not exist" ${PMG} compare --grid 4 --json /nonexistent/r.json)
+add_test(NAME "hostile: #15 simulate -o naming an existing file is refused before any step"
+  COMMAND sh -c
+  "d=$(mktemp -d) && touch $d/f && ${EXPECT} 2 '-o .*/f: exists and is not a folder' $<TARGET_FILE:pmg> simulate -o $d/f; rc=$?; rm -rf $d; exit $rc")
+# The per-step residual report: every accepted step has ||b - Av|| <= 2 tol ||b|| (the factor 2 is
+# the solvers' allowance on the true residual), also at the turning points where b is small.
+add_test(NAME "hostile: the per-step residual report stays within the step tolerance through a turning point"
+  COMMAND sh -c
+  "d=$(mktemp -d) && echo '{\"mesh\": {\"box\": [4, 1, 1], \"size\": [4, 1, 1]}, \"degree\": 2, \"initial\": {\"state\": \"deflected\", \"force\": [0, 0, -4000]}, \"time\": {\"dt\": 0.01, \"duration\": 1.5}}' > $d/s.json && $<TARGET_FILE:pmg> simulate $d/s.json -q --json $d/r.json > $d/out.txt && /usr/bin/python3 -c \"import json,sys; r=json.load(open('$d/r.json')); m=r['steps']['largest_residual_b']; print('largest', m); sys.exit(0 if 0 < m <= 2e-3 else 1)\"; rc=$?; rm -rf $d; exit $rc")
+# SIGINT: the run stops after the step in progress, every written file complete, one line says where.
+add_test(NAME "hostile: SIGINT stops pmg simulate -o with complete outputs and says where"
+  COMMAND sh
+  ${CMAKE_CURRENT_SOURCE_DIR}/sigint.sh $<TARGET_FILE:pmg>)
+get_property(all_tests DIRECTORY PROPERTY TESTS)
+list(FILTER all_tests INCLUDE REGEX "^hostile: ")
+set_tests_properties(${all_tests} PROPERTIES LABELS "tools;hostile")
