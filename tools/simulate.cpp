@@ -99,7 +99,7 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
   const std::string& method = run.method();
   std::cout << "time:    " << run.steps() << " steps of " << s.dt << " s (" << s.duration << " s), implicit Euler"
             << (s.rayleigh_alpha > 0 || s.rayleigh_beta > 0 ? ", Rayleigh damping" : ", undamped") << "\n"
-            << "solver:  " << run.solver_settings() << " per step, warm start\n\n";
+            << "solver:  " << run.solver_settings() << " per step, warm start (where it beats zero)\n\n";
   Progress progress(run.steps(), cli.quiet);
   const sim::RunSummary r = run.run([&](int step, double t) { progress.update(step, t); });
   if (r.failed_step) progress.interrupt();

@@ -152,3 +152,57 @@ TEST_CASE("uniform refinement splits each tet into 8 conforming tets of the same
   }
   CHECK_THROWS_AS(refine_uniform(single_tet(), -1), MeshError);
 }
+
+namespace {
+/// The octahedron of four tets around the z axis (tests/tools/data/octahedron.*), 0-based.
+TetMesh octahedron() {
+  TetMesh m;
+  m.vertices = {Vec3(0, 0, -1), Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(-1, 0, 0), Vec3(0, -1, 0)};
+  m.tets = {{0, 1, 2, 3}, {0, 1, 3, 4}, {0, 1, 4, 5}, {0, 1, 5, 2}};
+  return m;
+}
+}  // namespace
+
+TEST_CASE("tangled and cracked meshes are named unless allowed", "[fem][mesh]") {
+  MeshCheckOptions fix;
+  fix.fix_orientation = true;
+  SECTION("a sound mesh passes, in either orientation") {
+    TetMesh m = octahedron();
+    CHECK_NOTHROW(check_mesh(m, fix));
+  }
+  SECTION("a vertex pushed through a face: two elements on the same side of their face") {
+    TetMesh m = octahedron();
+    m.vertices[2] = Vec3(-0.5, 0, 0);
+    CHECK_THROWS_WITH(check_mesh(m, fix), Catch::Contains("the mesh is tangled") &&
+                                              Catch::Contains("lie on the same side of their shared face"));
+    MeshCheckOptions allow = fix;
+    allow.allow_tangled = true;
+    TetMesh again = octahedron();
+    again.vertices[2] = Vec3(-0.5, 0, 0);
+    CHECK_NOTHROW(check_mesh(again, allow));
+  }
+  SECTION("coincident vertices: an unwelded seam") {
+    TetMesh m = octahedron();
+    m.vertices.push_back(m.vertices[0]);
+    m.vertices.push_back(m.vertices[1]);
+    m.tets[2] = {6, 7, 4, 5};
+    m.tets[3] = {6, 7, 5, 2};
+    CHECK_THROWS_WITH(check_mesh(m, fix), Catch::Contains("vertices 0 and 6 lie at the same point") &&
+                                              Catch::Contains("cracked"));
+    MeshCheckOptions allow = fix;
+    allow.allow_cracked = true;
+    CHECK_NOTHROW(check_mesh(m, allow));
+  }
+  SECTION("two tets touching along an edge only: a non-manifold boundary") {
+    TetMesh m;
+    m.vertices = {Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(-1, 0, 0), Vec3(-1, -1, 0)};
+    m.tets = {{0, 1, 2, 3}, {0, 1, 4, 5}};
+    CHECK_THROWS_WITH(check_mesh(m, fix), Catch::Contains("boundary edge (0, 1) belongs to 4 boundary faces"));
+  }
+  SECTION("the generators and uniform refinement give sound meshes") {
+    TetMesh box = box_mesh_24(3, 2, 1, 3.0, 2.0, 1.0);
+    CHECK_NOTHROW(check_mesh(box));
+    TetMesh fine = refine_uniform(octahedron(), 2);
+    CHECK_NOTHROW(check_mesh(fine));
+  }
+}

@@ -6,6 +6,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -77,4 +79,57 @@ TEST_CASE("a failing step ends the run with the step named; bad scenes name thei
   const sim::Scene point = sim::parse_scene(R"({"mesh": {"box": [2, 1, 1], "size": [2, 1, 1]},
       "degree": 1, "output": {"probe": [9, 9, 9]}})", "s.json");
   CHECK_THROWS_WITH(sim::set_up(point), Catch::Contains("output.probe: the point lies outside the mesh"));
+}
+
+TEST_CASE("scenes refuse impossible times, sizes beyond the machine, and read mesh.allow", "[sim]") {
+  sim::Scene s;
+  s.dt = 0.01;
+  s.duration = 1e300;
+  CHECK_THAT(s.check_time(), Catch::Contains("steps, more than"));
+  s.duration = std::nan("");
+  CHECK_THAT(s.check_time(), Catch::Contains("duration must be a finite time"));
+  s.duration = 0.001;
+  CHECK_THAT(s.check_time(), Catch::Contains("shorter than half a step"));
+  s.duration = 1.0;
+  CHECK(s.check_time().empty());
+  CHECK_THROWS_WITH(sim::parse_scene(R"({"time": {"dt": 1e-9, "duration": 100}})", "s.json"),
+                    Catch::Contains("s.json: time: duration 100 s at dt 1e-09 s"));
+  CHECK_THROWS_WITH(sim::parse_scene(R"({"degree": 2, "degree": 3})", "s.json"),
+                    Catch::Contains("s.json: key 'degree' appears twice"));
+  CHECK_THROWS_WITH(sim::parse_scene(R"({"material": {"young": 1e400}})", "s.json"),
+                    Catch::Contains("material.young: a number outside the range of a double"));
+  CHECK_THROWS_WITH(sim::parse_scene(R"({"mesh": {"allow": ["bent"]}})", "s.json"),
+                    Catch::Contains("mesh.allow: 'bent' is not one of: tangled, cracked"));
+  const sim::Scene allowed = sim::parse_scene(R"({"mesh": {"allow": ["cracked"]}})", "s.json");
+  CHECK(allowed.allow_cracked);
+  CHECK_FALSE(allowed.allow_tangled);
+  CHECK(sim::parse_scene(sim::scene_to_json(allowed), "back.json").allow_cracked);
+  // 200^3 boxes of cubic elements: refused with the estimate before anything is built.
+  sim::Scene huge;
+  huge.box = {200, 200, 200};
+  CHECK_THROWS_WITH(sim::set_up(huge), Catch::Contains("would need an estimated") &&
+                                           Catch::Contains("of memory; this machine has"));
+  CHECK(sim::estimated_memory_bytes(1000, 3) == Approx(50e6));
+}
+
+TEST_CASE("a stop flag ends a run after the step in progress with its outputs complete", "[sim]") {
+  const sim::Scene scene = sim::parse_scene(R"({
+      "mesh": {"box": [2, 1, 1], "size": [2, 1, 1]}, "degree": 1,
+      "initial": {"state": "twisted", "degrees": 10}, "time": {"dt": 0.01, "duration": 1},
+      "output": {"frame_every": 5}})", "inline scene");
+  sim::SceneSetup setup = sim::set_up(scene);
+  const std::string dir = temp_dir();
+  sim::DynamicRun run(scene, setup, dir + "/out");
+  volatile std::sig_atomic_t stop = 0;
+  run.set_stop_flag(&stop);
+  const sim::RunSummary r = run.run([&](int step, double) {
+    if (step == 3) stop = 1;  // as a SIGINT handler would, during step 3
+  });
+  CHECK(r.interrupted);
+  CHECK(r.failed_step == 0);
+  CHECK(r.steps_done == 3);
+  CHECK(r.frames == 2);  // step 0 and the last finished step, 3
+  CHECK(count_lines(dir + "/out/steps.csv") == 5);  // header and steps 0..3
+  CHECK(std::ifstream(dir + "/out/frame_000003.vtu").good());
+  std::system(("rm -rf " + dir).c_str());
 }

@@ -107,3 +107,22 @@ TEST_CASE("Matrix Market vectors: array format and n x 1 coordinate", "[sparse][
   std::istringstream bad("%%MatrixMarket matrix array real general\n3 2\n1\n2\n3\n4\n5\n6\n");
   CHECK_THROWS_WITH(read_matrix_market_vector(bad), Catch::Contains("one column"));
 }
+
+TEST_CASE("hostile Matrix Market input: blank-looking lines, NUL bytes, sizes the data does not back",
+          "[sparse][mm]") {
+  const std::string hdr = "%%MatrixMarket matrix coordinate real general\n";
+  // Lines of only \v, \f or \r are blank, as they are to the tokenizer.
+  CHECK(parse(hdr + "\v\n2 2 1\n\f\n1 1 3\n\r\n").rows() == 2);
+  CHECK_THROWS_WITH(parse(hdr + "1 1 1\n1 1 2" + std::string(1, '\0') + "junk\n"),
+                    Catch::Contains("t.mtx:3: expected a real value, found '2\\x00junk'"));
+  CHECK_THROWS_WITH(parse(hdr + "100000000 100000000 1\n1 1 1\n"),
+                    Catch::Contains("declares 100000000 rows but only 1 entries"));
+  CHECK_THROWS_WITH(parse(hdr + "2 2 1000000000000\n1 1 1\n"),
+                    Catch::Contains("entry count 1000000000000 is more than the"));
+  CHECK_THROWS_WITH(parse("%%MatrixMarket matrix array real general\n100000 100000\n1\n"),
+                    Catch::Contains("declares 100000 x 100000 values, more than the rest of the file"));
+  // A large but backed size reads: 2 million rows for 200,000 entries.
+  std::string big = hdr + "2000000 1 200000\n";
+  for (int i = 0; i < 200000; ++i) big += std::to_string(10 * i + 1) + " 1 1\n";
+  CHECK(parse(big).rows() == 2000000);
+}

@@ -1,0 +1,63 @@
+// The shared input/output checks: strict JSON, output paths checked before any work, memory.
+#include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/text_reader.hpp"
+#include "pmg/sparse/types.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+using namespace pmg;
+
+TEST_CASE("check_json_text refuses bad syntax, duplicate keys (with their path) and huge numbers",
+          "[sparse][io]") {
+  CHECK_NOTHROW(check_json_text(R"({"a": {"b": 1, "c": [1, 2]}, "d": "x"})", "ok.json"));
+  CHECK_THROWS_AS(check_json_text("{", "t.json"), InputError);
+  CHECK_THROWS_WITH(check_json_text("{", "t.json"), Catch::Contains("t.json: not valid JSON"));
+  CHECK_THROWS_WITH(check_json_text(R"({"a": {"b": 1, "b": 2}})", "t.json"),
+                    Catch::Contains("t.json: key 'a.b' appears twice"));
+  // The same key in two different objects is fine.
+  CHECK_NOTHROW(check_json_text(R"({"a": {"b": 1}, "c": {"b": 2}})", "t.json"));
+  CHECK_THROWS_WITH(check_json_text(R"({"m": {"young": 1e400}})", "t.json"),
+                    Catch::Contains("t.json: m.young: a number outside the range of a double"));
+}
+
+TEST_CASE("output paths are checked before any work", "[sparse][io]") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("pmg_io_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string file = (dir / "f").string();
+  std::ofstream(file) << "x";
+  CHECK_NOTHROW(check_output_file((dir / "new.csv").string(), "--history"));
+  CHECK_THROWS_WITH(check_output_file("/nonexistent/a.csv", "--history"),
+                    Catch::Contains("--history /nonexistent/a.csv: folder /nonexistent does not exist"));
+  CHECK_THROWS_WITH(check_output_file(dir.string(), "--json"), Catch::Contains("is a folder"));
+  CHECK_THROWS_WITH(prepare_output_directory(file, "-o"), Catch::Contains("exists and is not a folder"));
+  CHECK_THROWS_WITH(prepare_output_directory(file + "/sub", "-o"), Catch::Contains("cannot create the folder"));
+  CHECK_NOTHROW(prepare_output_directory((dir / "a" / "b").string(), "-o"));
+  CHECK(fs::is_directory(dir / "a" / "b"));
+  CHECK_THROWS_WITH(write_file_atomically("/nonexistent/x.txt", "x"), Catch::Contains("/nonexistent/x.txt: cannot write"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("require_memory refuses an estimate beyond the machine, naming both", "[sparse][io]") {
+  CHECK(physical_memory_bytes() > 0);
+  CHECK_NOTHROW(require_memory(1e6, "a small run"));
+  CHECK_THROWS_WITH(require_memory(1e18, "a huge run"),
+                    Catch::Contains("a huge run would need an estimated 1000000000.0 GB of memory; this machine has"));
+  CHECK_THROWS_AS(require_memory(std::nan(""), "a NaN estimate"), InputError);
+}
+
+TEST_CASE("TextReader counts are checked against the rest of the input", "[sparse][io]") {
+  std::istringstream in("3\n1 2 3\n");
+  TextReader rd(in, "t.txt");
+  const auto t = rd.next_tokens("a count");
+  CHECK(rd.remaining_bytes() == 6);
+  CHECK(rd.to_count(t[0], "count", rd.remaining_bytes() / 2) == 3);
+  CHECK_THROWS_WITH(rd.to_count("4", "count", 3), Catch::Contains("t.txt:1: count 4 is more than the 3"));
+  CHECK_THROWS_WITH(rd.to_count("-1", "count", 3), Catch::Contains("t.txt:1: negative count -1"));
+  CHECK_THROWS_WITH(rd.to_integer(std::string("1\0", 2), "x"), Catch::Contains("expected an integer x, found '1\\x00'"));
+}
