@@ -27,4 +27,12 @@ void expect_value_or_error(Read&& read) {
   }
 }
 
+/// What a surface reader returns: every triangle's vertex indices in range.
+template <class Surface>
+void check_surface(const Surface& s) {
+  for (const auto& t : s.triangles)
+    for (auto v : t)
+      if (v < 0 || static_cast<std::size_t>(v) >= s.vertices.size()) __builtin_trap();
+}
+
 }  // namespace pmg::fuzz

@@ -86,6 +86,8 @@ add_test(NAME "hostile: #12 a scene box of 1000^3 boxes is refused before it is 
 add_test(NAME "hostile: #12 a scene whose memory estimate exceeds the machine is refused with the estimate"
   COMMAND sh -c
   "d=$(mktemp -d) && echo '{\"mesh\": {\"box\": [200, 200, 200]}}' > $d/s.json && ${EXPECT} 2 '1.92e.08 tetrahedra of degree 3 would need an estimated 9600.0 GB of memory; this machine has' $<TARGET_FILE:pmg> simulate $d/s.json; rc=$?; rm -rf $d; exit $rc")
+add_test(NAME "hostile: #12 compare --grid 400 is refused with its memory estimate"
+  COMMAND ${EXPECT} 2 "--grid 400 .6.4e.07 nodes. would need an estimated 512.0 GB of memory" ${PMG} compare --grid 400 --solvers cg)
 add_test(NAME "hostile: #12 compare --box beyond 1000 boxes is refused"
   COMMAND ${EXPECT} 105
   "--box: Value 5000 not in range 1 to 1000" ${PMG} compare --box 5000 1 1 --solvers cg)
