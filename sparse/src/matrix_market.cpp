@@ -86,20 +86,21 @@ Parsed parse(std::istream& in, const std::string& name) {
   long long count;
   if (h.coordinate) {
     count = rd.to_count(t[2], "entry count", most_entries);
-    // Rows and columns the entries do not back would still cost memory (row pointers, vectors):
-    // a declared size far beyond the stored entries is a damaged header, not a sparse matrix.
-    const long long backed = kFreeDimension + 16 * count;
-    for (const auto& [dim, what] : {std::pair{out.rows, "rows"}, std::pair{out.cols, "columns"}})
-      if (dim > backed)
-        rd.fail("declares " + std::to_string(dim) + " " + what + " but only " + std::to_string(count) +
-                " entries: at most " + std::to_string(backed) +
-                " are accepted for that many entries (a damaged size line?)");
   } else {
     count = static_cast<long long>(out.rows) * out.cols;
     if (count > most_entries)
       rd.fail("declares " + std::to_string(out.rows) + " x " + std::to_string(out.cols) +
               " values, more than the rest of the file can hold");
   }
+  // Rows and columns the entries do not back would still cost memory (row pointers, vectors):
+  // a declared size far beyond the stored entries (or an array with a zero side) is a damaged
+  // header, not a sparse matrix.
+  const long long backed = kFreeDimension + 16 * count;
+  for (const auto& [dim, what] : {std::pair{out.rows, "rows"}, std::pair{out.cols, "columns"}})
+    if (dim > backed)
+      rd.fail("declares " + std::to_string(dim) + " " + what + " but only " + std::to_string(count) +
+              " entries: at most " + std::to_string(backed) +
+              " are accepted for that many entries (a damaged size line?)");
   const bool sized = rd.remaining_bytes() != std::numeric_limits<long long>::max();
   out.entries.reserve(static_cast<size_t>(sized ? count : std::min<long long>(count, 1 << 20)));
   for (long long e = 0; e < count; ++e) {

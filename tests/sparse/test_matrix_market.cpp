@@ -121,6 +121,9 @@ TEST_CASE("hostile Matrix Market input: blank-looking lines, NUL bytes, sizes th
                     Catch::Contains("entry count 1000000000000 is more than the"));
   CHECK_THROWS_WITH(parse("%%MatrixMarket matrix array real general\n100000 100000\n1\n"),
                     Catch::Contains("declares 100000 x 100000 values, more than the rest of the file"));
+  // Found by fuzzing: an array with no columns declared 1e8 rows (row pointers for nothing).
+  CHECK_THROWS_WITH(parse("%%MatrixMarket matrix array real general\n100000000 0\n"),
+                    Catch::Contains("declares 100000000 rows but only 0 entries"));
   // A large but backed size reads: 2 million rows for 200,000 entries.
   std::string big = hdr + "2000000 1 200000\n";
   for (int i = 0; i < 200000; ++i) big += std::to_string(10 * i + 1) + " 1 1\n";
