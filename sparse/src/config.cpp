@@ -76,6 +76,9 @@ void Config::set(const std::string& key, const std::string& value) {
   if (!valid_key(k)) throw InputError(tree_->origin + ": '" + k + "' is not a valid key");
   // A value and a subtree under the same name: a string value of an object key is its method.
   if (has_child(key)) {
+    if (has_child(key + ".method"))
+      throw InputError(tree_->origin + ": '" + k + "' = '" + value + "' has no place: '" + k +
+                       ".method' is a section of its own");
     tree_->values[k + ".method"] = value;
     return;
   }
@@ -84,6 +87,11 @@ void Config::set(const std::string& key, const std::string& value) {
     auto it = tree_->values.find(parent);
     if (it != tree_->values.end()) {  // "smoother=chebyshev" then "smoother.sweeps=3"
       const std::string method = it->second;
+      // The value moves to parent.method, so nothing may live below that name (found by fuzzing:
+      // "method" then "method.method.x" left a value and a section under one key).
+      if (k.compare(0, parent.size() + 8, parent + ".method.") == 0)
+        throw InputError(tree_->origin + ": '" + k + "' reaches below '" + parent + ".method', which holds '" +
+                         method + "' (the value given to '" + parent + "')");
       tree_->values.erase(it);
       tree_->values[parent + ".method"] = method;
     }

@@ -1,4 +1,5 @@
 // The shared input/output checks: strict JSON, output paths checked before any work, memory.
+#include "pmg/sparse/config.hpp"
 #include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/text_reader.hpp"
 #include "pmg/sparse/types.hpp"
@@ -60,4 +61,16 @@ TEST_CASE("TextReader counts are checked against the rest of the input", "[spars
   CHECK_THROWS_WITH(rd.to_count("4", "count", 3), Catch::Contains("t.txt:1: count 4 is more than the 3"));
   CHECK_THROWS_WITH(rd.to_count("-1", "count", 3), Catch::Contains("t.txt:1: negative count -1"));
   CHECK_THROWS_WITH(rd.to_integer(std::string("1\0", 2), "x"), Catch::Contains("expected an integer x, found '1\\x00'"));
+}
+
+TEST_CASE("a configuration key is a value or a section, never both (found by fuzzing)", "[sparse][io]") {
+  // "smoother" = name, then "smoother.sweeps": the name moves to smoother.method.
+  Config c = Config::from_pairs({"smoother=chebyshev", "smoother.degree=3"}, "t");
+  CHECK(c.get_string("smoother.method", "") == "chebyshev");
+  CHECK_NOTHROW(Config::from_json(c.to_json(), "back"));
+  // A key below the moved value would leave "method" both a value and a section.
+  CHECK_THROWS_WITH(Config::from_json(R"({"method": "pmg", "method.method.x": 1})", "t.json"),
+                    Catch::Contains("'method.method.x' reaches below 'method.method', which holds 'pmg'"));
+  CHECK_THROWS_WITH(Config::from_pairs({"a.method.b=1", "a=x"}, "t"),
+                    Catch::Contains("'a' = 'x' has no place: 'a.method' is a section of its own"));
 }

@@ -45,6 +45,9 @@ add_test(NAME "hostile: #7 a scene number beyond double range names its key"
   COMMAND ${EXPECT} 2
   "crash-07-number-beyond-double.json: material.young: a number outside the range of a double"
   ${PMG} simulate ${CORPUS}/scene/crash-07-number-beyond-double.json)
+add_test(NAME "hostile: fuzzing found: a solver key below a value's name is refused, not an abort in --print-scene"
+  COMMAND ${EXPECT} 2 "crash-fuzz-method-value-and-section.json: solver: 'method.method.rerations' reaches below 'method.method'"
+  ${PMG} simulate --print-scene ${CORPUS}/scene/crash-fuzz-method-value-and-section.json)
 # 8-9: Matrix Market sizes the data does not back; an embedded NUL.
 add_test(NAME "hostile: #8 a Matrix Market file declaring 1e8 rows for one entry allocates nothing"
   COMMAND ${EXPECT} 2
