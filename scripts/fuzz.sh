@@ -5,6 +5,7 @@
 # grows stays in build-fuzz/corpus/, crashes go to build-fuzz/crashes/<target>/ and fail the run.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]     e.g. scripts/fuzz.sh 600 gmsh scene
 #   scripts/fuzz.sh --install ...             first install clang and its runtimes (apt, Debian 12)
+#   PMG_FUZZ_SEED=1 scripts/fuzz.sh 30        a fixed seed (CI: the same inputs every run); 0: random
 # A crash found here is fixed, then its input is copied into tests/fuzz/corpus/<target>/ as
 # crash-<what>: the normal test suite replays that folder (ctest -L fuzz).
 set -euo pipefail
@@ -49,7 +50,7 @@ for t in "${targets[@]}"; do
   # finding; -timeout: a reader looping on its input is one too.
   if "$build/tests/fuzz/fuzz_$t" "$work" "tests/fuzz/corpus/$t" -max_total_time="$seconds" \
       -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
-      -artifact_prefix="$crashes/" > "$log" 2>&1; then
+      -seed="${PMG_FUZZ_SEED:-0}" -artifact_prefix="$crashes/" > "$log" 2>&1; then
     result=ok
   else
     result="FAILED (see $log; inputs in $crashes/)"
