@@ -134,7 +134,7 @@ void run(const MeshOptions& o) {
   } else {
     std::vector<std::string> warnings;
     fem::MeshCheckOptions checks;
-    for (const auto& a : o.allow) (a == "tangled" ? checks.allow_tangled : checks.allow_cracked) = true;
+    for (const auto& a : o.allow) fem::allow_mesh_defect(checks, a);
     mesh = fem::read_mesh(o.input, &warnings, checks);
     for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
   }

@@ -62,7 +62,7 @@ sim::Scene scene_of(const SceneOptions& o) {
   s.clamp_fraction = o.fix_fraction;
   if (o.load == "gravity") s.gravity = fem::Vec3(0, 0, -9.81);
   else s.end_force = fem::Vec3(0, 0, -10.0);  // 10 N in total on the far face
-  for (const auto& a : o.allow) (a == "tangled" ? s.allow_tangled : s.allow_cracked) = true;
+  for (const auto& a : o.allow) fem::allow_mesh_defect(s.mesh_checks, a);
   s.dynamic = o.dt > 0;
   if (o.dt > 0) s.dt = o.dt;
   return s;

@@ -96,7 +96,7 @@ void check_mesh(TetMesh& mesh, const MeshCheckOptions& options) {
       std::array<index_t, 3> f;
       for (int i = 0, k = 0; i < 4; ++i)
         if (i != skip) f[k++] = s[i];
-      auto [use, fresh] = faces.emplace(f, FaceUse{e, s[skip], 0});
+      const auto use = faces.try_emplace(f, FaceUse{e, s[skip], 0}).first;
       if (++use->second.count > 2)
         throw MeshError(face_name(f) + " of " + elem(e) +
                         " is shared by more than two elements (non-manifold)");
@@ -137,6 +137,19 @@ void check_mesh(TetMesh& mesh, const MeshCheckOptions& options) {
                       ") belongs to " + std::to_string(count) +
                       " boundary faces, not 2: the boundary is not a manifold (elements touching along an "
                       "edge only?); allow it on purpose with allow_cracked (pmg: --allow cracked)");
+}
+
+void allow_mesh_defect(MeshCheckOptions& options, const std::string& name) {
+  if (name == "tangled") options.allow_tangled = true;
+  else if (name == "cracked") options.allow_cracked = true;
+  else throw InputError("'" + name + "' is not a mesh defect that can be allowed (tangled, cracked)");
+}
+
+std::vector<std::string> allowed_mesh_defects(const MeshCheckOptions& options) {
+  std::vector<std::string> names;
+  if (options.allow_tangled) names.emplace_back("tangled");
+  if (options.allow_cracked) names.emplace_back("cracked");
+  return names;
 }
 
 namespace {

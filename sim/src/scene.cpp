@@ -170,10 +170,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       const json& a = m.at("allow");
       if (!a.is_array()) m.fail_key("allow", "expected an array of \"tangled\", \"cracked\"");
       for (const json& v : a) {
-        const std::string what = v.is_string() ? v.get<std::string>() : v.dump();
-        if (what == "tangled") s.allow_tangled = true;
-        else if (what == "cracked") s.allow_cracked = true;
-        else m.fail_key("allow", "'" + what + "' is not one of: tangled, cracked");
+        try {
+          fem::allow_mesh_defect(s.mesh_checks, v.is_string() ? v.get<std::string>() : v.dump());
+        } catch (const InputError& e) {
+          m.fail_key("allow", e.what());
+        }
       }
     }
   }
@@ -305,11 +306,7 @@ std::string scene_to_json(const Scene& s) {
   if (s.mesh_file.empty()) j["mesh"] = {{"box", s.box}, {"size", s.size}};
   else j["mesh"] = {{"file", s.mesh_file}};
   if (s.refine > 0) j["mesh"]["refine"] = s.refine;
-  if (s.allow_tangled || s.allow_cracked) {
-    j["mesh"]["allow"] = json::array();
-    if (s.allow_tangled) j["mesh"]["allow"].push_back("tangled");
-    if (s.allow_cracked) j["mesh"]["allow"].push_back("cracked");
-  }
+  if (const auto allowed = fem::allowed_mesh_defects(s.mesh_checks); !allowed.empty()) j["mesh"]["allow"] = allowed;
   j["degree"] = s.degree;
   j["material"] = {{"model", s.corotational ? "corotational" : "linear"},
                    {"young", s.young}, {"poisson", s.poisson}, {"density", s.density}};

@@ -66,13 +66,11 @@ void check_size(double tets, const Scene& s) {
 
 SceneSetup set_up(const Scene& s) {
   SceneSetup b;
+  // The box's size is known before it is generated; a file's once it is read.
   const double refined = std::pow(8.0, s.refine);
   if (s.mesh_file.empty()) check_size(24.0 * s.box[0] * s.box[1] * s.box[2] * refined, s);
-  fem::MeshCheckOptions checks;
-  checks.allow_tangled = s.allow_tangled;
-  checks.allow_cracked = s.allow_cracked;
-  fem::TetMesh loaded = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings, checks);
-  check_size(loaded.num_tets() * refined, s);
+  fem::TetMesh loaded = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings, s.mesh_checks);
+  if (!s.mesh_file.empty()) check_size(loaded.num_tets() * refined, s);
   b.mesh = std::make_unique<const fem::TetMesh>(fem::refine_uniform(loaded, s.refine));
   const fem::TetMesh& mesh = *b.mesh;
   b.lo = fem::Vec3::Constant(1e300), b.hi = fem::Vec3::Constant(-1e300);

@@ -1,12 +1,12 @@
 #include "pmg/sparse/text_reader.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <limits>
 #include <istream>
+#include <limits>
 #include <sstream>
 
 namespace pmg {

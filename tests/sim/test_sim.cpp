@@ -99,11 +99,11 @@ TEST_CASE("scenes refuse impossible times, sizes beyond the machine, and read me
   CHECK_THROWS_WITH(sim::parse_scene(R"({"material": {"young": 1e400}})", "s.json"),
                     Catch::Contains("material.young: a number outside the range of a double"));
   CHECK_THROWS_WITH(sim::parse_scene(R"({"mesh": {"allow": ["bent"]}})", "s.json"),
-                    Catch::Contains("mesh.allow: 'bent' is not one of: tangled, cracked"));
+                    Catch::Contains("mesh.allow: 'bent' is not a mesh defect that can be allowed (tangled, cracked)"));
   const sim::Scene allowed = sim::parse_scene(R"({"mesh": {"allow": ["cracked"]}})", "s.json");
-  CHECK(allowed.allow_cracked);
-  CHECK_FALSE(allowed.allow_tangled);
-  CHECK(sim::parse_scene(sim::scene_to_json(allowed), "back.json").allow_cracked);
+  CHECK(allowed.mesh_checks.allow_cracked);
+  CHECK_FALSE(allowed.mesh_checks.allow_tangled);
+  CHECK(sim::parse_scene(sim::scene_to_json(allowed), "back.json").mesh_checks.allow_cracked);
   // 200^3 boxes of cubic elements: refused with the estimate before anything is built.
   sim::Scene huge;
   huge.box = {200, 200, 200};

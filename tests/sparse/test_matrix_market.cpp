@@ -124,6 +124,9 @@ TEST_CASE("hostile Matrix Market input: blank-looking lines, NUL bytes, sizes th
   // Found by fuzzing: an array with no columns declared 1e8 rows (row pointers for nothing).
   CHECK_THROWS_WITH(parse("%%MatrixMarket matrix array real general\n100000000 0\n"),
                     Catch::Contains("declares 100000000 rows but only 0 entries"));
+  // Each value is finite, but repeated entries are summed: their sum must be too.
+  CHECK_THROWS_WITH(parse(hdr + "1 1 2\n1 1 1e308\n1 1 1e308\n"),
+                    Catch::Contains("t.mtx: the repeated entries at (1, 1) sum to a non-finite value"));
   // A large but backed size reads: 2 million rows for 200,000 entries.
   std::string big = hdr + "2000000 1 200000\n";
   for (int i = 0; i < 200000; ++i) big += std::to_string(10 * i + 1) + " 1 1\n";

@@ -64,6 +64,9 @@ add_test(NAME "hostile: #8 a Matrix Market array declaring 1e8 values is checked
 add_test(NAME "hostile: fuzzing found: an array of 1e8 rows and no columns allocates nothing"
   COMMAND ${EXPECT} 2 "crash-fuzz-array-zero-columns-1e8-rows.mtx:2: declares 100000000 rows but only 0 entries"
   ${PMG} compare --matrix ${CORPUS}/matrix_market/crash-fuzz-array-zero-columns-1e8-rows.mtx --format csr --solvers cg)
+add_test(NAME "hostile: review found: repeated Matrix Market entries summing to infinity are refused"
+  COMMAND ${EXPECT} 2 "crash-review-repeated-entries-overflow.mtx: the repeated entries at .1, 1. sum to a non-finite value"
+  ${PMG} compare --matrix ${CORPUS}/matrix_market/crash-review-repeated-entries-overflow.mtx --format csr --solvers cg)
 add_test(NAME "hostile: #9 an embedded NUL inside a number is refused"
   COMMAND ${EXPECT} 2
   "crash-09-embedded-nul.mtx:3: expected a real value, found '2.x00junk'"

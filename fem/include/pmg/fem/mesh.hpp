@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <string>
 #include <vector>
 
 namespace pmg::fem {
@@ -44,6 +45,12 @@ struct MeshCheckOptions {
   /// edges not shared by exactly two boundary faces: a non-manifold boundary).
   bool allow_cracked = false;
 };
+
+/// Sets the allow flag a defect's name selects: "tangled" or "cracked" (the names of pmg's
+/// --allow option and of a scene's mesh.allow); another name is an InputError listing these.
+void allow_mesh_defect(MeshCheckOptions& options, const std::string& name);
+/// The names of the defects `options` allows, in that order.
+std::vector<std::string> allowed_mesh_defects(const MeshCheckOptions& options);
 
 /// Checks a mesh and throws MeshError naming the first problem: no elements, non-finite
 /// coordinates, vertex ids out of range or repeated within an element, zero-volume (degenerate) or

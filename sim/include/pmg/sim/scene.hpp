@@ -20,8 +20,9 @@ struct Scene {
   std::array<int, 3> box{8, 2, 2};       ///< boxes of 24 tets along x y z
   std::array<double, 3> size{4.0, 1.0, 1.0};
   int refine = 0;                         ///< uniform refinements of the mesh (8x elements each)
-  /// mesh.allow: ["tangled", "cracked"] accepts a mesh file check_mesh() would refuse.
-  bool allow_tangled = false, allow_cracked = false;
+  /// mesh.allow: ["tangled", "cracked"] accepts a mesh file check_mesh() would refuse (the
+  /// orientation is always fixed when a file is read).
+  fem::MeshCheckOptions mesh_checks;
   int degree = 3;
   // material
   bool corotational = true;
