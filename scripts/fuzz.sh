@@ -26,7 +26,7 @@ fi
 seconds=${1:-30}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(matrix_market gmsh tetgen off stl scene)
+[ ${#targets[@]} -gt 0 ] || targets=(matrix_market petsc_binary gmsh tetgen off stl scene)
 clangxx=$(command -v clang++-14 || command -v clang++ || true)
 if [ -z "$clangxx" ]; then
   echo "fuzz: clang++ not found (scripts/fuzz.sh --install, or apt install clang-14 libclang-rt-14-dev libomp-14-dev)" >&2

@@ -8,6 +8,7 @@ packages=(
   libsuitesparse-dev       # CHOLMOD (supernodal sparse Cholesky)
   libopenblas0-pthread     # BLAS for CHOLMOD's supernodes (about 3x the reference BLAS)
   libhypre-dev             # BoomerAMG baseline (brings OpenMPI's headers and libraries)
+  libpetsc-real-dev        # PETSc's GAMG, MUMPS and CHOLMOD baselines (optional for the build; ~20 s)
   openmpi-bin              # mpirun, for the 2-rank BoomerAMG test (a Recommends only)
   catch2                   # unit tests (v2)
   libbenchmark-dev         # Google Benchmark

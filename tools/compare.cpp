@@ -16,6 +16,7 @@
 #include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/multigrid/petsc.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -48,7 +49,7 @@ namespace {
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Options {
-  std::string matrix, rhs, solution, history, plot, export_levels, json_report;
+  std::string matrix, rhs, solution, history, plot, export_levels, export_petsc, json_report;
   std::vector<std::string> levels, prolongations;  // user multigrid levels (Matrix Market)
   int grid = 24;
   bool fem = false;  // set when a scene option is given
@@ -149,7 +150,7 @@ struct System {
 std::shared_ptr<const Bcsr> borrow(const Bcsr& A) { return std::shared_ptr<const Bcsr>(std::shared_ptr<void>(), &A); }
 
 struct Outcome {
-  std::string name, status = "ok", message, breakdown;
+  std::string name, status = "ok", message, breakdown, settings;
   int iterations = 0;
   double setup = 0, solve = 0, rel_residual = kNaN, rel_error = kNaN;
   std::vector<IterationRecord> history;
@@ -306,6 +307,7 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
     return out;
   }
   out.setup = seconds_since(t0) + extra_setup;
+  out.settings = solver.describe();
   if (const auto* c = find_cycle(solver)) c->reset_timings();
   SolveMonitor mon;
   t0 = std::chrono::steady_clock::now();
@@ -342,11 +344,19 @@ void run(const Options& o) {
     if (!o.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");
     prepare_output_directory(o.export_levels, "--export-levels");
   }
+  if (!o.export_petsc.empty()) {
+    if (!o.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
+    prepare_output_directory(o.export_petsc, "--export-petsc");
+  }
   auto t0 = std::chrono::steady_clock::now();
   System sys = load_system(o);
   if (!o.export_levels.empty()) {
     if (!sys.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");
     export_levels(*sys.fem, o.export_levels);
+  }
+  if (!o.export_petsc.empty()) {
+    if (!sys.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
+    export_petsc(*sys.fem, o.export_petsc);
   }
   const double load_time = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
@@ -387,6 +397,11 @@ void run(const Options& o) {
   // Every solver is built (and its options checked) before any runs.
   SolverContext ctx;
   ctx.levels = levels;
+  std::vector<double> coordinates;  // FEM: the free nodes' rest positions (rigid-body modes)
+  if (sys.fem) {
+    coordinates = sys.fem->free_coordinates();
+    ctx.coordinates = &coordinates;
+  }
   std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names);
   std::vector<std::unique_ptr<Solver>> solvers;
   std::set<std::string> set_keys;
@@ -404,6 +419,7 @@ void run(const Options& o) {
     // hypre's MPI start-up (about half a second here) is paid once per process: started here,
     // before the clocks, so that it is charged to no solver.
     mpi = std::max(mpi, mg::start_mpi_for_hypre(c));
+    mpi = std::max(mpi, mg::start_petsc(c));
     if (auto* cg = dynamic_cast<Cg*>(solvers.back().get())) cg->set_multiplication_operator(&A);
     if (auto* mcg = dynamic_cast<MergedCg*>(solvers.back().get())) mcg->set_multiplication_operator(&A);
   }
@@ -412,7 +428,7 @@ void run(const Options& o) {
   for (const auto& [name, c] : configs)
     if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << name << ": " << c.to_string() << "\n";
   if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << "\n";
-  if (mpi >= 0) std::cout << "MPI start-up for hypre: " << fmt("%.3f", mpi) << " s (charged to no solver)\n\n";
+  if (mpi >= 0) std::cout << "MPI (and PETSc) start-up: " << fmt("%.3f", mpi) << " s (charged to no solver)\n\n";
   std::vector<Outcome> outcomes;
   double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
   auto run_one = [&](size_t k, Vector& x) {
@@ -477,6 +493,8 @@ void run(const Options& o) {
   for (const auto& out : outcomes)
     if (!out.message.empty()) std::cout << "\n" << out.name << " failed: " << out.message << "\n";
   for (const auto& out : outcomes)
+    if (!out.settings.empty()) std::cout << "\n" << out.name << ": " << out.settings << "\n";
+  for (const auto& out : outcomes)
     if (!out.breakdown.empty()) std::cout << "\n" << out.name << ": " << out.breakdown << "\n";
   if (sys.x_true.size()) std::cout << "\nrel. error: against the " << sys.error_reference << "\n";
   std::string history = o.history;
@@ -503,6 +521,7 @@ void run(const Options& o) {
                               {"time_to_1e-6_s", num(time_to(out, 1e-6))},
                               {"rel_residual", num(out.rel_residual)},
                               {"rel_error", num(out.rel_error)},
+                              {"settings", out.settings},
                               {"breakdown", out.breakdown}});
     }
     nlohmann::json report = {
@@ -596,6 +615,9 @@ void register_compare(CLI::App& app) {
       ->needs("--levels");
   sub->add_option("--export-levels", opts->export_levels,
                   "FEM scenes: write the level matrices, prolongations and b to this folder");
+  sub->add_option("--export-petsc", opts->export_petsc,
+                  "FEM scenes: write the system in PETSc's binary format to this folder (A.petsc, b.petsc, "
+                  "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc_reference read)");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
   sub->add_option("--coarse-operator", opts->coarse_operator, "PMG lower levels")

@@ -12,4 +12,8 @@ namespace pmg::tools {
 /// prolongations) and DIR/b.mtx; assembles the lower levels first.
 void export_levels(FemSystem& system, const std::string& dir);
 
+/// Writes the finest system in PETSc's binary format: DIR/A.petsc (the matrix over the free dofs),
+/// DIR/b.petsc and DIR/coordinates.petsc (x, y, z of each free node, interleaved).
+void export_petsc(const FemSystem& system, const std::string& dir);
+
 }  // namespace pmg::tools

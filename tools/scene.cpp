@@ -51,6 +51,15 @@ double FemSystem::assemble_lower_levels() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+std::vector<double> FemSystem::free_coordinates() const {
+  const fem::ElasticityModel& m = hierarchy().finest();
+  const auto& X = m.space().positions();
+  Vector full(3 * static_cast<index_t>(X.size()));
+  for (size_t i = 0; i < X.size(); ++i) full.segment<3>(3 * static_cast<index_t>(i)) = X[i];
+  const Vector free = m.restrict_to_free(full);
+  return std::vector<double>(free.data(), free.data() + free.size());
+}
+
 sim::Scene scene_of(const SceneOptions& o) {
   sim::Scene s;
   s.source = "pmg compare options";

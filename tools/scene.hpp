@@ -42,6 +42,9 @@ struct FemSystem {
   const Bcsr& matrix() const { return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1); }
   /// Assembles the lower levels (PMG's extra set-up work); returns the seconds it took.
   double assemble_lower_levels();
+  /// x, y, z of the finest level's free nodes (rest positions), interleaved like the unknowns: the
+  /// rigid-body modes of AMG baselines (BoomerAMG interpolation vectors, GAMG near-null space).
+  std::vector<double> free_coordinates() const;
 };
 
 /// The sim::Scene these options describe (clamp, material, load); build_fem_system sets it up.

@@ -4,6 +4,7 @@
 #include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/chebyshev.hpp"
 #include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/petsc.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
 #include "pmg/sparse/krylov.hpp"
 
@@ -46,12 +47,55 @@ mg::BoomerAMGParams read_boomeramg(const Config& c) {
   p.cycles = c.get_int("cycles", p.cycles, 1, 1000);
   p.num_functions = c.get_int("num_functions", p.num_functions, 1, 64);
   p.nodal = c.get_int("nodal", p.nodal, 0, 6);
+  p.nodal_diag = c.get_int("nodal_diag", p.nodal_diag, 0, 2);
   p.strong_threshold = c.get_double("strong_threshold", p.strong_threshold, 1e-6, 1 - 1e-6);
   p.coarsen_type = c.get_int("coarsen_type", p.coarsen_type, 0, 22);
   p.interp_type = c.get_int("interp_type", p.interp_type, 0, 100);
   p.p_max_elements = c.get_int("p_max", p.p_max_elements, 0, 1000);
+  p.trunc_factor = c.get_double("trunc_factor", p.trunc_factor, 0.0, 1.0);
   p.relax_type = c.get_int("relax_type", p.relax_type, 0, 100);
+  p.relax_coarse = c.get_int("relax_coarse", p.relax_coarse, 0, 100);
+  p.relax_order = c.get_int("relax_order", p.relax_order, 0, 1);
+  p.sweeps = c.get_int("sweeps", p.sweeps, 1, 100);
+  p.agg_levels = c.get_int("agg_levels", p.agg_levels, 0, 100);
+  p.agg_interp_type = c.get_int("agg_interp_type", p.agg_interp_type, 1, 8);
+  p.max_levels = c.get_int("max_levels", p.max_levels, 2, 100);
+  p.max_coarse_size = c.get_int("max_coarse_size", p.max_coarse_size, 1, 1000000);
+  p.interp_vectors = c.get_choice("interp_vectors", "none", {"none", "rigid"}) == "rigid" ? 3 : 0;
+  p.interp_vec_variant = c.get_int("interp_vec_variant", p.interp_vec_variant, 1, 3);
   return p;
+}
+
+/// BoomerAMG with the context's node coordinates (for rigid-body interpolation vectors).
+std::unique_ptr<mg::BoomerAMG> make_boomeramg(const Config& c, const SolverContext& ctx) {
+  auto amg = std::make_unique<mg::BoomerAMG>(read_boomeramg(c));
+  if (amg->params().interp_vectors > 0) {
+    if (!ctx.coordinates)
+      c.fail("interp_vectors", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
+                               "them; a matrix read from a file does not");
+    amg->set_coordinates(*ctx.coordinates);
+  }
+  return amg;
+}
+
+/// A PETSc preconditioner (GAMG, or a Cholesky factorisation by MUMPS or CHOLMOD).
+std::unique_ptr<mg::PetscPreconditioner> make_petsc(const Config& c, const SolverContext& ctx,
+                                                    const std::string& type) {
+  mg::PetscParams p;
+  p.type = type;
+  bool rigid = false;
+  if (type == "gamg") {
+    const std::string nns = c.get_choice("near_null_space", "auto", {"auto", "rigid", "none"});
+    if (nns == "rigid" && !ctx.coordinates)
+      c.fail("near_null_space", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
+                                "them; a matrix read from a file does not (auto: rigid where known)");
+    rigid = nns != "none" && ctx.coordinates;
+  }
+  p.rigid_near_null_space = rigid;
+  p.options = c.get_string("options", "");
+  auto s = std::make_unique<mg::PetscPreconditioner>(p);
+  if (rigid) s->set_coordinates(*ctx.coordinates);
+  return s;
 }
 
 /// A smoother: a Smoother method, or any other solver used as Richardson's preconditioner.
@@ -128,7 +172,9 @@ Registry& registry() {
 const char* kKrylovKeys = "tol abs_tol rhs_floor max_iterations fixed_iterations divergence_limit "
                           "stagnation_window throw_on_failure";
 const char* kCycleKeys = "cycle cycles coarse_operator restriction smoother.* lowest_level.*";
-const char* kAmgKeys = "cycles num_functions nodal strong_threshold coarsen_type interp_type p_max relax_type";
+const char* kAmgKeys = "cycles num_functions nodal nodal_diag strong_threshold coarsen_type interp_type p_max "
+                       "trunc_factor relax_type relax_coarse relax_order sweeps agg_levels agg_interp_type "
+                       "max_levels max_coarse_size interp_vectors interp_vec_variant";
 
 Registry::Registry() {
   auto add = [&](SolverInfo info, SolverBuilder b) { entries.push_back({std::move(info), std::move(b)}); };
@@ -149,9 +195,9 @@ Registry::Registry() {
        false, true},
       [](const Config& c, const SolverContext&) { return std::make_unique<MergedCg>(read_krylov(c)); });
   add({"boomeramg-pcg", "CG preconditioned by hypre BoomerAMG V-cycles", std::string(kKrylovKeys) + " " + kAmgKeys},
-      [](const Config& c, const SolverContext&) {
+      [](const Config& c, const SolverContext& ctx) {
         KrylovParams k = read_krylov(c);
-        return std::make_unique<Cg>(k, std::make_unique<mg::BoomerAMG>(read_boomeramg(c)));
+        return std::make_unique<Cg>(k, make_boomeramg(c, ctx));
       });
   // Multigrid
   add({"pmg", "stationary multigrid: one cycle per iteration", std::string(kKrylovKeys) + " " + kCycleKeys, true,
@@ -164,10 +210,28 @@ Registry::Registry() {
         return std::make_unique<Cg>(k, build_cycle(c, ctx, 2, KrylovParams{}));
       });
   // Direct and algebraic multigrid
-  add({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update", ""},
-      [](const Config&, const SolverContext&) { return std::make_unique<CholmodSolver>(); });
+  add({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update", "ordering"},
+      [](const Config& c, const SolverContext&) {
+        return std::make_unique<CholmodSolver>(c.get_choice("ordering", "metis", {"metis", "auto", "amd", "nesdis"}));
+      });
   add({"boomeramg", "hypre BoomerAMG V-cycles (a fixed symmetric operator)", kAmgKeys},
-      [](const Config& c, const SolverContext&) { return std::make_unique<mg::BoomerAMG>(read_boomeramg(c)); });
+      [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> { return make_boomeramg(c, ctx); });
+  // PETSc (built when PETSc is found; otherwise these say so)
+  add({"gamg-pcg", "CG preconditioned by PETSc's GAMG (smoothed aggregation, rigid-body near-null space)",
+       std::string(kKrylovKeys) + " near_null_space options"},
+      [](const Config& c, const SolverContext& ctx) {
+        KrylovParams k = read_krylov(c);
+        return std::make_unique<Cg>(k, make_petsc(c, ctx, "gamg"));
+      });
+  add({"gamg", "PETSc GAMG V-cycles (a fixed symmetric operator)", "near_null_space options"},
+      [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> { return make_petsc(c, ctx, "gamg"); });
+  add({"mumps", "sparse Cholesky by MUMPS, through PETSc", "options"},
+      [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> { return make_petsc(c, ctx, "mumps"); });
+  add({"petsc-cholmod", "sparse Cholesky by CHOLMOD, through PETSc (to compare with our CHOLMOD adapter)",
+       "options"},
+      [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+        return make_petsc(c, ctx, "cholmod");
+      });
   // Preconditioners and smoothers
   add({"jacobi", "point Jacobi D^-1", ""},
       [](const Config&, const SolverContext&) { return std::make_unique<JacobiPreconditioner>(); });

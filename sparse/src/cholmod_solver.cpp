@@ -3,19 +3,26 @@
 #include <cholmod.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <string>
 
 namespace pmg {
 
-// CHOLMOD's long-integer interface (cholmod_l_*): our row pointers are 64-bit. The column indices
-// are widened once in analyze(); factorize() points CHOLMOD at the caller's values directly.
+// CHOLMOD's long-integer interface (cholmod_l_*): our row pointers are 64-bit. CHOLMOD reads one
+// triangle of a symmetric matrix, so it is handed only that one: analyze() keeps the pattern of the
+// CSR rows' entries on or left of the diagonal (as CSC: the upper triangle, stype = 1) and where
+// they sit in the full values; factorize() gathers those values. Handing it both triangles (as
+// before) made its permuted transposes in analysis and factorisation read twice the entries.
 struct CholmodSolver::Impl {
   cholmod_common common;
   cholmod_factor* factor = nullptr;
   std::shared_ptr<const CsrPattern> pattern;
-  std::vector<SuiteSparse_long> p, i;
+  std::vector<SuiteSparse_long> p, i;  // the triangle's pattern
+  std::vector<offset_t> from;          // its entries' positions in the full CSR values
+  std::vector<double> x;               // its values
   bool factorized = false;
+  double analyze_seconds = 0, factorize_seconds = 0;
 
   Impl() {
     cholmod_l_start(&common);
@@ -26,7 +33,7 @@ struct CholmodSolver::Impl {
     if (factor) cholmod_l_free_factor(&factor, &common);
     cholmod_l_finish(&common);
   }
-  // A symmetric matrix in CSR is its own CSC; stype = 1 reads the upper triangle of that view.
+  // Row r of a symmetric CSR, columns <= r, is column r of the upper triangle in CSC.
   cholmod_sparse view(const double* values) {
     cholmod_sparse A{};
     A.nrow = A.ncol = p.size() - 1;
@@ -44,7 +51,21 @@ struct CholmodSolver::Impl {
   }
 };
 
-CholmodSolver::CholmodSolver() : impl_(std::make_unique<Impl>()) {}
+CholmodSolver::CholmodSolver(const std::string& ordering) : impl_(std::make_unique<Impl>()) {
+  cholmod_common& c = impl_->common;
+  if (ordering == "auto") return;
+  int method = 0;
+  if (ordering == "amd")
+    method = CHOLMOD_AMD;
+  else if (ordering == "metis")
+    method = CHOLMOD_METIS;
+  else if (ordering == "nesdis")
+    method = CHOLMOD_NESDIS;
+  else
+    throw InputError("CHOLMOD: unknown ordering '" + ordering + "' (auto, amd, metis, nesdis)");
+  c.nmethods = 1;
+  c.method[0].ordering = method;
+}
 CholmodSolver::~CholmodSolver() = default;
 
 void CholmodSolver::analyze(const Csr& A) {
@@ -52,13 +73,27 @@ void CholmodSolver::analyze(const Csr& A) {
   Impl& d = *impl_;
   if (d.factor) cholmod_l_free_factor(&d.factor, &d.common);
   d.factorized = false;
+  const auto t0 = std::chrono::steady_clock::now();
   d.pattern = A.shared_pattern();
   const CsrPattern& pat = A.pattern();
-  d.p.assign(pat.row_ptr.begin(), pat.row_ptr.end());
-  d.i.assign(pat.col_idx.begin(), pat.col_idx.end());
   n_ = A.rows();
+  d.p.assign(static_cast<std::size_t>(n_) + 1, 0);
+  d.i.clear();
+  d.from.clear();
+  const offset_t half = (A.nnz() + n_) / 2;
+  d.i.reserve(half);
+  d.from.reserve(half);
+  for (index_t r = 0; r < n_; ++r) {
+    for (offset_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1] && pat.col_idx[k] <= r; ++k) {
+      d.i.push_back(pat.col_idx[k]);
+      d.from.push_back(k);
+    }
+    d.p[r + 1] = static_cast<SuiteSparse_long>(d.i.size());
+  }
+  d.x.resize(d.i.size());
   cholmod_sparse view = d.view(nullptr);
   d.factor = cholmod_l_analyze(&view, &d.common);
+  d.analyze_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!d.factor || d.common.status < CHOLMOD_OK)
     throw Error("CHOLMOD: symbolic analysis failed (status " + std::to_string(d.common.status) + ")");
 }
@@ -72,8 +107,13 @@ void CholmodSolver::factorize(const Csr& A) {
   for (double v : A.values())
     if (!std::isfinite(v)) throw InputError("CHOLMOD: matrix has NaN/Inf entries");
   d.factorized = false;
-  cholmod_sparse view = d.view(A.values().data());
+  const auto t0 = std::chrono::steady_clock::now();
+  const double* values = A.values().data();
+  const std::size_t m = d.from.size();
+  for (std::size_t k = 0; k < m; ++k) d.x[k] = values[d.from[k]];
+  cholmod_sparse view = d.view(d.x.data());
   cholmod_l_factorize(&view, d.factor, &d.common);
+  d.factorize_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n)
     throw Error("CHOLMOD: matrix is not positive definite (factorisation fails at column " +
                 std::to_string(d.factor->minor) + " of " + std::to_string(d.factor->n) + ")");
@@ -85,6 +125,45 @@ void CholmodSolver::factorize(const Csr& A) {
 
 double CholmodSolver::factor_nnz() const {
   return impl_->factorized ? impl_->common.lnz : 0.0;
+}
+
+namespace {
+const char* ordering_name(int ordering) {
+  switch (ordering) {
+    case CHOLMOD_NATURAL: return "natural";
+    case CHOLMOD_GIVEN: return "given";
+    case CHOLMOD_AMD: return "AMD";
+    case CHOLMOD_METIS: return "METIS";
+    case CHOLMOD_NESDIS: return "NESDIS";
+    case CHOLMOD_COLAMD: return "COLAMD";
+    case CHOLMOD_POSTORDERED: return "postordered";
+    default: return "unknown";
+  }
+}
+}  // namespace
+
+std::string CholmodSolver::ordering() const {
+  return impl_->factor ? ordering_name(impl_->factor->ordering) : "";
+}
+
+std::string CholmodSolver::describe() const {
+  const Impl& d = *impl_;
+  if (!d.factor) return "CHOLMOD";
+  std::string tried;
+  const cholmod_common& c = d.common;
+  for (int k = 0; k < c.nmethods || (c.nmethods == 0 && k < CHOLMOD_MAXMETHODS); ++k) {
+    if (c.method[k].fl < 0 && c.method[k].lnz < 0) continue;  // not tried
+    if (!(c.method[k].lnz > 0)) continue;
+    tried += std::string(tried.empty() ? "" : ", ") + ordering_name(c.method[k].ordering) + " " +
+             std::to_string(static_cast<long long>(c.method[k].lnz));
+  }
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "CHOLMOD %s, ordering %s, factor nonzeros %.4g, flops %.4g, analysis %.3f s, "
+                "factorisation %.3f s",
+                d.factor->is_super ? "supernodal" : "simplicial", ordering_name(d.factor->ordering),
+                c.lnz, c.fl, d.analyze_seconds, d.factorize_seconds);
+  return std::string(buf) + (tried.empty() ? "" : " (orderings tried, factor nonzeros: " + tried + ")");
 }
 
 void CholmodSolver::setup_impl(const LinearOperator& A) {

@@ -1,15 +1,22 @@
 // pmg/multigrid/boomeramg.hpp — hypre's BoomerAMG, the algebraic-multigrid baseline, as a Solver
 // (V-cycles per apply, for PCG, or as the lowest-level solver of PMG). The one hypre adapter.
 //
-// Settings for 3-D elasticity (3 unknowns per node, interleaved), as a careful user would choose:
-//   systems AMG with 3 functions and nodal coarsening on the row-sum norm of the 3x3 blocks
-//   (SetNumFunctions 3, SetNodal 4, SetNodalDiag 1): the three displacement components of a node
-//   are coarsened together, so rigid-body-like modes are not split between grids;
-//   strong threshold 0.5 (hypre's advice for 3-D; 0.25 is the 2-D default);
-//   HMIS coarsening (10) with extended+i interpolation (6) truncated to 4 entries per row: the
-//   standard low-complexity pairing for 3-D;
-//   l1-scaled symmetric Gauss–Seidel relaxation (8): symmetric, so the cycle can precondition CG;
-//   no aggressive coarsening (it hurts elasticity); one V-cycle per apply, tolerance 0.
+// Every BoomerAMG option that matters for elasticity is a field of BoomerAMGParams (and a key of
+// the factory: docs/solvers.md); the defaults are the fastest measured on the README's Homer P3 and
+// Bunny P2 systems by tools/amg_sweep.py (table in the README): HMIS coarsening with one level of
+// aggressive coarsening (multipass interpolation there), extended+i interpolation truncated to 6
+// entries, strong threshold 0.5, unknown-based systems AMG, l1-Gauss-Seidel. What the sweep found:
+//   - nodal coarsening (SetNodal 4, the norm of each node's 3x3 block) needs 2-3x the iterations
+//     of unknown-based systems AMG on these higher-order matrices, so it is off (nodal = 0);
+//   - one level of aggressive coarsening cuts the operator complexity from 1.5-1.8 to 1.1 and the
+//     time per iteration by 25-40% for 0-25% more iterations: the fastest to 1e-6 on both models;
+//     strong_threshold=0.25 agg_levels=0 needs the fewest iterations (94 and 61) at 1.2-1.4x the time;
+//   - one rank's l1-Gauss-Seidel (8) and hybrid Gauss-Seidel (6) are the same sweep; C/F order
+//     (relax_order=1, PETSc's default for hypre) costs iterations here.
+// Rigid-body interpolation vectors (Baker, Kolev & Yang, "Improving algebraic multigrid
+// interpolation operators for linear elasticity problems", 2010) are an option: the three
+// rotations computed from node coordinates (SolverContext::coordinates), which hypre supports only
+// with nodal coarsening.
 // MPI is initialised on first use (one rank by default; under mpirun each rank owns a contiguous
 // block of rows, every rank holds the whole matrix and vectors, and results are gathered).
 #pragma once
@@ -19,19 +26,35 @@
 #include "pmg/sparse/solver.hpp"
 
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace pmg::mg {
 
 struct BoomerAMGParams {
-  int num_functions = 3;
-  int nodal = 4;
+  int num_functions = 3;        ///< unknowns per node (systems AMG), interleaved
+  int nodal = 0;                ///< 0: unknown-based; 1-6: nodal coarsening on a norm of the blocks
+  int nodal_diag = 1;           ///< nodal: 1 = diagonal of the nodal matrix is minus the row sum
   double strong_threshold = 0.5;
-  int coarsen_type = 10;
-  int interp_type = 6;
-  int p_max_elements = 4;
-  int relax_type = 8;
-  int cycles = 1;  ///< V-cycles per apply
+  int coarsen_type = 10;        ///< 10 HMIS, 8 PMIS, 6 Falgout, ...
+  int interp_type = 6;          ///< 6 extended+i, 0 classical, ...
+  int p_max_elements = 6;       ///< interpolation entries per row (0: no limit)
+  double trunc_factor = 0.0;    ///< interpolation truncation factor
+  int relax_type = 8;           ///< 8 l1-symmetric Gauss-Seidel, 6 hybrid symmetric GS, 16 Chebyshev, ...
+  int relax_coarse = 9;         ///< relaxation on the coarsest level (9: Gaussian elimination)
+  int relax_order = 0;          ///< 0 natural order, 1 C/F order
+  int sweeps = 1;               ///< relaxation sweeps per level, down and up
+  int agg_levels = 1;           ///< levels of aggressive coarsening
+  int agg_interp_type = 4;      ///< interpolation on aggressive levels (4: multipass)
+  int max_levels = 25;
+  int max_coarse_size = 9;
+  int interp_vectors = 0;       ///< 0 none, 3 the rigid-body rotations (needs coordinates, nodal)
+  int interp_vec_variant = 2;   ///< 1, 2: GM approaches, 3: LN approach
+  int cycles = 1;               ///< V-cycles per apply
 };
+
+/// The settings as "key=value ..." in the factory's key names.
+std::string to_string(const BoomerAMGParams& params);
 
 class BoomerAMG final : public Solver {
  public:
@@ -44,6 +67,15 @@ class BoomerAMG final : public Solver {
 
   std::string name() const override { return "boomeramg"; }
   const BoomerAMGParams& params() const;
+  /// Node coordinates (x, y, z per node of the system, interleaved like the unknowns) for the
+  /// rigid-body interpolation vectors; needed before setup() when params.interp_vectors > 0.
+  void set_coordinates(std::vector<double> xyz);
+  /// The settings, and after set-up the hierarchy: levels, grid and operator complexity.
+  std::string describe() const override;
+  /// After set-up: number of levels, sum of the level sizes / finest size, and the same for nonzeros.
+  int num_levels() const;
+  double grid_complexity() const;
+  double operator_complexity() const;
 
  private:
   /// A: Csr, or Bcsr (its scalar copy's pattern is built once; update() copies values only).

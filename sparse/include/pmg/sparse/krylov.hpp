@@ -83,6 +83,7 @@ class Cg final : public Solver {
   KrylovParams& params() { return params_; }
   const KrylovParams& params() const { return params_; }
   Solver* preconditioner() const { return M_.get(); }
+  std::string describe() const override { return M_ ? M_->describe() : ""; }
   /// Multiply with `op` instead of the set-up matrix (the same matrix in another format, e.g.
   /// BIN-BCSR, while the preconditioner reads the BCSR entries). nullptr: the set-up matrix.
   void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }

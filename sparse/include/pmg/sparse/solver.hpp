@@ -61,6 +61,9 @@ class Solver : public LinearOperator {
   /// The solver reads the lower level matrices of a hierarchy besides A (geometric multigrid): a
   /// simulation then assembles its lower levels too. (A Galerkin cycle forms its own from A.)
   virtual bool uses_levels() const { return false; }
+  /// What set-up chose and found, for reports (settings, hierarchy, ordering, factor size); empty
+  /// when there is nothing beyond the name. A Krylov method reports its preconditioner's.
+  virtual std::string describe() const { return ""; }
 
  protected:
   virtual void setup_impl(const LinearOperator& A) = 0;

@@ -1,0 +1,239 @@
+// The PETSc adapter (pmg/multigrid/petsc.hpp): the only file that includes PETSc.
+#include "pmg/multigrid/petsc.hpp"
+
+#include "pmg/multigrid/boomeramg.hpp"  // mpi_size(): MPI is started by hypre's session
+
+#include <petscksp.h>
+
+#include <cctype>
+#include <chrono>
+#include <limits>
+#include <sstream>
+
+namespace pmg::mg {
+
+namespace {
+
+std::string& last_error() {
+  static thread_local std::string message;
+  return message;
+}
+
+/// Keeps PETSc's own message of the first error in a call chain (PETSc's default handler prints a
+/// traceback; ours becomes an exception's text instead).
+PetscErrorCode keep_message(MPI_Comm, int, const char* function, const char*, PetscErrorCode n,
+                            PetscErrorType p, const char* message, void*) {
+  if (p == PETSC_ERROR_INITIAL)
+    last_error() = std::string(message && *message ? message : "error") + " (in " + function + ")";
+  return n;
+}
+
+void check(PetscErrorCode err, const char* what) {
+  if (!err) return;
+  std::string text = last_error();
+  if (text.empty()) {
+    const char* generic = nullptr;
+    PetscErrorMessage(err, &generic, nullptr);
+    text = generic ? generic : "error " + std::to_string(err);
+  }
+  last_error().clear();
+  throw Error(std::string("PETSc: ") + what + " failed: " + text);
+}
+
+/// PETSc initialised once, after MPI (so it is finalised before MPI is).
+struct PetscSession {
+  bool owned = false;
+  PetscSession() {
+    mpi_size();
+    PetscBool initialized = PETSC_FALSE;
+    PetscInitialized(&initialized);
+    if (!initialized) {
+      // No signal handler: a crash stays a crash (sanitizers, debuggers), SIGINT stays ours.
+      static char name[] = "pmg", flag[] = "-no_signal_handler";
+      static char* args[] = {name, flag, nullptr};
+      int argc = 2;
+      char** argv = args;
+      check(PetscInitialize(&argc, &argv, nullptr, nullptr), "PetscInitialize");
+      owned = true;
+    }
+    PetscPushErrorHandler(keep_message, nullptr);
+  }
+  ~PetscSession() {
+    PetscBool finalized = PETSC_FALSE;
+    PetscFinalized(&finalized);
+    if (owned && !finalized) PetscFinalize();
+  }
+};
+
+void petsc() { static PetscSession session; }
+
+/// "-pc_gamg_threshold 0.02 -mg_levels_ksp_max_it 3" with every option name given the prefix.
+std::string prefixed(const std::string& options, const std::string& prefix) {
+  std::istringstream in(options);
+  std::ostringstream out;
+  std::string token;
+  while (in >> token) {
+    if (token.size() > 1 && token[0] == '-' && std::isalpha(static_cast<unsigned char>(token[1])))
+      token = "-" + prefix + token.substr(1);
+    out << token << " ";
+  }
+  return out.str();
+}
+
+}  // namespace
+
+bool petsc_available() { return true; }
+
+double start_petsc(const Config& config) {
+  bool uses = false;
+  for (const auto& kv : config.items())
+    uses |= kv.second == "gamg" || kv.second == "gamg-pcg" || kv.second == "mumps" || kv.second == "petsc-cholmod";
+  if (!uses) return -1.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  petsc();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct PetscPreconditioner::Impl {
+  Mat A = nullptr;
+  Vec r = nullptr, z = nullptr, coords = nullptr;
+  MatNullSpace near_null = nullptr;
+  PC pc = nullptr;
+  std::vector<PetscInt> row_ptr;  // 32-bit copy of the 64-bit offsets
+  std::string prefix, options;
+  void destroy() {
+    if (pc) PCDestroy(&pc);
+    if (near_null) MatNullSpaceDestroy(&near_null);
+    if (coords) VecDestroy(&coords);
+    if (r) VecDestroy(&r);
+    if (z) VecDestroy(&z);
+    if (A) MatDestroy(&A);
+  }
+  ~Impl() { destroy(); }
+};
+
+PetscPreconditioner::PetscPreconditioner(const PetscParams& params)
+    : impl_(std::make_unique<Impl>()), params_(params) {
+  if (params.type != "gamg" && params.type != "mumps" && params.type != "cholmod")
+    throw InputError("PETSc: unknown preconditioner type '" + params.type + "' (gamg, mumps, cholmod)");
+  static int count = 0;
+  impl_->prefix = "pmg" + std::to_string(count++) + "_";
+  // GAMG: CG-estimated Chebyshev/Jacobi smoothing, as FEniCSx's elasticity demo sets it.
+  std::string defaults = params.type == "gamg"
+                             ? "-mg_levels_ksp_type chebyshev -mg_levels_pc_type jacobi "
+                               "-mg_levels_esteig_ksp_type cg "
+                             : "";
+  impl_->options = defaults + params.options;
+}
+
+PetscPreconditioner::~PetscPreconditioner() = default;
+
+void PetscPreconditioner::setup_impl(const LinearOperator& A) {
+  petsc();
+  scalar_.setup(A, "PETSc " + params_.type);
+  const Csr& S = scalar_.csr();
+  Impl& d = *impl_;
+  d.destroy();
+  const PetscInt n = S.rows();
+  if (S.nnz() > std::numeric_limits<PetscInt>::max())
+    throw InputError("PETSc: this build's 32-bit indices cannot hold " + std::to_string(S.nnz()) + " nonzeros");
+  d.row_ptr.assign(S.pattern().row_ptr.begin(), S.pattern().row_ptr.end());
+  static_assert(sizeof(PetscInt) == sizeof(index_t), "PETSc's column indices are shared with ours");
+  static_assert(sizeof(PetscScalar) == sizeof(double), "PETSc's values are shared with ours");
+  check(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, n, n, d.row_ptr.data(),
+                                  const_cast<PetscInt*>(S.pattern().col_idx.data()),
+                                  const_cast<PetscScalar*>(S.values().data()), &d.A),
+        "MatCreateSeqAIJWithArrays");
+  const bool blocks = n % 3 == 0;
+  if (blocks) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
+  check(MatSetOption(d.A, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+  check(MatSetOption(d.A, MAT_SPD, PETSC_TRUE), "MatSetOption");
+  if (params_.type == "gamg" && params_.rigid_near_null_space) {
+    if (!blocks || static_cast<PetscInt>(coordinates_.size()) != n)
+      throw InputError("PETSc GAMG: the rigid-body near-null space needs the node coordinates of the "
+                       "system (3 unknowns per node): " +
+                       std::string(coordinates_.empty() ? "none were given (only FEM scenes have them; "
+                                                          "set near_null_space=none)"
+                                                        : "their count does not match"));
+    check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, n, coordinates_.data(), &d.coords), "VecCreateSeqWithArray");
+    check(MatNullSpaceCreateRigidBody(d.coords, &d.near_null), "MatNullSpaceCreateRigidBody");
+    check(MatSetNearNullSpace(d.A, d.near_null), "MatSetNearNullSpace");
+  }
+  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, n, nullptr, &d.r), "VecCreateSeqWithArray");
+  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, n, nullptr, &d.z), "VecCreateSeqWithArray");
+  check(PCCreate(PETSC_COMM_SELF, &d.pc), "PCCreate");
+  check(PCSetOptionsPrefix(d.pc, d.prefix.c_str()), "PCSetOptionsPrefix");
+  check(PCSetOperators(d.pc, d.A, d.A), "PCSetOperators");
+  if (params_.type == "gamg") {
+    check(PCSetType(d.pc, PCGAMG), "PCSetType");
+  } else {
+    check(PCSetType(d.pc, PCCHOLESKY), "PCSetType");
+    check(PCFactorSetMatSolverType(d.pc, params_.type == "mumps" ? MATSOLVERMUMPS : MATSOLVERCHOLMOD),
+          "PCFactorSetMatSolverType");
+  }
+  check(PetscOptionsInsertString(nullptr, prefixed(d.options, d.prefix).c_str()),
+        ("the options '" + params_.options + "'").c_str());
+  check(PCSetFromOptions(d.pc), "PCSetFromOptions");
+  check(PCSetUp(d.pc), "PCSetUp");
+  PCFailedReason reason;
+  PCGetFailedReason(d.pc, &reason);
+  if (reason != PC_NOERROR)
+    throw Error("PETSc " + params_.type + ": set-up failed (" + PCFailedReasons[reason] + ")");
+}
+
+void PetscPreconditioner::update_impl() {
+  scalar_.refresh();  // new values in the same arrays the Mat reads
+  Impl& d = *impl_;
+  // Assembly of an unchanged pattern: PETSc then knows the values changed (its object state).
+  check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  check(PCSetOperators(d.pc, d.A, d.A), "PCSetOperators");
+  check(PCSetUp(d.pc), "PCSetUp");
+}
+
+void PetscPreconditioner::apply_impl(const Vector& r, Vector& z) const {
+  Impl& d = *impl_;
+  check(VecPlaceArray(d.r, r.data()), "VecPlaceArray");
+  check(VecPlaceArray(d.z, z.data()), "VecPlaceArray");
+  const PetscErrorCode err = PCApply(d.pc, d.r, d.z);
+  VecResetArray(d.r);
+  VecResetArray(d.z);
+  check(err, "PCApply");
+}
+
+std::string PetscPreconditioner::describe() const {
+  const Impl& d = *impl_;
+  std::ostringstream s;
+  s << "PETSc " << params_.type;
+  if (params_.type == "gamg") s << " (near-null space: " << (params_.rigid_near_null_space ? "rigid-body modes" : "PETSc's default") << ")";
+  if (!d.options.empty()) s << " options: " << d.options;
+  if (!d.pc) return s.str();
+  if (params_.type == "gamg") {
+    PetscInt levels = 0;
+    if (PCMGGetLevels(d.pc, &levels) == 0 && levels > 0) {
+      double nnz = 0, nnz_fine = 0, rows = 0, rows_fine = 0;
+      for (PetscInt l = 0; l < levels; ++l) {
+        KSP ksp;
+        Mat Al;
+        MatInfo info;
+        PetscInt m = 0, k = 0;
+        if (PCMGGetSmoother(d.pc, l, &ksp) || KSPGetOperators(ksp, &Al, nullptr) ||
+            MatGetInfo(Al, MAT_LOCAL, &info) || MatGetSize(Al, &m, &k))
+          return s.str();
+        nnz += info.nz_used, rows += m;
+        if (l == levels - 1) nnz_fine = info.nz_used, rows_fine = m;
+      }
+      s << "; " << levels << " levels, grid complexity " << rows / rows_fine << ", operator complexity "
+        << nnz / nnz_fine;
+    }
+  } else {
+    Mat F;
+    MatInfo info;
+    if (PCFactorGetMatrix(d.pc, &F) == 0 && MatGetInfo(F, MAT_LOCAL, &info) == 0 && info.nz_used > 0)
+      s << "; factor nonzeros " << info.nz_used;
+  }
+  last_error().clear();
+  return s.str();
+}
+
+}  // namespace pmg::mg

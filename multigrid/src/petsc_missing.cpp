@@ -1,0 +1,26 @@
+// The PETSc adapter when pmgkit is built without PETSc: the methods exist and say what is missing.
+#include "pmg/multigrid/petsc.hpp"
+
+namespace pmg::mg {
+
+namespace {
+[[noreturn]] void missing() {
+  throw InputError("PETSc solvers (gamg, gamg-pcg, mumps, petsc-cholmod) need PETSc, and this pmgkit "
+                   "was built without it: install Debian's libpetsc-real-dev (scripts/setup.sh does) "
+                   "and configure again");
+}
+}  // namespace
+
+bool petsc_available() { return false; }
+double start_petsc(const Config&) { return -1.0; }
+
+struct PetscPreconditioner::Impl {};
+
+PetscPreconditioner::PetscPreconditioner(const PetscParams& params) : params_(params) { missing(); }
+PetscPreconditioner::~PetscPreconditioner() = default;
+void PetscPreconditioner::setup_impl(const LinearOperator&) { missing(); }
+void PetscPreconditioner::update_impl() { missing(); }
+void PetscPreconditioner::apply_impl(const Vector&, Vector&) const { missing(); }
+std::string PetscPreconditioner::describe() const { return ""; }
+
+}  // namespace pmg::mg
