@@ -350,14 +350,9 @@ void run(const Options& o) {
   }
   auto t0 = std::chrono::steady_clock::now();
   System sys = load_system(o);
-  if (!o.export_levels.empty()) {
-    if (!sys.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");
-    export_levels(*sys.fem, o.export_levels);
-  }
-  if (!o.export_petsc.empty()) {
-    if (!sys.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
-    export_petsc(*sys.fem, o.export_petsc);
-  }
+  // (an FEM scene: checked above)
+  if (!o.export_levels.empty()) export_levels(*sys.fem, o.export_levels);
+  if (!o.export_petsc.empty()) export_petsc(*sys.fem, o.export_petsc);
   const double load_time = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
   const Formats fmt_ = select_format(o, sys);

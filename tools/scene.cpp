@@ -52,11 +52,7 @@ double FemSystem::assemble_lower_levels() {
 }
 
 std::vector<double> FemSystem::free_coordinates() const {
-  const fem::ElasticityModel& m = hierarchy().finest();
-  const auto& X = m.space().positions();
-  Vector full(3 * static_cast<index_t>(X.size()));
-  for (size_t i = 0; i < X.size(); ++i) full.segment<3>(3 * static_cast<index_t>(i)) = X[i];
-  const Vector free = m.restrict_to_free(full);
+  const Vector free = hierarchy().finest().free_positions();
   return std::vector<double>(free.data(), free.data() + free.size());
 }
 

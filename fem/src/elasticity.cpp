@@ -115,6 +115,14 @@ Vector ElasticityModel::restrict_to_free(const Vector& full) const {
   return r;
 }
 
+Vector ElasticityModel::free_positions() const {
+  const auto& fi = assembler().free_index();
+  Vector r(num_free_dofs());
+  for (index_t i = 0; i < space_.num_nodes(); ++i)
+    if (fi[i] >= 0) r.segment<3>(3 * fi[i]) = space_.positions()[i];
+  return r;
+}
+
 Vector ElasticityModel::expand(const Vector& free, const Vector& prescribed) const {
   const auto& fi = assembler().free_index();
   Vector u = Vector::Zero(num_dofs());

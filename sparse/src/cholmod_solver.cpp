@@ -151,9 +151,8 @@ std::string CholmodSolver::describe() const {
   if (!d.factor) return "CHOLMOD";
   std::string tried;
   const cholmod_common& c = d.common;
-  for (int k = 0; k < c.nmethods || (c.nmethods == 0 && k < CHOLMOD_MAXMETHODS); ++k) {
-    if (c.method[k].fl < 0 && c.method[k].lnz < 0) continue;  // not tried
-    if (!(c.method[k].lnz > 0)) continue;
+  for (int k = 0; k < CHOLMOD_MAXMETHODS; ++k) {
+    if (!(c.method[k].lnz > 0)) continue;  // not tried
     tried += std::string(tried.empty() ? "" : ", ") + ordering_name(c.method[k].ordering) + " " +
              std::to_string(static_cast<long long>(c.method[k].lnz));
   }

@@ -63,6 +63,9 @@ class ElasticityModel {
   const BlockAssembler& assembler() const;
   index_t num_free_dofs() const { return 3 * assembler().num_free(); }
   Vector restrict_to_free(const Vector& full) const;
+  /// Rest positions of the free nodes, x, y, z interleaved like a free vector: the rigid-body modes
+  /// of algebraic solvers (BB coefficients reproduce linear fields, so these span them exactly).
+  Vector free_positions() const;
   /// Full vector from free values and the prescribed values of the fixed nodes (from `prescribed`).
   Vector expand(const Vector& free, const Vector& prescribed) const;
 
