@@ -18,6 +18,8 @@ packages=(
   tetgen                   # pmg mesh: closed surface -> tetrahedral mesh
   libcgal-dev              # pmg mesh: surface decimation before TetGen (header-only)
   python3-matplotlib       # pmg compare --plot (Debian's /usr/bin/python3)
+  python3-dev pybind11-dev # the Python module pmgkit (python/)
+  python3-numpy python3-scipy python3-pytest  # its arrays, SciPy matrices and its test suite
 )
 missing=()
 for p in "${packages[@]}"; do

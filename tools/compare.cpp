@@ -17,6 +17,7 @@
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/petsc.hpp"
+#include "pmg/multigrid/user_levels.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +27,7 @@
 #include "pmg/sparse/generators.hpp"
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/matrix_market.hpp"
+#include "pmg/sparse/petsc_binary.hpp"
 
 #include <omp.h>
 
@@ -50,7 +52,9 @@ const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Options {
   std::string matrix, rhs, solution, history, plot, export_levels, export_petsc, json_report;
-  std::vector<std::string> levels, prolongations;  // user multigrid levels (Matrix Market)
+  std::vector<std::string> levels, prolongations;  // user multigrid levels (Matrix Market or PETSc binary)
+  std::string layout = "interleaved", solution_out;
+  bool galerkin_from_finest = false;
   int grid = 24;
   bool fem = false;  // set when a scene option is given
   SceneOptions scene;
@@ -91,6 +95,7 @@ Config cli_config(const Options& o, const std::string& method) {
     if (given("--sweeps")) c.set("smoother.sweeps", std::to_string(o.sweeps));  // chebyshev: refused, named
     if (given("--cycle")) c.set("cycle", o.cycle);
     if (given("--coarse-operator")) c.set("coarse_operator", o.coarse_operator);
+    else if (o.galerkin_from_finest) c.set("coarse_operator", "galerkin");
     if (given("--restriction")) c.set("restriction", o.restriction);
     if (given("--lowest-level")) c.set("lowest_level.method", o.lowest_level);
     if (given("--lowest-level-cycles")) c.set("lowest_level.cycles", std::to_string(o.lowest_level_cycles));
@@ -139,7 +144,8 @@ struct System {
   std::shared_ptr<const Bcsr> bcsr;   // when the size is a multiple of 3 (FEM: the hierarchy's own)
   Vector b, x_true;            // x_true empty when unknown
   std::unique_ptr<FemSystem> fem;
-  std::unique_ptr<mg::StoredLevels> levels;
+  std::unique_ptr<mg::UserLevels> levels;
+  Vector b_full;  // user levels: b as given, identity rows included (levels->reduce(b_full) = b)
   std::string error_reference = "known solution";
   bool reference_pending = false;  // FEM: x_true is a direct solve made after the timed runs
   index_t unknowns() const { return bcsr ? bcsr->rows() : csr.rows(); }
@@ -160,21 +166,45 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// A matrix from Matrix Market or, for files ending in .petsc, PETSc's binary format.
+Csr read_any_matrix(const std::string& path) {
+  const bool petsc = path.size() > 6 && path.compare(path.size() - 6, 6, ".petsc") == 0;
+  return petsc ? read_petsc_binary_matrix(path) : read_matrix_market(path);
+}
+Vector read_any_vector(const std::string& path) {
+  const bool petsc = path.size() > 6 && path.compare(path.size() - 6, 6, ".petsc") == 0;
+  return petsc ? read_petsc_binary_vector(path) : read_matrix_market_vector(path);
+}
+
 System load_system(const Options& o) {
   System s;
   if (!o.levels.empty()) {
-    s.levels = std::make_unique<mg::StoredLevels>(mg::read_levels(o.levels, o.prolongations));
+    // Levels as FEM codes write them (mg::UserLevels): either layout, node or dof prolongations,
+    // Dirichlet identity rows removed; Matrix Market or PETSc binary (.petsc, loads at disk speed).
+    std::vector<Csr> mats, ps;
+    for (const auto& f : o.levels) mats.push_back(read_any_matrix(f));
+    for (const auto& f : o.prolongations) ps.push_back(read_any_matrix(f));
+    std::vector<CsrView> mv, pv;
+    for (const auto& m : mats) mv.push_back(view_of(m));
+    for (const auto& p : ps) pv.push_back(view_of(p));
+    mg::UserLevelOptions lo;
+    lo.layout = mg::parse_layout(o.layout);
+    lo.galerkin_only = o.galerkin_from_finest;
+    s.levels = std::make_unique<mg::UserLevels>(mv, pv, lo);
     s.bcsr = borrow(s.levels->matrix(s.levels->num_levels() - 1));
     if (o.format == "csr") s.csr = s.bcsr->to_csr();
     s.description = "user levels, finest " + o.levels.back();
     if (!o.rhs.empty()) {
-      s.b = read_matrix_market_vector(o.rhs);
-      if (s.b.size() != s.bcsr->rows()) throw InputError(o.rhs + ": size does not match the finest level");
+      s.b_full = read_any_vector(o.rhs);
+      s.b = s.levels->reduce(s.b_full);
     } else {
       s.x_true = Vector::LinSpaced(s.bcsr->rows(), 1.0, 2.0);
       s.b.resize(s.x_true.size());
       s.bcsr->multiply(s.x_true.data(), s.b.data());
+      s.b_full = s.levels->expand(s.b, Vector::Zero(s.levels->full_size()));  // zero on identity rows
     }
+    if (s.levels->removed_nodes().back() > 0)
+      s.description += " (" + std::to_string(s.levels->removed_nodes().back()) + " clamped nodes removed)";
   } else if (!o.matrix.empty()) {
     s.csr = read_matrix_market(o.matrix);
     if (s.csr.rows() != s.csr.cols())
@@ -450,6 +480,13 @@ void run(const Options& o) {
     outcomes.push_back(run_one(k, solutions[k]));
     solvers[k].reset();  // its factors and hierarchies are not held while the next one runs
   }
+  if (!o.solution_out.empty() && !solutions.empty()) {
+    const Vector x = sys.levels ? sys.levels->expand(solutions[0], sys.b_full) : solutions[0];
+    const bool petsc = o.solution_out.size() > 6 && o.solution_out.compare(o.solution_out.size() - 6, 6, ".petsc") == 0;
+    if (petsc) write_petsc_binary(o.solution_out, x);
+    else write_matrix_market_vector(o.solution_out, x);
+    std::cout << "solution of " << outcomes[0].name << " written to " << o.solution_out << "\n";
+  }
   if (sys.reference_pending) {
     // The reference: this run's own CHOLMOD solution if it has one, else one direct solve now.
     for (size_t k = 0; k < outcomes.size() && sys.x_true.size() == 0; ++k)
@@ -599,15 +636,27 @@ void register_compare(CLI::App& app) {
       ->check(ThreadCount());
   sub->add_option("--plot", opts->plot, "draw residual against time and iterations to this PNG");
   sub->add_option("--levels", opts->levels,
-                  "multigrid level matrices, coarsest first (Matrix Market, 3 unknowns per node)")
+                  "multigrid level matrices, coarsest first (Matrix Market or PETSc binary .petsc, 3 unknowns "
+                  "per node; identity rows of clamped nodes are removed)")
       ->delimiter(',')
       ->check(CLI::ExistingFile)
       ->excludes("--matrix");
   sub->add_option("--prolongations", opts->prolongations,
-                  "scalar prolongations between those levels (nodes x nodes), coarsest first")
+                  "prolongations between those levels, coarsest first (nodes x nodes, or dofs x dofs of the form P ⊗ I3)")
       ->delimiter(',')
       ->check(CLI::ExistingFile)
       ->needs("--levels");
+  sub->add_option("--layout", opts->layout,
+                  "--levels: dof order of the level matrices (interleaved x0 y0 z0 x1 ..., or component x0 x1 ... y0 ...)")
+      ->check(CLI::IsMember({"interleaved", "component"}))
+      ->capture_default_str()
+      ->needs("--levels");
+  sub->add_flag("--galerkin-from-finest", opts->galerkin_from_finest,
+                "--levels gives the finest matrix only: the lower levels are Galerkin products")
+      ->needs("--levels");
+  sub->add_option("--solution-out", opts->solution_out,
+                  "write the first solver's solution (Matrix Market, or PETSc binary for .petsc): the "
+                  "full vector for --matrix/--levels, the free dofs for FEM scenes");
   sub->add_option("--export-levels", opts->export_levels,
                   "FEM scenes: write the level matrices, prolongations and b to this folder");
   sub->add_option("--export-petsc", opts->export_petsc,

@@ -58,6 +58,11 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     throw InputError("multigrid: the operator has " + std::to_string(A.rows()) + " rows, the finest " +
                      "level (" + levels_.level_name(L - 1) + ") " +
                      std::to_string(levels_.matrix(L - 1).rows()));
+  if (params_.coarse_operator == CoarseOperator::geometric)
+    for (int l = 0; l < L - 1; ++l)
+      if (!levels_.has_matrix(l))
+        throw InputError("multigrid: " + levels_.level_name(l) + " has no matrix of its own (only the "
+                         "finest was given): use coarse_operator=galerkin");
   transfers_.clear();
   for (int l = 1; l < L; ++l) {
     if (params_.interpolating_restriction)

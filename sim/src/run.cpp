@@ -95,6 +95,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   r.probe_z_min = r.probe_z_max = d0.z();
   csv << 0 << "," << 0.0 << "," << d0.x() << "," << d0.y() << "," << d0.z() << "," << kin << "," << el << ","
       << r.energy_initial << ",0,0,0";
+  r.records.push_back({0, 0.0, d0, kin, el, r.energy_initial, 0, 0.0, 0.0, {}});
   for (int k = 0; k < fem::kNumStages; ++k) csv << ",0";
   csv << "\n";
   write_outputs(true);
@@ -127,6 +128,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
         << tot << "," << st.iterations << "," << st.rel_residual << "," << st.residual;
     for (int k = 0; k < fem::kNumStages; ++k) csv << "," << st.seconds[k];
     csv << "\n";
+    r.records.push_back({n, st.time, d, kin, el, tot, st.iterations, st.rel_residual, st.residual, st.seconds});
     if (frames && (n % scene_.frame_every == 0 || n == steps_)) write_outputs(true);
     if (progress) progress(n, st.time);
     if (stop_ && *stop_ && n < steps_) {

@@ -32,6 +32,10 @@ class LevelProvider {
   /// An explicit restriction (nodes of level-1 x nodes of level) instead of the transpose; only
   /// providers that define one (the BB hierarchy's interpolating restriction) override this.
   virtual Csr interpolating_restriction(int level) const;
+  /// Whether the level has a matrix of its own; false for levels meant for Galerkin products
+  /// only (UserLevels given the finest matrix alone), which then hold an empty matrix of the
+  /// right size and refuse coarse_operator=geometric.
+  virtual bool has_matrix(int /*level*/) const { return true; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };

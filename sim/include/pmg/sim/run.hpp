@@ -22,6 +22,17 @@
 
 namespace pmg::sim {
 
+/// One row of steps.csv: the state after a step (step 0: the initial state).
+struct StepRecord {
+  int step = 0;
+  double time = 0.0;
+  fem::Vec3 probe = fem::Vec3::Zero();  ///< probe displacement
+  double kinetic = 0.0, elastic = 0.0, total_energy = 0.0;  ///< NaN when not recorded
+  int iterations = 0;
+  double rel_residual = 0.0, residual = 0.0;
+  std::array<double, fem::kNumStages> stage_s{};
+};
+
 struct RunSummary {
   int steps_planned = 0, steps_done = 0;
   double wall_s = 0.0;                          ///< the time loop, outputs included
@@ -39,6 +50,7 @@ struct RunSummary {
   int failed_step = 0;               ///< 0: every step succeeded
   std::string failure;
   bool interrupted = false;          ///< stopped early by the stop flag (set_stop_flag)
+  std::vector<StepRecord> records;   ///< step 0 and every step done, as in steps.csv
 };
 
 class DynamicRun {

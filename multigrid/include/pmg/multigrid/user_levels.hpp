@@ -1,0 +1,95 @@
+// pmg/multigrid/user_levels.hpp — multigrid levels as FEM codes produce them.
+//
+// A FEM code (FEniCSx, MFEM, deal.II, scikit-fem, ...) hands over its level matrices as scalar CSR
+// arrays and its interpolation matrices as prolongations. UserLevels turns them into the form the
+// cycle reads (3x3-block BCSR with interleaved x, y, z per node, scalar node prolongations) and
+// takes care of what such matrices usually carry:
+//   - layout: interleaved (x0 y0 z0 x1 ...) or component-major (x0 x1 ... y0 y1 ... z0 ...);
+//     a matrix whose 3x3 blocks are mostly empty under the layout given is refused (it is almost
+//     certainly the other layout), with the option to use named;
+//   - prolongations per node (fine nodes x coarse nodes, applied to each component) or per dof
+//     (fine dofs x coarse dofs), the latter checked to be a node prolongation applied to each
+//     component (P ⊗ I₃) and reduced to it;
+//   - Dirichlet conditions kept as identity rows (a row whose only non-zero is its diagonal, the
+//     column zeroed as well: a symmetric elimination): whole clamped nodes are removed from the
+//     levels and from the prolongations (rows of the fine and columns of the coarse level), so
+//     the cycle works on the free dofs only, as on pmgkit's own hierarchies. A node with some but
+//     not all of its components constrained is refused with a message (the cycle transfers whole
+//     nodes); a non-symmetric matrix (rows replaced but columns kept) is refused too;
+//   - only the finest matrix (galerkin_only): the lower levels are then the Galerkin products the
+//     cycle forms (coarse_operator=galerkin), with the coarse nodes that no free fine node
+//     interpolates from dropped.
+// The caller's arrays are read in place (32- or 64-bit indices) and not kept: set_values() takes
+// new values on the same patterns (a Newton or corotational step) without symbolic work.
+//
+//   mg::UserLevels levels({A1, A2, A3}, {P1, P2}, {});  // CsrViews, coarsest first
+//   auto solver = make_solver(config, {&levels});
+//   solver->setup(levels.matrix(levels.num_levels() - 1));
+//   Vector x = levels.expand(solver_solution_of(levels.reduce(b)), b);
+#pragma once
+
+#include "pmg/multigrid/levels.hpp"
+#include "pmg/sparse/csr_view.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pmg::mg {
+
+enum class DofLayout { interleaved, component };
+
+/// "interleaved" | "component"; InputError otherwise.
+DofLayout parse_layout(const std::string& name);
+
+struct UserLevelOptions {
+  DofLayout layout = DofLayout::interleaved;
+  /// Only the finest matrix is given: the lower levels come from Galerkin products.
+  bool galerkin_only = false;
+};
+
+class UserLevels final : public LevelProvider {
+ public:
+  /// `matrices`: one per level, coarsest first (just the finest with galerkin_only);
+  /// `prolongations`: level l-1 -> l for l = 1..L-1, per node or per dof.
+  UserLevels(const std::vector<CsrView>& matrices, const std::vector<CsrView>& prolongations,
+             const UserLevelOptions& options);
+
+  int num_levels() const override { return static_cast<int>(levels_.size()); }
+  const Bcsr& matrix(int level) const override { return levels_.at(level).A; }
+  const Csr& prolongation(int level) const override { return prolongations_.at(level - 1); }
+  bool has_matrix(int level) const override;
+
+  /// New values, same patterns as at construction (each matrix as given, coarsest first).
+  void set_values(const std::vector<CsrView>& matrices);
+
+  /// Unknowns of the finest matrix as given, and after the clamped nodes are removed.
+  index_t full_size() const { return full_size_; }
+  index_t reduced_size() const { return matrix(num_levels() - 1).rows(); }
+  /// Clamped nodes removed per level (0 when the matrix had no identity rows).
+  const std::vector<index_t>& removed_nodes() const { return removed_; }
+  /// b (finest, as given) restricted to the free dofs, in the cycle's interleaved order.
+  Vector reduce(const Vector& full) const;
+  /// The full solution: x on the free dofs, b / diagonal on the identity rows.
+  Vector expand(const Vector& reduced, const Vector& full_rhs) const;
+
+ private:
+  struct Level {
+    Bcsr A;
+    index_t given_nodes = 0;          ///< nodes of the matrix as given
+    std::vector<index_t> node_of;     ///< given node -> kept node, or -1 (clamped)
+    std::vector<offset_t> slot;       ///< given entry -> value slot of A, or -1 (dropped)
+    bool has_matrix = true;
+  };
+  std::vector<Level> levels_;
+  std::vector<Csr> prolongations_;
+  UserLevelOptions options_;
+  index_t full_size_ = 0;
+  std::vector<index_t> removed_;
+  std::vector<index_t> free_dof_;     ///< reduced dof -> given dof (finest)
+  std::vector<index_t> fixed_dof_;    ///< given dofs of identity rows (finest)
+  std::vector<double> fixed_diag_;
+  std::vector<std::uint64_t> hashes_;  ///< of each given matrix's pattern
+};
+
+}  // namespace pmg::mg

@@ -1,0 +1,323 @@
+#include "pmg/multigrid/user_levels.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace pmg::mg {
+
+DofLayout parse_layout(const std::string& name) {
+  if (name == "interleaved") return DofLayout::interleaved;
+  if (name == "component") return DofLayout::component;
+  throw InputError("layout: expected interleaved (x0 y0 z0 x1 ...) or component (x0 x1 ... y0 ...), got '" +
+                   name + "'");
+}
+
+namespace {
+
+constexpr int B = Bcsr::kBlock;
+
+/// Given dof -> interleaved dof (3 * node + component) for a level of n nodes.
+struct DofMap {
+  DofLayout layout;
+  index_t n;
+  index_t operator()(index_t i) const { return layout == DofLayout::interleaved ? i : B * (i % n) + i / n; }
+  index_t given(index_t node, int comp) const {
+    return layout == DofLayout::interleaved ? B * node + comp : comp * n + node;
+  }
+};
+
+std::uint64_t pattern_hash(const CsrView& v) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&](std::uint64_t x) { h = (h ^ x) * 1099511628211ull; };
+  mix(static_cast<std::uint64_t>(v.rows));
+  mix(static_cast<std::uint64_t>(v.nnz));
+  for (index_t i = 0; i < v.rows; ++i)
+    for (offset_t k = v.row_begin(i); k < v.row_end(i); ++k) mix(static_cast<std::uint64_t>(v.col(k)) + (std::uint64_t(i) << 32));
+  return h;
+}
+
+std::string level_label(int l) { return "level " + std::to_string(l); }
+
+/// A dof prolongation (fine dofs x coarse dofs) that is P ⊗ I₃ under the layout, as P per node.
+Csr node_prolongation_of_dofs(const CsrView& P, index_t nf, index_t nc, DofLayout layout, int level) {
+  const DofMap fm{layout, nf}, cm{layout, nc};
+  struct E { index_t I, J; int comp; double v; };
+  std::vector<E> e;
+  e.reserve(P.nnz);
+  for (index_t i = 0; i < P.rows; ++i)
+    for (offset_t k = P.row_begin(i); k < P.row_end(i); ++k) {
+      const index_t a = fm(i), b = cm(P.col(k));
+      if (P.values[k] == 0.0) continue;
+      if (a % B != b % B)
+        throw InputError("prolongation " + std::to_string(level) + ": entry (" + std::to_string(i) + ", " +
+                         std::to_string(P.col(k)) + ") couples different displacement components; a " +
+                         "dof prolongation must be a node prolongation applied to each component (check layout=)");
+      e.push_back({a / B, b / B, a % B, P.values[k]});
+    }
+  std::sort(e.begin(), e.end(), [](const E& x, const E& y) { return x.I != y.I ? x.I < y.I : x.J != y.J ? x.J < y.J : x.comp < y.comp; });
+  std::vector<Triplet> t;
+  for (size_t s = 0; s < e.size();) {
+    size_t q = s;
+    while (q < e.size() && e[q].I == e[s].I && e[q].J == e[s].J) ++q;
+    const double v = e[s].v;
+    const bool all_three = q - s == 3;
+    bool same = all_three;
+    for (size_t r = s; r < q && same; ++r) same = std::abs(e[r].v - v) <= 1e-12 * std::abs(v);
+    if (!same)
+      throw InputError("prolongation " + std::to_string(level) + ": node " + std::to_string(e[s].I) +
+                       " takes different weights from coarse node " + std::to_string(e[s].J) +
+                       " for its x, y, z components; the cycle needs one prolongation per node "
+                       "applied to each component (check layout=)");
+    t.emplace_back(e[s].I, e[s].J, v);
+    s = q;
+  }
+  return Csr::from_triplets(nf, nc, t);
+}
+
+}  // namespace
+
+UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<CsrView>& prolongations,
+                       const UserLevelOptions& options)
+    : options_(options) {
+  const int L = static_cast<int>(prolongations.size()) + 1;
+  if (matrices.empty()) throw InputError("multigrid levels: no level matrices");
+  if (options.galerkin_only && matrices.size() != 1)
+    throw InputError("multigrid levels: with Galerkin coarse levels give the finest matrix only, got " +
+                     std::to_string(matrices.size()));
+  if (!options.galerkin_only && static_cast<int>(matrices.size()) != L)
+    throw InputError("multigrid levels: " + std::to_string(matrices.size()) + " level matrices need " +
+                     std::to_string(matrices.size() - 1) + " prolongations, got " +
+                     std::to_string(prolongations.size()));
+  for (size_t l = 0; l < matrices.size(); ++l) {
+    const std::string who = options.galerkin_only ? "finest matrix" : "level matrix " + std::to_string(l);
+    matrices[l].validate(who);
+    if (matrices[l].rows != matrices[l].cols || matrices[l].rows % B != 0 || matrices[l].rows == 0)
+      throw InputError(who + " is " + std::to_string(matrices[l].rows) + "x" + std::to_string(matrices[l].cols) +
+                       ": a level matrix must be square with 3 unknowns per node");
+  }
+  for (size_t l = 0; l < prolongations.size(); ++l) prolongations[l].validate("prolongation " + std::to_string(l + 1));
+
+  levels_.resize(L);
+  auto given_matrix = [&](int l) -> const CsrView* {
+    if (options.galerkin_only) return l == L - 1 ? &matrices[0] : nullptr;
+    return &matrices[l];
+  };
+  // Node counts and node prolongations, finest first (a Galerkin level's size comes from P).
+  std::vector<Csr> node_P(L > 1 ? L - 1 : 0);
+  levels_[L - 1].given_nodes = matrices.back().rows / B;
+  for (int l = L - 1; l >= 1; --l) {
+    const CsrView& P = prolongations[l - 1];
+    const index_t nf = levels_[l].given_nodes;
+    const CsrView* Ac = given_matrix(l - 1);
+    const std::string who = "prolongation " + std::to_string(l);
+    if (P.rows == nf) {
+      if (Ac && P.cols != Ac->rows / B)
+        throw InputError(who + " is " + std::to_string(P.rows) + "x" + std::to_string(P.cols) + ", levels " +
+                         std::to_string(l - 1) + " and " + std::to_string(l) + " need " + std::to_string(nf) +
+                         "x" + std::to_string(Ac->rows / B) + " (nodes) or " + std::to_string(B * nf) + "x" +
+                         std::to_string(Ac->rows) + " (dofs)");
+      node_P[l - 1] = to_csr(P, who);
+    } else if (P.rows == B * nf && P.cols % B == 0 && (!Ac || P.cols == Ac->rows)) {
+      node_P[l - 1] = node_prolongation_of_dofs(P, nf, P.cols / B, options.layout, l);
+    } else {
+      throw InputError(who + " is " + std::to_string(P.rows) + "x" + std::to_string(P.cols) + "; level " +
+                       std::to_string(l) + " has " + std::to_string(nf) + " nodes (" + std::to_string(B * nf) +
+                       " dofs): give fine nodes x coarse nodes, or fine dofs x coarse dofs");
+    }
+    levels_[l - 1].given_nodes = node_P[l - 1].cols();
+  }
+
+  // Level matrices: identity rows (clamped nodes) found and removed, blocks built.
+  for (int l = 0; l < L; ++l) {
+    Level& lv = levels_[l];
+    const CsrView* A = given_matrix(l);
+    lv.has_matrix = A != nullptr;
+    lv.node_of.assign(lv.given_nodes, 0);
+    if (!A) continue;  // kept nodes decided from the finer level below
+    const index_t n = lv.given_nodes;
+    const DofMap map{options.layout, n};
+    const std::string who = level_label(l);
+    std::vector<char> identity(B * n, 0);
+    for (index_t i = 0; i < A->rows; ++i) {
+      bool diag = false, off = false;
+      for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
+        if (A->col(k) == i) diag = A->values[k] > 0;
+        else if (A->values[k] != 0.0) off = true;
+      }
+      if (!diag && !off)
+        throw InputError(who + ": row " + std::to_string(i) + " is zero: the matrix is singular");
+      if (diag && !off) identity[map(i)] = 1;
+    }
+    for (index_t I = 0; I < n; ++I) {
+      const int c = identity[B * I] + identity[B * I + 1] + identity[B * I + 2];
+      if (c != 0 && c != B)
+        throw InputError(who + ": node " + std::to_string(I) + " has " + std::to_string(c) +
+                         " of its 3 rows as identity rows (a Dirichlet condition on some components "
+                         "only); the multigrid transfers whole nodes: eliminate those rows and columns "
+                         "from the levels and the prolongations before handing them over");
+      lv.node_of[I] = c == B ? -1 : 0;
+    }
+  }
+  // Kept nodes, finest first: a Galerkin level keeps the coarse nodes some kept fine node takes from.
+  for (int l = L - 1; l >= 0; --l) {
+    Level& lv = levels_[l];
+    if (!lv.has_matrix) {
+      const Csr& P = node_P[l];  // level l -> l+1
+      std::vector<char> used(lv.given_nodes, 0);
+      const CsrPattern& p = P.pattern();
+      for (index_t I = 0; I < P.rows(); ++I)
+        if (levels_[l + 1].node_of[I] >= 0)
+          for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k)
+            if (P.values()[k] != 0.0) used[p.col_idx[k]] = 1;
+      for (index_t J = 0; J < lv.given_nodes; ++J) lv.node_of[J] = used[J] ? 0 : -1;
+    }
+    index_t kept = 0;
+    for (auto& v : lv.node_of) v = v < 0 ? -1 : kept++;
+    if (kept == 0) throw InputError(level_label(l) + ": every node is clamped (identity rows only)");
+    removed_.push_back(lv.given_nodes - kept);
+  }
+  std::reverse(removed_.begin(), removed_.end());
+
+  // Prolongations between the kept nodes.
+  for (int l = 1; l < L; ++l) {
+    const Csr& P = node_P[l - 1];
+    const auto& fine = levels_[l].node_of;
+    const auto& coarse = levels_[l - 1].node_of;
+    std::vector<Triplet> t;
+    const CsrPattern& p = P.pattern();
+    for (index_t I = 0; I < P.rows(); ++I) {
+      if (fine[I] < 0) continue;
+      for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k)
+        if (coarse[p.col_idx[k]] >= 0 && P.values()[k] != 0.0)
+          t.emplace_back(fine[I], coarse[p.col_idx[k]], P.values()[k]);
+    }
+    const index_t nf = *std::max_element(fine.begin(), fine.end()) + 1;
+    const index_t nc = *std::max_element(coarse.begin(), coarse.end()) + 1;
+    prolongations_.push_back(Csr::from_triplets(nf, nc, t));
+  }
+
+  // Block patterns and the entry -> slot maps.
+  for (int l = 0; l < L; ++l) {
+    Level& lv = levels_[l];
+    const index_t nk = *std::max_element(lv.node_of.begin(), lv.node_of.end()) + 1;
+    const CsrView* A = given_matrix(l);
+    if (!A) {
+      lv.A = Bcsr::from_block_triplets(nk, nk, {});
+      continue;
+    }
+    const DofMap map{options.layout, lv.given_nodes};
+    std::vector<std::vector<index_t>> cols(nk);
+    for (index_t i = 0; i < A->rows; ++i) {
+      const index_t R = lv.node_of[map(i) / B];
+      if (R < 0) continue;
+      for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
+        const index_t C = lv.node_of[map(A->col(k)) / B];
+        if (C >= 0) cols[R].push_back(C);
+      }
+    }
+    auto pat = std::make_shared<BlockPattern>();
+    pat->rows = pat->cols = nk;
+    pat->row_ptr.assign(nk + 1, 0);
+    for (index_t R = 0; R < nk; ++R) {
+      std::sort(cols[R].begin(), cols[R].end());
+      cols[R].erase(std::unique(cols[R].begin(), cols[R].end()), cols[R].end());
+      pat->col_idx.insert(pat->col_idx.end(), cols[R].begin(), cols[R].end());
+      pat->row_ptr[R + 1] = static_cast<offset_t>(pat->col_idx.size());
+      std::vector<index_t>().swap(cols[R]);
+    }
+    lv.A = Bcsr(pat, std::vector<double>(Bcsr::kBlockSize * pat->nnz(), 0.0));
+    lv.slot.assign(A->nnz, -1);
+    for (index_t i = 0; i < A->rows; ++i) {
+      const index_t ri = map(i), R = lv.node_of[ri / B];
+      if (R < 0) continue;
+      for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
+        const index_t cj = map(A->col(k)), C = lv.node_of[cj / B];
+        if (C >= 0) lv.slot[k] = Bcsr::kBlockSize * lv.A.find_block(R, C) + B * (ri % B) + cj % B;
+      }
+    }
+    // Layout check: elasticity couples all three components of every pair of coupled nodes, so
+    // under the right layout the 3x3 blocks are (nearly) full.
+    offset_t stored = 0;
+    for (offset_t s : lv.slot) stored += s >= 0;
+    if (lv.A.num_blocks() > 0 && stored < 0.5 * Bcsr::kBlockSize * lv.A.num_blocks())
+      throw InputError(level_label(l) + ": only " +
+                       std::to_string(static_cast<int>(100.0 * stored / (Bcsr::kBlockSize * lv.A.num_blocks()))) +
+                       "% of the entries of its 3x3 blocks are stored under the " +
+                       (options.layout == DofLayout::interleaved ? "interleaved layout (x0 y0 z0 x1 ...): is it "
+                        "component-major (x0 x1 ... y0 ...)? pass layout=component"
+                                                                  : "component-major layout: is it interleaved? pass layout=interleaved"));
+  }
+  full_size_ = matrices.back().rows;
+  // Finest level: free and fixed dofs in the caller's numbering.
+  const Level& fl = levels_[L - 1];
+  const DofMap fmap{options.layout, fl.given_nodes};
+  free_dof_.assign(B * matrix(L - 1).block_rows(), 0);
+  for (index_t I = 0; I < fl.given_nodes; ++I)
+    for (int a = 0; a < B; ++a) {
+      if (fl.node_of[I] >= 0) free_dof_[B * fl.node_of[I] + a] = fmap.given(I, a);
+      else fixed_dof_.push_back(fmap.given(I, a));
+    }
+  fixed_diag_.resize(fixed_dof_.size());
+  hashes_.clear();
+  for (const auto& m : matrices) hashes_.push_back(pattern_hash(m));
+  set_values(matrices);
+}
+
+bool UserLevels::has_matrix(int level) const { return levels_.at(level).has_matrix; }
+
+void UserLevels::set_values(const std::vector<CsrView>& matrices) {
+  if (matrices.size() != hashes_.size())
+    throw InputError("multigrid levels: new values for " + std::to_string(matrices.size()) +
+                     " matrices, the levels have " + std::to_string(hashes_.size()));
+  const int L = num_levels();
+  for (size_t m = 0; m < matrices.size(); ++m) {
+    const int l = options_.galerkin_only ? L - 1 : static_cast<int>(m);
+    const CsrView& A = matrices[m];
+    if (A.rows != B * levels_[l].given_nodes || A.nnz != static_cast<offset_t>(levels_[l].slot.size()) ||
+        pattern_hash(A) != hashes_[m])
+      throw InputError(level_label(l) + ": new values must come on the pattern the levels were built "
+                       "on (same rows, columns and stored entries); build new levels for a new pattern");
+    Level& lv = levels_[l];
+    std::fill(lv.A.values().begin(), lv.A.values().end(), 0.0);
+    for (index_t i = 0; i < A.rows; ++i)
+      for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k) {
+        const double v = A.values[k];
+        if (!std::isfinite(v)) throw InputError(level_label(l) + ": non-finite value in row " + std::to_string(i));
+        if (lv.slot[k] >= 0) lv.A.values()[lv.slot[k]] += v;
+        else if (v != 0.0 && A.col(k) != i)
+          throw InputError(level_label(l) + ": row " + std::to_string(i) + " was an identity row (a " +
+                           "clamped node) and now has off-diagonal entries; build new levels");
+      }
+  }
+  // The diagonal of the finest identity rows, for expand().
+  const CsrView& F = matrices.back();
+  for (size_t k = 0; k < fixed_dof_.size(); ++k) {
+    const index_t i = fixed_dof_[k];
+    double d = 0.0;
+    for (offset_t q = F.row_begin(i); q < F.row_end(i); ++q)
+      if (F.col(q) == i) d = F.values[q];
+    if (!(d > 0.0)) throw InputError("finest matrix: identity row " + std::to_string(i) + " has diagonal " + std::to_string(d));
+    fixed_diag_[k] = d;
+  }
+}
+
+Vector UserLevels::reduce(const Vector& full) const {
+  if (full.size() != full_size_)
+    throw InputError("right-hand side has " + std::to_string(full.size()) + " entries, the finest matrix " +
+                     std::to_string(full_size_) + " rows");
+  Vector r(free_dof_.size());
+  for (size_t k = 0; k < free_dof_.size(); ++k) r[k] = full[free_dof_[k]];
+  return r;
+}
+
+Vector UserLevels::expand(const Vector& reduced, const Vector& full_rhs) const {
+  if (reduced.size() != static_cast<Eigen::Index>(free_dof_.size()) || full_rhs.size() != full_size_)
+    throw InputError("multigrid levels: expand: sizes do not match the levels");
+  Vector x(full_size_);
+  for (size_t k = 0; k < free_dof_.size(); ++k) x[free_dof_[k]] = reduced[k];
+  for (size_t k = 0; k < fixed_dof_.size(); ++k) x[fixed_dof_[k]] = full_rhs[fixed_dof_[k]] / fixed_diag_[k];
+  return x;
+}
+
+}  // namespace pmg::mg

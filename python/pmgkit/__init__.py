@@ -1,0 +1,273 @@
+"""pmgkit — p-multigrid, block-sparse formats and Bernstein–Bézier elasticity from Python.
+
+A thin layer over the C++ library: every solver comes from its one factory (the same methods and
+keys as ``pmg compare`` and scene files; ``pmgkit.methods()`` lists them), matrices are any
+``scipy.sparse`` matrix, vectors NumPy arrays.
+
+    import pmgkit
+    solver = pmgkit.make_solver(A, {"method": "cg", "tol": 1e-8,
+                                    "preconditioner": {"method": "block-jacobi"}})
+    x, info = solver.solve(b)                       # info: iterations, residual, history, times
+    x, _ = scipy.sparse.linalg.cg(A, b, M=solver.aspreconditioner())
+
+    mg = pmgkit.multigrid(levels=[A1, A2, A3], prolongations=[P1, P2])   # coarsest first
+    x, info = mg.solve(b)
+
+Errors raise pmgkit.InputError (a ValueError: bad shapes, unknown keys, bad layouts),
+pmgkit.SolveError (divergence, stagnation, a matrix that is not positive definite) or
+pmgkit.Error, with the C++ library's messages.
+"""
+import json
+
+import numpy as np
+
+from . import _core
+from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, ElasticModel,
+                    DegreeHierarchy)
+
+__all__ = ["make_solver", "multigrid", "methods", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
+           "Material", "ElasticModel", "DegreeHierarchy", "simulate", "Error", "InputError",
+           "SolveError"]
+
+
+def methods():
+    """Every solver method of the factory: name, description, keys, uses_levels, needs_blocks."""
+    return _core.methods()
+
+
+# ---- SciPy <-> CSR arrays --------------------------------------------------------------------
+
+def _scipy_sparse():
+    import scipy.sparse
+    return scipy.sparse
+
+
+def _csr_arrays(A, name="matrix"):
+    """(indptr, indices, data, shape) of a SciPy sparse matrix in canonical CSR form, without a
+    copy when A already is one (float64 values, int32 or int64 indices, sorted, no duplicates)."""
+    sp = _scipy_sparse()
+    if not sp.issparse(A):
+        raise InputError(f"{name}: expected a scipy.sparse matrix, got {type(A).__name__}")
+    if A.format != "csr":
+        A = A.tocsr()
+    if A.dtype != np.float64:
+        if np.iscomplexobj(A.data):
+            raise InputError(f"{name}: complex values are not supported")
+        A = A.astype(np.float64)
+    if not A.has_canonical_format:
+        A = A.copy()
+        A.sum_duplicates()
+    return (A.indptr, A.indices, A.data, A.shape)
+
+
+def _to_scipy_bsr(arrays):
+    indptr, indices, data, shape = arrays
+    return _scipy_sparse().bsr_matrix((data, indices, indptr), shape=tuple(shape), copy=False)
+
+
+def _to_scipy_csr(arrays):
+    indptr, indices, data, shape = arrays
+    return _scipy_sparse().csr_matrix((data, indices, indptr), shape=tuple(shape), copy=False)
+
+
+def _config_text(config, default_method):
+    if config is None:
+        config = {}
+    if isinstance(config, str):
+        try:
+            config = json.loads(config)
+        except json.JSONDecodeError as e:
+            raise InputError(f"config: not valid JSON: {e}") from None
+    if not isinstance(config, dict):
+        raise InputError("config: expected a dict or a JSON object string")
+    config = dict(config)
+    config.setdefault("method", default_method)
+    return json.dumps(config)
+
+
+# ---- solvers -----------------------------------------------------------------------------------
+
+class Solver:
+    """A solver from pmgkit's factory, set up on its matrix (or multigrid levels).
+
+    solve(b, x0=None, tol=None) -> (x, info): info holds status, iterations, residual
+        (true ||b - A x|| / ||b||), rel_residual (relative to the initial residual), history
+        (relative residual per iteration), history_seconds, setup_seconds, solve_seconds, method.
+        A tol other than the config's rebuilds the solver with it (a new set-up).
+    update(A_new): new values on the same pattern; numeric set-up only.
+    aspreconditioner(): a scipy.sparse.linalg.LinearOperator applying the solver (M= of cg/gmres).
+    """
+
+    def __init__(self, core, shape, keep=()):
+        self._core = core
+        self.shape = shape
+        self._keep = keep  # arrays the solver was built from (read in place at set-up)
+
+    def solve(self, b, x0=None, tol=None):
+        return self._core.solve(np.asarray(b, dtype=np.float64), None if x0 is None else
+                                np.asarray(x0, dtype=np.float64), tol)
+
+    def __call__(self, b):
+        """x = M b (the solver applied once from x = 0)."""
+        return self._core.apply(np.asarray(b, dtype=np.float64))
+
+    def update(self, A):
+        if isinstance(A, (list, tuple)):
+            arrays = [_csr_arrays(M, f"level matrix {i}") for i, M in enumerate(A)]
+            self._core.update_levels(arrays)
+        else:
+            self._core.update(_csr_arrays(A))
+
+    def aspreconditioner(self):
+        from scipy.sparse.linalg import LinearOperator
+        return LinearOperator(self.shape, matvec=self._core.apply, dtype=np.float64)
+
+    @property
+    def name(self):
+        return self._core.name
+
+    @property
+    def setup_seconds(self):
+        return self._core.setup_seconds
+
+    def describe(self):
+        return self._core.describe()
+
+    @property
+    def removed_nodes(self):
+        """Clamped nodes (identity rows) removed from each user level, coarsest first."""
+        return list(self._core.removed_nodes)
+
+    def level_matrix(self, level):
+        """A user level as the cycle sees it (free nodes, interleaved), as scipy BSR."""
+        return _to_scipy_bsr(self._core.level_matrix(level))
+
+    def level_prolongation(self, level):
+        """The node prolongation from level-1 to level as the cycle sees it, as scipy CSR."""
+        return _to_scipy_csr(self._core.level_prolongation(level))
+
+    def __repr__(self):
+        return f"pmgkit.Solver({self.name}, {self.shape[0]} unknowns)"
+
+
+def make_solver(A, config=None, format="auto", coordinates=None):
+    """A solver for A (any scipy.sparse matrix, symmetric) from a config dict or JSON string in
+    the factory's schema ({"method": "cg", "tol": 1e-8, "preconditioner": {...}}; default
+    method cg). format: auto (3x3 blocks when the size is a multiple of 3) | csr | bcsr |
+    bin-bcsr. coordinates: x, y, z per node (interleaved, 3 per node) for BoomerAMG's or GAMG's
+    rigid-body modes."""
+    arrays = _csr_arrays(A)
+    core = _core.Solver(arrays, _config_text(config, "cg"), format,
+                        None if coordinates is None else np.asarray(coordinates, dtype=np.float64))
+    return Solver(core, A.shape)
+
+
+def multigrid(levels=None, prolongations=(), config=None, layout="interleaved", finest=None):
+    """Multigrid on the caller's levels: levels=[A_0 (coarsest), ..., A_L-1 (finest)] and
+    prolongations=[P_1, ..., P_L-1] (P_l: level l-1 -> l, fine nodes x coarse nodes, or fine dofs
+    x coarse dofs when it is a node prolongation applied to each component); or finest=A with the
+    prolongations, the lower levels then Galerkin products. config: the factory's schema (default
+    method mgpcg; multigrid for the stationary cycle). layout: interleaved (x0 y0 z0 x1 ...) or
+    component (x0 x1 ... y0 ...). Dirichlet identity rows (whole nodes) are removed from the
+    levels and the prolongations; the solution's entries there are b / diagonal."""
+    if (levels is None) == (finest is None):
+        raise InputError("multigrid: give either levels=[...] (coarsest first) or finest=A")
+    mats = [finest] if finest is not None else list(levels)
+    arrays = [_csr_arrays(M, f"level matrix {i}") for i, M in enumerate(mats)]
+    parrays = [_csr_arrays(P, f"prolongation {i + 1}") for i, P in enumerate(prolongations)]
+    core = _core.Solver(arrays, parrays, _config_text(config, "mgpcg"), layout, finest is not None)
+    return Solver(core, mats[-1].shape)
+
+
+# ---- formats -----------------------------------------------------------------------------------
+
+class _Format:
+    def matvec(self, x, out=None):
+        """y = A x; with out= (a float64 array) written in place, no allocation."""
+        return self._m.matvec(x, out)
+
+    def __matmul__(self, x):
+        return self._m.matvec(np.asarray(x, dtype=np.float64), None)
+
+    @property
+    def shape(self):
+        return tuple(self._m.shape)
+
+
+class Csr(_Format):
+    """pmgkit's CSR (64-bit row pointers) built from a scipy matrix."""
+
+    def __init__(self, A):
+        self._m = _core.Csr(_csr_arrays(A))
+
+    def to_scipy(self):
+        """A scipy csr_matrix viewing pmgkit's arrays (no copy)."""
+        return _to_scipy_csr(self._m.arrays())
+
+
+class Bcsr(_Format):
+    """3x3-block CSR built from a scipy matrix (interleaved x, y, z per node)."""
+
+    def __init__(self, A):
+        self._m = _core.Bcsr(_csr_arrays(A))
+
+    @property
+    def num_blocks(self):
+        return self._m.num_blocks
+
+    def to_scipy(self):
+        """A scipy bsr_matrix viewing pmgkit's arrays (no copy)."""
+        return _to_scipy_bsr(self._m.arrays())
+
+    def to_bin_bcsr(self):
+        """The BIN-BCSR form (rows binned by length, padded to the bin's width)."""
+        return BinBcsr(self._m)
+
+
+# ---- FEM -----------------------------------------------------------------------------------------
+
+def _model_stiffness(self):
+    """Stiffness over the free dofs (3x3 blocks, interleaved) as scipy BSR."""
+    return _to_scipy_bsr(self._stiffness_arrays())
+
+
+def _model_mass(self):
+    """Consistent mass over the free dofs as scipy BSR."""
+    return _to_scipy_bsr(self._mass_arrays())
+
+
+ElasticModel._stiffness_arrays = ElasticModel.stiffness
+ElasticModel._mass_arrays = ElasticModel.mass
+ElasticModel.stiffness = _model_stiffness
+ElasticModel.mass = _model_mass
+
+
+def _hierarchy_levels(self):
+    """Level matrices (free dofs, coarsest first) as scipy BSR."""
+    return [_to_scipy_bsr(self.matrix(l)) for l in range(self.num_levels)]
+
+
+def _hierarchy_prolongations(self):
+    """Node prolongations level l-1 -> l (l = 1..L-1) as scipy CSR."""
+    return [_to_scipy_csr(self.prolongation(l)) for l in range(1, self.num_levels)]
+
+
+DegreeHierarchy.levels = _hierarchy_levels
+DegreeHierarchy.prolongations = _hierarchy_prolongations
+
+
+def simulate(scene, output_dir=""):
+    """Runs a dynamic scene (a dict in the scene-file schema, a JSON string, or a path to a scene
+    file) and returns its summary with per-step records as NumPy arrays (records: step, time,
+    probe (n x 3), kinetic, elastic, total_energy, iterations, rel_residual, residual and the
+    seconds of each stage). output_dir: also write steps.csv and the .vtu frames there."""
+    import os
+    if isinstance(scene, dict):
+        text, origin = json.dumps(scene), "scene"
+    elif isinstance(scene, str) and scene.lstrip().startswith("{"):
+        text, origin = scene, "scene"
+    else:
+        path = os.fspath(scene)
+        with open(path) as f:
+            text, origin = f.read(), path
+    return _core.simulate(text, origin, output_dir)

@@ -1,0 +1,48 @@
+// pmg/sparse/csr_view.hpp — a CSR matrix held in someone else's arrays (SciPy, PETSc, a FEM code),
+// read in place: 32- or 64-bit row pointers and column indices, double values. pmgkit builds its
+// own formats from a view (Csr, BCSR, multigrid levels) without first widening the caller's index
+// arrays, and refreshes values from a view of the same pattern without symbolic work.
+#pragma once
+
+#include "pmg/sparse/csr.hpp"
+
+#include <string>
+
+namespace pmg {
+
+struct CsrView {
+  index_t rows = 0, cols = 0;
+  offset_t nnz = 0;
+  const void* row_ptr = nullptr;  ///< rows+1 entries of row_ptr_bytes each
+  int row_ptr_bytes = 8;          ///< 4 (int32) or 8 (int64)
+  const void* col_idx = nullptr;  ///< nnz entries of col_idx_bytes each
+  int col_idx_bytes = 4;          ///< 4 or 8
+  const double* values = nullptr; ///< nnz values
+
+  offset_t row_begin(index_t i) const { return ptr(i); }
+  offset_t row_end(index_t i) const { return ptr(i + 1); }
+  index_t col(offset_t k) const {
+    return col_idx_bytes == 4 ? static_cast<const std::int32_t*>(col_idx)[k]
+                              : static_cast<index_t>(static_cast<const std::int64_t*>(col_idx)[k]);
+  }
+
+  /// Throws InputError naming `who` unless the arrays form a canonical CSR matrix: monotone row
+  /// pointers from 0 to nnz, column indices in range, sorted and unique within each row, finite
+  /// values. O(nnz), no allocation.
+  void validate(const std::string& who) const;
+  /// Whether the pattern (not the values) equals another view's.
+  bool same_pattern(const CsrView& other) const;
+
+ private:
+  offset_t ptr(index_t i) const {
+    return row_ptr_bytes == 4 ? static_cast<const std::int32_t*>(row_ptr)[i]
+                              : static_cast<const std::int64_t*>(row_ptr)[i];
+  }
+};
+
+/// A view of a Csr's own arrays.
+CsrView view_of(const Csr& A);
+/// pmgkit's CSR (64-bit row pointers, 32-bit columns) copied from a view (validated).
+Csr to_csr(const CsrView& A, const std::string& who);
+
+}  // namespace pmg

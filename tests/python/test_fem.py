@@ -1,0 +1,105 @@
+"""The BB elasticity FEM from NumPy: meshes, models, matrices, loads, point evaluation, static solves
+and simulations, against the C++ tools' results."""
+import csv
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as spla
+
+import pmgkit
+from conftest import run_pmg
+
+
+def test_mesh_from_arrays_and_its_checks():
+    box = pmgkit.Mesh.box(2, 1, 1, 2.0, 1.0, 1.0)
+    m = pmgkit.Mesh(box.vertices, box.tets)
+    assert np.array_equal(m.vertices, box.vertices) and np.array_equal(m.tets, box.tets)
+    inverted = box.tets.copy()
+    inverted[0, [0, 1]] = inverted[0, [1, 0]]
+    with pytest.raises(pmgkit.InputError, match="invert|orientation|negative"):
+        pmgkit.Mesh(box.vertices, inverted)
+    fixed = pmgkit.Mesh(box.vertices, inverted, fix_orientation=True)
+    assert fixed.num_tets == box.num_tets
+    with pytest.raises(pmgkit.InputError, match="vertex"):
+        pmgkit.Mesh(box.vertices, box.tets + 1000)
+    with pytest.raises(pmgkit.InputError):
+        pmgkit.Material(young=-1.0)
+    with pytest.raises(pmgkit.InputError, match="degree"):
+        pmgkit.ElasticModel(box, 4)
+
+
+def test_model_matrices_match_the_hierarchy(cubic_box):
+    mesh, h = cubic_box
+    m = pmgkit.ElasticModel(mesh, 3, pmgkit.Material(1e5, 0.3, 1e3))
+    m.fix_vertices(lambda x: x[0] < 1e-9)
+    K = m.stiffness()
+    assert abs(K - h.levels()[-1]).max() <= 1e-12 * abs(K).max()
+    assert abs(K - K.T).max() <= 1e-12 * abs(K).max()
+    M = m.mass()
+    # the consistent mass integrates the density: 1^T M 1 over one component = rho * volume * (free part)
+    assert M.shape == K.shape and abs(M - M.T).max() == 0
+    g = m.gravity([0, 0, -9.81])
+    assert g.shape == (m.num_dofs,)
+    assert g[2::3].sum() == pytest.approx(-9.81 * 1e3 * 2.0, rel=1e-12)  # rho g V
+
+
+def test_static_cantilever_against_the_multigrid_and_point_evaluation(cubic_box):
+    mesh, h = cubic_box
+    m = pmgkit.ElasticModel(mesh, 3, pmgkit.Material(1e5, 0.3, 1e3))
+    m.fix_vertices(lambda x: x[0] < 1e-9)
+    f = m.gravity([0, 0, -9.81])
+    u, its = m.solve_static(f)
+    assert its == 1
+    # the same system through the multigrid on the hierarchy's levels
+    x, info = pmgkit.multigrid(levels=h.levels(), prolongations=h.prolongations(),
+                               config={"tol": 1e-12}).solve(h.restrict_to_free(f))
+    assert np.linalg.norm(h.expand(x) - u) / np.linalg.norm(u) < 1e-9
+    # point values: at the mesh vertices the BB field equals the vertex coefficients
+    X = m.node_positions()
+    verts = mesh.vertices
+    d = m.displacement_at(u, verts)
+    idx = [int(np.argmin(np.linalg.norm(X - v, axis=1))) for v in verts]
+    assert np.allclose(d, u.reshape(-1, 3)[idx], rtol=0, atol=1e-14 * np.abs(u).max())
+    tip = m.displacement_at(u, [[2.0, 0.5, 0.5]])
+    assert tip[0, 2] < 0
+    with pytest.raises(pmgkit.InputError, match="outside the mesh"):
+        m.displacement_at(u, [[5.0, 0.5, 0.5]])
+
+
+def test_point_evaluation_scales(cubic_box):
+    """Located through a grid, not a scan: many points cost little more than a few."""
+    mesh, _ = cubic_box
+    m = pmgkit.ElasticModel(mesh, 2)
+    u = np.random.default_rng(0).standard_normal(m.num_dofs)
+    pts = np.random.default_rng(1).uniform([0, 0, 0], [2, 1, 1], size=(2000, 3))
+    d = m.displacement_at(u, pts)
+    assert d.shape == (2000, 3) and np.isfinite(d).all()
+
+
+def test_simulate_matches_pmg_simulate(pmg_bin, tmp_path):
+    scene = {
+        "degree": 2, "mesh": {"box": [4, 1, 1], "size": [4.0, 1.0, 1.0]},
+        "material": {"young": 5e5, "poisson": 0.3, "density": 1000.0, "model": "corotational"},
+        "clamp": {"axis": "x", "fraction": 0.0},
+        "initial": {"state": "deflected", "force": [0, 0, -400.0]},
+        "time": {"dt": 0.01, "duration": 0.05},
+        "solver": {"method": "pmg", "tol": 1e-8},
+        "output": {"energy": True, "frame_every": 0},
+    }
+    r = pmgkit.simulate(scene)
+    rec = r["records"]
+    assert r["steps_done"] == 5 and rec["time"].shape == (6,) and rec["probe"].shape == (6, 3)
+    assert r["failed_step"] == 0
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    run_pmg(pmg_bin, "simulate", path, "-o", tmp_path / "out", "-q")
+    with open(tmp_path / "out" / "steps.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 6
+    for k, row in enumerate(rows):
+        assert float(row["probe_uz"]) == pytest.approx(rec["probe"][k, 2], rel=1e-9, abs=1e-15)
+        assert int(row["iterations"]) == rec["iterations"][k]
+        assert float(row["elastic"]) == pytest.approx(rec["elastic"][k], rel=1e-9)
+    with pytest.raises(pmgkit.InputError):
+        pmgkit.simulate({"degree": 7})

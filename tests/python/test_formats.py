@@ -1,0 +1,50 @@
+"""Block formats from SciPy matrices: products into NumPy arrays without copies, conversions back."""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import pmgkit
+
+
+def test_products_agree_with_scipy(levels):
+    A = levels[0][-1].tocsr()
+    x = np.cos(np.arange(A.shape[1]))
+    y_ref = A @ x
+    scale = np.abs(A) @ np.abs(x)  # each row's round-off is bounded by eps * (|A| |x|)
+    for M in (pmgkit.Csr(A), pmgkit.Bcsr(A), pmgkit.Bcsr(A).to_bin_bcsr()):
+        y = M.matvec(x)
+        assert np.all(np.abs(y - y_ref) <= 64 * np.finfo(float).eps * scale)
+        assert M.shape == A.shape
+
+
+def test_out_is_written_in_place(levels):
+    A = levels[0][-1].tocsr()
+    B = pmgkit.Bcsr(A)
+    x = np.ones(A.shape[1])
+    out = np.empty(A.shape[0])
+    y = B.matvec(x, out=out)
+    assert np.shares_memory(y, out)
+    assert np.allclose(out, A @ x, rtol=1e-12, atol=1e-9)
+    with pytest.raises(pmgkit.InputError, match="out must be"):
+        B.matvec(x, out=np.empty(3))
+    with pytest.raises(pmgkit.InputError, match="entries"):
+        B.matvec(np.ones(4))
+
+
+def test_conversions_back_to_scipy_view_pmgkit_storage(levels):
+    A = levels[0][-1].tocsr()
+    B = pmgkit.Bcsr(A)
+    S = B.to_scipy()
+    assert isinstance(S, sp.bsr_matrix) and S.blocksize == (3, 3)
+    assert abs(S - A).max() == 0
+    assert np.shares_memory(S.data, B.to_scipy().data)  # both view the same BCSR values
+    C = pmgkit.Csr(A).to_scipy()
+    assert abs(C - A).max() == 0
+    assert B.num_blocks == S.indices.size
+    with pytest.raises(pmgkit.InputError, match="multiple of the block size"):
+        pmgkit.Bcsr(sp.identity(4, format="csr"))
+
+
+def test_bin_bcsr_reports_its_layout(levels):
+    Bn = pmgkit.Bcsr(levels[0][-1]).to_bin_bcsr()
+    assert Bn.num_bins >= 1 and Bn.padding_ratio >= 1.0 and Bn.bytes_per_spmv > 0

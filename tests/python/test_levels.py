@@ -1,0 +1,194 @@
+"""Multigrid on the caller's levels: against the C++ tool on the same files, Galerkin levels, the
+layouts, dof prolongations, Dirichlet identity rows, every option reaching the cycle, and errors."""
+import numpy as np
+import pytest
+import scipy.io
+import scipy.sparse as sp
+
+import pmgkit
+from conftest import run_pmg
+
+
+def test_same_as_pmg_compare_on_the_same_files(pmg_bin, levels, rhs, tmp_path):
+    """The CLI and the module build the same cycle: same iterations, same solution to round-off."""
+    As, Ps = levels
+    files = []
+    for l, A in enumerate(As):
+        scipy.io.mmwrite(tmp_path / f"A{l}.mtx", A.tocoo(), symmetry="symmetric", precision=17)
+        files.append(tmp_path / f"A{l}.mtx")
+    pfiles = []
+    for l, P in enumerate(Ps, start=1):
+        scipy.io.mmwrite(tmp_path / f"P{l}.mtx", P.tocoo(), precision=17)
+        pfiles.append(tmp_path / f"P{l}.mtx")
+    scipy.io.mmwrite(tmp_path / "b.mtx", rhs[:, None], precision=17)
+    for method, extra in (("mgpcg", []), ("pmg", []), ("mgpcg", ["--galerkin-from-finest"])):
+        mats = files[-1:] if extra else files
+        out = run_pmg(pmg_bin, "compare", "--levels", ",".join(map(str, mats)), "--prolongations",
+                      ",".join(map(str, pfiles)), "--rhs", tmp_path / "b.mtx", "--solvers", method,
+                      "--tol", "1e-10", "--solution-out", tmp_path / "x.mtx", *extra)
+        row = next(line for line in out.splitlines() if line.startswith(method + " "))
+        cli_iterations = int(row.split()[2])
+        x_cli = scipy.io.mmread(tmp_path / "x.mtx").ravel()
+        if extra:
+            s = pmgkit.multigrid(finest=As[-1], prolongations=Ps, config={"method": method, "tol": 1e-10})
+        else:
+            s = pmgkit.multigrid(levels=As, prolongations=Ps, config={"method": method, "tol": 1e-10})
+        x, info = s.solve(rhs)
+        assert info["iterations"] == cli_iterations, (method, extra)
+        assert np.linalg.norm(x - x_cli) / np.linalg.norm(x_cli) < 1e-12, (method, extra)
+        assert info["residual"] < 1e-10
+
+
+def test_galerkin_levels_equal_explicit_galerkin_products(levels, rhs):
+    As, Ps = levels
+    # R A P from the finest down, formed by SciPy
+    G = [None] * len(As)
+    G[-1] = As[-1].tocsr()
+    for l in range(len(As) - 1, 0, -1):
+        P3 = sp.kron(Ps[l - 1], sp.identity(3), format="csr")
+        G[l - 1] = (P3.T @ G[l] @ P3).tocsr()
+    x1, i1 = pmgkit.multigrid(levels=G, prolongations=Ps, config={"tol": 1e-10}).solve(rhs)
+    x2, i2 = pmgkit.multigrid(finest=As[-1], prolongations=Ps, config={"tol": 1e-10}).solve(rhs)
+    assert i1["iterations"] == i2["iterations"]
+    assert np.linalg.norm(x1 - x2) / np.linalg.norm(x1) < 1e-10
+    with pytest.raises(pmgkit.InputError, match="galerkin"):
+        pmgkit.multigrid(finest=As[-1], prolongations=Ps, config={"coarse_operator": "geometric"})
+
+
+def component_major(n_nodes):
+    """perm[i] = interleaved index of component-major index i."""
+    i = np.arange(3 * n_nodes)
+    return 3 * (i % n_nodes) + i // n_nodes
+
+
+def test_component_major_layout_and_dof_prolongations(levels, rhs):
+    As, Ps = levels
+    x_ref, info_ref = pmgkit.multigrid(levels=As, prolongations=Ps, config={"tol": 1e-10}).solve(rhs)
+    perms = [component_major(A.shape[0] // 3) for A in As]
+    Ac = [A.tocsr()[p][:, p] for A, p in zip(As, perms)]
+    Pd = [sp.kron(P, sp.identity(3), format="csr")[perms[l + 1]][:, perms[l]] for l, P in enumerate(Ps)]
+    bc = rhs[perms[-1]]
+    for prolongations in (Ps, Pd):  # node prolongations, or dof prolongations in the same layout
+        s = pmgkit.multigrid(levels=Ac, prolongations=prolongations, config={"tol": 1e-10}, layout="component")
+        x, info = s.solve(bc)
+        assert info["iterations"] == info_ref["iterations"]
+        assert np.linalg.norm(x - x_ref[perms[-1]]) / np.linalg.norm(x_ref) < 1e-12
+    with pytest.raises(pmgkit.InputError, match="layout=component"):
+        pmgkit.multigrid(levels=Ac, prolongations=Ps)  # interleaved assumed: refused, not diverging
+    with pytest.raises(pmgkit.InputError, match="layout"):
+        pmgkit.multigrid(levels=As, prolongations=Ps, layout="rowwise")
+    # a dof prolongation that mixes components is refused
+    bad = sp.kron(Ps[-1], np.ones((3, 3)), format="csr")
+    with pytest.raises(pmgkit.InputError, match="components"):
+        pmgkit.multigrid(levels=As, prolongations=[Ps[0], bad])
+
+
+def embed_with_identity_rows(A, free_nodes, n_nodes, diag=1.0):
+    """A over the free nodes embedded in the full node set, clamped nodes as identity rows (what
+    FEM codes produce after a symmetric Dirichlet elimination)."""
+    dofs = (3 * np.repeat(free_nodes, 3) + np.tile(np.arange(3), len(free_nodes)))
+    E = sp.csr_matrix((np.ones(len(dofs)), (dofs, np.arange(len(dofs)))), shape=(3 * n_nodes, A.shape[0]))
+    fixed = np.setdiff1d(np.arange(3 * n_nodes), dofs)
+    D = sp.csr_matrix((np.full(len(fixed), diag), (fixed, fixed)), shape=(3 * n_nodes, 3 * n_nodes))
+    return (E @ A @ E.T + D).tocsr(), dofs, fixed
+
+
+def test_dirichlet_identity_rows_are_removed(levels, rhs):
+    As, Ps = levels
+    x_ref, info_ref = pmgkit.multigrid(levels=As, prolongations=Ps, config={"tol": 1e-10}).solve(rhs)
+    # every level gets 5 extra clamped nodes as identity rows; the prolongations get full rows
+    # and columns for them (interpolating from and into them, as a FEM code's would)
+    rng = np.random.default_rng(3)
+    full, free_of, n_full = [], [], []
+    for A in As:
+        n = A.shape[0] // 3
+        N = n + 5
+        free = np.sort(rng.choice(N, n, replace=False))
+        F, dofs, fixed = embed_with_identity_rows(A, free, N, diag=1e3)
+        full.append(F)
+        free_of.append(free)
+        n_full.append(N)
+    Pf = []
+    for l, P in enumerate(Ps):
+        Q = sp.lil_matrix((n_full[l + 1], n_full[l]))
+        Q[np.ix_(free_of[l + 1], free_of[l])] = P.toarray()
+        fixed_f = np.setdiff1d(np.arange(n_full[l + 1]), free_of[l + 1])
+        Q[fixed_f, 0] = 0.5  # fine clamped nodes interpolating from a coarse node
+        Pf.append(Q.tocsr())
+    b = np.zeros(full[-1].shape[0])
+    dofs = 3 * np.repeat(free_of[-1], 3) + np.tile(np.arange(3), len(free_of[-1]))
+    b[dofs] = rhs
+    fixed = np.setdiff1d(np.arange(len(b)), dofs)
+    b[fixed] = 2e3  # prescribed value 2 on the identity rows (diagonal 1e3)
+    s = pmgkit.multigrid(levels=full, prolongations=Pf, config={"tol": 1e-10})
+    assert s.removed_nodes == [5] * len(As)
+    x, info = s.solve(b)
+    assert info["iterations"] == info_ref["iterations"]
+    assert np.linalg.norm(x[dofs] - x_ref) / np.linalg.norm(x_ref) < 1e-12
+    assert np.allclose(x[fixed], 2.0)
+    assert info["residual"] < 1e-10
+    # identity rows on some components of a node only: refused with what to do
+    part = full[-1].tolil()
+    k = dofs[0]
+    part[k, :] = 0
+    part[:, k] = 0
+    part[k, k] = 1.0
+    with pytest.raises(pmgkit.InputError, match="some components"):
+        pmgkit.multigrid(levels=full[:-1] + [part.tocsr()], prolongations=Pf)
+
+
+def test_every_cycle_option_reaches_the_cycle(levels, rhs):
+    As, Ps = levels
+    seen = {}
+    for name, cfg in {
+        "gs": {"smoother": {"method": "gauss-seidel", "sweeps": 2}},
+        "gs5": {"smoother": {"method": "gauss-seidel", "sweeps": 5}},
+        "cheb": {"smoother": {"method": "chebyshev", "degree": 3}},
+        "W": {"cycle": "W", "smoother": {"method": "gauss-seidel", "sweeps": 2}},
+        "galerkin": {"coarse_operator": "galerkin", "smoother": {"method": "gauss-seidel", "sweeps": 2}},
+        "boomeramg": {"lowest_level": {"method": "boomeramg"}, "smoother": {"method": "gauss-seidel", "sweeps": 2}},
+    }.items():
+        x, info = pmgkit.multigrid(levels=As, prolongations=Ps, config={"method": "pmg", "tol": 1e-8, **cfg}).solve(rhs)
+        assert info["residual"] < 1e-8
+        seen[name] = (info["iterations"], x)
+    # each option changes the cycle: iteration counts or iterates differ from the baseline
+    base_it, base_x = seen["gs"]
+    for name in ("gs5", "cheb", "W", "galerkin", "boomeramg"):
+        it, x = seen[name]
+        assert it != base_it or np.linalg.norm(x - base_x) > 1e-14 * np.linalg.norm(base_x), name
+    with pytest.raises(pmgkit.InputError, match="sweeps"):  # Chebyshev has a degree, not sweeps
+        pmgkit.multigrid(levels=As, prolongations=Ps, config={"smoother": {"method": "chebyshev", "sweeps": 3}})
+
+
+def test_update_levels(levels, rhs):
+    As, Ps = levels
+    s = pmgkit.multigrid(levels=As, prolongations=Ps, config={"tol": 1e-10})
+    x1, _ = s.solve(rhs)
+    s.update([2.0 * A for A in As])
+    x2, _ = s.solve(rhs)
+    assert np.linalg.norm(2 * x2 - x1) / np.linalg.norm(x1) < 1e-8
+    with pytest.raises(pmgkit.InputError, match="pattern"):
+        s.update(list(As[:-1]) + [sp.identity(As[-1].shape[0], format="csr")])
+
+
+def test_level_errors(levels):
+    As, Ps = levels
+    with pytest.raises(pmgkit.InputError, match="prolongation 2 is"):
+        pmgkit.multigrid(levels=As, prolongations=[Ps[1], Ps[0]])
+    with pytest.raises(pmgkit.InputError, match="prolongations"):
+        pmgkit.multigrid(levels=As, prolongations=Ps[:1])
+    with pytest.raises(pmgkit.InputError, match="3 unknowns per node"):
+        pmgkit.multigrid(levels=[sp.identity(4, format="csr")], prolongations=[])
+    with pytest.raises(pmgkit.InputError):
+        pmgkit.multigrid(levels=As, finest=As[-1], prolongations=Ps)
+
+
+def test_multigrid_as_scipy_preconditioner(levels, rhs):
+    import scipy.sparse.linalg as spla
+    As, Ps = levels
+    A = As[-1].tocsr()
+    M = pmgkit.multigrid(levels=As, prolongations=Ps, config={"method": "pmg", "cycles": 1}).aspreconditioner()
+    it = [0]
+    x, ok = spla.cg(A, rhs, M=M, tol=1e-10, atol=0, callback=lambda _: it.__setitem__(0, it[0] + 1))
+    assert ok == 0 and it[0] < 30
+    assert np.linalg.norm(rhs - A @ x) / np.linalg.norm(rhs) < 1.01e-10
