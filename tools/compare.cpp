@@ -146,6 +146,7 @@ struct System {
   std::unique_ptr<FemSystem> fem;
   std::unique_ptr<mg::UserLevels> levels;
   Vector b_full;  // user levels: b as given, identity rows included (levels->reduce(b_full) = b)
+  double user_levels_s = -1;  // user levels: seconds to turn the matrices read into the cycle's levels
   std::string error_reference = "known solution";
   bool reference_pending = false;  // FEM: x_true is a direct solve made after the timed runs
   index_t unknowns() const { return bcsr ? bcsr->rows() : csr.rows(); }
@@ -190,7 +191,9 @@ System load_system(const Options& o) {
     mg::UserLevelOptions lo;
     lo.layout = mg::parse_layout(o.layout);
     lo.galerkin_only = o.galerkin_from_finest;
+    const auto t0 = std::chrono::steady_clock::now();
     s.levels = std::make_unique<mg::UserLevels>(mv, pv, lo);
+    s.user_levels_s = seconds_since(t0);
     s.bcsr = borrow(s.levels->matrix(s.levels->num_levels() - 1));
     if (o.format == "csr") s.csr = s.bcsr->to_csr();
     s.description = "user levels, finest " + o.levels.back();
@@ -571,6 +574,7 @@ void run(const Options& o) {
         {"warm_up", o.warm_up},
         {"mpi_startup_s", mpi >= 0 ? nlohmann::json(mpi) : nlohmann::json(nullptr)},
         {"lower_levels_s", lower_levels >= 0 ? nlohmann::json(lower_levels) : nlohmann::json(nullptr)},
+        {"user_levels_s", sys.user_levels_s >= 0 ? nlohmann::json(sys.user_levels_s) : nlohmann::json(nullptr)},
         {"error_reference", sys.x_true.size() ? nlohmann::json(sys.error_reference) : nlohmann::json(nullptr)},
         {"history", history},
         {"solvers", solvers_json}};

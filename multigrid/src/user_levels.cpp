@@ -207,39 +207,41 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
       continue;
     }
     const DofMap map{options.layout, lv.given_nodes};
-    std::vector<std::vector<index_t>> cols(nk);
+    // Given rows of each kept node (3 per node; in place for interleaved, gathered otherwise).
+    std::vector<index_t> row_of(B * nk);
     for (index_t i = 0; i < A->rows; ++i) {
-      const index_t R = lv.node_of[map(i) / B];
-      if (R < 0) continue;
-      for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
-        const index_t C = lv.node_of[map(A->col(k)) / B];
-        if (C >= 0) cols[R].push_back(C);
-      }
+      const index_t ri = map(i), R = lv.node_of[ri / B];
+      if (R >= 0) row_of[B * R + ri % B] = i;
     }
+    // Pattern: per block row, the kept block columns of its three rows (marker array, then sort).
     auto pat = std::make_shared<BlockPattern>();
     pat->rows = pat->cols = nk;
     pat->row_ptr.assign(nk + 1, 0);
+    pat->col_idx.reserve(static_cast<size_t>(A->nnz / (B * B)) + nk);
+    std::vector<index_t> mark(nk, -1), row_cols;
+    offset_t stored = 0;
     for (index_t R = 0; R < nk; ++R) {
-      std::sort(cols[R].begin(), cols[R].end());
-      cols[R].erase(std::unique(cols[R].begin(), cols[R].end()), cols[R].end());
-      pat->col_idx.insert(pat->col_idx.end(), cols[R].begin(), cols[R].end());
+      row_cols.clear();
+      for (int a = 0; a < B; ++a) {
+        const index_t i = row_of[B * R + a];
+        for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
+          const index_t C = lv.node_of[map(A->col(k)) / B];
+          if (C < 0) continue;
+          ++stored;
+          if (mark[C] != R) mark[C] = R, row_cols.push_back(C);
+        }
+      }
+      std::sort(row_cols.begin(), row_cols.end());
+      pat->col_idx.insert(pat->col_idx.end(), row_cols.begin(), row_cols.end());
       pat->row_ptr[R + 1] = static_cast<offset_t>(pat->col_idx.size());
-      std::vector<index_t>().swap(cols[R]);
     }
     lv.A = Bcsr(pat, std::vector<double>(Bcsr::kBlockSize * pat->nnz(), 0.0));
-    lv.slot.assign(A->nnz, -1);
-    for (index_t i = 0; i < A->rows; ++i) {
-      const index_t ri = map(i), R = lv.node_of[ri / B];
-      if (R < 0) continue;
-      for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
-        const index_t cj = map(A->col(k)), C = lv.node_of[cj / B];
-        if (C >= 0) lv.slot[k] = Bcsr::kBlockSize * lv.A.find_block(R, C) + B * (ri % B) + cj % B;
-      }
-    }
+    lv.row_of = std::move(row_of);
+    lv.given_nnz = A->nnz;
+    for (index_t i = 0; i < A->rows; ++i)
+      if (lv.node_of[map(i) / B] < 0) lv.clamped_rows.push_back(i);
     // Layout check: elasticity couples all three components of every pair of coupled nodes, so
     // under the right layout the 3x3 blocks are (nearly) full.
-    offset_t stored = 0;
-    for (offset_t s : lv.slot) stored += s >= 0;
     if (lv.A.num_blocks() > 0 && stored < 0.5 * Bcsr::kBlockSize * lv.A.num_blocks())
       throw InputError(level_label(l) + ": only " +
                        std::to_string(static_cast<int>(100.0 * stored / (Bcsr::kBlockSize * lv.A.num_blocks()))) +
@@ -264,6 +266,39 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
   set_values(matrices);
 }
 
+void UserLevels::check_symmetric(int l) const {
+  const Bcsr& A = levels_[l].A;
+  const BlockPattern& p = A.pattern();
+  double max_abs = 0.0;
+  for (double v : A.values()) max_abs = std::max(max_abs, std::abs(v));
+  const double tol = 1e-12 * max_abs;
+  // One pass: for block rows R in increasing order, the transposed blocks (C, R) of the blocks
+  // (R, C), C >= R, lie at increasing positions of row C, so a cursor per row finds each in
+  // amortised O(1); blocks of row C skipped by its cursor have no partner (R, C) and must be zero.
+  std::vector<offset_t> cursor(p.row_ptr.begin(), p.row_ptr.end() - 1);
+  bool symmetric = true;
+  for (index_t R = 0; R < p.rows && symmetric; ++R)
+    for (offset_t k = p.row_ptr[R]; k < p.row_ptr[R + 1] && symmetric; ++k) {
+      const index_t C = p.col_idx[k];
+      if (C < R) continue;  // checked from row C
+      offset_t& q = cursor[C];
+      for (; q < p.row_ptr[C + 1] && p.col_idx[q] < R; ++q)
+        symmetric = symmetric && A.block(q).cwiseAbs().maxCoeff() <= tol;  // (C, j < R) without (j, C)
+      const bool found = q < p.row_ptr[C + 1] && p.col_idx[q] == R;
+      const Block3 t = found ? Block3(A.block(q).transpose()) : Block3::Zero();
+      symmetric = symmetric && (A.block(k) - t).cwiseAbs().maxCoeff() <= tol;
+      if (found) ++q;
+    }
+  for (index_t C = 0; C < p.rows && symmetric; ++C)  // lower blocks no row reached
+    for (offset_t q = cursor[C]; q < p.row_ptr[C + 1] && p.col_idx[q] < C; ++q)
+      symmetric = symmetric && A.block(q).cwiseAbs().maxCoeff() <= tol;
+  if (!symmetric)
+    throw InputError(level_label(l) + ": the matrix is not symmetric (the solvers need a symmetric "
+                     "positive definite matrix); if Dirichlet rows were replaced by identity rows, "
+                     "zero their columns too (a symmetric elimination, the known values moved to "
+                     "the right-hand side)");
+}
+
 bool UserLevels::has_matrix(int level) const { return levels_.at(level).has_matrix; }
 
 void UserLevels::set_values(const std::vector<CsrView>& matrices) {
@@ -274,21 +309,51 @@ void UserLevels::set_values(const std::vector<CsrView>& matrices) {
   for (size_t m = 0; m < matrices.size(); ++m) {
     const int l = options_.galerkin_only ? L - 1 : static_cast<int>(m);
     const CsrView& A = matrices[m];
-    if (A.rows != B * levels_[l].given_nodes || A.nnz != static_cast<offset_t>(levels_[l].slot.size()) ||
+    if (A.rows != B * levels_[l].given_nodes || A.nnz != levels_[l].given_nnz ||
         pattern_hash(A) != hashes_[m])
       throw InputError(level_label(l) + ": new values must come on the pattern the levels were built "
                        "on (same rows, columns and stored entries); build new levels for a new pattern");
     Level& lv = levels_[l];
-    std::fill(lv.A.values().begin(), lv.A.values().end(), 0.0);
-    for (index_t i = 0; i < A.rows; ++i)
-      for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k) {
-        const double v = A.values[k];
-        if (!std::isfinite(v)) throw InputError(level_label(l) + ": non-finite value in row " + std::to_string(i));
-        if (lv.slot[k] >= 0) lv.A.values()[lv.slot[k]] += v;
-        else if (v != 0.0 && A.col(k) != i)
+    const DofMap map{options_.layout, lv.given_nodes};
+    // Block row by block row: scatter the row's block positions, then copy its three given rows'
+    // values into their blocks (no per-entry map is stored: the walk is the map).
+    const BlockPattern& p = lv.A.pattern();
+    std::vector<double>& val = lv.A.values();
+    std::string error;
+#pragma omp parallel
+    {
+      std::vector<index_t> pos(p.rows, -1);
+#pragma omp for schedule(static)
+      for (index_t R = 0; R < p.rows; ++R) {
+        for (offset_t q = p.row_ptr[R]; q < p.row_ptr[R + 1]; ++q) pos[p.col_idx[q]] = static_cast<index_t>(q);
+        std::fill(val.begin() + Bcsr::kBlockSize * p.row_ptr[R], val.begin() + Bcsr::kBlockSize * p.row_ptr[R + 1], 0.0);
+        for (int a = 0; a < B; ++a) {
+          const index_t i = lv.row_of[B * R + a];
+          for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k) {
+            const index_t cj = map(A.col(k)), C = lv.node_of[cj / B];
+            const double v = A.values[k];
+            if (C >= 0) {
+              val[Bcsr::kBlockSize * pos[C] + B * a + cj % B] = v;
+            } else if (v != 0.0) {
+#pragma omp critical(pmg_user_levels_error)
+              error = level_label(l) + ": row " + std::to_string(i) + " couples to column " +
+                      std::to_string(A.col(k)) + ", an identity row (a clamped node): the columns of "
+                      "identity rows must be zero too (a symmetric elimination, the known values "
+                      "moved to the right-hand side)";
+            }
+          }
+        }
+      }
+    }
+    if (!error.empty()) throw InputError(error);
+    for (index_t i : lv.clamped_rows)
+      for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k)
+        if (A.values[k] != 0.0 && A.col(k) != i)
           throw InputError(level_label(l) + ": row " + std::to_string(i) + " was an identity row (a " +
                            "clamped node) and now has off-diagonal entries; build new levels");
-      }
+    for (double v : val)
+      if (!std::isfinite(v)) throw InputError(level_label(l) + ": non-finite values");
+    check_symmetric(l);
   }
   // The diagonal of the finest identity rows, for expand().
   const CsrView& F = matrices.back();

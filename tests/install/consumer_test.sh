@@ -10,3 +10,15 @@ cmake -S "$src/examples/consumer" -B "$work/consumer" -DCMAKE_PREFIX_PATH="$work
   -DCMAKE_BUILD_TYPE=Release > "$work/configure.log"
 cmake --build "$work/consumer" > "$work/build.log"
 "$work/consumer/consumer"
+# The Python module, where it was built: importable from the prefix's site-packages and working.
+pydir=$(sed -n 's/^PMG_PYTHON_INSTALL_DIR:STRING=//p' "$build/CMakeCache.txt")
+if [ -n "$pydir" ] && [ -d "$work/prefix/$pydir/pmgkit" ]; then
+  PYTHONPATH="$work/prefix/$pydir" /usr/bin/python3 - <<'PY'
+import numpy as np, pmgkit, scipy.sparse as sp
+assert pmgkit.__file__.find("/prefix/") > 0, pmgkit.__file__
+A = sp.diags([-np.ones(29), 2.5 * np.ones(30), -np.ones(29)], [-1, 0, 1], format="csr")
+x, info = pmgkit.make_solver(A, {"method": "cg", "tol": 1e-12}).solve(np.ones(30))
+assert info["residual"] < 1e-12, info
+print("installed Python module: cg converged in", info["iterations"], "iterations")
+PY
+fi

@@ -127,6 +127,11 @@ def test_dirichlet_identity_rows_are_removed(levels, rhs):
     assert np.linalg.norm(x[dofs] - x_ref) / np.linalg.norm(x_ref) < 1e-12
     assert np.allclose(x[fixed], 2.0)
     assert info["residual"] < 1e-10
+    # identity rows whose columns were kept (no symmetric elimination): refused with what to do
+    kept_cols = full[-1].tolil()
+    kept_cols[dofs[0], fixed[0]] = kept_cols[fixed[0], fixed[0]]
+    with pytest.raises(pmgkit.InputError, match="columns of identity rows must be zero"):
+        pmgkit.multigrid(levels=full[:-1] + [kept_cols.tocsr()], prolongations=Pf)
     # identity rows on some components of a node only: refused with what to do
     part = full[-1].tolil()
     k = dofs[0]

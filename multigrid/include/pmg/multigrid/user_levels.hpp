@@ -78,9 +78,13 @@ class UserLevels final : public LevelProvider {
     Bcsr A;
     index_t given_nodes = 0;          ///< nodes of the matrix as given
     std::vector<index_t> node_of;     ///< given node -> kept node, or -1 (clamped)
-    std::vector<offset_t> slot;       ///< given entry -> value slot of A, or -1 (dropped)
+    std::vector<index_t> row_of;      ///< given row of each kept dof (3 per kept node)
+    std::vector<index_t> clamped_rows;  ///< given rows of the clamped nodes
+    offset_t given_nnz = 0;
     bool has_matrix = true;
   };
+  void check_symmetric(int level) const;
+
   std::vector<Level> levels_;
   std::vector<Csr> prolongations_;
   UserLevelOptions options_;

@@ -1,0 +1,228 @@
+// mg::UserLevels: levels as FEM codes hand them over (CSR arrays, either layout, node or dof
+// prolongations, Dirichlet identity rows, the finest matrix alone) give the cycle the same levels
+// as pmgkit's own hierarchy; and what cannot work is refused with a message saying what to do.
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/locator.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/multigrid/user_levels.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <random>
+
+using namespace pmg;
+using namespace pmg::fem;
+
+namespace {
+
+struct Levels {
+  TetMesh mesh = box_mesh_24(4, 1, 1, 1.0, 0.25, 0.25);
+  DegreeHierarchy h{mesh, 3, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; }};
+  std::vector<Csr> A, P;
+  Vector b;
+  Levels() {
+    h.assemble(nullptr);
+    for (int l = 0; l < h.num_levels(); ++l) A.push_back(h.matrix(l).to_csr());
+    for (int l = 1; l < h.num_levels(); ++l) P.push_back(h.prolongation(l));
+    b = Vector::LinSpaced(A.back().rows(), -1.0, 2.0);
+  }
+};
+
+std::vector<CsrView> views(const std::vector<Csr>& m) {
+  std::vector<CsrView> v;
+  for (const auto& x : m) v.push_back(view_of(x));
+  return v;
+}
+
+SolveResult mgpcg(const mg::LevelProvider& levels, const Vector& b, Vector& x, const std::string& extra = "") {
+  std::vector<std::string> pairs{"method=mgpcg", "tol=1e-10"};
+  if (!extra.empty()) pairs.push_back(extra);
+  auto s = make_solver(Config::from_pairs(pairs, "test"), {&levels});
+  s->setup(levels.matrix(levels.num_levels() - 1));
+  x = Vector::Zero(b.size());
+  return s->solve(b, x);
+}
+
+/// A permuted copy P_r A P_c^T: out(perm_r[i], perm_c[j]) = A(i, j).
+Csr permuted(const Csr& A, const std::vector<index_t>& pr, const std::vector<index_t>& pc) {
+  std::vector<Triplet> t;
+  const auto& p = A.pattern();
+  for (index_t i = 0; i < A.rows(); ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) t.emplace_back(pr[i], pc[p.col_idx[k]], A.values()[k]);
+  return Csr::from_triplets(A.rows(), A.cols(), t);
+}
+
+/// interleaved dof -> component-major dof for n nodes
+std::vector<index_t> to_component(index_t n) {
+  std::vector<index_t> p(3 * n);
+  for (index_t i = 0; i < 3 * n; ++i) p[i] = (i % 3) * n + i / 3;
+  return p;
+}
+
+Csr kron_identity(const Csr& P) {
+  std::vector<Triplet> t;
+  const auto& p = P.pattern();
+  for (index_t i = 0; i < P.rows(); ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+      for (int c = 0; c < 3; ++c) t.emplace_back(3 * i + c, 3 * p.col_idx[k] + c, P.values()[k]);
+  return Csr::from_triplets(3 * P.rows(), 3 * P.cols(), t);
+}
+
+}  // namespace
+
+TEST_CASE("user levels reproduce the hierarchy's cycle", "[user-levels]") {
+  Levels s;
+  Vector x_ref, x;
+  const SolveResult r_ref = mgpcg(s.h, s.b, x_ref);
+  mg::UserLevels u(views(s.A), views(s.P), {});
+  REQUIRE(u.num_levels() == 3);
+  for (int l = 0; l < 3; ++l) CHECK(u.matrix(l).values() == s.h.matrix(l).values());
+  const SolveResult r = mgpcg(u, u.reduce(s.b), x);
+  CHECK(r.iterations == r_ref.iterations);
+  CHECK((u.expand(x, s.b) - x_ref).norm() == 0.0);
+
+  SECTION("32-bit row pointers and 64-bit columns, read in place") {
+    std::vector<std::vector<std::int32_t>> rp;
+    std::vector<std::vector<std::int64_t>> ci;
+    std::vector<CsrView> v = views(s.A);
+    for (auto& w : v) {
+      const auto* r64 = static_cast<const std::int64_t*>(w.row_ptr);
+      const auto* c32 = static_cast<const std::int32_t*>(w.col_idx);
+      rp.emplace_back(r64, r64 + w.rows + 1);
+      ci.emplace_back(c32, c32 + w.nnz);
+      w.row_ptr = rp.back().data(), w.row_ptr_bytes = 4;
+      w.col_idx = ci.back().data(), w.col_idx_bytes = 8;
+    }
+    mg::UserLevels u32(v, views(s.P), {});
+    for (int l = 0; l < 3; ++l) CHECK(u32.matrix(l).values() == s.h.matrix(l).values());
+  }
+  SECTION("the finest matrix alone: Galerkin products, geometric refused") {
+    mg::UserLevels g({view_of(s.A.back())}, views(s.P), {mg::DofLayout::interleaved, true});
+    CHECK_FALSE(g.has_matrix(0));
+    CHECK(g.has_matrix(2));
+    Vector xg;
+    const SolveResult rg = mgpcg(g, s.b, xg, "coarse_operator=galerkin");
+    CHECK(rg.status == SolveStatus::converged);
+    Vector xr;
+    mgpcg(s.h, s.b, xr, "coarse_operator=galerkin");
+    CHECK((xg - xr).norm() <= 1e-12 * xr.norm());
+    CHECK_THROWS_WITH(mgpcg(g, s.b, xg), Catch::Contains("coarse_operator=galerkin"));
+  }
+  SECTION("new values on the same pattern, and a different pattern refused") {
+    std::vector<Csr> twice = s.A;
+    for (auto& m : twice)
+      for (double& v : m.values()) v *= 2.0;
+    u.set_values(views(twice));
+    for (int l = 0; l < 3; ++l)
+      for (size_t k = 0; k < u.matrix(l).values().size(); k += 97) CHECK(u.matrix(l).values()[k] == 2.0 * s.h.matrix(l).values()[k]);
+    std::vector<Csr> other = s.A;
+    other[1] = Csr::from_triplets(other[1].rows(), other[1].cols(), {Triplet(0, 0, 1.0)});
+    CHECK_THROWS_WITH(u.set_values(views(other)), Catch::Contains("pattern"));
+  }
+}
+
+TEST_CASE("component-major levels and dof prolongations", "[user-levels]") {
+  Levels s;
+  std::vector<Csr> Ac, Pc, Pd;
+  std::vector<std::vector<index_t>> perm;
+  for (const auto& A : s.A) perm.push_back(to_component(A.rows() / 3));
+  for (size_t l = 0; l < s.A.size(); ++l) Ac.push_back(permuted(s.A[l], perm[l], perm[l]));
+  for (size_t l = 0; l < s.P.size(); ++l) Pd.push_back(permuted(kron_identity(s.P[l]), perm[l + 1], perm[l]));
+  mg::UserLevelOptions o;
+  o.layout = mg::DofLayout::component;
+  for (const auto* prolongations : {&s.P, &Pd}) {
+    mg::UserLevels u(views(Ac), views(*prolongations), o);
+    for (int l = 0; l < 3; ++l) CHECK(u.matrix(l).values() == s.h.matrix(l).values());
+    for (int l = 1; l < 3; ++l) CHECK(u.prolongation(l).values() == s.P[l - 1].values());
+  }
+  CHECK_THROWS_WITH(mg::UserLevels(views(Ac), views(s.P), {}), Catch::Contains("layout=component"));
+  CHECK_THROWS_WITH(mg::parse_layout("rows"), Catch::Contains("interleaved"));
+}
+
+TEST_CASE("Dirichlet identity rows: whole nodes removed, partial ones and kept columns refused", "[user-levels]") {
+  Levels s;
+  // The finest level with 2 extra clamped nodes in front, as identity rows of diagonal 4; the
+  // finest prolongation interpolates into them as well.
+  const Csr& A = s.A.back();
+  const index_t n = A.rows() / 3, extra = 2;
+  std::vector<Triplet> t;
+  const auto& p = A.pattern();
+  for (index_t i = 0; i < A.rows(); ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) t.emplace_back(i + 3 * extra, p.col_idx[k] + 3 * extra, A.values()[k]);
+  for (index_t i = 0; i < 3 * extra; ++i) t.emplace_back(i, i, 4.0);
+  const Csr F = Csr::from_triplets(3 * (n + extra), 3 * (n + extra), t);
+  std::vector<Triplet> tp;
+  const Csr& P = s.P.back();
+  for (index_t i = 0; i < P.rows(); ++i)
+    for (offset_t k = P.pattern().row_ptr[i]; k < P.pattern().row_ptr[i + 1]; ++k)
+      tp.emplace_back(i + extra, P.pattern().col_idx[k], P.values()[k]);
+  tp.emplace_back(0, 0, 1.0);
+  const Csr PF = Csr::from_triplets(n + extra, P.cols(), tp);
+  mg::UserLevels u({view_of(s.A[0]), view_of(s.A[1]), view_of(F)}, {view_of(s.P[0]), view_of(PF)}, {});
+  CHECK(u.removed_nodes() == std::vector<index_t>{0, 0, extra});
+  CHECK(u.matrix(2).values() == s.h.matrix(2).values());
+  Vector bF(F.rows());
+  bF << Vector::Constant(3 * extra, 8.0), s.b;
+  Vector x;
+  mgpcg(u, u.reduce(bF), x);
+  const Vector xf = u.expand(x, bF);
+  CHECK(xf.head(3 * extra).isApprox(Vector::Constant(3 * extra, 2.0)));
+  Vector x_ref;
+  mgpcg(s.h, s.b, x_ref);
+  CHECK((xf.tail(3 * n) - x_ref).norm() == 0.0);
+
+  // one component of a node constrained only
+  std::vector<Triplet> tpart;
+  for (index_t i = 0; i < A.rows(); ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+      if ((i != 0 && p.col_idx[k] != 0) || i == p.col_idx[k]) tpart.emplace_back(i, p.col_idx[k], i == 0 ? 1.0 : A.values()[k]);
+  const Csr part = Csr::from_triplets(A.rows(), A.cols(), tpart);
+  CHECK_THROWS_WITH(mg::UserLevels({view_of(s.A[0]), view_of(s.A[1]), view_of(part)}, views(s.P), {}),
+                    Catch::Contains("some components only"));
+  // identity rows whose columns were kept
+  std::vector<Triplet> tk = t;
+  tk.emplace_back(3 * extra, 0, 1.0);  // a free row coupling to a clamped column
+  const Csr kept = Csr::from_triplets(F.rows(), F.cols(), tk);
+  CHECK_THROWS_WITH(mg::UserLevels({view_of(s.A[0]), view_of(s.A[1]), view_of(kept)}, {view_of(s.P[0]), view_of(PF)}, {}),
+                    Catch::Contains("columns of identity rows must be zero"));
+}
+
+TEST_CASE("user level errors name the level or prolongation", "[user-levels]") {
+  Levels s;
+  CHECK_THROWS_WITH(mg::UserLevels(views(s.A), {view_of(s.P[1]), view_of(s.P[0])}, {}), Catch::Contains("prolongation 2"));
+  CHECK_THROWS_WITH(mg::UserLevels(views(s.A), {view_of(s.P[0])}, {}), Catch::Contains("prolongations"));
+  std::vector<Csr> asym = s.A;
+  asym[1].values()[1] += 1.0;
+  CHECK_THROWS_WITH(mg::UserLevels(views(asym), views(s.P), {}), Catch::Contains("not symmetric"));
+  const Csr mixing = kron_identity(s.P[1]);
+  std::vector<Triplet> t{Triplet(0, 1, 0.5)};
+  const auto& mp = mixing.pattern();
+  for (index_t i = 0; i < mixing.rows(); ++i)
+    for (offset_t k = mp.row_ptr[i]; k < mp.row_ptr[i + 1]; ++k) t.emplace_back(i, mp.col_idx[k], mixing.values()[k]);
+  const Csr mixed = Csr::from_triplets(mixing.rows(), mixing.cols(), t);
+  CHECK_THROWS_WITH(mg::UserLevels(views(s.A), {view_of(s.P[0]), view_of(mixed)}, {}), Catch::Contains("different displacement components"));
+  CsrView bad = view_of(s.A[0]);
+  std::vector<std::int32_t> cols(static_cast<const std::int32_t*>(bad.col_idx), static_cast<const std::int32_t*>(bad.col_idx) + bad.nnz);
+  std::swap(cols[0], cols[1]);
+  bad.col_idx = cols.data();
+  CHECK_THROWS_WITH(mg::UserLevels({bad, view_of(s.A[1]), view_of(s.A[2])}, views(s.P), {}), Catch::Contains("sorted"));
+}
+
+TEST_CASE("the point locator finds what the scan finds", "[user-levels][locator]") {
+  const TetMesh mesh = box_mesh_24(5, 2, 2, 1.0, 0.4, 0.4);
+  ElasticityModel m(mesh, 2, Material{});
+  const PointLocator loc(m);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> ux(0, 1), uy(0, 0.4);
+  Vector u = Vector::LinSpaced(m.num_dofs(), -1, 1);
+  for (int q = 0; q < 300; ++q) {
+    const Vec3 X(ux(rng), uy(rng), uy(rng));
+    const auto [e, l] = loc.locate(X);
+    CHECK(l.minCoeff() >= -1e-10);
+    CHECK((m.displacement_at(u, e, l) - m.displacement_at(u, X)).norm() <= 1e-12);
+  }
+  for (const Vec3& V : mesh.vertices) CHECK_NOTHROW(loc.locate(V));  // corners and faces included
+  CHECK_THROWS_WITH(loc.locate(Vec3(1.5, 0.2, 0.2)), Catch::Contains("outside the mesh"));
+  CHECK_THROWS_WITH(loc.locate(Vec3(std::nan(""), 0.2, 0.2)), Catch::Contains("outside the mesh"));
+}
