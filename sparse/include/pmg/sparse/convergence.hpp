@@ -96,7 +96,10 @@ class ConvergenceTracker {
       return false;
     }
     if (p_.fixed_iterations) {
-      if (rel == 0.0) finish_converged(0.0);
+      // Exactly solved, or so nearly that ‖r‖² and the curvatures pᵀAp underflow (‖r‖ below
+      // √DBL_MIN ≈ 1.5e-154): another iteration would divide by zero, so the run ends here as
+      // converged instead of reporting a breakdown of an SPD system.
+      if (rel == 0.0 || r_norm < std::sqrt(std::numeric_limits<double>::min())) finish_converged(rel);
       else if (it >= p_.max_iterations) {
         result_.status = SolveStatus::completed;
         result_.true_rel_residual = std::numeric_limits<double>::quiet_NaN();
