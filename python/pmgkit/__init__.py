@@ -26,7 +26,8 @@ from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, Elas
                     DegreeHierarchy)
 
 __all__ = ["make_solver", "multigrid", "methods", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
-           "Material", "ElasticModel", "DegreeHierarchy", "simulate", "Error", "InputError",
+           "Material", "ElasticModel", "DegreeHierarchy", "simulate", "read_petsc", "write_petsc",
+           "Error", "InputError",
            "SolveError"]
 
 
@@ -222,6 +223,29 @@ class Bcsr(_Format):
     def to_bin_bcsr(self):
         """The BIN-BCSR form (rows binned by length, padded to the bin's width)."""
         return BinBcsr(self._m)
+
+
+# ---- files ---------------------------------------------------------------------------------------
+
+def read_petsc(path):
+    """A matrix (as scipy CSR) or a vector (as a NumPy array) from PETSc's binary format (what
+    MatView/VecView and `pmg compare --export-petsc` write); the header says which. Malformed
+    files raise InputError naming the file."""
+    import struct
+    with open(path, "rb") as f:
+        head = f.read(4)
+    if len(head) == 4 and struct.unpack(">i", head)[0] == 1211214:  # PETSc's VEC_FILE_CLASSID
+        return _core.read_petsc_vector(str(path))
+    return _to_scipy_csr(_core.read_petsc_matrix(str(path)))
+
+
+def write_petsc(path, obj):
+    """Writes a scipy sparse matrix or a 1-D array in PETSc's binary format (to a temporary name,
+    then renamed: an interrupted write leaves no half file)."""
+    if _scipy_sparse().issparse(obj):
+        _core.write_petsc_matrix(str(path), _csr_arrays(obj))
+    else:
+        _core.write_petsc_vector(str(path), np.asarray(obj, dtype=np.float64))
 
 
 # ---- FEM -----------------------------------------------------------------------------------------

@@ -23,6 +23,7 @@
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/csr_view.hpp"
+#include "pmg/sparse/petsc_binary.hpp"
 
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
@@ -520,6 +521,35 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("padding_ratio", &BinBcsr::padding_ratio)
       .def_property_readonly("bytes_per_spmv", &BinBcsr::bytes_per_spmv)
       .def("matvec", &matvec<BinBcsr>, py::arg("x"), py::arg("out") = py::none());
+
+  // ---- PETSc's binary format (what MatView/VecView write; loads at disk speed) ----
+  m.def("read_petsc_matrix", [](const std::string& path) {
+    Csr A;
+    {
+      py::gil_scoped_release nogil;
+      A = read_petsc_binary_matrix(path);
+    }
+    return csr_copy(A);
+  }, py::arg("path"));
+  m.def("read_petsc_vector", [](const std::string& path) {
+    Vector v;
+    {
+      py::gil_scoped_release nogil;
+      v = read_petsc_binary_vector(path);
+    }
+    return to_numpy(std::move(v));
+  }, py::arg("path"));
+  m.def("write_petsc_matrix", [](const std::string& path, py::tuple A) {
+    const Csr c = to_csr(array_csr(A, "matrix").view, "matrix");
+    py::gil_scoped_release nogil;
+    write_petsc_binary(path, c);
+  }, py::arg("path"), py::arg("A"));
+  m.def("write_petsc_vector", [](const std::string& path, const DoubleArray& v) {
+    if (v.ndim() != 1) throw InputError("write_petsc_vector: expected a one-dimensional array");
+    const Vector x = to_vector(v, v.shape(0), "vector");
+    py::gil_scoped_release nogil;
+    write_petsc_binary(path, x);
+  }, py::arg("path"), py::arg("v"));
 
   // ---- FEM ----
   py::class_<fem::Material>(m, "Material")

@@ -160,3 +160,40 @@ def test_methods_lists_the_factory():
     names = [m["name"] for m in pmgkit.methods()]
     for n in ("cg", "mgpcg", "pmg", "cholmod", "boomeramg", "block-jacobi"):
         assert n in names
+
+
+def test_the_gil_is_released_during_solves():
+    """Another Python thread runs while a solve is inside C++."""
+    import threading
+    import time
+    n = 40
+    T = sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])
+    I = sp.identity(n)
+    A = (sp.kron(sp.kron(T, I), I) + sp.kron(sp.kron(I, T), I) + sp.kron(sp.kron(I, I), T)).tocsr()
+    b = np.ones(A.shape[0])
+    s = pmgkit.make_solver(A, {"method": "cg", "tol": 1e-12}, format="csr")
+    state = {"in_call": False, "seconds": 0.0}
+
+    def solve():
+        state["in_call"] = True
+        t0 = time.perf_counter()
+        s.solve(b)
+        state["seconds"] = time.perf_counter() - t0
+        state["in_call"] = False
+
+    t0, ticks = time.perf_counter(), 0
+    while time.perf_counter() - t0 < 0.05:  # the loop's own rate, alone
+        ticks += 1
+    rate = ticks / (time.perf_counter() - t0)
+    t = threading.Thread(target=solve)
+    t.start()
+    during = 0
+    while t.is_alive():
+        if state["in_call"]:
+            during += 1
+    t.join()
+    assert state["seconds"] > 0.1, "the solve is too short to tell"
+    # a held GIL would let the loop run at most about one switch interval (5 ms) of the call; a
+    # released one lets it run through the call (slowed by the solver's threads on this machine)
+    import sys
+    assert during > 4 * sys.getswitchinterval() * rate, (during, rate, state["seconds"])
