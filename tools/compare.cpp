@@ -167,14 +167,15 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// A matrix from Matrix Market or, for files ending in .petsc, PETSc's binary format.
+/// Files ending in .petsc are PETSc's binary format, others Matrix Market.
+bool is_petsc_file(const std::string& path) {
+  return path.size() > 6 && path.compare(path.size() - 6, 6, ".petsc") == 0;
+}
 Csr read_any_matrix(const std::string& path) {
-  const bool petsc = path.size() > 6 && path.compare(path.size() - 6, 6, ".petsc") == 0;
-  return petsc ? read_petsc_binary_matrix(path) : read_matrix_market(path);
+  return is_petsc_file(path) ? read_petsc_binary_matrix(path) : read_matrix_market(path);
 }
 Vector read_any_vector(const std::string& path) {
-  const bool petsc = path.size() > 6 && path.compare(path.size() - 6, 6, ".petsc") == 0;
-  return petsc ? read_petsc_binary_vector(path) : read_matrix_market_vector(path);
+  return is_petsc_file(path) ? read_petsc_binary_vector(path) : read_matrix_market_vector(path);
 }
 
 System load_system(const Options& o) {
@@ -485,8 +486,7 @@ void run(const Options& o) {
   }
   if (!o.solution_out.empty() && !solutions.empty()) {
     const Vector x = sys.levels ? sys.levels->expand(solutions[0], sys.b_full) : solutions[0];
-    const bool petsc = o.solution_out.size() > 6 && o.solution_out.compare(o.solution_out.size() - 6, 6, ".petsc") == 0;
-    if (petsc) write_petsc_binary(o.solution_out, x);
+    if (is_petsc_file(o.solution_out)) write_petsc_binary(o.solution_out, x);
     else write_matrix_market_vector(o.solution_out, x);
     std::cout << "solution of " << outcomes[0].name << " written to " << o.solution_out << "\n";
   }

@@ -12,9 +12,9 @@ import os
 import sys
 import time
 
-# SciPy's CG runs in Python between pmgkit's calls: OpenMP threads that spin after each call (the
-# default) steal the second core from SciPy's own products (measured 1.9 s instead of 0.8 s for the
-# block-Jacobi row on 2 cores). Sleeping threads suit this interleaving; set before pmgkit loads.
+# SciPy's CG runs in Python between pmgkit's calls; with libgomp's default wait policy for idle
+# threads the block-Jacobi row took 1.45-1.53 s on 2 cores, with "passive" 0.92 s (README).
+# Set before pmgkit (and libgomp) loads; a value the caller set is kept.
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 import numpy as np

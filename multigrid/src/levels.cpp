@@ -1,7 +1,5 @@
 #include "pmg/multigrid/levels.hpp"
 
-#include "pmg/sparse/matrix_market.hpp"
-
 namespace pmg::mg {
 
 Csr LevelProvider::interpolating_restriction(int level) const {
@@ -28,34 +26,6 @@ StoredLevels::StoredLevels(std::vector<Bcsr> matrices, std::vector<Csr> prolonga
                        std::to_string(matrices_[l].block_rows()) + "x" +
                        std::to_string(matrices_[l - 1].block_rows()) + " (nodes)");
   }
-}
-
-StoredLevels read_levels(const std::vector<std::string>& matrix_files,
-                         const std::vector<std::string>& prolongation_files) {
-  if (matrix_files.size() < 2) throw InputError("multigrid levels: need at least two matrices (coarsest first)");
-  if (prolongation_files.size() + 1 != matrix_files.size())
-    throw InputError(std::to_string(matrix_files.size()) + " levels need " +
-                     std::to_string(matrix_files.size() - 1) + " prolongations, got " +
-                     std::to_string(prolongation_files.size()));
-  std::vector<Bcsr> matrices;
-  for (const auto& path : matrix_files) {
-    const Csr A = read_matrix_market(path);
-    if (A.rows() != A.cols() || A.rows() % 3 != 0)
-      throw InputError(path + ": a level matrix must be square with 3 unknowns per node");
-    if (!A.is_symmetric(1e-12)) throw InputError(path + ": a level matrix must be symmetric");
-    matrices.push_back(Bcsr::from_csr(A));
-  }
-  std::vector<Csr> prolongations;
-  for (size_t l = 1; l < matrix_files.size(); ++l) {
-    Csr P = read_matrix_market(prolongation_files[l - 1]);
-    if (3 * P.rows() != matrices[l].rows() || 3 * P.cols() != matrices[l - 1].rows())
-      throw InputError(prolongation_files[l - 1] + ": prolongation is " + std::to_string(P.rows()) +
-                       "x" + std::to_string(P.cols()) + ", levels need " +
-                       std::to_string(matrices[l].rows() / 3) + "x" +
-                       std::to_string(matrices[l - 1].rows() / 3) + " (nodes)");
-    prolongations.push_back(std::move(P));
-  }
-  return StoredLevels(std::move(matrices), std::move(prolongations));
 }
 
 }  // namespace pmg::mg

@@ -263,7 +263,7 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
   fixed_diag_.resize(fixed_dof_.size());
   hashes_.clear();
   for (const auto& m : matrices) hashes_.push_back(pattern_hash(m));
-  set_values(matrices);
+  refresh_values(matrices);
 }
 
 void UserLevels::check_symmetric(int l) const {
@@ -313,6 +313,15 @@ void UserLevels::set_values(const std::vector<CsrView>& matrices) {
         pattern_hash(A) != hashes_[m])
       throw InputError(level_label(l) + ": new values must come on the pattern the levels were built "
                        "on (same rows, columns and stored entries); build new levels for a new pattern");
+  }
+  refresh_values(matrices);
+}
+
+void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
+  const int L = num_levels();
+  for (size_t m = 0; m < matrices.size(); ++m) {
+    const int l = options_.galerkin_only ? L - 1 : static_cast<int>(m);
+    const CsrView& A = matrices[m];
     Level& lv = levels_[l];
     const DofMap map{options_.layout, lv.given_nodes};
     // Block row by block row: scatter the row's block positions, then copy its three given rows'

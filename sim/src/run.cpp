@@ -93,11 +93,16 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   r.energy_peak = r.energy_initial;
   const fem::Vec3 d0 = setup_.probe.displacement(m, sim.displacement());
   r.probe_z_min = r.probe_z_max = d0.z();
-  csv << 0 << "," << 0.0 << "," << d0.x() << "," << d0.y() << "," << d0.z() << "," << kin << "," << el << ","
-      << r.energy_initial << ",0,0,0";
-  r.records.push_back({0, 0.0, d0, kin, el, r.energy_initial, 0, 0.0, 0.0, {}});
-  for (int k = 0; k < fem::kNumStages; ++k) csv << ",0";
-  csv << "\n";
+  // Each state is kept as a record and written as its steps.csv line, from the same fields.
+  auto record = [&](const StepRecord& rec) {
+    r.records.push_back(rec);
+    csv << rec.step << "," << rec.time << "," << rec.probe.x() << "," << rec.probe.y() << "," << rec.probe.z()
+        << "," << rec.kinetic << "," << rec.elastic << "," << rec.total_energy << "," << rec.iterations << ","
+        << rec.rel_residual << "," << rec.residual;
+    for (int k = 0; k < fem::kNumStages; ++k) csv << "," << rec.stage_s[k];
+    csv << "\n";
+  };
+  record({0, 0.0, d0, kin, el, r.energy_initial, 0, 0.0, 0.0, {}});
   write_outputs(true);
 
   const auto t_run = Clock::now();
@@ -124,11 +129,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
       r.energy_peak = std::max(r.energy_peak, tot);
       E_prev = tot;
     }
-    csv << n << "," << st.time << "," << d.x() << "," << d.y() << "," << d.z() << "," << kin << "," << el << ","
-        << tot << "," << st.iterations << "," << st.rel_residual << "," << st.residual;
-    for (int k = 0; k < fem::kNumStages; ++k) csv << "," << st.seconds[k];
-    csv << "\n";
-    r.records.push_back({n, st.time, d, kin, el, tot, st.iterations, st.rel_residual, st.residual, st.seconds});
+    record({n, st.time, d, kin, el, tot, st.iterations, st.rel_residual, st.residual, st.seconds});
     if (frames && (n % scene_.frame_every == 0 || n == steps_)) write_outputs(true);
     if (progress) progress(n, st.time);
     if (stop_ && *stop_ && n < steps_) {

@@ -37,7 +37,6 @@ def test_model_matrices_match_the_hierarchy(cubic_box):
     assert abs(K - h.levels()[-1]).max() <= 1e-12 * abs(K).max()
     assert abs(K - K.T).max() <= 1e-12 * abs(K).max()
     M = m.mass()
-    # the consistent mass integrates the density: 1^T M 1 over one component = rho * volume * (free part)
     assert M.shape == K.shape and abs(M - M.T).max() == 0
     g = m.gravity([0, 0, -9.81])
     assert g.shape == (m.num_dofs,)

@@ -3,7 +3,8 @@
 // A LevelProvider hands out level matrices (3x3-block BCSR, coarsest first) and scalar node
 // prolongations between them; MultigridCycle builds everything else (transfers, Galerkin
 // products, smoothers, the lowest-level solver). fem::DegreeHierarchy (the BB degree hierarchy),
-// StoredLevels (matrices a user read from files or built in their own code) and any class of a
+// StoredLevels (matrices a user built in their own code), UserLevels (CSR arrays as FEM codes
+// hand them over, user_levels.hpp) and any class of a
 // user's implement it the same way (MFEM's Multigrid::AddLevel, with ownership made explicit).
 //
 // Values change, patterns do not: after new values are written into the provider's matrices (a
@@ -55,9 +56,5 @@ class StoredLevels final : public LevelProvider {
   std::vector<Csr> prolongations_;
 };
 
-/// Reads level matrices (Matrix Market, coarsest first, square, symmetric, 3 unknowns per node)
-/// and the scalar prolongations between them; every error names the file.
-StoredLevels read_levels(const std::vector<std::string>& matrix_files,
-                         const std::vector<std::string>& prolongation_files);
 
 }  // namespace pmg::mg

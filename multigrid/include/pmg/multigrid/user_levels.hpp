@@ -83,6 +83,8 @@ class UserLevels final : public LevelProvider {
     offset_t given_nnz = 0;
     bool has_matrix = true;
   };
+  /// Values of matrices known to be on the levels' patterns into the BCSR levels.
+  void refresh_values(const std::vector<CsrView>& matrices);
   void check_symmetric(int level) const;
 
   std::vector<Level> levels_;
