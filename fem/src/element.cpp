@@ -18,14 +18,16 @@ double factorial(int n) {
 double mfact(const MultiIndex& a) {
   return factorial(a[0]) * factorial(a[1]) * factorial(a[2]) * factorial(a[3]);
 }
-/// ∫ B^p_a B^q_b dV / (6V)
-double product_integral(const MultiIndex& a, const MultiIndex& b) {
+}  // namespace
+
+double bernstein_product_integral(const MultiIndex& a, const MultiIndex& b) {
   const int p = a[0] + a[1] + a[2] + a[3], q = b[0] + b[1] + b[2] + b[3];
   MultiIndex s;
   for (int i = 0; i < 4; ++i) s[i] = a[i] + b[i];
   return factorial(p) / mfact(a) * factorial(q) / mfact(b) * mfact(s) / factorial(p + q + 3);
 }
 
+namespace {
 ElementTables build_tables(int p) {
   ElementTables t;
   t.p = p;
@@ -35,7 +37,7 @@ ElementTables build_tables(int p) {
   t.G.assign(static_cast<size_t>(t.n) * t.n, Eigen::Matrix4d::Zero());
   for (int a = 0; a < t.n; ++a)
     for (int b = 0; b < t.n; ++b) {
-      t.mass(a, b) = product_integral(alpha[a], alpha[b]);
+      t.mass(a, b) = bernstein_product_integral(alpha[a], alpha[b]);
       Eigen::Matrix4d& G = t.G[a * t.n + b];
       for (int k = 0; k < 4; ++k) {
         if (alpha[a][k] == 0) continue;
@@ -45,7 +47,7 @@ ElementTables build_tables(int p) {
           if (alpha[b][l] == 0) continue;
           MultiIndex bl = alpha[b];
           --bl[l];
-          G(k, l) = p * p * product_integral(ak, bl);
+          G(k, l) = p * p * bernstein_product_integral(ak, bl);
         }
       }
     }

@@ -80,7 +80,15 @@ Vector diagonal_of(const LinearOperator& A, const std::string& who) {
     for (index_t i = 0; i < A.rows(); ++i) out[i] = d[9 * (i / 3) + 4 * (i % 3)];
     return out;
   }
-  throw InputError(who + " needs the matrix entries (CSR, BCSR or BIN-BCSR), not a matrix-free operator");
+  if (const auto* mf = dynamic_cast<const DiagonalBlocksSource*>(&A)) {
+    std::vector<double> d;
+    mf->diagonal_blocks(d);
+    Vector out(A.rows());
+    for (index_t i = 0; i < A.rows(); ++i) out[i] = d[9 * (i / 3) + 4 * (i % 3)];
+    return out;
+  }
+  throw InputError(who + " needs the matrix entries (CSR, BCSR or BIN-BCSR) or a diagonal, which "
+                   "this operator does not provide");
 }
 
 std::vector<double> diagonal_blocks_of(const LinearOperator& A, const std::string& who) {
@@ -99,7 +107,13 @@ std::vector<double> diagonal_blocks_of(const LinearOperator& A, const std::strin
       }
     return d;
   }
-  throw InputError(who + " needs the matrix entries (CSR, BCSR or BIN-BCSR), not a matrix-free operator");
+  if (const auto* mf = dynamic_cast<const DiagonalBlocksSource*>(&A)) {
+    std::vector<double> d;
+    mf->diagonal_blocks(d);
+    return d;
+  }
+  throw InputError(who + " needs the matrix entries (CSR, BCSR or BIN-BCSR) or diagonal blocks, which "
+                   "this operator does not provide");
 }
 
 const Bcsr& as_bcsr(const LinearOperator& A, const std::string& who) {

@@ -22,6 +22,9 @@ struct ElementTables {
 };
 const ElementTables& element_tables(int p);
 
+/// ∫_T B^p_a B^q_b dV / (6V) for multi-indices of any degrees p, q >= 0 (closed form above).
+double bernstein_product_integral(const MultiIndex& a, const MultiIndex& b);
+
 /// Rest geometry of one element: gradients of the barycentric coordinates (row k = ∇λ_k) and volume.
 struct ElementGeometry {
   Eigen::Matrix<double, 4, 3> grad;

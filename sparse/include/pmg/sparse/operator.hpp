@@ -10,6 +10,7 @@
 #include "pmg/sparse/types.hpp"
 
 #include <string>
+#include <vector>
 
 namespace pmg {
 
@@ -36,6 +37,16 @@ class LinearOperator {
   virtual void residual_impl(const Vector& b, const Vector& x, Vector& r) const;
 
   void check_square(const char* what) const;
+};
+
+/// An operator held as no matrix (a matrix-free FEM operator) that can still compute its 3x3
+/// diagonal blocks: what Jacobi, block-Jacobi and Chebyshev smoothing need. diagonal_of() and
+/// diagonal_blocks_of() (pmg/sparse/solver.hpp) read it like a matrix's.
+class DiagonalBlocksSource {
+ public:
+  virtual ~DiagonalBlocksSource() = default;
+  /// 9 doubles per 3x3 block row, row-major, into `blocks` (resized).
+  virtual void diagonal_blocks(std::vector<double>& blocks) const = 0;
 };
 
 

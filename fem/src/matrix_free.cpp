@@ -1,0 +1,349 @@
+#include "pmg/fem/matrix_free.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pmg::fem {
+
+namespace {
+
+constexpr int nodes_of(int p) { return (p + 1) * (p + 2) * (p + 3) / 6; }
+
+/// Local index (in multi_indices(P): vertices, edges 01 02 03 12 13 23 from first to second vertex,
+/// faces 012 013 023 123) of the multi-index a, at compile time.
+constexpr int local_index_of(int P, const int (&a)[4]) {
+  int nz = 0, first = -1;
+  for (int i = 0; i < 4; ++i)
+    if (a[i] > 0) ++nz, first = first < 0 ? i : first;
+  if (nz == 1) return first;
+  constexpr int edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  if (nz == 2)
+    for (int e = 0; e < 6; ++e)
+      if (a[edges[e][0]] > 0 && a[edges[e][1]] > 0) return 4 + e * (P - 1) + a[edges[e][1]] - 1;
+  constexpr int faces[4][3] = {{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}};
+  for (int f = 0; f < 4; ++f)
+    if (a[faces[f][0]] > 0 && a[faces[f][1]] > 0 && a[faces[f][2]] > 0) return 4 + 6 * (P - 1) + f;
+  return -1;  // interior nodes: none for P <= 3
+}
+
+/// v[β][k] = local index of β + e_k, for the degree-(P-1) multi-indices β in the order of Tables.
+template <int P>
+struct UpTable {
+  int v[nodes_of(P - 1)][4] = {};
+  constexpr UpTable() {
+    int i = 0;
+    for (int a = 0; a <= P - 1; ++a)
+      for (int b = 0; a + b <= P - 1; ++b)
+        for (int c = 0; a + b + c <= P - 1; ++c, ++i)
+          for (int k = 0; k < 4; ++k) {
+            int m[4] = {a, b, c, P - 1 - a - b - c};
+            ++m[k];
+            v[i][k] = local_index_of(P, m);
+          }
+  }
+};
+
+/// Per-degree tables: up[β][k] = local index (in multi_indices(p)) of β + e_k for the degree-(p-1)
+/// multi-indices β; Q = ∫ B^{p-1}_γ B^{p-1}_β / (6V); P = ∫ B^p_a B^p_b / (6V).
+template <int P>
+struct Tables {
+  static constexpr int N = nodes_of(P), Q = nodes_of(P - 1);
+  int up[Q][4];
+  double q[Q][Q];
+  double mass[N][N];
+  Tables() {
+    std::vector<MultiIndex> beta;
+    for (int a = 0; a <= P - 1; ++a)
+      for (int b = 0; a + b <= P - 1; ++b)
+        for (int c = 0; a + b + c <= P - 1; ++c) beta.push_back({a, b, c, P - 1 - a - b - c});
+    for (int i = 0; i < Q; ++i) {
+      for (int k = 0; k < 4; ++k) {
+        MultiIndex a = beta[i];
+        ++a[k];
+        up[i][k] = local_index(a);
+        if (UpTable<P>{}.v[i][k] != up[i][k])  // the compile-time table follows multi_indices()
+          throw std::logic_error("matrix-free operator: node order table out of date");
+      }
+      for (int j = 0; j < Q; ++j) q[i][j] = bernstein_product_integral(beta[i], beta[j]);
+    }
+    const auto& alpha = multi_indices(P);
+    for (int a = 0; a < N; ++a)
+      for (int b = 0; b < N; ++b) mass[a][b] = bernstein_product_integral(alpha[a], alpha[b]);
+  }
+};
+
+template <int P>
+const Tables<P>& tables() {
+  static const Tables<P> t;
+  return t;
+}
+
+/// Element data, 16 doubles: g_k = R ∇λ_k (row-major 4x3), then 6V p² s λ_e, 6V p² s μ_e, 6V ρ m.
+constexpr int kData = 16;
+
+/// r = (m M_e + s K_R,e) u for one element (steps 1–5 of the header); u[a][i]: component i of
+/// node a. The index table is a compile-time constant, so every loop unrolls to fixed offsets.
+template <int P>
+inline void element_apply(const Tables<P>& t, const double* d, const double (&u)[Tables<P>::N][3],
+                          double (&r)[Tables<P>::N][3]) {
+  constexpr int N = Tables<P>::N, Q = Tables<P>::Q;
+  constexpr UpTable<P> up{};
+  const double* g = d;
+  const double cl = d[12], cm = d[13], cmass = d[14];
+  // 1. H_β = Σ_k u_{β+e_k} g_kᵀ
+  double H[Q][9];
+  for (int b = 0; b < Q; ++b) {
+    double h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+      const double* ua = u[up.v[b][k]];
+      const double* gk = g + 3 * k;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) h[3 * i + j] += ua[i] * gk[j];
+    }
+    for (int c = 0; c < 9; ++c) H[b][c] = h[c];
+  }
+  // 5. mass first (it initialises r): r_a = cmass Σ_b P_ab u_b
+  if (cmass != 0.0) {
+    // Component-major copies, so the loops over nodes run contiguously and vectorise.
+    double ut[3][N], rt[3][N];
+    for (int a = 0; a < N; ++a)
+      for (int i = 0; i < 3; ++i) ut[i][a] = cmass * u[a][i], rt[i][a] = 0.0;
+    for (int b = 0; b < N; ++b) {
+      const double* pb = t.mass[b];  // P is symmetric: row b is column b
+      for (int i = 0; i < 3; ++i) {
+        const double w = ut[i][b];
+        for (int a = 0; a < N; ++a) rt[i][a] += pb[a] * w;
+      }
+    }
+    for (int a = 0; a < N; ++a)
+      for (int i = 0; i < 3; ++i) r[a][i] = rt[i][a];
+  } else {
+    for (int a = 0; a < N; ++a) r[a][0] = r[a][1] = r[a][2] = 0.0;
+  }
+  for (int c = 0; c < Q; ++c) {
+    // 2. Ĥ_γ = Σ_β Q_γβ H_β
+    double h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    for (int b = 0; b < Q; ++b) {
+      const double w = t.q[c][b];
+      for (int i = 0; i < 9; ++i) h[i] += w * H[b][i];
+    }
+    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ)
+    const double tr = cl * (h[0] + h[4] + h[8]);
+    double T[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) T[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
+    T[0] += tr, T[4] += tr, T[8] += tr;
+    // 4. r_{γ+e_k} += T g_k
+    for (int k = 0; k < 4; ++k) {
+      double* ra = r[up.v[c][k]];
+      const double* gk = g + 3 * k;
+      for (int i = 0; i < 3; ++i) ra[i] += T[3 * i] * gk[0] + T[3 * i + 1] * gk[1] + T[3 * i + 2] * gk[2];
+    }
+  }
+}
+
+}  // namespace
+
+struct ElasticityOperator::Impl {
+  int p = 0, n = 0;
+  std::vector<index_t> element;     ///< elements in colour order
+  std::vector<size_t> color_start;  ///< colour c: positions [color_start[c], color_start[c+1])
+  std::vector<index_t> free;        ///< n per position: free node index or -1
+  std::vector<double> data;         ///< kData per position
+
+  template <int P>
+  void apply(const Vector& x, Vector& y) const {
+    const Tables<P>& t = tables<P>();
+    constexpr int N = Tables<P>::N;
+    const double* xp = x.data();
+    double* yp = y.data();
+    const long len = static_cast<long>(y.size());
+#pragma omp parallel
+    {
+#pragma omp for schedule(static)
+      for (long i = 0; i < len; ++i) yp[i] = 0.0;
+      for (size_t c = 0; c + 1 < color_start.size(); ++c) {
+        const long begin = static_cast<long>(color_start[c]), end = static_cast<long>(color_start[c + 1]);
+#pragma omp for schedule(static)
+        for (long e = begin; e < end; ++e) {
+          const index_t* f = free.data() + static_cast<size_t>(e) * N;
+          double u[N][3], r[N][3];
+          for (int a = 0; a < N; ++a) {
+            const index_t I = f[a];
+            if (I >= 0) {
+              const double* s = xp + 3 * static_cast<size_t>(I);
+              u[a][0] = s[0], u[a][1] = s[1], u[a][2] = s[2];
+            } else {
+              u[a][0] = u[a][1] = u[a][2] = 0.0;
+            }
+          }
+          element_apply<P>(t, data.data() + kData * static_cast<size_t>(e), u, r);
+          for (int a = 0; a < N; ++a) {
+            const index_t I = f[a];
+            if (I < 0) continue;
+            double* s = yp + 3 * static_cast<size_t>(I);
+            s[0] += r[a][0], s[1] += r[a][1], s[2] += r[a][2];
+          }
+        }
+      }
+    }
+  }
+};
+
+ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
+    : model_(&model), impl_(std::make_unique<Impl>()) {
+  const BlockAssembler& as = model.assembler();
+  const BBSpace& space = model.space();
+  Impl& m = *impl_;
+  m.p = space.degree();
+  m.n = space.nodes_per_element();
+  num_free_ = as.num_free();
+  m.color_start.push_back(0);
+  for (const auto& elements : as.colors()) {
+    m.element.insert(m.element.end(), elements.begin(), elements.end());
+    m.color_start.push_back(m.element.size());
+  }
+  const size_t ne = m.element.size();
+  m.free.resize(ne * m.n);
+  for (size_t pos = 0; pos < ne; ++pos)
+    for (int a = 0; a < m.n; ++a) m.free[pos * m.n + a] = as.free_index()[space.node(m.element[pos], a)];
+  m.data.assign(ne * kData, 0.0);
+  update(nullptr);
+}
+
+ElasticityOperator::~ElasticityOperator() = default;
+
+void ElasticityOperator::set_weights(double mass_weight, double stiffness_weight) {
+  if (!std::isfinite(mass_weight) || !(mass_weight >= 0) || !std::isfinite(stiffness_weight) ||
+      !(stiffness_weight > 0))
+    throw InputError("matrix-free operator: the weights must be finite, mass >= 0 and stiffness > 0");
+  mass_weight_ = mass_weight;
+  stiffness_weight_ = stiffness_weight;
+  const Impl& m = *impl_;
+  const Material& mat = model_->material();
+  const auto& scale = model_->stiffness_scale();
+  const double p2 = static_cast<double>(m.p) * m.p;
+#pragma omp parallel for schedule(static)
+  for (long pos = 0; pos < static_cast<long>(m.element.size()); ++pos) {
+    const index_t e = m.element[pos];
+    double* d = impl_->data.data() + kData * static_cast<size_t>(pos);
+    const double v6 = 6.0 * model_->geometry(e).volume;
+    const double s = scale.empty() ? 1.0 : scale[e];
+    d[12] = v6 * p2 * stiffness_weight * s * mat.lambda();
+    d[13] = v6 * p2 * stiffness_weight * s * mat.mu();
+    d[14] = v6 * mat.density * mass_weight;
+  }
+}
+
+void ElasticityOperator::update(const Rotations* R) {
+  Impl& m = *impl_;
+  if (R && R->size() != static_cast<size_t>(model_->space().mesh().num_tets()))
+    throw InputError("matrix-free operator: one rotation per element expected");
+#pragma omp parallel for schedule(static)
+  for (long pos = 0; pos < static_cast<long>(m.element.size()); ++pos) {
+    const index_t e = m.element[pos];
+    Eigen::Matrix<double, 4, 3> g = model_->geometry(e).grad;
+    if (R) g = g * (*R)[e].transpose();
+    double* d = m.data.data() + kData * static_cast<size_t>(pos);
+    for (int k = 0; k < 4; ++k)
+      for (int j = 0; j < 3; ++j) d[3 * k + j] = g(k, j);
+  }
+  set_weights(mass_weight_, stiffness_weight_);
+}
+
+void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
+  switch (impl_->p) {
+    case 1: impl_->apply<1>(x, y); break;
+    case 2: impl_->apply<2>(x, y); break;
+    default: impl_->apply<3>(x, y); break;
+  }
+}
+
+void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
+  const Impl& m = *impl_;
+  const ElementTables& t = element_tables(m.p);
+  blocks.assign(9 * static_cast<size_t>(num_free_), 0.0);
+  const double p2 = static_cast<double>(m.p) * m.p;
+  for (size_t c = 0; c + 1 < m.color_start.size(); ++c) {
+#pragma omp parallel for schedule(static)
+    for (long pos = static_cast<long>(m.color_start[c]); pos < static_cast<long>(m.color_start[c + 1]); ++pos) {
+      const double* d = m.data.data() + kData * static_cast<size_t>(pos);
+      Eigen::Matrix<double, 4, 3> g;
+      for (int k = 0; k < 4; ++k)
+        for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
+      // d[12], d[13] carry 6V p² s λ, 6V p² s μ; the G tables carry p² already.
+      const double lambda = d[12] / p2, mu = d[13] / p2;
+      for (int a = 0; a < m.n; ++a) {
+        const index_t I = m.free[static_cast<size_t>(pos) * m.n + a];
+        if (I < 0) continue;
+        Mat3 S = g.transpose() * t.G[a * m.n + a] * g;
+        S = 0.5 * (S + S.transpose()).eval();
+        Mat3 B = (lambda + mu) * S + (mu * S.trace() + d[14] * t.mass(a, a)) * Mat3::Identity();
+        double* out = blocks.data() + 9 * static_cast<size_t>(I);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) out[3 * i + j] += B(i, j);
+      }
+    }
+  }
+}
+
+void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vector& force,
+                                       double* energy) const {
+  const Impl& m = *impl_;
+  if (Rs && Rs->size() != static_cast<size_t>(model_->space().mesh().num_tets()))
+    throw InputError("matrix-free operator: one rotation per element expected");
+  if (u.size() != model_->num_dofs())
+    throw InputError("matrix-free operator: the displacement has " + std::to_string(u.size()) +
+                     " entries for " + std::to_string(model_->num_dofs()) + " unknowns");
+  force.setZero(model_->num_dofs());
+  const auto& X = model_->space().positions();
+  double total = 0.0;
+  for (size_t c = 0; c + 1 < m.color_start.size(); ++c) {
+#pragma omp parallel for schedule(static) reduction(+ : total)
+    for (long pos = static_cast<long>(m.color_start[c]); pos < static_cast<long>(m.color_start[c + 1]); ++pos) {
+      const index_t e = m.element[pos];
+      const index_t* nodes = model_->space().element_nodes(e);
+      double d[kData];
+      const double* src = m.data.data() + kData * static_cast<size_t>(pos);
+      for (int i = 0; i < kData; ++i) d[i] = src[i];
+      d[12] /= stiffness_weight_, d[13] /= stiffness_weight_, d[14] = 0.0;  // K_R,e alone
+      const Mat3 R = Rs ? (*Rs)[e] : Mat3::Identity();
+      auto run = [&](auto tag) {
+        constexpr int P = decltype(tag)::value;
+        constexpr int N = Tables<P>::N;
+        double y[N][3], r[N][3];
+        for (int a = 0; a < N; ++a) {
+          const Vec3& Xa = X[nodes[a]];
+          const Vec3 ya = Xa + u.segment<3>(3 * nodes[a]) - R * Xa;
+          y[a][0] = ya[0], y[a][1] = ya[1], y[a][2] = ya[2];
+        }
+        element_apply<P>(tables<P>(), d, y, r);
+        for (int a = 0; a < N; ++a) {
+          total += 0.5 * (y[a][0] * r[a][0] + y[a][1] * r[a][1] + y[a][2] * r[a][2]);
+          double* f = force.data() + 3 * static_cast<size_t>(nodes[a]);
+          f[0] -= r[a][0], f[1] -= r[a][1], f[2] -= r[a][2];
+        }
+      };
+      switch (m.p) {
+        case 1: run(std::integral_constant<int, 1>{}); break;
+        case 2: run(std::integral_constant<int, 2>{}); break;
+        default: run(std::integral_constant<int, 3>{}); break;
+      }
+    }
+  }
+  if (energy) *energy = total;
+}
+
+double ElasticityOperator::flops_per_apply() const {
+  const double n = impl_->n, q = nodes_of(impl_->p - 1);
+  const double per = 72 * q + 18 * q * q + 12 * q + 72 * q + (mass_weight_ != 0 ? 6 * n * n : 0.0);
+  return per * static_cast<double>(impl_->element.size());
+}
+
+double ElasticityOperator::bytes_per_apply() const {
+  const double per = kData * 8.0 + 4.0 * impl_->n;
+  return per * static_cast<double>(impl_->element.size()) + 3.0 * 8.0 * rows();
+}
+
+}  // namespace pmg::fem

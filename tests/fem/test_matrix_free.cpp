@@ -1,0 +1,126 @@
+// The matrix-free BB elasticity operator against the assembled matrices of the same model.
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/matrix_free.hpp"
+#include "pmg/sparse/solver.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace pmg;
+using namespace pmg::fem;
+
+namespace {
+
+/// A 2x2x2 box of 24-tet cells with its interior vertices moved (general element shapes).
+TetMesh jittered_box() {
+  TetMesh m = box_mesh_24(2, 2, 2, 1.0, 0.8, 0.6);
+  for (size_t i = 0; i < m.vertices.size(); ++i) {
+    Vec3& X = m.vertices[i];
+    const bool interior = X[0] > 1e-9 && X[0] < 1.0 - 1e-9 && X[1] > 1e-9 && X[1] < 0.8 - 1e-9 &&
+                          X[2] > 1e-9 && X[2] < 0.6 - 1e-9;
+    if (interior) X += 0.04 * Vec3(std::sin(3.0 * i), std::cos(5.0 * i), std::sin(7.0 * i + 1));
+  }
+  return m;
+}
+
+Vector smooth_vector(index_t n, double phase) {
+  Vector v(n);
+  for (index_t i = 0; i < n; ++i) v[i] = std::sin(0.37 * i + phase) + 0.3 * std::cos(1.3 * i);
+  return v;
+}
+
+/// m M + s K_R assembled over the free nodes.
+Bcsr assembled(const ElasticityModel& model, const Rotations* R, double m, double s) {
+  Bcsr A = model.assembler().make_matrix();
+  if (m != 0) {
+    model.assemble_mass(A);
+    for (double& v : A.values()) v *= m;
+  }
+  ElasticityModel::ElementPass pass;
+  pass.R = R;
+  pass.stiffness = &A;
+  pass.stiffness_weight = s;
+  pass.add_to_stiffness = m != 0;
+  model.evaluate(pass);
+  return A;
+}
+
+double rel_diff(const Vector& a, const Vector& b) { return (a - b).norm() / b.norm(); }
+
+}  // namespace
+
+TEST_CASE("matrix-free operator equals the assembled one, p = 1..3, rotations and weights",
+          "[fem][matrix_free]") {
+  const TetMesh mesh = jittered_box();
+  const Material mat{3.0e5, 0.35, 1.2e3};
+  for (int p = 1; p <= 3; ++p) {
+    ElasticityModel model(mesh, p, mat);
+    model.fix_where([](const Vec3& X) { return X[0] < 1e-12; });
+    std::vector<double> scale(mesh.num_tets());
+    for (size_t e = 0; e < scale.size(); ++e) scale[e] = 1.0 + 0.5 * std::sin(1.7 * e);
+    model.set_stiffness_scale(scale);
+    const Vector u = 0.1 * smooth_vector(model.num_dofs(), 0.4);
+    const Rotations R = model.rotations(u);
+    ElasticityOperator op(model);
+    const Vector x = smooth_vector(op.rows(), 1.1);
+    Vector y, ref(op.rows());
+
+    INFO("degree " << p);
+    // Linear elasticity (R = I), stiffness only.
+    op.apply(x, y);
+    Bcsr K = assembled(model, nullptr, 0.0, 1.0);
+    K.multiply(x.data(), ref.data());
+    CHECK(rel_diff(y, ref) < 1e-12);
+
+    // Rotated, with the implicit-Euler weights m M + s K_R.
+    op.update(&R);
+    op.set_weights(1.3, 0.02);
+    op.apply(x, y);
+    const Bcsr A = assembled(model, &R, 1.3, 0.02);
+    A.multiply(x.data(), ref.data());
+    CHECK(rel_diff(y, ref) < 1e-12);
+
+    // Its diagonal blocks are the matrix's.
+    std::vector<double> d;
+    op.diagonal_blocks(d);
+    const std::vector<double> dref = A.diagonal_blocks();
+    REQUIRE(d.size() == dref.size());
+    double err = 0, size = 0;
+    for (size_t i = 0; i < d.size(); ++i) err = std::max(err, std::abs(d[i] - dref[i])), size = std::max(size, std::abs(dref[i]));
+    CHECK(err <= 1e-12 * size);
+    CHECK(rel_diff(diagonal_of(op, "test"), diagonal_of(A, "test")) < 1e-12);
+
+    // Elastic force and energy of the state, as the assembled element pass computes them.
+    Vector f, fref;
+    double energy = 0, eref = 0;
+    op.element_force(u, &R, f, &energy);
+    ElasticityModel::ElementPass pass;
+    pass.u = &u;
+    pass.R = &R;
+    pass.force = &fref;
+    pass.energy = &eref;
+    model.evaluate(pass);
+    CHECK(rel_diff(f, fref) < 1e-12);
+    CHECK(std::abs(energy - eref) <= 1e-12 * std::abs(eref));
+
+    // Symmetric: xᵀ A z = zᵀ A x.
+    const Vector z = smooth_vector(op.rows(), 2.3);
+    Vector Az;
+    op.apply(z, Az);
+    CHECK(std::abs(x.dot(Az) - z.dot(y)) <= 1e-12 * std::abs(x.dot(Az)));
+  }
+}
+
+TEST_CASE("matrix-free operator refuses bad weights and rotation counts", "[fem][matrix_free]") {
+  const TetMesh mesh = box_mesh_24(1, 1, 1, 1, 1, 1);
+  ElasticityModel model(mesh, 2, Material{});
+  ElasticityOperator op(model);
+  CHECK_THROWS_AS(op.set_weights(-1.0, 1.0), InputError);
+  CHECK_THROWS_AS(op.set_weights(0.0, 0.0), InputError);
+  CHECK_THROWS_AS(op.set_weights(std::nan(""), 1.0), InputError);
+  const Rotations R(3, Mat3::Identity());
+  CHECK_THROWS_AS(op.update(&R), InputError);
+  Vector f;
+  CHECK_THROWS_AS(op.element_force(Vector::Zero(5), nullptr, f, nullptr), InputError);
+}
