@@ -460,9 +460,19 @@ void run(const Options& o) {
   if (mpi >= 0) std::cout << "MPI (and PETSc) start-up: " << fmt("%.3f", mpi) << " s (charged to no solver)\n\n";
   std::vector<Outcome> outcomes;
   double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
+  double matrix_free = -1.0;   // seconds to build the matrix-free levels (once, charged to each)
   auto run_one = [&](size_t k, Vector& x) {
     Solver& solver = *solvers[k];
     double extra = 0.0;
+    if (solver.uses_matrix_free() && sys.fem) {
+      // Matrix-free levels: the linear level assembled and the operators built, outside the clock
+      // and charged to the solver as above; the solver multiplies with the finest operator too.
+      if (matrix_free < 0) matrix_free = sys.fem->prepare_matrix_free();
+      const fem::DegreeHierarchy& h = sys.fem->hierarchy();
+      const LinearOperator& Amf = *h.matrix_free_operator(h.num_levels() - 1);
+      if (auto* cg = dynamic_cast<Cg*>(&solver)) cg->set_multiplication_operator(&Amf);
+      return run_solver(configs[k].first, solver, Amf, sys.b, x, matrix_free);
+    }
     if (solver.uses_levels() && sys.fem) {
       // The lower levels are the multigrid's own set-up (re-discretised operators), assembled once
       // here, outside the solver's clock, and charged to every multigrid solver alike.

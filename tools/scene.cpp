@@ -51,6 +51,14 @@ double FemSystem::assemble_lower_levels() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+double FemSystem::prepare_matrix_free() {
+  const auto t0 = std::chrono::steady_clock::now();
+  hierarchy().assemble_level(0, nullptr, nullptr, mass_weight, stiffness_weight);
+  for (int l = 1; l < hierarchy().num_levels(); ++l)
+    hierarchy().update_matrix_free(l, nullptr, mass_weight, stiffness_weight);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 std::vector<double> FemSystem::free_coordinates() const {
   const Vector free = hierarchy().finest().free_positions();
   return std::vector<double>(free.data(), free.data() + free.size());

@@ -42,6 +42,10 @@ struct FemSystem {
   const Bcsr& matrix() const { return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1); }
   /// Assembles the lower levels (PMG's extra set-up work); returns the seconds it took.
   double assemble_lower_levels();
+  /// What a matrix-free multigrid needs (operator=matrix-free): the linear level assembled and the
+  /// matrix-free operators of the higher levels built with the system's weights; returns the
+  /// seconds taken.
+  double prepare_matrix_free();
   /// x, y, z of the finest level's free nodes (rest positions), interleaved like the unknowns: the
   /// rigid-body modes of AMG baselines (BoomerAMG interpolation vectors, GAMG near-null space).
   std::vector<double> free_coordinates() const;

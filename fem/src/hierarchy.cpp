@@ -94,6 +94,8 @@ DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material
     models_.back()->fix_vertices(clamped_);
     matrices_.push_back(models_.back()->assembler().make_matrix());
   }
+  state_.resize(models_.size());
+  operators_.resize(models_.size());
   for (int l = 1; l < num_levels(); ++l)
     prolongations_.push_back(degree_elevation(models_[l]->space(), models_[l]->assembler().free_index(),
                                               models_[l - 1]->space(),
@@ -161,6 +163,44 @@ void DegreeHierarchy::assemble_level(int l, ElasticityModel::ElementPass pass, d
   pass.stiffness_weight = stiffness_weight;
   pass.add_to_stiffness = mass_weight != 0.0;
   models_[l]->evaluate(pass);
+  record(l, pass.R, mass_weight, stiffness_weight);
+}
+
+void DegreeHierarchy::record(int l, const Rotations* R, double mass_weight, double stiffness_weight) {
+  LevelState& s = state_[l];
+  s.rotated = R != nullptr;
+  if (R && R != &rotations_) rotations_ = *R;
+  s.mass_weight = mass_weight;
+  s.stiffness_weight = stiffness_weight;
+  if (auto& op = operators_[l]) {
+    op->update(R ? &rotations_ : nullptr);
+    op->set_weights(mass_weight, stiffness_weight);
+  }
+}
+
+const LinearOperator* DegreeHierarchy::matrix_free_operator(int l) const {
+  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
+  if (l == 0) return nullptr;
+  return &matrix_free(l);
+}
+
+const ElasticityOperator& DegreeHierarchy::matrix_free(int l) const {
+  if (l < 1 || l >= num_levels())
+    throw InputError("hierarchy: no matrix-free operator on level " + std::to_string(l));
+  auto& op = operators_[l];
+  if (!op) {
+    op = std::make_unique<ElasticityOperator>(*models_[l]);
+    const LevelState& s = state_[l];
+    if (s.rotated) op->update(&rotations_);
+    op->set_weights(s.mass_weight, s.stiffness_weight);
+  }
+  return *op;
+}
+
+void DegreeHierarchy::update_matrix_free(int l, const Rotations* R, double mass_weight,
+                                         double stiffness_weight) {
+  matrix_free(l);  // built if needed
+  record(l, R, mass_weight, stiffness_weight);
 }
 
 }  // namespace pmg::fem

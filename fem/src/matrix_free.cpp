@@ -152,8 +152,9 @@ struct ElasticityOperator::Impl {
   std::vector<index_t> free;        ///< n per position: free node index or -1
   std::vector<double> data;         ///< kData per position
 
+  /// y = A x, or with b: y = b - A x (the residual in the same pass).
   template <int P>
-  void apply(const Vector& x, Vector& y) const {
+  void apply(const Vector& x, Vector& y, const Vector* b) const {
     const Tables<P>& t = tables<P>();
     constexpr int N = Tables<P>::N;
     const double* xp = x.data();
@@ -162,7 +163,8 @@ struct ElasticityOperator::Impl {
 #pragma omp parallel
     {
 #pragma omp for schedule(static)
-      for (long i = 0; i < len; ++i) yp[i] = 0.0;
+      for (long i = 0; i < len; ++i) yp[i] = b ? (*b)[i] : 0.0;
+      const double sign = b ? -1.0 : 1.0;
       for (size_t c = 0; c + 1 < color_start.size(); ++c) {
         const long begin = static_cast<long>(color_start[c]), end = static_cast<long>(color_start[c + 1]);
 #pragma omp for schedule(static)
@@ -183,7 +185,7 @@ struct ElasticityOperator::Impl {
             const index_t I = f[a];
             if (I < 0) continue;
             double* s = yp + 3 * static_cast<size_t>(I);
-            s[0] += r[a][0], s[1] += r[a][1], s[2] += r[a][2];
+            s[0] += sign * r[a][0], s[1] += sign * r[a][1], s[2] += sign * r[a][2];
           }
         }
       }
@@ -254,9 +256,18 @@ void ElasticityOperator::update(const Rotations* R) {
 
 void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
   switch (impl_->p) {
-    case 1: impl_->apply<1>(x, y); break;
-    case 2: impl_->apply<2>(x, y); break;
-    default: impl_->apply<3>(x, y); break;
+    case 1: impl_->apply<1>(x, y, nullptr); break;
+    case 2: impl_->apply<2>(x, y, nullptr); break;
+    default: impl_->apply<3>(x, y, nullptr); break;
+  }
+}
+
+void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector& r) const {
+  r.resize(rows());
+  switch (impl_->p) {
+    case 1: impl_->apply<1>(x, r, &b); break;
+    case 2: impl_->apply<2>(x, r, &b); break;
+    default: impl_->apply<3>(x, r, &b); break;
   }
 }
 

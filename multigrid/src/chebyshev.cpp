@@ -15,7 +15,8 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
   A_ = &A;
   const Eigen::Index n = A.rows();
   r_.resize(n), d_.resize(n), z_.resize(n);
-  update_impl();
+  inv_diag_ = inverse_diagonal_blocks(*A_);
+  estimate(params_.power_iterations, false);
 }
 
 void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
@@ -33,13 +34,21 @@ void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
 
 void Chebyshev::update_impl() {
   inv_diag_ = inverse_diagonal_blocks(*A_);
-  // Power iteration on D⁻¹A from a fixed, non-smooth start vector (in the smoother's work
-  // vectors: an update per time step allocates nothing).
-  Vector &v = d_, &w = r_, &z = z_;
-  for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * i);
-  v.normalize();
+  if (params_.update_iterations > 0) estimate(params_.update_iterations, true);
+  else estimate(params_.power_iterations, false);
+}
+
+void Chebyshev::estimate(int iterations, bool warm) {
+  // Power iteration on D⁻¹A from a fixed, non-smooth start vector or the last estimate's (in
+  // work vectors kept from set-up: an update per time step allocates nothing).
+  Vector &v = eigenvector_, &w = r_, &z = z_;
+  if (!warm || v.size() != z.size()) {
+    v.resize(z.size());
+    for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * i);
+    v.normalize();
+  }
   double lambda = 0.0;
-  for (int k = 0; k < params_.power_iterations; ++k) {
+  for (int k = 0; k < iterations; ++k) {
     A_->apply(v, w);
     apply_inverse_diagonal(w, z);
     lambda = z.norm();

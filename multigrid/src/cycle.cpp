@@ -52,12 +52,25 @@ const Bcsr& MultigridCycle::level_matrix(int l) const {
   return levels_.matrix(l);
 }
 
+const LinearOperator& MultigridCycle::level_operator(int l) const {
+  if (params_.matrix_free && l > 0) return *levels_.matrix_free_operator(l);
+  return level_matrix(l);
+}
+
 void MultigridCycle::setup_impl(const LinearOperator& A) {
   const int L = num_levels();
-  if (A.rows() != levels_.matrix(L - 1).rows())
+  if (params_.matrix_free) {
+    if (params_.coarse_operator == CoarseOperator::galerkin)
+      throw InputError("multigrid: matrix-free levels need geometric coarse operators, not Galerkin products");
+    for (int l = 1; l < L; ++l)
+      if (!levels_.matrix_free_operator(l))
+        throw InputError("multigrid: " + levels_.level_name(l) + " has no matrix-free operator (an FEM "
+                         "degree hierarchy has them for degree >= 2)");
+  }
+  if (A.rows() != level_operator(L - 1).rows())
     throw InputError("multigrid: the operator has " + std::to_string(A.rows()) + " rows, the finest " +
                      "level (" + levels_.level_name(L - 1) + ") " +
-                     std::to_string(levels_.matrix(L - 1).rows()));
+                     std::to_string(level_operator(L - 1).rows()));
   if (params_.coarse_operator == CoarseOperator::geometric)
     for (int l = 0; l < L - 1; ++l)
       if (!levels_.has_matrix(l))
@@ -70,8 +83,8 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     else
       transfers_.emplace_back(levels_.prolongation(l));
     const BlockTransfer& T = transfers_.back();
-    if (T.fine_size() != levels_.matrix(l).rows() ||
-        (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != levels_.matrix(l - 1).rows()))
+    if (T.fine_size() != level_operator(l).rows() ||
+        (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != level_operator(l - 1).rows()))
       throw InputError("multigrid: the prolongation of " + levels_.level_name(l) + " does not map " +
                        levels_.level_name(l - 1) + " to it");
   }
@@ -80,13 +93,13 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     galerkin_.resize(L > 0 ? L - 1 : 0);
     for (int l = L - 2; l >= 0; --l) galerkin_[l] = GalerkinProduct(transfers_[l], level_matrix(l + 1));
   }
-  for (int l = 1; l < L; ++l) smoothers_[l - 1]->setup(level_matrix(l));
+  for (int l = 1; l < L; ++l) smoothers_[l - 1]->setup(level_operator(l));
   lowest_->setup(level_matrix(0));
   work_.assign(L, Work{});
   for (int l = 1; l < L; ++l) {
-    work_[l].r.resize(level_matrix(l).rows());
-    work_[l].rc.resize(level_matrix(l - 1).rows());
-    work_[l].xc.resize(level_matrix(l - 1).rows());
+    work_[l].r.resize(level_operator(l).rows());
+    work_[l].rc.resize(level_operator(l - 1).rows());
+    work_[l].xc.resize(level_operator(l - 1).rows());
   }
   solve_r_.resize(A.rows());
   reset_timings();
@@ -126,7 +139,7 @@ void MultigridCycle::cycle(int l, const Vector& b, Vector& x) const {
   smoothers_[l - 1]->pre_smooth(b, x);
   timings_.smoothing[l] += since(t0);
   t0 = Clock::now();
-  level_matrix(l).residual(b, x, w.r);
+  level_operator(l).residual(b, x, w.r);
   timings_.residual += since(t0);
   t0 = Clock::now();
   transfers_[l - 1].restrict_to_coarse(w.r, w.rc);

@@ -124,7 +124,20 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
   p.interpolating_restriction =
       c.get_choice("restriction", "transpose", {"transpose", "interpolating"}) == "interpolating";
   p.iteration = iteration;
-  const Config sc = c.child("smoother");
+  p.matrix_free = c.get_choice("operator", "assembled", {"assembled", "matrix-free"}) == "matrix-free";
+  Config sc = c.child("smoother");
+  if (p.matrix_free) {
+    if (p.coarse_operator == mg::CoarseOperator::galerkin)
+      c.fail("operator", "matrix-free levels need coarse_operator=geometric (Galerkin products are matrices)");
+    for (int l = 1; l < ctx.levels->num_levels(); ++l)
+      if (!ctx.levels->matrix_free_operator(l))
+        c.fail("operator", "matrix-free needs levels with matrix-free operators (an FEM scene's degree "
+                           "hierarchy has them for degree >= 2); these levels have none");
+    // Gauss–Seidel needs the matrix's entries: Chebyshev needs only products and the diagonal, and
+    // its eigenvalue estimate is refreshed per update by a few warm-started iterations.
+    sc.set_default("method", "chebyshev");
+    if (sc.get_string("method", "chebyshev") == "chebyshev") sc.set_default("update_iterations", "3");
+  }
   Config lc = c.child("lowest_level");
   // The linear level solved by CG to a loose tolerance: a usable correction even when the inner
   // solve stops early (the outer iteration judges it); only a broken one is an error.
@@ -171,7 +184,7 @@ Registry& registry() {
 
 const char* kKrylovKeys = "tol abs_tol rhs_floor max_iterations fixed_iterations divergence_limit "
                           "stagnation_window throw_on_failure";
-const char* kCycleKeys = "cycle cycles coarse_operator restriction smoother.* lowest_level.*";
+const char* kCycleKeys = "cycle cycles coarse_operator restriction operator smoother.* lowest_level.*";
 const char* kAmgKeys = "cycles num_functions nodal nodal_diag strong_threshold coarsen_type interp_type p_max "
                        "trunc_factor relax_type relax_coarse relax_order sweeps agg_levels agg_interp_type "
                        "max_levels max_coarse_size interp_vectors interp_vec_variant";
@@ -253,13 +266,15 @@ Registry::Registry() {
       gauss_seidel(false));
   add({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows", "sweeps ordering", false, true},
       gauss_seidel(true));
-  add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)", "degree lower_fraction power_iterations",
+  add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)",
+       "degree lower_fraction power_iterations update_iterations",
        false, true},
       [](const Config& c, const SolverContext&) {
         mg::ChebyshevParams p;
         p.degree = c.get_int("degree", p.degree, 1, 100);
         p.lower_fraction = c.get_double("lower_fraction", p.lower_fraction, 1e-6, 1 - 1e-6);
         p.power_iterations = c.get_int("power_iterations", p.power_iterations, 1, 1000);
+        p.update_iterations = c.get_int("update_iterations", p.update_iterations, 0, 1000);
         return std::make_unique<mg::Chebyshev>(p);
       });
   add({"damped-jacobi", "damped 3x3 block Jacobi x += omega D^-1 (b - A x)", "sweeps omega", false, true},

@@ -1,6 +1,9 @@
 // The matrix-free BB elasticity operator against the assembled matrices of the same model.
 #include "pmg/fem/generators.hpp"
+#include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/matrix_free.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/cholmod_solver.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <catch2/catch.hpp>
@@ -123,4 +126,91 @@ TEST_CASE("matrix-free operator refuses bad weights and rotation counts", "[fem]
   CHECK_THROWS_AS(op.update(&R), InputError);
   Vector f;
   CHECK_THROWS_AS(op.element_force(Vector::Zero(5), nullptr, f, nullptr), InputError);
+}
+
+TEST_CASE("matrix-free residual in one pass equals b - A x", "[fem][matrix_free]") {
+  const TetMesh mesh = jittered_box();
+  ElasticityModel model(mesh, 3, Material{});
+  model.fix_where([](const Vec3& X) { return X[2] < 1e-12; });
+  ElasticityOperator op(model);
+  op.set_weights(0.7, 0.01);
+  const Vector x = smooth_vector(op.rows(), 0.2), b = smooth_vector(op.rows(), 0.9);
+  Vector Ax, r;
+  op.apply(x, Ax);
+  op.residual(b, x, r);
+  CHECK(rel_diff(r, Vector(b - Ax)) < 1e-14);
+}
+
+namespace {
+/// The true relative residual of x for the hierarchy's assembled finest matrix.
+double true_residual(const DegreeHierarchy& h, const Vector& b, const Vector& x) {
+  Vector r;
+  h.matrix(h.num_levels() - 1).residual(b, x, r);
+  return r.norm() / b.norm();
+}
+}  // namespace
+
+TEST_CASE("matrix-free p-multigrid (PMG and MGPCG) reaches the tolerance of the assembled system",
+          "[fem][matrix_free][multigrid]") {
+  const TetMesh mesh = box_mesh_24(3, 2, 2, 1.5, 1.0, 1.0);
+  const Material mat{1e6, 0.3, 1e3};
+  DegreeHierarchy h(mesh, 3, mat, [](const Vec3& X) { return X[0] < 1e-12; });
+  const int L = h.num_levels();
+  SECTION("static, linear elasticity") {
+    h.assemble(nullptr);
+    const Vector b = h.finest().restrict_to_free(h.finest().gravity(Vec3(0, 0, -9.81)));
+    Vector x_ref;
+    CholmodSolver chol;
+    chol.setup(h.matrix(L - 1));
+    chol.apply(b, x_ref);
+    SolverContext ctx;
+    ctx.levels = &h;
+    for (const char* method : {"pmg", "mgpcg"}) {
+      INFO(method);
+      auto s = make_solver(Config::from_pairs({std::string("method=") + method, "operator=matrix-free",
+                                               "tol=1e-9"}, "test"), ctx);
+      CHECK(s->uses_matrix_free());
+      s->setup(*h.matrix_free_operator(L - 1));
+      Vector x = Vector::Zero(b.size());
+      const SolveResult res = s->solve(b, x);
+      CHECK(res.ok());
+      CHECK(true_residual(h, b, x) <= 2e-9);
+      CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
+    }
+  }
+  SECTION("implicit-Euler weights and rotations, updated per step") {
+    const Vector u = 0.05 * smooth_vector(h.finest().num_dofs(), 0.3);
+    const Rotations R = h.finest().rotations(u);
+    SolverContext ctx;
+    ctx.levels = &h;
+    auto s = make_solver(Config::from_pairs({"method=mgpcg", "operator=matrix-free", "tol=1e-9"}, "test"), ctx);
+    const double m = 1.0, st = 1e-4;
+    for (int step = 0; step < 2; ++step) {
+      const Rotations Rs = step == 0 ? Rotations(mesh.num_tets(), Mat3::Identity()) : R;
+      h.assemble(&Rs, nullptr, m, st);  // the matrices, to check against
+      for (int l = 1; l < L; ++l) h.update_matrix_free(l, &Rs, m, st);
+      if (step == 0) s->setup(*h.matrix_free_operator(L - 1));
+      else s->update();
+      const Vector b = smooth_vector(h.matrix(L - 1).rows(), 0.5 + step);
+      Vector x = Vector::Zero(b.size());
+      CHECK(s->solve(b, x).ok());
+      CHECK(true_residual(h, b, x) <= 2e-9);
+      Vector y, yref;
+      h.matrix_free_operator(L - 1)->apply(b, y);
+      h.matrix(L - 1).apply(b, yref);
+      CHECK(rel_diff(y, yref) < 1e-12);
+    }
+  }
+  SECTION("refused where it cannot work") {
+    SolverContext ctx;
+    ctx.levels = &h;
+    CHECK_THROWS_AS(make_solver(Config::from_pairs({"method=pmg", "operator=matrix-free",
+                                                    "coarse_operator=galerkin"}, "test"), ctx),
+                    InputError);
+    CHECK(h.matrix_free_operator(0) == nullptr);
+    mg::StoredLevels stored({h.matrix(0), h.matrix(1)}, {h.prolongation(1)});
+    ctx.levels = &stored;
+    CHECK_THROWS_AS(make_solver(Config::from_pairs({"method=pmg", "operator=matrix-free"}, "test"), ctx),
+                    InputError);
+  }
 }

@@ -12,6 +12,7 @@
 #pragma once
 
 #include "pmg/fem/elasticity.hpp"
+#include "pmg/fem/matrix_free.hpp"
 #include "pmg/multigrid/levels.hpp"
 
 #include <functional>
@@ -52,6 +53,18 @@ class DegreeHierarchy final : public mg::LevelProvider {
   const Csr& prolongation(int level) const override { return prolongations_[level - 1]; }
   Csr interpolating_restriction(int level) const override;
 
+  /// The matrix-free operator (ElasticityOperator) of a level of degree >= 2; nullptr for the
+  /// linear level, whose matrix a cycle factorises. Built on first use, then kept current: every
+  /// assemble_level() and update_matrix_free() of the level gives it the same rotations and
+  /// weights as the level's matrix.
+  const LinearOperator* matrix_free_operator(int level) const override;
+  const ElasticityOperator& matrix_free(int level) const;
+  /// A level's matrix-free operator brought to rotations R (nullptr: none) and the weights
+  /// mass_weight M + stiffness_weight K_R, its matrix left as it is: a matrix-free level's whole
+  /// per-step work.
+  void update_matrix_free(int level, const Rotations* R, double mass_weight = 0.0,
+                          double stiffness_weight = 1.0);
+
   /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
   /// level, and on the finest level also the right-hand side correction (see
   /// ElasticityModel::assemble) when rhs != nullptr. Patterns are kept; only values change.
@@ -77,6 +90,15 @@ class DegreeHierarchy final : public mg::LevelProvider {
   std::vector<Bcsr> masses_;  ///< per level, assembled on first use
   std::vector<Csr> prolongations_;
   std::vector<char> clamped_;
+  /// Rotations and weights of each level's last assembly or update, for operators built later.
+  struct LevelState {
+    bool rotated = false;
+    double mass_weight = 0.0, stiffness_weight = 1.0;
+  };
+  std::vector<LevelState> state_;
+  Rotations rotations_;  ///< the last rotations given (the same on every level)
+  mutable std::vector<std::unique_ptr<ElasticityOperator>> operators_;
+  void record(int level, const Rotations* R, double mass_weight, double stiffness_weight);
 };
 
 }  // namespace pmg::fem

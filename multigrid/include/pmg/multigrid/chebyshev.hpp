@@ -10,7 +10,10 @@ namespace pmg::mg {
 struct ChebyshevParams {
   int degree = 4;               ///< polynomial degree = residual evaluations per smoothing
   double lower_fraction = 0.1;  ///< smooth eigenvalues in [f λmax, λmax] of D⁻¹A
-  int power_iterations = 15;    ///< estimate of λmax (then raised by 10%), on every update()
+  int power_iterations = 15;    ///< estimate of λmax (then raised by 10%) at setup()
+  /// update(): 0 repeats the set-up estimate; k > 0 runs k power iterations started from the last
+  /// estimate's vector (a time step moves the spectrum little; matrix-free levels pay per product).
+  int update_iterations = 0;
 };
 
 /// Damps the eigenvalues of D⁻¹A in [f λmax, λmax] with the Chebyshev polynomial of the given
@@ -32,11 +35,13 @@ class Chebyshev final : public Smoother {
   void update_impl() override;
   void smooth(const Vector& b, Vector& x) const;
   void apply_inverse_diagonal(const Vector& r, Vector& z) const;
+  void estimate(int iterations, bool warm);
   const LinearOperator* A_ = nullptr;
   ChebyshevParams params_;
   std::vector<double> inv_diag_;
   double lambda_max_ = 0.0;
   mutable Vector r_, d_, z_;
+  Vector eigenvector_;  ///< the last power iteration's vector (the warm start of update())
 };
 
 }  // namespace pmg::mg

@@ -45,6 +45,10 @@ struct MultigridParams {
   CoarseOperator coarse_operator = CoarseOperator::geometric;
   /// The provider's interpolating restriction instead of Pᵀ (the cycle is then not symmetric).
   bool interpolating_restriction = false;
+  /// Levels above the lowest smoothed and their residuals formed with the provider's matrix-free
+  /// operators (LevelProvider::matrix_free_operator), not its matrices; geometric coarse
+  /// operators only.
+  bool matrix_free = false;
   /// solve(): the stationary iteration's stopping rule.
   KrylovParams iteration;
 };
@@ -72,6 +76,7 @@ class MultigridCycle final : public Solver {
   bool is_symmetric() const override;
   /// Geometric lower levels are the provider's matrices; Galerkin ones are formed here from A.
   bool uses_levels() const override { return params_.coarse_operator != CoarseOperator::galerkin; }
+  bool uses_matrix_free() const override { return params_.matrix_free; }
 
   int num_levels() const { return levels_.num_levels(); }
   const LevelProvider& levels() const { return levels_; }
@@ -80,6 +85,9 @@ class MultigridCycle final : public Solver {
   /// The matrix a level's smoother and residual use (a Galerkin product below the finest level
   /// when asked for).
   const Bcsr& level_matrix(int level) const;
+  /// The operator a level's smoother and residual apply: the provider's matrix-free operator
+  /// (matrix_free, levels >= 1) or level_matrix().
+  const LinearOperator& level_operator(int level) const;
   const BlockTransfer& transfer(int level) const { return transfers_.at(level - 1); }
   const Smoother& smoother(int level) const { return *smoothers_.at(level - 1); }
   const Solver& lowest_level() const { return *lowest_; }

@@ -7,6 +7,10 @@
 // hand them over, user_levels.hpp) and any class of a
 // user's implement it the same way (MFEM's Multigrid::AddLevel, with ownership made explicit).
 //
+// Matrix-free levels: a provider may also hand out operators that apply a level's matrix without
+// storing it (matrix_free_operator); a cycle asked for them (MultigridParams::matrix_free, the
+// factory's operator=matrix-free) reads no matrix above the lowest level.
+//
 // Values change, patterns do not: after new values are written into the provider's matrices (a
 // corotational time step re-assembles them), MultigridCycle::update() refreshes smoothers,
 // Galerkin products and the lowest-level factorisation; nothing symbolic is redone.
@@ -37,6 +41,12 @@ class LevelProvider {
   /// only (UserLevels given the finest matrix alone), which then hold an empty matrix of the
   /// right size and refuse coarse_operator=geometric.
   virtual bool has_matrix(int /*level*/) const { return true; }
+  /// A matrix-free operator of the level (the same map as its matrix, applied without one), or
+  /// nullptr when the provider has none (the default). A cycle with matrix_free set smooths and
+  /// forms residuals with these on every level above the lowest, whose matrix it factorises; the
+  /// provider keeps them current (fem::DegreeHierarchy: its degree >= 2 levels, updated with the
+  /// rotations and weights of every assemble_level() or update_matrix_free()).
+  virtual const LinearOperator* matrix_free_operator(int /*level*/) const { return nullptr; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };

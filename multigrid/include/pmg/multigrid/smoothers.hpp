@@ -123,6 +123,7 @@ class Richardson final : public Smoother {
   bool is_linear() const override { return M_->is_linear(); }
   bool is_symmetric() const override { return M_->is_symmetric(); }
   bool uses_levels() const override { return M_->uses_levels(); }
+  bool uses_matrix_free() const override { return M_->uses_matrix_free(); }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
 

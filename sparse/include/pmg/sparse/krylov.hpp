@@ -80,6 +80,7 @@ class Cg final : public Solver {
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
   bool uses_levels() const override { return M_ && M_->uses_levels(); }
+  bool uses_matrix_free() const override { return M_ && M_->uses_matrix_free(); }
   KrylovParams& params() { return params_; }
   const KrylovParams& params() const { return params_; }
   Solver* preconditioner() const { return M_.get(); }

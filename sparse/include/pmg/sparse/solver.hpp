@@ -61,6 +61,10 @@ class Solver : public LinearOperator {
   /// The solver reads the lower level matrices of a hierarchy besides A (geometric multigrid): a
   /// simulation then assembles its lower levels too. (A Galerkin cycle forms its own from A.)
   virtual bool uses_levels() const { return false; }
+  /// The solver applies the hierarchy's matrix-free operators above the lowest level (a
+  /// multigrid cycle with operator=matrix-free): a simulation then updates those operators instead
+  /// of assembling their matrices, and sets the solver up on the finest matrix-free operator.
+  virtual bool uses_matrix_free() const { return false; }
   /// What set-up chose and found, for reports (settings, hierarchy, ordering, factor size); empty
   /// when there is nothing beyond the name. A Krylov method reports its preconditioner's.
   virtual std::string describe() const { return ""; }
