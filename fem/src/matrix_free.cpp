@@ -1,5 +1,8 @@
 #include "pmg/fem/matrix_free.hpp"
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -147,10 +150,13 @@ inline void element_apply(const Tables<P>& t, const double* d, const double (&u)
 
 struct ElasticityOperator::Impl {
   int p = 0, n = 0;
-  std::vector<index_t> element;     ///< elements in colour order
-  std::vector<size_t> color_start;  ///< colour c: positions [color_start[c], color_start[c+1])
-  std::vector<index_t> free;        ///< n per position: free node index or -1
-  std::vector<double> data;         ///< kData per position
+  index_t num_elements = 0;
+  const std::vector<std::vector<index_t>>* colors = nullptr;  ///< the model's element colouring
+  std::vector<index_t> free;   ///< n per element: free node index or -1
+  std::vector<double> data;    ///< kData per element
+  /// apply(): thread t > 0 accumulates its contiguous range of elements into buffers[t-1] (kept
+  /// from call to call: no allocation per product), thread 0 directly into y; then y += Σ buffers.
+  mutable std::vector<Vector> buffers;
 
   /// y = A x, or with b: y = b - A x (the residual in the same pass).
   template <int P>
@@ -160,33 +166,49 @@ struct ElasticityOperator::Impl {
     const double* xp = x.data();
     double* yp = y.data();
     const long len = static_cast<long>(y.size());
-#pragma omp parallel
+    const int threads = omp_get_max_threads();
+    if (static_cast<int>(buffers.size()) != threads - 1 || (threads > 1 && buffers[0].size() != len))
+      buffers.assign(std::max(threads - 1, 0), Vector(len));
+    const double sign = b ? -1.0 : 1.0;
+#pragma omp parallel num_threads(threads)
     {
-#pragma omp for schedule(static)
-      for (long i = 0; i < len; ++i) yp[i] = b ? (*b)[i] : 0.0;
-      const double sign = b ? -1.0 : 1.0;
-      for (size_t c = 0; c + 1 < color_start.size(); ++c) {
-        const long begin = static_cast<long>(color_start[c]), end = static_cast<long>(color_start[c + 1]);
-#pragma omp for schedule(static)
-        for (long e = begin; e < end; ++e) {
-          const index_t* f = free.data() + static_cast<size_t>(e) * N;
-          double u[N][3], r[N][3];
-          for (int a = 0; a < N; ++a) {
-            const index_t I = f[a];
-            if (I >= 0) {
-              const double* s = xp + 3 * static_cast<size_t>(I);
-              u[a][0] = s[0], u[a][1] = s[1], u[a][2] = s[2];
-            } else {
-              u[a][0] = u[a][1] = u[a][2] = 0.0;
-            }
+      const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+      double* out = tid == 0 ? yp : buffers[tid - 1].data();
+      if (tid == 0) {
+        if (b) std::copy(b->data(), b->data() + len, yp);
+        else std::fill(yp, yp + len, 0.0);
+      } else {
+        std::fill(out, out + len, 0.0);
+      }
+      const long begin = num_elements * static_cast<long>(tid) / nt;
+      const long end = num_elements * static_cast<long>(tid + 1) / nt;
+      for (long e = begin; e < end; ++e) {
+        const index_t* f = free.data() + static_cast<size_t>(e) * N;
+        double u[N][3], r[N][3];
+        for (int a = 0; a < N; ++a) {
+          const index_t I = f[a];
+          if (I >= 0) {
+            const double* s = xp + 3 * static_cast<size_t>(I);
+            u[a][0] = s[0], u[a][1] = s[1], u[a][2] = s[2];
+          } else {
+            u[a][0] = u[a][1] = u[a][2] = 0.0;
           }
-          element_apply<P>(t, data.data() + kData * static_cast<size_t>(e), u, r);
-          for (int a = 0; a < N; ++a) {
-            const index_t I = f[a];
-            if (I < 0) continue;
-            double* s = yp + 3 * static_cast<size_t>(I);
-            s[0] += sign * r[a][0], s[1] += sign * r[a][1], s[2] += sign * r[a][2];
-          }
+        }
+        element_apply<P>(t, data.data() + kData * static_cast<size_t>(e), u, r);
+        for (int a = 0; a < N; ++a) {
+          const index_t I = f[a];
+          if (I < 0) continue;
+          double* s = out + 3 * static_cast<size_t>(I);
+          s[0] += sign * r[a][0], s[1] += sign * r[a][1], s[2] += sign * r[a][2];
+        }
+      }
+#pragma omp barrier
+      if (nt > 1) {
+#pragma omp for schedule(static)
+        for (long i = 0; i < len; ++i) {
+          double sum = 0.0;
+          for (int k = 0; k < nt - 1; ++k) sum += buffers[k][i];
+          yp[i] += sum;
         }
       }
     }
@@ -201,15 +223,12 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
   m.p = space.degree();
   m.n = space.nodes_per_element();
   num_free_ = as.num_free();
-  m.color_start.push_back(0);
-  for (const auto& elements : as.colors()) {
-    m.element.insert(m.element.end(), elements.begin(), elements.end());
-    m.color_start.push_back(m.element.size());
-  }
-  const size_t ne = m.element.size();
+  m.colors = &as.colors();
+  m.num_elements = space.mesh().num_tets();
+  const size_t ne = static_cast<size_t>(m.num_elements);
   m.free.resize(ne * m.n);
-  for (size_t pos = 0; pos < ne; ++pos)
-    for (int a = 0; a < m.n; ++a) m.free[pos * m.n + a] = as.free_index()[space.node(m.element[pos], a)];
+  for (size_t e = 0; e < ne; ++e)
+    for (int a = 0; a < m.n; ++a) m.free[e * m.n + a] = as.free_index()[space.node(static_cast<index_t>(e), a)];
   m.data.assign(ne * kData, 0.0);
   update(nullptr);
 }
@@ -227,9 +246,8 @@ void ElasticityOperator::set_weights(double mass_weight, double stiffness_weight
   const auto& scale = model_->stiffness_scale();
   const double p2 = static_cast<double>(m.p) * m.p;
 #pragma omp parallel for schedule(static)
-  for (long pos = 0; pos < static_cast<long>(m.element.size()); ++pos) {
-    const index_t e = m.element[pos];
-    double* d = impl_->data.data() + kData * static_cast<size_t>(pos);
+  for (long e = 0; e < static_cast<long>(m.num_elements); ++e) {
+    double* d = impl_->data.data() + kData * static_cast<size_t>(e);
     const double v6 = 6.0 * model_->geometry(e).volume;
     const double s = scale.empty() ? 1.0 : scale[e];
     d[12] = v6 * p2 * stiffness_weight * s * mat.lambda();
@@ -243,11 +261,10 @@ void ElasticityOperator::update(const Rotations* R) {
   if (R && R->size() != static_cast<size_t>(model_->space().mesh().num_tets()))
     throw InputError("matrix-free operator: one rotation per element expected");
 #pragma omp parallel for schedule(static)
-  for (long pos = 0; pos < static_cast<long>(m.element.size()); ++pos) {
-    const index_t e = m.element[pos];
+  for (long e = 0; e < static_cast<long>(m.num_elements); ++e) {
     Eigen::Matrix<double, 4, 3> g = model_->geometry(e).grad;
     if (R) g = g * (*R)[e].transpose();
-    double* d = m.data.data() + kData * static_cast<size_t>(pos);
+    double* d = m.data.data() + kData * static_cast<size_t>(e);
     for (int k = 0; k < 4; ++k)
       for (int j = 0; j < 3; ++j) d[3 * k + j] = g(k, j);
   }
@@ -276,17 +293,18 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const ElementTables& t = element_tables(m.p);
   blocks.assign(9 * static_cast<size_t>(num_free_), 0.0);
   const double p2 = static_cast<double>(m.p) * m.p;
-  for (size_t c = 0; c + 1 < m.color_start.size(); ++c) {
+  for (const auto& elements : *m.colors) {
 #pragma omp parallel for schedule(static)
-    for (long pos = static_cast<long>(m.color_start[c]); pos < static_cast<long>(m.color_start[c + 1]); ++pos) {
-      const double* d = m.data.data() + kData * static_cast<size_t>(pos);
+    for (size_t k = 0; k < elements.size(); ++k) {
+      const size_t pos = static_cast<size_t>(elements[k]);
+      const double* d = m.data.data() + kData * pos;
       Eigen::Matrix<double, 4, 3> g;
       for (int k = 0; k < 4; ++k)
         for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
       // d[12], d[13] carry 6V p² s λ, 6V p² s μ; the G tables carry p² already.
       const double lambda = d[12] / p2, mu = d[13] / p2;
       for (int a = 0; a < m.n; ++a) {
-        const index_t I = m.free[static_cast<size_t>(pos) * m.n + a];
+        const index_t I = m.free[pos * m.n + a];
         if (I < 0) continue;
         Mat3 S = g.transpose() * t.G[a * m.n + a] * g;
         S = 0.5 * (S + S.transpose()).eval();
@@ -310,10 +328,11 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
   force.setZero(model_->num_dofs());
   const auto& X = model_->space().positions();
   double total = 0.0;
-  for (size_t c = 0; c + 1 < m.color_start.size(); ++c) {
+  for (const auto& elements : *m.colors) {
 #pragma omp parallel for schedule(static) reduction(+ : total)
-    for (long pos = static_cast<long>(m.color_start[c]); pos < static_cast<long>(m.color_start[c + 1]); ++pos) {
-      const index_t e = m.element[pos];
+    for (size_t k = 0; k < elements.size(); ++k) {
+      const index_t e = elements[k];
+      const size_t pos = static_cast<size_t>(e);
       const index_t* nodes = model_->space().element_nodes(e);
       double d[kData];
       const double* src = m.data.data() + kData * static_cast<size_t>(pos);
@@ -349,12 +368,12 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
 double ElasticityOperator::flops_per_apply() const {
   const double n = impl_->n, q = nodes_of(impl_->p - 1);
   const double per = 72 * q + 18 * q * q + 12 * q + 72 * q + (mass_weight_ != 0 ? 6 * n * n : 0.0);
-  return per * static_cast<double>(impl_->element.size());
+  return per * static_cast<double>(impl_->num_elements);
 }
 
 double ElasticityOperator::bytes_per_apply() const {
   const double per = kData * 8.0 + 4.0 * impl_->n;
-  return per * static_cast<double>(impl_->element.size()) + 3.0 * 8.0 * rows();
+  return per * static_cast<double>(impl_->num_elements) + 3.0 * 8.0 * rows();
 }
 
 }  // namespace pmg::fem

@@ -65,7 +65,18 @@ void ImplicitEuler::evaluate_state() const {
   const Rotations* R = p_.corotational ? &state_.R : nullptr;
   t0 = Clock::now();
   state_.matrix_assembled = p_.corotational || !assembled_;
-  if (state_.matrix_assembled) {
+  if (solver_.uses_matrix_free()) {
+    // The finest level is an operator: its update is the rotation of the stored gradients, and
+    // force and energy come from the same operator.
+    if (state_.matrix_assembled) {
+      h_.update_matrix_free(L - 1, R, mass_weight(), stiffness_weight());
+      state_.seconds[kAssembly] = since(t0);
+      assembled_ = true;
+    }
+    t0 = Clock::now();
+    h_.matrix_free(L - 1).element_force(u_, R, state_.force, &state_.energy);
+    state_.seconds[kForces] = since(t0);
+  } else if (state_.matrix_assembled) {
     h_.assemble_level(L - 1, R, mass_weight(), stiffness_weight(), u_, &state_.force, &state_.energy);
     state_.seconds[kAssembly] = since(t0);
     assembled_ = true;
@@ -90,10 +101,14 @@ StepStats ImplicitEuler::step() {
     // The lower degrees get the same rotations and weights: (1 + Δt α) M + (Δt β + Δt²) K_R.
     const auto t0 = Clock::now();
     const Rotations* R = p_.corotational ? &state_.R : nullptr;
+    const bool mf = solver_.uses_matrix_free();
     if (solver_.uses_levels())
-      for (int l = 0; l < L - 1; ++l)
-        h_.assemble_level(l, R, nullptr, mass_weight(), stiffness_weight());
+      for (int l = 0; l < L - 1; ++l) {
+        if (mf && l > 0) h_.update_matrix_free(l, R, mass_weight(), stiffness_weight());
+        else h_.assemble_level(l, R, nullptr, mass_weight(), stiffness_weight());
+      }
     if (solver_.is_set_up()) solver_.update();
+    else if (mf) solver_.setup(*h_.matrix_free_operator(L - 1));
     else solver_.setup(h_.matrix(L - 1));
     st.seconds[kHierarchy] = since(t0);
   }
@@ -113,9 +128,7 @@ StepStats ImplicitEuler::step() {
   // of an oscillation b is small and the old velocity a poor guess, and a step started from it would
   // be accepted with ||b - A v|| far above tol ||b||. So every accepted step has
   // ||b - A v|| <= tol ||b|| (up to the solvers' factor-2 allowance on the true residual).
-  start_residual_.resize(b.size());
-  h_.matrix(L - 1).multiply(v_free_.data(), start_residual_.data());
-  start_residual_ = b - start_residual_;
+  system_operator().residual(b, v_free_, start_residual_);
   if (start_residual_.norm() > bn) v_free_.setZero();
   SolveResult res;
   try {
@@ -143,6 +156,12 @@ StepStats ImplicitEuler::step() {
   const double rel = std::isfinite(res.true_rel_residual) ? res.true_rel_residual : res.rel_residual;
   st.residual = bn > 0 ? rel * res.initial_residual / bn : 0.0;
   return st;
+}
+
+const LinearOperator& ImplicitEuler::system_operator() const {
+  const int L = h_.num_levels();
+  if (solver_.uses_matrix_free()) return *h_.matrix_free_operator(L - 1);
+  return h_.matrix(L - 1);
 }
 
 double ImplicitEuler::kinetic_energy() const {

@@ -83,8 +83,12 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     else
       transfers_.emplace_back(levels_.prolongation(l));
     const BlockTransfer& T = transfers_.back();
-    if (T.fine_size() != level_operator(l).rows() ||
-        (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != level_operator(l - 1).rows()))
+    // The provider's sizes (Galerkin products are formed below, from these transfers).
+    auto rows = [&](int k) {
+      return params_.matrix_free && k > 0 ? levels_.matrix_free_operator(k)->rows() : levels_.matrix(k).rows();
+    };
+    if (T.fine_size() != rows(l) ||
+        (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != rows(l - 1)))
       throw InputError("multigrid: the prolongation of " + levels_.level_name(l) + " does not map " +
                        levels_.level_name(l - 1) + " to it");
   }

@@ -48,6 +48,9 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   auto& notes = setup.notes;
   if (!scene.corotational)
     notes.push_back("rotations: skipped (linear material); matrices assembled and factorised once");
+  if (solver_->uses_matrix_free())
+    notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
+                    "rotations); the linear level assembled and factorised per step");
   if (!solver_->uses_levels() && setup.hierarchy->num_levels() > 1)
     notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
   if (!scene.energy) notes.push_back("energies: not recorded (output.energy false)");

@@ -14,6 +14,10 @@
 // recording the energy after every step costs nothing extra, and the finest matrix in the
 // hierarchy may already be the next step's once the energy of the new state has been asked for.
 //
+// With a matrix-free multigrid (operator=matrix-free, Solver::uses_matrix_free) the levels of
+// degree >= 2 are ElasticityOperators: a step rotates their stored gradients instead of
+// assembling them, assembles the linear level only, and takes the force from the finest operator.
+//
 // The step system is solved by any Solver (pmg/sparse/solver.hpp; build one with
 // pmg::make_solver, giving the hierarchy as its levels): set up on the first step, update()d when
 // the matrices change. The solve is warm-started from the last velocity; give the solver a
@@ -80,6 +84,8 @@ class ImplicitEuler {
   double stiffness_weight() const { return p_.dt * p_.rayleigh_beta + p_.dt * p_.dt; }
   /// The pass over the elements for the current state, once per state.
   void evaluate_state() const;
+  /// The finest step matrix, or its matrix-free operator for a solver that uses those.
+  const LinearOperator& system_operator() const;
 
   DegreeHierarchy& h_;
   Solver& solver_;
