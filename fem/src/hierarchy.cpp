@@ -92,7 +92,7 @@ DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material
   for (int p = 1; p <= degree; ++p) {
     models_.push_back(std::make_unique<ElasticityModel>(mesh, p, material));
     models_.back()->fix_vertices(clamped_);
-    matrices_.push_back(models_.back()->assembler().make_matrix());
+    matrices_.emplace_back();
   }
   state_.resize(models_.size());
   operators_.resize(models_.size());
@@ -153,7 +153,7 @@ void DegreeHierarchy::assemble_level(int l, ElasticityModel::ElementPass pass, d
   if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
   // mass_weight M written first, stiffness_weight K_R added during the element pass: the matrix
   // is swept once more, not three times (zero, scatter, combine).
-  std::vector<double>& a = matrices_[l].values();
+  std::vector<double>& a = matrix_storage(l).values();
   if (mass_weight != 0.0) {
     const std::vector<double>& m = mass(l).values();
 #pragma omp parallel for schedule(static)
@@ -164,6 +164,13 @@ void DegreeHierarchy::assemble_level(int l, ElasticityModel::ElementPass pass, d
   pass.add_to_stiffness = mass_weight != 0.0;
   models_[l]->evaluate(pass);
   record(l, pass.R, mass_weight, stiffness_weight);
+}
+
+Bcsr& DegreeHierarchy::matrix_storage(int l) const {
+  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
+  Bcsr& A = matrices_[l];
+  if (A.values().empty()) A = models_[l]->assembler().make_matrix();
+  return A;
 }
 
 void DegreeHierarchy::record(int l, const Rotations* R, double mass_weight, double stiffness_weight) {

@@ -146,6 +146,61 @@ inline void element_apply(const Tables<P>& t, const double* d, const double (&u)
   }
 }
 
+/// out += sign · (element products of x) over elements [begin, end) (n node indices and kData
+/// doubles per element; a free index < 0 is a fixed node: read as 0, not written).
+template <int P>
+inline void apply_range(const index_t* free, const double* data, long begin, long end,
+                        const double* xp, double* out, double sign) {
+  const Tables<P>& t = tables<P>();
+  constexpr int N = Tables<P>::N;
+  for (long e = begin; e < end; ++e) {
+    const index_t* f = free + static_cast<size_t>(e) * N;
+    double u[N][3], r[N][3];
+    for (int a = 0; a < N; ++a) {
+      const index_t I = f[a];
+      if (I >= 0) {
+        const double* s = xp + 3 * static_cast<size_t>(I);
+        u[a][0] = s[0], u[a][1] = s[1], u[a][2] = s[2];
+      } else {
+        u[a][0] = u[a][1] = u[a][2] = 0.0;
+      }
+    }
+    element_apply<P>(t, data + kData * static_cast<size_t>(e), u, r);
+    for (int a = 0; a < N; ++a) {
+      const index_t I = f[a];
+      if (I < 0) continue;
+      double* s = out + 3 * static_cast<size_t>(I);
+      s[0] += sign * r[a][0], s[1] += sign * r[a][1], s[2] += sign * r[a][2];
+    }
+  }
+}
+
+// The element kernel is compute-bound. A default build targets the baseline x86-64 (SSE2: pmgkit
+// keeps Eigen's ABI portable, see CMakeLists.txt), so on x86-64 with GCC or Clang a second copy is
+// compiled for AVX2 + FMA and chosen at run time where the CPU has them.
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(__AVX2__)
+#define PMG_MF_AVX2_DISPATCH 1
+template <int P>
+__attribute__((target("avx2,fma"), flatten)) void apply_range_avx2(const index_t* free, const double* data,
+                                                                     long begin, long end, const double* xp,
+                                                                     double* out, double sign) {
+  apply_range<P>(free, data, begin, end, xp, out, sign);
+}
+bool cpu_has_avx2_fma() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+#endif
+
+template <int P>
+void apply_range_dispatch(const index_t* free, const double* data, long begin, long end,
+                          const double* xp, double* out, double sign) {
+#ifdef PMG_MF_AVX2_DISPATCH
+  if (cpu_has_avx2_fma()) return apply_range_avx2<P>(free, data, begin, end, xp, out, sign);
+#endif
+  apply_range<P>(free, data, begin, end, xp, out, sign);
+}
+
 }  // namespace
 
 struct ElasticityOperator::Impl {
@@ -161,8 +216,6 @@ struct ElasticityOperator::Impl {
   /// y = A x, or with b: y = b - A x (the residual in the same pass).
   template <int P>
   void apply(const Vector& x, Vector& y, const Vector* b) const {
-    const Tables<P>& t = tables<P>();
-    constexpr int N = Tables<P>::N;
     const double* xp = x.data();
     double* yp = y.data();
     const long len = static_cast<long>(y.size());
@@ -182,26 +235,7 @@ struct ElasticityOperator::Impl {
       }
       const long begin = num_elements * static_cast<long>(tid) / nt;
       const long end = num_elements * static_cast<long>(tid + 1) / nt;
-      for (long e = begin; e < end; ++e) {
-        const index_t* f = free.data() + static_cast<size_t>(e) * N;
-        double u[N][3], r[N][3];
-        for (int a = 0; a < N; ++a) {
-          const index_t I = f[a];
-          if (I >= 0) {
-            const double* s = xp + 3 * static_cast<size_t>(I);
-            u[a][0] = s[0], u[a][1] = s[1], u[a][2] = s[2];
-          } else {
-            u[a][0] = u[a][1] = u[a][2] = 0.0;
-          }
-        }
-        element_apply<P>(t, data.data() + kData * static_cast<size_t>(e), u, r);
-        for (int a = 0; a < N; ++a) {
-          const index_t I = f[a];
-          if (I < 0) continue;
-          double* s = out + 3 * static_cast<size_t>(I);
-          s[0] += sign * r[a][0], s[1] += sign * r[a][1], s[2] += sign * r[a][2];
-        }
-      }
+      apply_range_dispatch<P>(free.data(), data.data(), begin, end, xp, out, sign);
 #pragma omp barrier
       if (nt > 1) {
 #pragma omp for schedule(static)
@@ -237,8 +271,8 @@ ElasticityOperator::~ElasticityOperator() = default;
 
 void ElasticityOperator::set_weights(double mass_weight, double stiffness_weight) {
   if (!std::isfinite(mass_weight) || !(mass_weight >= 0) || !std::isfinite(stiffness_weight) ||
-      !(stiffness_weight > 0))
-    throw InputError("matrix-free operator: the weights must be finite, mass >= 0 and stiffness > 0");
+      !(stiffness_weight >= 0) || !(mass_weight + stiffness_weight > 0))
+    throw InputError("matrix-free operator: the weights must be finite, >= 0 and not both zero");
   mass_weight_ = mass_weight;
   stiffness_weight_ = stiffness_weight;
   const Impl& m = *impl_;
@@ -337,7 +371,10 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
       double d[kData];
       const double* src = m.data.data() + kData * static_cast<size_t>(pos);
       for (int i = 0; i < kData; ++i) d[i] = src[i];
-      d[12] /= stiffness_weight_, d[13] /= stiffness_weight_, d[14] = 0.0;  // K_R,e alone
+      // K_R,e alone: the unweighted Lamé factors (the stored ones carry the stiffness weight).
+      const double v6p2 = 6.0 * model_->geometry(e).volume * m.p * m.p;
+      const double s = model_->stiffness_scale().empty() ? 1.0 : model_->stiffness_scale()[e];
+      d[12] = v6p2 * s * model_->material().lambda(), d[13] = v6p2 * s * model_->material().mu(), d[14] = 0.0;
       const Mat3 R = Rs ? (*Rs)[e] : Mat3::Identity();
       auto run = [&](auto tag) {
         constexpr int P = decltype(tag)::value;

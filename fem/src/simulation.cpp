@@ -115,9 +115,8 @@ StepStats ImplicitEuler::step() {
   // b = M v + Δt (f_ext + f_el(x)) on the free nodes.
   auto t0 = Clock::now();
   const Vector f = m.restrict_to_free(f_ext_ + state_.force);
-  const Bcsr& M = h_.mass(L - 1);
   Vector b(v_free_.size());
-  M.multiply(v_free_.data(), b.data());
+  mass_operator().apply(v_free_, b);
   b += p_.dt * f;
   st.seconds[kForces] += since(t0);
 
@@ -164,10 +163,18 @@ const LinearOperator& ImplicitEuler::system_operator() const {
   return h_.matrix(L - 1);
 }
 
+const LinearOperator& ImplicitEuler::mass_operator() const {
+  if (!solver_.uses_matrix_free()) return h_.mass(h_.num_levels() - 1);
+  if (!mass_op_) {
+    mass_op_ = std::make_unique<ElasticityOperator>(h_.finest());
+    mass_op_->set_weights(1.0, 0.0);
+  }
+  return *mass_op_;
+}
+
 double ImplicitEuler::kinetic_energy() const {
-  const Bcsr& M = h_.mass(h_.num_levels() - 1);
   Vector Mv(v_free_.size());
-  M.multiply(v_free_.data(), Mv.data());
+  mass_operator().apply(v_free_, Mv);
   return 0.5 * v_free_.dot(Mv);
 }
 

@@ -121,6 +121,8 @@ TEST_CASE("matrix-free operator refuses bad weights and rotation counts", "[fem]
   ElasticityOperator op(model);
   CHECK_THROWS_AS(op.set_weights(-1.0, 1.0), InputError);
   CHECK_THROWS_AS(op.set_weights(0.0, 0.0), InputError);
+  CHECK_THROWS_AS(op.set_weights(1.0, -1.0), InputError);
+  CHECK_NOTHROW(op.set_weights(1.0, 0.0));  // the mass alone
   CHECK_THROWS_AS(op.set_weights(std::nan(""), 1.0), InputError);
   const Rotations R(3, Mat3::Identity());
   CHECK_THROWS_AS(op.update(&R), InputError);

@@ -47,8 +47,10 @@ class DegreeHierarchy final : public mg::LevelProvider {
   }
   /// Consistent mass matrix of a level over its free nodes (assembled on first use, then kept).
   const Bcsr& mass(int level);
-  Bcsr& matrix(int level) { return matrices_[level]; }
-  const Bcsr& matrix(int level) const override { return matrices_[level]; }
+  /// A level's matrix (allocated on first use, zero until assembled: a level used only through
+  /// its matrix-free operator never holds one).
+  Bcsr& matrix(int level) { return matrix_storage(level); }
+  const Bcsr& matrix(int level) const override { return matrix_storage(level); }
   /// Prolongation from level-1 to level (level >= 1).
   const Csr& prolongation(int level) const override { return prolongations_[level - 1]; }
   Csr interpolating_restriction(int level) const override;
@@ -86,7 +88,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   void assemble_level(int level, ElasticityModel::ElementPass pass, double mass_weight,
                       double stiffness_weight);
 
-  std::vector<Bcsr> matrices_;
+  mutable std::vector<Bcsr> matrices_;  ///< empty until first used
+  Bcsr& matrix_storage(int level) const;
   std::vector<Bcsr> masses_;  ///< per level, assembled on first use
   std::vector<Csr> prolongations_;
   std::vector<char> clamped_;

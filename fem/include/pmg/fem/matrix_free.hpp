@@ -48,7 +48,7 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   index_t cols() const override { return rows(); }
   const ElasticityModel& model() const { return *model_; }
 
-  /// y = m M x + s K_R x. Weights must be finite and >= 0 (s > 0).
+  /// y = m M x + s K_R x. Weights must be finite, >= 0 and not both zero (m = 1, s = 0: the mass).
   void set_weights(double mass_weight, double stiffness_weight);
   double mass_weight() const { return mass_weight_; }
   double stiffness_weight() const { return stiffness_weight_; }

@@ -86,6 +86,10 @@ class ImplicitEuler {
   void evaluate_state() const;
   /// The finest step matrix, or its matrix-free operator for a solver that uses those.
   const LinearOperator& system_operator() const;
+  /// The finest consistent mass: its matrix, or with matrix-free levels an ElasticityOperator
+  /// with weights (1, 0) (built on first use), so that no matrix of the finest level is held.
+  const LinearOperator& mass_operator() const;
+  mutable std::unique_ptr<ElasticityOperator> mass_op_;
 
   DegreeHierarchy& h_;
   Solver& solver_;
