@@ -21,8 +21,11 @@
 // one pad, and the n free-node indices — 128 + 4n bytes, 208 at p = 3, about 15 bytes per unknown
 // against about 1.2 KB per unknown for the cubic BCSR matrix.
 //
-// Race-free: elements are processed colour by colour (BlockAssembler's colouring: no two elements
-// of a colour share a node), the elements of a colour in parallel, stored in colour order.
+// Race-free: apply() gives each thread a contiguous range of elements (mesh order, for locality)
+// and its own accumulation vector (thread 0 writes y, the others buffers kept from call to call),
+// then sums them: with 2 threads one extra vector pass instead of a barrier per colour. The
+// diagonal and the element forces run colour by colour (BlockAssembler's colouring: no two
+// elements of a colour share a node).
 //
 // update(R) is the only per-step work of a corotational step: it rotates the stored gradients.
 // diagonal_blocks() gives the 3x3 diagonal blocks (for Jacobi and Chebyshev smoothing) from the
