@@ -47,12 +47,10 @@ struct UpTable {
   }
 };
 
-/// Per-degree tables: up[β][k] = local index (in multi_indices(p)) of β + e_k for the degree-(p-1)
-/// multi-indices β; Q = ∫ B^{p-1}_γ B^{p-1}_β / (6V); P = ∫ B^p_a B^p_b / (6V).
+/// Per-degree tables: Q = ∫ B^{p-1}_γ B^{p-1}_β / (6V); P = ∫ B^p_a B^p_b / (6V).
 template <int P>
 struct Tables {
   static constexpr int N = nodes_of(P), Q = nodes_of(P - 1);
-  int up[Q][4];
   double q[Q][Q];
   double mass[N][N];
   Tables() {
@@ -64,8 +62,7 @@ struct Tables {
       for (int k = 0; k < 4; ++k) {
         MultiIndex a = beta[i];
         ++a[k];
-        up[i][k] = local_index(a);
-        if (UpTable<P>{}.v[i][k] != up[i][k])  // the compile-time table follows multi_indices()
+        if (UpTable<P>{}.v[i][k] != local_index(a))  // the compile-time table follows multi_indices()
           throw std::logic_error("matrix-free operator: node order table out of date");
       }
       for (int j = 0; j < Q; ++j) q[i][j] = bernstein_product_integral(beta[i], beta[j]);

@@ -74,7 +74,6 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   void apply_impl(const Vector& x, Vector& y) const override;
   /// r = b - A x in the same pass over the elements (r starts as b, contributions subtracted).
   void residual_impl(const Vector& b, const Vector& x, Vector& r) const override;
-  void refresh();
 
   struct Impl;
   const ElasticityModel* model_;
