@@ -108,26 +108,42 @@ std::unique_ptr<mg::Smoother> build_smoother(const Config& c, const SolverContex
   return std::make_unique<mg::Richardson>(std::move(s));
 }
 
-/// The multigrid cycle's keys (cycle, cycles, coarse_operator, restriction, smoother.*,
-/// lowest_level.*); `cycles` defaults to `default_cycles`.
+/// The multigrid cycle's keys (cycle, cycles, coarse_operator, restriction, operator, smoother.*,
+/// lowest_level.*); `cycles` defaults to `default_cycles`, `operator` to `default_operator`: "auto"
+/// for MGPCG (matrix-free was the faster on every system measured: README, matrix-free section),
+/// "assembled" for the stationary PMG (its Chebyshev-smoothed matrix-free cycle lost to the
+/// assembled Gauss–Seidel one on the cube).
 std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverContext& ctx,
-                                                int default_cycles, const KrylovParams& iteration) {
+                                                int default_cycles, const KrylovParams& iteration,
+                                                const std::string& default_operator) {
   if (!ctx.levels || ctx.levels->num_levels() < 2)
     c.fail("method", "multigrid needs at least two levels: an FEM scene of degree >= 2, or level "
                      "matrices with prolongations");
   mg::MultigridParams p;
   p.gamma = c.get_choice("cycle", "V", {"V", "W"}) == "W" ? 2 : 1;
-  p.matrix_free = c.get_choice("operator", "assembled", {"assembled", "matrix-free"}) == "matrix-free";
-  // Matrix-free MGPCG: one cycle per application was the fastest measured (README, matrix-free
-  // table); the assembled route keeps the seed's two.
-  p.cycles = c.get_int("cycles", p.matrix_free ? 1 : default_cycles, 1, 100);
   p.coarse_operator = c.get_choice("coarse_operator", "geometric", {"geometric", "galerkin"}) == "galerkin"
                           ? mg::CoarseOperator::galerkin
                           : mg::CoarseOperator::geometric;
+  Config sc = c.child("smoother");
+  const std::string op =
+      c.get_choice("operator", default_operator, {"auto", "assembled", "matrix-free"});
+  p.matrix_free = op == "matrix-free";
+  if (op == "auto") {
+    // Matrix-free where the levels offer operators and nothing asks for matrices: geometric lower
+    // levels, and no smoother chosen other than Chebyshev (Gauss–Seidel's keys, say, keep the
+    // assembled route the configuration was written for).
+    const std::string sm = sc.has("method") ? sc.get_string("method", "") : "";
+    p.matrix_free = ctx.levels->offers_matrix_free() && p.coarse_operator == mg::CoarseOperator::geometric &&
+                    (sm == "chebyshev" || (sm.empty() && !c.has_child("smoother")));
+    // Said in the solver's printed options: the route taken is part of what was run.
+    if (p.matrix_free) Config(c).set("operator", "matrix-free");
+  }
+  // Matrix-free MGPCG: one cycle per application was the fastest measured (README, matrix-free
+  // table); the assembled route keeps the seed's two.
+  p.cycles = c.get_int("cycles", p.matrix_free ? 1 : default_cycles, 1, 100);
   p.interpolating_restriction =
       c.get_choice("restriction", "transpose", {"transpose", "interpolating"}) == "interpolating";
   p.iteration = iteration;
-  Config sc = c.child("smoother");
   if (p.matrix_free) {
     if (p.coarse_operator == mg::CoarseOperator::galerkin)
       c.fail("operator", "matrix-free levels need coarse_operator=geometric (Galerkin products are matrices)");
@@ -148,6 +164,9 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
   // The linear level solved by CG to a loose tolerance: a usable correction even when the inner
   // solve stops early (the outer iteration judges it); only a broken one is an error.
   const std::string lm = lc.get_string("method", "cholmod");
+  // The linear level's factorisation and solves run between the OpenMP kernels of the cycle: a
+  // threaded BLAS's spinning workers would take a core from them (CholmodSolver, blas_threads).
+  if (lm == "cholmod") lc.set_default("blas_threads", "1");
   if (lm == "cg" || lm == "boomeramg-pcg") {
     lc.set_default("tol", "0.1");
     lc.set_default("max_iterations", "500");
@@ -221,17 +240,19 @@ Registry::Registry() {
   // Multigrid
   add({"pmg", "stationary multigrid: one cycle per iteration", std::string(kKrylovKeys) + " " + kCycleKeys, true,
        true},
-      [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c)); });
+      [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c), "assembled"); });
   add({"mgpcg", "CG preconditioned by multigrid cycles (cycles: per application, default 2)",
        std::string(kKrylovKeys) + " " + kCycleKeys, true, true},
       [](const Config& c, const SolverContext& ctx) {
         const KrylovParams k = read_krylov(c);
-        return std::make_unique<Cg>(k, build_cycle(c, ctx, 2, KrylovParams{}));
+        return std::make_unique<Cg>(k, build_cycle(c, ctx, 2, KrylovParams{}, "auto"));
       });
   // Direct and algebraic multigrid
-  add({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update", "ordering"},
+  add({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update",
+       "ordering blas_threads"},
       [](const Config& c, const SolverContext&) {
-        return std::make_unique<CholmodSolver>(c.get_choice("ordering", "metis", {"metis", "auto", "amd", "nesdis"}));
+        return std::make_unique<CholmodSolver>(c.get_choice("ordering", "metis", {"metis", "auto", "amd", "nesdis"}),
+                                               c.get_int("blas_threads", 0, 0, 4096));
       });
   add({"boomeramg", "hypre BoomerAMG V-cycles (a fixed symmetric operator)", kAmgKeys},
       [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> { return make_boomeramg(c, ctx); });

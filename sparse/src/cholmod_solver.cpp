@@ -1,6 +1,7 @@
 #include "pmg/sparse/cholmod_solver.hpp"
 
 #include <cholmod.h>
+#include <dlfcn.h>
 
 #include <chrono>
 #include <cstdio>
@@ -8,6 +9,59 @@
 #include <string>
 
 namespace pmg {
+
+namespace {
+
+// OpenBLAS's thread count, found at run time in the BLAS that CHOLMOD's library resolves dgemm_
+// to (a build against another BLAS, or none loaded, finds nothing and changes nothing).
+struct BlasThreadControl {
+  using SetFn = void (*)(int);
+  using GetFn = int (*)();
+  SetFn set = nullptr;
+  GetFn get = nullptr;
+
+  static const BlasThreadControl& instance() {
+    static const BlasThreadControl control = [] {
+      BlasThreadControl c;
+      Dl_info cholmod_lib{}, blas_lib{};
+      if (!dladdr(reinterpret_cast<void*>(&cholmod_l_start), &cholmod_lib) || !cholmod_lib.dli_fname)
+        return c;
+      // RTLD_NOLOAD: only libraries already loaded; the handles stay open (they are in use).
+      void* cholmod_handle = dlopen(cholmod_lib.dli_fname, RTLD_LAZY | RTLD_NOLOAD);
+      void* dgemm = cholmod_handle ? dlsym(cholmod_handle, "dgemm_") : nullptr;
+      if (!dgemm || !dladdr(dgemm, &blas_lib) || !blas_lib.dli_fname) return c;
+      void* blas = dlopen(blas_lib.dli_fname, RTLD_LAZY | RTLD_NOLOAD);
+      if (!blas) return c;
+      c.set = reinterpret_cast<SetFn>(dlsym(blas, "openblas_set_num_threads"));
+      c.get = reinterpret_cast<GetFn>(dlsym(blas, "openblas_get_num_threads"));
+      if (!c.set || !c.get) c.set = nullptr, c.get = nullptr;
+      return c;
+    }();
+    return control;
+  }
+};
+
+// Sets the BLAS thread count for one CHOLMOD call and restores it (threads <= 0: untouched).
+class ScopedBlasThreads {
+ public:
+  explicit ScopedBlasThreads(int threads) {
+    const BlasThreadControl& c = BlasThreadControl::instance();
+    if (threads <= 0 || !c.set) return;
+    previous_ = c.get();
+    if (previous_ != threads) c.set(threads);
+    else previous_ = 0;
+  }
+  ~ScopedBlasThreads() {
+    if (previous_ > 0) BlasThreadControl::instance().set(previous_);
+  }
+  ScopedBlasThreads(const ScopedBlasThreads&) = delete;
+  ScopedBlasThreads& operator=(const ScopedBlasThreads&) = delete;
+
+ private:
+  int previous_ = 0;
+};
+
+}  // namespace
 
 // CHOLMOD's long-integer interface (cholmod_l_*): our row pointers are 64-bit. CHOLMOD reads one
 // triangle of a symmetric matrix, so it is handed only that one: analyze() keeps the pattern of the
@@ -51,7 +105,9 @@ struct CholmodSolver::Impl {
   }
 };
 
-CholmodSolver::CholmodSolver(const std::string& ordering) : impl_(std::make_unique<Impl>()) {
+CholmodSolver::CholmodSolver(const std::string& ordering, int blas_threads)
+    : impl_(std::make_unique<Impl>()), blas_threads_(blas_threads) {
+  if (blas_threads < 0) throw InputError("CHOLMOD: blas_threads must be >= 0 (0: the BLAS's own setting)");
   cholmod_common& c = impl_->common;
   if (ordering == "auto") return;
   int method = 0;
@@ -112,7 +168,10 @@ void CholmodSolver::factorize(const Csr& A) {
   const std::size_t m = d.from.size();
   for (std::size_t k = 0; k < m; ++k) d.x[k] = values[d.from[k]];
   cholmod_sparse view = d.view(d.x.data());
-  cholmod_l_factorize(&view, d.factor, &d.common);
+  {
+    ScopedBlasThreads blas(blas_threads_);
+    cholmod_l_factorize(&view, d.factor, &d.common);
+  }
   d.factorize_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n)
     throw Error("CHOLMOD: matrix is not positive definite (factorisation fails at column " +
@@ -162,7 +221,9 @@ std::string CholmodSolver::describe() const {
                 "factorisation %.3f s",
                 d.factor->is_super ? "supernodal" : "simplicial", ordering_name(d.factor->ordering),
                 c.lnz, c.fl, d.analyze_seconds, d.factorize_seconds);
-  return std::string(buf) + (tried.empty() ? "" : " (orderings tried, factor nonzeros: " + tried + ")");
+  std::string out = buf;
+  if (blas_threads_ > 0) out += ", BLAS threads " + std::to_string(blas_threads_);
+  return out + (tried.empty() ? "" : " (orderings tried, factor nonzeros: " + tried + ")");
 }
 
 void CholmodSolver::setup_impl(const LinearOperator& A) {
@@ -202,7 +263,11 @@ void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
   B.x = const_cast<double*>(b.data());
   B.xtype = CHOLMOD_REAL;
   B.dtype = CHOLMOD_DOUBLE;
-  cholmod_dense* X = cholmod_l_solve(CHOLMOD_A, d.factor, &B, &d.common);
+  cholmod_dense* X;
+  {
+    ScopedBlasThreads blas(blas_threads_);
+    X = cholmod_l_solve(CHOLMOD_A, d.factor, &B, &d.common);
+  }
   if (!X) throw Error("CHOLMOD: solve failed (status " + std::to_string(d.common.status) + ")");
   x = Eigen::Map<const Vector>(static_cast<const double*>(X->x), b.size());
   cholmod_l_free_dense(&X, &d.common);

@@ -215,4 +215,26 @@ TEST_CASE("matrix-free p-multigrid (PMG and MGPCG) reaches the tolerance of the 
     CHECK_THROWS_AS(make_solver(Config::from_pairs({"method=pmg", "operator=matrix-free"}, "test"), ctx),
                     InputError);
   }
+  SECTION("defaults: MGPCG matrix-free where the levels offer operators, PMG assembled") {
+    SolverContext ctx;
+    ctx.levels = &h;
+    auto uses_mf = [&](std::vector<std::string> pairs) {
+      return make_solver(Config::from_pairs(pairs, "test"), ctx)->uses_matrix_free();
+    };
+    CHECK(uses_mf({"method=mgpcg"}));
+    CHECK(uses_mf({"method=mgpcg", "smoother=chebyshev", "smoother.degree=3"}));
+    CHECK(uses_mf({"method=pmg", "operator=auto"}));
+    CHECK_FALSE(uses_mf({"method=pmg"}));
+    CHECK_FALSE(uses_mf({"method=mgpcg", "operator=assembled"}));
+    CHECK_FALSE(uses_mf({"method=mgpcg", "smoother=gauss-seidel"}));
+    CHECK_FALSE(uses_mf({"method=mgpcg", "smoother.sweeps=3"}));  // Gauss–Seidel's key: assembled
+    CHECK_FALSE(uses_mf({"method=mgpcg", "coarse_operator=galerkin"}));
+    // The resolved route is among the printed options.
+    Config c = Config::from_pairs({"method=mgpcg"}, "test");
+    make_solver(c, ctx);
+    CHECK_THAT(c.to_string(), Catch::Contains("operator=matrix-free"));
+    mg::StoredLevels stored({h.matrix(0), h.matrix(1)}, {h.prolongation(1)});
+    ctx.levels = &stored;  // matrices only
+    CHECK_FALSE(uses_mf({"method=mgpcg"}));
+  }
 }

@@ -75,7 +75,7 @@ Csr kron_identity(const Csr& P) {
 TEST_CASE("user levels reproduce the hierarchy's cycle", "[user-levels]") {
   Levels s;
   Vector x_ref, x;
-  const SolveResult r_ref = mgpcg(s.h, s.b, x_ref);
+  const SolveResult r_ref = mgpcg(s.h, s.b, x_ref, "operator=assembled");  // as the user levels
   mg::UserLevels u(views(s.A), views(s.P), {});
   REQUIRE(u.num_levels() == 3);
   for (int l = 0; l < 3; ++l) CHECK(u.matrix(l).values() == s.h.matrix(l).values());
@@ -170,7 +170,7 @@ TEST_CASE("Dirichlet identity rows: whole nodes removed, partial ones and kept c
   const Vector xf = u.expand(x, bF);
   CHECK(xf.head(3 * extra).isApprox(Vector::Constant(3 * extra, 2.0)));
   Vector x_ref;
-  mgpcg(s.h, s.b, x_ref);
+  mgpcg(s.h, s.b, x_ref, "operator=assembled");
   CHECK((xf.tail(3 * n) - x_ref).norm() == 0.0);
 
   // one component of a node constrained only
@@ -232,7 +232,7 @@ TEST_CASE("fixed iterations past the floating-point floor end as converged, not 
   // MGPCG reaches a relative residual near 1e-155 in about 130 of 300 fixed iterations; there
   // r^T M^-1 r underflowed to 0 and was reported as "not symmetric positive definite".
   Levels s;
-  auto solver = make_solver(Config::from_pairs({"method=mgpcg", "fixed_iterations=300"}, "test"), {&s.h});
+  auto solver = make_solver(Config::from_pairs({"method=mgpcg", "operator=assembled", "fixed_iterations=300"}, "test"), {&s.h});
   solver->setup(s.h.matrix(2));
   Vector x = Vector::Zero(s.b.size());
   SolveResult r;

@@ -5,6 +5,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <dlfcn.h>
+
 using namespace pmg;
 using namespace pmg::test;
 
@@ -25,6 +27,28 @@ TEST_CASE("CHOLMOD solves the lattice to round-off and refactorises on the same 
   chol.factorize(A);
   chol.apply(b, x);
   CHECK((2.0 * x - x_true).norm() / x_true.norm() < 1e-10);
+}
+
+TEST_CASE("CHOLMOD with blas_threads: the same factor, the BLAS's own setting restored after each call",
+          "[sparse][cholmod]") {
+  // A lattice large enough for supernodes (BLAS calls) in the factor.
+  Csr A = spring_lattice(14).to_csr();
+  const Vector x_true = smooth_field(14);
+  const Vector b = A.to_eigen() * x_true;
+  using GetFn = int (*)();
+  const auto get = reinterpret_cast<GetFn>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  const int before = get ? get() : 0;
+  CholmodSolver plain, one("metis", 1);
+  plain.compute(A);
+  one.compute(A);
+  Vector x0, x1;
+  plain.apply(b, x0);
+  one.apply(b, x1);
+  CHECK((x1 - x_true).norm() / x_true.norm() < 1e-10);
+  CHECK((x1 - x0).norm() / x0.norm() < 1e-12);
+  if (get) CHECK(get() == before);  // OpenBLAS present (as in CI): its count is left as found
+  CHECK_THAT(one.describe(), Catch::Contains("BLAS threads 1"));
+  CHECK_THROWS_AS(CholmodSolver("metis", -1), InputError);
 }
 
 TEST_CASE("CHOLMOD reports a matrix that is not positive definite", "[sparse][cholmod][errors]") {

@@ -60,6 +60,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// assemble_level() and update_matrix_free() of the level gives it the same rotations and
   /// weights as the level's matrix.
   const LinearOperator* matrix_free_operator(int level) const override;
+  /// True: every level of degree >= 2 has (or builds on first use) its ElasticityOperator.
+  bool offers_matrix_free() const override { return num_levels() >= 2; }
   const ElasticityOperator& matrix_free(int level) const;
   /// A level's matrix-free operator brought to rotations R (nullptr: none) and the weights
   /// mass_weight M + stiffness_weight K_R, its matrix left as it is: a matrix-free level's whole

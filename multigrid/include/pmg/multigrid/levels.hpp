@@ -47,6 +47,9 @@ class LevelProvider {
   /// provider keeps them current (fem::DegreeHierarchy: its degree >= 2 levels, updated with the
   /// rotations and weights of every assemble_level() or update_matrix_free()).
   virtual const LinearOperator* matrix_free_operator(int /*level*/) const { return nullptr; }
+  /// Whether matrix_free_operator() gives an operator for every level above the lowest, answered
+  /// without building them (the factory's operator=auto asks before choosing).
+  virtual bool offers_matrix_free() const { return false; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };

@@ -20,7 +20,16 @@ class CholmodSolver final : public Solver {
   /// (CHOLMOD's nested dissection). On the README's 3-D elasticity systems METIS gives the
   /// smallest factor every time (Homer P3: 3.43e7 nonzeros against AMD's 3.70e7; Bunny P2: 2.57e7
   /// against 3.12e7), so "auto" only adds AMD's time to the analysis (0.2-0.3 s of 1 s).
-  explicit CholmodSolver(const std::string& ordering = "metis");
+  ///
+  /// blas_threads: threads of the BLAS under CHOLMOD's supernodes during this solver's
+  /// factorisations and solves (restored after each call); 0 leaves the BLAS's own setting. Only
+  /// OpenBLAS is steered (found at run time; other BLAS libraries ignore it). OpenBLAS's pthreads
+  /// build keeps its own worker threads, which spin on sched_yield for a while after every call:
+  /// next to pmgkit's OpenMP kernels they take a core from them. A multigrid's lowest level is
+  /// factorised and solved between those kernels, so the factory gives it 1 (on the twisted cubic
+  /// Homer this halved the matrix-free solve time: README, matrix-free section); a large standalone
+  /// factorisation gains a little from more (Homer P3: 2.30 s with 2 threads, 2.58 s with 1).
+  explicit CholmodSolver(const std::string& ordering = "metis", int blas_threads = 0);
   ~CholmodSolver() override;
   CholmodSolver(const CholmodSolver&) = delete;
   CholmodSolver& operator=(const CholmodSolver&) = delete;
@@ -54,6 +63,7 @@ class CholmodSolver final : public Solver {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   index_t n_ = 0;
+  int blas_threads_ = 0;
 };
 
 }  // namespace pmg
