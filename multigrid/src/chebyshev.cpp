@@ -1,14 +1,33 @@
 #include "pmg/multigrid/chebyshev.hpp"
 
 #include <cmath>
+#include <string>
 
 namespace pmg::mg {
+
+namespace {
+// Lottes' optimised weights of the fourth-kind smoother, degrees 1..6 (Lottes, "Optimal polynomial
+// smoothers for multigrid V-cycles", 2023, Table 1): x_k = x_(k-1) + beta_k d_(k-1).
+constexpr int kMaxOptimalDegree = 6;
+constexpr double kOptimalBetas[kMaxOptimalDegree][kMaxOptimalDegree] = {
+    {1.12500000000000},
+    {1.02387287570313, 1.26408905371085},
+    {1.00842544782028, 1.08867839208730, 1.33753125909618},
+    {1.00391310427285, 1.04035811188593, 1.14863498546254, 1.38268869241000},
+    {1.00212930146164, 1.02173711549260, 1.07872433192603, 1.19810065292663, 1.41322542791682},
+    {1.00128517255940, 1.01304293035233, 1.04678215124113, 1.11616489419675, 1.23829020218444,
+     1.43524297106744},
+};
+}  // namespace
 
 Chebyshev::Chebyshev(const ChebyshevParams& params) : params_(params) {
   if (params.degree < 1) throw InputError("Chebyshev: degree must be >= 1");
   if (!(params.lower_fraction > 0 && params.lower_fraction < 1))
     throw InputError("Chebyshev: lower_fraction must lie in (0, 1)");
   if (params.power_iterations < 1) throw InputError("Chebyshev: power_iterations must be >= 1");
+  if (params.kind == ChebyshevKind::optimal_fourth && params.degree > kMaxOptimalDegree)
+    throw InputError("Chebyshev: the optimised fourth kind is tabulated for degree <= " +
+                     std::to_string(kMaxOptimalDegree));
 }
 
 void Chebyshev::setup_impl(const LinearOperator& A) {
@@ -58,23 +77,51 @@ void Chebyshev::estimate(int iterations, bool warm) {
   lambda_max_ = 1.1 * lambda;
 }
 
-// Chebyshev iteration for D⁻¹A on [λmin, λmax], x improved in place.
-void Chebyshev::smooth(const Vector& b, Vector& x) const {
-  const double lmax = lambda_max_, lmin = params_.lower_fraction * lambda_max_;
-  const double theta = 0.5 * (lmax + lmin), delta = 0.5 * (lmax - lmin);
-  const double sigma = theta / delta;
-  double rho = 1.0 / sigma;
-  A_->residual(b, x, r_);
+
+void Chebyshev::pre_smooth_from_zero(const Vector& b, Vector& x) const {
+  x.setZero(b.size());
+  smooth(b, x, true);
+}
+
+// x improved in place by the polynomial of D⁻¹A; from x = 0 the first residual is b itself.
+void Chebyshev::smooth(const Vector& b, Vector& x, bool x_is_zero) const {
+  const int m = params_.degree;
+  if (x_is_zero) r_ = b;
+  else A_->residual(b, x, r_);
+  if (params_.kind == ChebyshevKind::first) {
+    // First kind on [λmin, λmax] (Saad, Alg. 12.1).
+    const double lmax = lambda_max_, lmin = params_.lower_fraction * lambda_max_;
+    const double theta = 0.5 * (lmax + lmin), delta = 0.5 * (lmax - lmin);
+    const double sigma = theta / delta;
+    double rho = 1.0 / sigma;
+    apply_inverse_diagonal(r_, d_);
+    d_ /= theta;
+    for (int k = 1; k <= m; ++k) {
+      x += d_;
+      if (k == m) break;
+      A_->residual(b, x, r_);
+      apply_inverse_diagonal(r_, z_);
+      const double rho_new = 1.0 / (2.0 * sigma - rho);
+      d_ = (rho_new * rho) * d_ + (2.0 * rho_new / delta) * z_;
+      rho = rho_new;
+    }
+    return;
+  }
+  // Fourth kind on [0, λmax] (Phillips & Fischer 2022, Alg. 3; Lottes 2023): the residual follows
+  // r_k = r_(k-1) - A d_(k-1), and with Lottes' weights x takes beta_k d_(k-1) instead of d_(k-1).
+  const double* beta = params_.kind == ChebyshevKind::optimal_fourth ? kOptimalBetas[m - 1] : nullptr;
+  const double inv_rho = 1.0 / lambda_max_;
   apply_inverse_diagonal(r_, d_);
-  d_ /= theta;
-  for (int k = 1; k <= params_.degree; ++k) {
-    x += d_;
-    if (k == params_.degree) break;
-    A_->residual(b, x, r_);
+  d_ *= (4.0 / 3.0) * inv_rho;
+  for (int k = 1; k <= m; ++k) {
+    if (beta) x += beta[k - 1] * d_;
+    else x += d_;
+    if (k == m) break;
+    A_->apply(d_, z_);
+    r_ -= z_;
     apply_inverse_diagonal(r_, z_);
-    const double rho_new = 1.0 / (2.0 * sigma - rho);
-    d_ = (rho_new * rho) * d_ + (2.0 * rho_new / delta) * z_;
-    rho = rho_new;
+    d_ = (static_cast<double>(2 * k - 1) / (2 * k + 3)) * d_ +
+         (static_cast<double>(8 * k + 4) / (2 * k + 3) * inv_rho) * z_;
   }
 }
 

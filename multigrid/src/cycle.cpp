@@ -127,10 +127,10 @@ void MultigridCycle::reset_timings() const {
 
 void MultigridCycle::apply_impl(const Vector& r, Vector& z) const {
   z.setZero(r.size());
-  for (int k = 0; k < params_.cycles; ++k) cycle(num_levels() - 1, r, z);
+  for (int k = 0; k < params_.cycles; ++k) cycle(num_levels() - 1, r, z, k == 0);
 }
 
-void MultigridCycle::cycle(int l, const Vector& b, Vector& x) const {
+void MultigridCycle::cycle(int l, const Vector& b, Vector& x, bool x_is_zero) const {
   if (l == 0) {
     const auto t0 = Clock::now();
     lowest_->apply(b, x);
@@ -140,7 +140,8 @@ void MultigridCycle::cycle(int l, const Vector& b, Vector& x) const {
   if (l == num_levels() - 1) ++timings_.cycles;
   Work& w = work_[l];
   auto t0 = Clock::now();
-  smoothers_[l - 1]->pre_smooth(b, x);
+  if (x_is_zero) smoothers_[l - 1]->pre_smooth_from_zero(b, x);
+  else smoothers_[l - 1]->pre_smooth(b, x);
   timings_.smoothing[l] += since(t0);
   t0 = Clock::now();
   level_operator(l).residual(b, x, w.r);
@@ -149,7 +150,7 @@ void MultigridCycle::cycle(int l, const Vector& b, Vector& x) const {
   transfers_[l - 1].restrict_to_coarse(w.r, w.rc);
   timings_.transfer += since(t0);
   w.xc.setZero();
-  for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle(l - 1, w.rc, w.xc);
+  for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle(l - 1, w.rc, w.xc, g == 0);
   t0 = Clock::now();
   transfers_[l - 1].prolongate_add(w.xc, x);
   timings_.transfer += since(t0);

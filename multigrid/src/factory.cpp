@@ -3,6 +3,8 @@
 
 #include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/chebyshev.hpp"
+
+#include <set>
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/petsc.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
@@ -109,10 +111,9 @@ std::unique_ptr<mg::Smoother> build_smoother(const Config& c, const SolverContex
 }
 
 /// The multigrid cycle's keys (cycle, cycles, coarse_operator, restriction, operator, smoother.*,
-/// lowest_level.*); `cycles` defaults to `default_cycles`, `operator` to `default_operator`: "auto"
-/// for MGPCG (matrix-free was the faster on every system measured: README, matrix-free section),
-/// "assembled" for the stationary PMG (its Chebyshev-smoothed matrix-free cycle lost to the
-/// assembled Gauss–Seidel one on the cube).
+/// lowest_level.*); `cycles` defaults to `default_cycles`, `operator` to `default_operator` ("auto"
+/// for both PMG and MGPCG: the matrix-free cycle was the faster on every system measured, README,
+/// matrix-free section; the seed's scenes and tables name `operator=assembled`).
 std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverContext& ctx,
                                                 int default_cycles, const KrylovParams& iteration,
                                                 const std::string& default_operator) {
@@ -132,9 +133,17 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
     // Matrix-free where the levels offer operators and nothing asks for matrices: geometric lower
     // levels, and no smoother chosen other than Chebyshev (Gauss–Seidel's keys, say, keep the
     // assembled route the configuration was written for).
-    const std::string sm = sc.has("method") ? sc.get_string("method", "") : "";
-    p.matrix_free = ctx.levels->offers_matrix_free() && p.coarse_operator == mg::CoarseOperator::geometric &&
-                    (sm == "chebyshev" || (sm.empty() && !c.has_child("smoother")));
+    bool chebyshev = true;  // the smoother named Chebyshev, or given only Chebyshev's keys
+    if (sc.has("method")) {
+      chebyshev = sc.get_string("method", "") == "chebyshev";
+    } else {
+      const std::set<std::string> keys = {"degree", "kind", "lower_fraction", "power_iterations",
+                                          "update_iterations"};
+      for (const auto& [key, value] : sc.items())
+        if (!keys.count(key.substr(sc.full_key("").size()))) chebyshev = false;
+    }
+    p.matrix_free = ctx.levels->offers_matrix_free() &&
+                    p.coarse_operator == mg::CoarseOperator::geometric && chebyshev;
     // Said in the solver's printed options: the route taken is part of what was run.
     if (p.matrix_free) Config(c).set("operator", "matrix-free");
   }
@@ -156,7 +165,8 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
     // was the fastest to 1e-6 measured on a cubic Homer and cube (README, matrix-free table).
     sc.set_default("method", "chebyshev");
     if (sc.get_string("method", "chebyshev") == "chebyshev") {
-      sc.set_default("degree", "2");
+      sc.set_default("kind", "opt-fourth");
+      sc.set_default("degree", "3");
       sc.set_default("update_iterations", "3");
     }
   }
@@ -240,7 +250,7 @@ Registry::Registry() {
   // Multigrid
   add({"pmg", "stationary multigrid: one cycle per iteration", std::string(kKrylovKeys) + " " + kCycleKeys, true,
        true},
-      [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c), "assembled"); });
+      [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c), "auto"); });
   add({"mgpcg", "CG preconditioned by multigrid cycles (cycles: per application, default 2)",
        std::string(kKrylovKeys) + " " + kCycleKeys, true, true},
       [](const Config& c, const SolverContext& ctx) {
@@ -294,11 +304,15 @@ Registry::Registry() {
   add({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows", "sweeps ordering", false, true},
       gauss_seidel(true));
   add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)",
-       "degree lower_fraction power_iterations update_iterations",
+       "degree kind lower_fraction power_iterations update_iterations",
        false, true},
       [](const Config& c, const SolverContext&) {
         mg::ChebyshevParams p;
         p.degree = c.get_int("degree", p.degree, 1, 100);
+        const std::string kind = c.get_choice("kind", "first", {"first", "fourth", "opt-fourth"});
+        p.kind = kind == "first" ? mg::ChebyshevKind::first
+                 : kind == "fourth" ? mg::ChebyshevKind::fourth
+                                    : mg::ChebyshevKind::optimal_fourth;
         p.lower_fraction = c.get_double("lower_fraction", p.lower_fraction, 1e-6, 1 - 1e-6);
         p.power_iterations = c.get_int("power_iterations", p.power_iterations, 1, 1000);
         p.update_iterations = c.get_int("update_iterations", p.update_iterations, 0, 1000);

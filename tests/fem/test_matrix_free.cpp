@@ -215,7 +215,7 @@ TEST_CASE("matrix-free p-multigrid (PMG and MGPCG) reaches the tolerance of the 
     CHECK_THROWS_AS(make_solver(Config::from_pairs({"method=pmg", "operator=matrix-free"}, "test"), ctx),
                     InputError);
   }
-  SECTION("defaults: MGPCG matrix-free where the levels offer operators, PMG assembled") {
+  SECTION("defaults: PMG and MGPCG matrix-free where the levels offer operators") {
     SolverContext ctx;
     ctx.levels = &h;
     auto uses_mf = [&](std::vector<std::string> pairs) {
@@ -223,8 +223,9 @@ TEST_CASE("matrix-free p-multigrid (PMG and MGPCG) reaches the tolerance of the 
     };
     CHECK(uses_mf({"method=mgpcg"}));
     CHECK(uses_mf({"method=mgpcg", "smoother=chebyshev", "smoother.degree=3"}));
-    CHECK(uses_mf({"method=pmg", "operator=auto"}));
-    CHECK_FALSE(uses_mf({"method=pmg"}));
+    CHECK(uses_mf({"method=mgpcg", "smoother.kind=opt-fourth"}));  // Chebyshev's keys alone
+    CHECK(uses_mf({"method=pmg"}));
+    CHECK_FALSE(uses_mf({"method=pmg", "operator=assembled"}));
     CHECK_FALSE(uses_mf({"method=mgpcg", "operator=assembled"}));
     CHECK_FALSE(uses_mf({"method=mgpcg", "smoother=gauss-seidel"}));
     CHECK_FALSE(uses_mf({"method=mgpcg", "smoother.sweeps=3"}));  // Gauss–Seidel's key: assembled

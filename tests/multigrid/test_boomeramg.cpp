@@ -25,6 +25,7 @@ struct Bar {
   std::unique_ptr<Solver> build(std::vector<std::string> options) const {
     options.push_back("tol=1e-8");
     options.push_back("max_iterations=200");
+    options.push_back("operator=assembled");  // the lowest levels compared under the assembled cycle
     SolverContext ctx;
     ctx.levels = &h;
     auto s = make_solver(Config::from_pairs(options, "test"), ctx);

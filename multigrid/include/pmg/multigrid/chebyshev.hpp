@@ -7,9 +7,17 @@
 
 namespace pmg::mg {
 
+/// Which polynomial in D⁻¹A: the first-kind Chebyshev polynomial on [f λmax, λmax] (Saad,
+/// "Iterative Methods for Sparse Linear Systems", Alg. 12.1), or the fourth-kind one on [0, λmax]
+/// (Lottes, "Optimal polynomial smoothers for multigrid V-cycles", Numer. Linear Algebra Appl.
+/// 2023; Phillips & Fischer, "Optimal Chebyshev smoothers and one-sided V-cycles", 2022), which
+/// needs no lower bound, and its variant with Lottes' optimised weights (degree <= 6).
+enum class ChebyshevKind { first, fourth, optimal_fourth };
+
 struct ChebyshevParams {
-  int degree = 4;               ///< polynomial degree = residual evaluations per smoothing
-  double lower_fraction = 0.1;  ///< smooth eigenvalues in [f λmax, λmax] of D⁻¹A
+  int degree = 4;               ///< polynomial degree = products with A per smoothing
+  ChebyshevKind kind = ChebyshevKind::first;
+  double lower_fraction = 0.1;  ///< first kind: smooth eigenvalues in [f λmax, λmax] of D⁻¹A
   int power_iterations = 15;    ///< estimate of λmax (then raised by 10%) at setup()
   /// update(): 0 repeats the set-up estimate; k > 0 runs k power iterations started from the last
   /// estimate's vector (a time step moves the spectrum little; matrix-free levels pay per product).
@@ -24,8 +32,10 @@ class Chebyshev final : public Smoother {
   explicit Chebyshev(const ChebyshevParams& params = {});
   Chebyshev(const LinearOperator& A, const ChebyshevParams& params = {}) : Chebyshev(params) { setup(A); }
   std::string name() const override { return "chebyshev"; }
-  void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
-  void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
+  void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
+  void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
+  /// From x = 0 the first residual is b: one product with A fewer.
+  void pre_smooth_from_zero(const Vector& b, Vector& x) const override;
   double lambda_max() const { return lambda_max_; }
   /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update()).
   const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
@@ -33,7 +43,7 @@ class Chebyshev final : public Smoother {
  private:
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
-  void smooth(const Vector& b, Vector& x) const;
+  void smooth(const Vector& b, Vector& x, bool x_is_zero) const;
   void apply_inverse_diagonal(const Vector& r, Vector& z) const;
   void estimate(int iterations, bool warm);
   const LinearOperator* A_ = nullptr;

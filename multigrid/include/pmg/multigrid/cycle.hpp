@@ -106,7 +106,8 @@ class MultigridCycle final : public Solver {
   void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
-  void cycle(int level, const Vector& b, Vector& x) const;
+  /// x_is_zero: x holds zeros (the smoother may start from that: pre_smooth_from_zero).
+  void cycle(int level, const Vector& b, Vector& x, bool x_is_zero = false) const;
 
   const LevelProvider& levels_;
   MultigridParams params_;

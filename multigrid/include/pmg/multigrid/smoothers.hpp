@@ -23,12 +23,17 @@ class Smoother : public Solver {
  public:
   virtual void pre_smooth(const Vector& b, Vector& x) const = 0;
   virtual void post_smooth(const Vector& b, Vector& x) const = 0;
+  /// pre_smooth() of x = 0 (sets x): a smoother may skip work that x = 0 makes trivial (a cycle's
+  /// lower levels, and the first cycle of a preconditioner application, start from zero).
+  virtual void pre_smooth_from_zero(const Vector& b, Vector& x) const {
+    x.setZero(b.size());
+    pre_smooth(b, x);
+  }
 
  protected:
   /// x = post(pre(0)): the symmetric smoothing step as a preconditioner.
   void apply_impl(const Vector& b, Vector& x) const override {
-    x.setZero(b.size());
-    pre_smooth(b, x);
+    pre_smooth_from_zero(b, x);
     post_smooth(b, x);
   }
 };
