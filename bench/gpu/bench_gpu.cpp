@@ -159,7 +159,7 @@ Cycles& cycles() {
   const fem::DegreeHierarchy& h = *problem(3).h;
   SolverContext ctx;
   ctx.levels = &h;
-  c->cpu = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev"}, "bench"), ctx);
+  c->cpu = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev", "operator=assembled"}, "bench"), ctx);
   c->cpu->setup(h.matrix(h.num_levels() - 1));
   const auto& cycle = dynamic_cast<const mg::MultigridCycle&>(*c->cpu);
   std::vector<const Bcsr*> m;

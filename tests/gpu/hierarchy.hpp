@@ -23,7 +23,7 @@ struct GpuCantilever {
     h.assemble(nullptr);
     SolverContext ctx;
     ctx.levels = &h;
-    pmg = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev"}, "test"), ctx);
+    pmg = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev", "operator=assembled"}, "test"), ctx);  // as the GPU cycle
     pmg->setup(h.matrix(h.num_levels() - 1));
     Vector f = Vector::Zero(h.finest().num_dofs());
     h.finest().add_traction(f, [](const fem::Vec3& X) { return X.x() > 1 - 1e-12; }, fem::Vec3(0, 0, -250.0));

@@ -83,6 +83,67 @@ TEST_CASE("smoothers reduce the error of an SPD system", "[multigrid][smoother]"
   }
 }
 
+TEST_CASE("Chebyshev of each kind matches its dense serial reference, also started from zero",
+          "[multigrid][smoother][chebyshev]") {
+  // Reference: dense B = D⁻¹A (D the 3x3 diagonal blocks) and the published recurrences with a
+  // fresh residual b - A x at every step: first kind (Saad, Alg. 12.1) on [f ρ, ρ]; fourth kind
+  // (Phillips & Fischer 2022) on [0, ρ]; its optimised variant (Lottes 2023) weights the same
+  // fourth-kind updates d_k by beta_k.
+  const Bcsr A = spring_lattice(4);
+  const Eigen::MatrixXd Ad = A.to_csr().to_eigen();
+  const Eigen::Index n = Ad.rows();
+  Eigen::MatrixXd Dinv = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index I = 0; I < n / 3; ++I) Dinv.block<3, 3>(3 * I, 3 * I) = Ad.block<3, 3>(3 * I, 3 * I).inverse();
+  const Vector b = Vector::LinSpaced(n, -1.0, 2.0);
+  const Vector x0 = 0.1 * Vector::LinSpaced(n, 1.0, -0.5);
+  const double betas3[3] = {1.00842544782028, 1.08867839208730, 1.33753125909618};
+  for (ChebyshevKind kind : {ChebyshevKind::first, ChebyshevKind::fourth, ChebyshevKind::optimal_fourth}) {
+    for (int m : {1, 3}) {
+      INFO("kind " << static_cast<int>(kind) << ", degree " << m);
+      ChebyshevParams p;
+      p.kind = kind;
+      p.degree = m;
+      const Chebyshev cheb(A, p);
+      const double rho = cheb.lambda_max();
+      Vector x_ref = x0;
+      if (kind == ChebyshevKind::first) {
+        const double lmin = p.lower_fraction * rho, theta = 0.5 * (rho + lmin), delta = 0.5 * (rho - lmin);
+        const double sigma = theta / delta;
+        double r_old = 1.0 / sigma;
+        Vector d = Dinv * (b - Ad * x_ref) / theta;
+        for (int k = 1; k <= m; ++k) {
+          x_ref += d;
+          const double r_new = 1.0 / (2.0 * sigma - r_old);
+          d = r_new * r_old * d + (2.0 * r_new / delta) * (Dinv * (b - Ad * x_ref));
+          r_old = r_new;
+        }
+      } else {
+        Vector y = x0;  // the unweighted fourth-kind iterate
+        Vector d = (4.0 / 3.0 / rho) * (Dinv * (b - Ad * y));
+        for (int k = 1; k <= m; ++k) {
+          const double beta = kind == ChebyshevKind::optimal_fourth ? (m == 1 ? 1.125 : betas3[k - 1]) : 1.0;
+          x_ref += beta * d;
+          y += d;
+          d = (2.0 * k - 1) / (2.0 * k + 3) * d + (8.0 * k + 4) / (2.0 * k + 3) / rho * (Dinv * (b - Ad * y));
+        }
+      }
+      Vector x = x0;
+      cheb.pre_smooth(b, x);
+      CHECK((x - x_ref).norm() <= 1e-12 * x_ref.norm());
+      // From zero: the same as smoothing a zero vector, with one product fewer.
+      Vector z1 = Vector::Zero(n), z2;
+      cheb.pre_smooth(b, z1);
+      cheb.pre_smooth_from_zero(b, z2);
+      CHECK((z1 - z2).norm() <= 1e-13 * z1.norm());
+      CHECK(z1.norm() > 0);
+    }
+  }
+  ChebyshevParams bad;
+  bad.kind = ChebyshevKind::optimal_fourth;
+  bad.degree = 7;
+  CHECK_THROWS_AS(Chebyshev(bad), InputError);
+}
+
 TEST_CASE("a smoother refuses a matrix whose diagonal blocks are not SPD", "[multigrid][smoother][errors]") {
   Bcsr A = spring_lattice(3);
   A.block(A.find_block(4, 4)) = -Block3::Identity();
