@@ -1,0 +1,206 @@
+"""The p-multigrid performance targets in one run: ratios against the strongest alternatives
+measured in the same run, the bandwidth bound beside the assembled V-cycle.
+
+  1. static cubic Homer to 1e-6 from zero: the best multigrid (PMG or MGPCG, default settings)
+     against CHOLMOD (factor + solve) and block-Jacobi PCG;
+  2. the unit cube, p = 2, a sweep of sizes to 1e-6: the best multigrid at the largest size
+     against block-Jacobi PCG and CHOLMOD, and the fitted exponent k of time ~ n^k, with its
+     spread over repeated sweeps (the later sweeps run the multigrid solvers only);
+  3. the twisted cubic Homer (corotational, dt 0.01, 1e-3 per step, 10 steps): wall time per step
+     of the default against the default of before (assembled Gauss-Seidel PMG, threaded BLAS), its
+     solve per step against block-Jacobi PCG's, and its step against a CHOLMOD-per-step run;
+  4. the assembled cubic V-cycle against its bytes-moved / read-bandwidth bound
+     (bench/multigrid/bench_vcycle), on 2 threads and on 1;
+  5. assembly per step (finest matrix or operator update + hierarchy update) of the default
+     against the default of before, and elements per second.
+
+Every figure comes from `pmg compare --json`, `pmg simulate --json` or the benchmark's summary
+line of this run. Needs models/homer.ele (scripts/get_models.sh) unless --quick, which runs
+every part on small box meshes in seconds (a smoke test: its ratios mean nothing). Writes the
+table as Markdown to --out (atomically) and prints it:
+
+  /usr/bin/python3 tools/perf_report.py --pmg build/tools/pmg --out perf_report.md   # ~15 min
+"""
+import argparse
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+from pmgreport import atomic_write, error_line, run
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# The default of before these targets were set: the seed's assembled Gauss-Seidel PMG with the
+# BLAS under CHOLMOD left threaded.
+BEFORE = {"method": "pmg", "operator": "assembled", "lowest_level": {"blas_threads": 0}}
+
+
+def log(*args):
+    print(*args, file=sys.stderr, flush=True)
+
+
+def compare(pmg, args, solvers, tol):
+    cmd = [pmg, "compare"] + args + ["-t", str(tol), "--warm-up", "--no-reference", "--solvers", solvers]
+    log("$", " ".join(cmd))
+    proc, report = run(cmd)
+    if report is None:
+        sys.exit("perf_report: pmg compare failed: %s" % (error_line(proc) or proc.stderr[-500:]))
+    times = {}
+    for s in report["solvers"]:
+        if s["status"] != "converged" or s["time_to_1e-6_s" if tol <= 1e-6 else "time_to_1e-3_s"] is None:
+            sys.exit("perf_report: %s did not converge (%s)" % (s["name"], s["message"]))
+        times[s["name"]] = (s["time_to_1e-6_s" if tol <= 1e-6 else "time_to_1e-3_s"], s["iterations"])
+    return report["system"]["unknowns"], times
+
+
+def simulate(pmg, scene, solver, duration, workdir, name):
+    sc = dict(scene)
+    sc["solver"] = dict(solver)
+    path = os.path.join(workdir, name + ".json")
+    with open(path, "w") as f:
+        json.dump(sc, f)
+    cmd = [pmg, "simulate", path, "-q", "--duration", str(duration)]
+    log("$", " ".join(cmd), " # solver", json.dumps(solver))
+    proc, report = run(cmd)
+    if report is None or proc.returncode != 0:
+        sys.exit("perf_report: pmg simulate failed: %s" % (error_line(proc) or proc.stderr[-500:]))
+    steps = report["steps"]["done"]
+    stage = {s["stage"]: s["per_step_ms"] for s in report["stages"]}
+    return {"wall_ms": 1e3 * report["steps"]["wall_s"] / steps, "solve_ms": stage["solve"],
+            "assembly_ms": stage.get("finest matrix", 0.0) + stage.get("hierarchy update", 0.0),
+            "tets": report["mesh"]["tets"], "iterations": report["steps"]["iterations_per_step"]}
+
+
+def vcycle(bench, threads, quick):
+    cmd = [bench] + (["--pmg_boxes=1", "--benchmark_min_time=0.001", "--benchmark_repetitions=1",
+                      "--pmg_triad_mib=8"] if quick else [])
+    log("$ OMP_NUM_THREADS=%d" % threads, " ".join(cmd))
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    m = re.search(r"V-cycle: ([0-9.]+) ms measured, [0-9.]+ MB moved at least, bound ([0-9.]+) ms", proc.stdout)
+    if proc.returncode != 0 or not m:
+        sys.exit("perf_report: %s failed (exit %d): %s" % (bench, proc.returncode, proc.stderr[-500:]))
+    return float(m.group(1)), float(m.group(2))
+
+
+def fit(ns, ts):
+    if len(ns) < 3:
+        return float("nan")
+    import numpy as np
+
+    return float(np.polyfit(np.log(ns), np.log(ts), 1)[0])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--pmg", default=os.path.join(ROOT, "build/tools/pmg"))
+    ap.add_argument("--vcycle", default=None, help="bench_vcycle (default: next to pmg, ../bench/multigrid)")
+    ap.add_argument("--mesh", default=os.path.join(ROOT, "models/homer.ele"), help="the cubic model of targets 1, 3 and 5")
+    ap.add_argument("--boxes", default="5,7,9,11,14,17", help="target 2: boxes per side of the cube")
+    ap.add_argument("--repeats", type=int, default=2, help="target 2: sweeps (the later ones multigrid only)")
+    ap.add_argument("--quick", action="store_true", help="small box meshes everywhere (a smoke test)")
+    ap.add_argument("--out", default="perf_report.md")
+    a = ap.parse_args()
+    if a.repeats < 1:
+        sys.exit("perf_report: --repeats must be >= 1")
+    bench = a.vcycle or os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(a.pmg))),
+                                     "bench", "multigrid", "bench_vcycle")
+    if not os.path.exists(bench):
+        sys.exit("perf_report: %s not found (--vcycle)" % bench)
+    if a.quick:
+        model = ["--box", "3", "1", "1", "-p", "3", "--fix", "x", "--load", "gravity"]
+        scene = {"name": "twisted bar (quick)", "mesh": {"box": [3, 1, 1], "size": [3, 1, 1]}, "degree": 3,
+                 "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
+                 "clamp": {"axis": "x", "fraction": 0.0}, "initial": {"state": "twisted", "degrees": 30},
+                 "time": {"dt": 0.01, "duration": 0.03}}
+        boxes, duration = [1, 2, 3], 0.03
+    else:
+        if not os.path.exists(a.mesh):
+            sys.exit("perf_report: %s not found: run scripts/get_models.sh (or pass --mesh)" % a.mesh)
+        model = ["--mesh", a.mesh, "-p", "3", "--fix", "z", "--fix-fraction", "0.05", "--load", "gravity"]
+        with open(os.path.join(ROOT, "scenes/homer_twisted.json")) as f:
+            scene = json.load(f)
+        scene["mesh"] = {"file": os.path.abspath(a.mesh)}
+        boxes, duration = [int(b) for b in a.boxes.split(",")], 0.1
+    rows = []  # (target, what, measured, ratio text, goal text, met)
+
+    def row(target, what, measured, ratio, goal, at_least=True):
+        """ratio against goal: met when ratio >= goal (at_least) or ratio <= goal."""
+        met = ratio >= goal if at_least else ratio <= goal
+        rows.append((target, what, measured, "%.2fx" % ratio, (">= %gx" if at_least else "<= %gx") % goal,
+                     "met" if met else "not met"))
+
+    # 1. static Homer
+    n1, t = compare(a.pmg, model, "cholmod,block-jacobi-pcg,pmg,mgpcg", 1e-6)
+    best = min(("pmg", "mgpcg"), key=lambda s: t[s][0])
+    tb = t[best][0]
+    row("1", "static, %d unknowns, to 1e-6: %s %.2f s (%d it.) vs CHOLMOD %.2f s" % (n1, best, tb, t[best][1], t["cholmod"][0]),
+        "%.2f s" % tb, t["cholmod"][0] / tb, 3.0)
+    row("1", "%s vs block-Jacobi PCG %.2f s (%d it.)" % (best, t["block-jacobi-pcg"][0], t["block-jacobi-pcg"][1]),
+        "%.2f s" % tb, t["block-jacobi-pcg"][0] / tb, 5.0)
+
+    # 2. cube sweep, p = 2
+    sizes, mg_times, last = [], {}, None
+    for r in range(a.repeats):
+        solvers = "pmg,mgpcg,block-jacobi-pcg,cholmod" if r == 0 else "pmg,mgpcg"
+        for n in boxes:
+            u, tt = compare(a.pmg, ["--box", str(n), str(n), str(n), "--size", "1", "1", "1", "-p", "2",
+                                    "--fix", "z", "--load", "gravity"], solvers, 1e-6)
+            if r == 0:
+                sizes.append(u)
+                last = tt
+            mg_times.setdefault(r, []).append(min(tt["pmg"][0], tt["mgpcg"][0]))
+    exps = [fit(sizes, mg_times[r]) for r in range(a.repeats)]
+    best2 = min(("pmg", "mgpcg"), key=lambda s: last[s][0])
+    tl = last[best2][0]
+    row("2", "cube p=2, %d unknowns, to 1e-6: %s %.2f s vs block-Jacobi PCG %.2f s" % (sizes[-1], best2, tl, last["block-jacobi-pcg"][0]),
+        "%.2f s" % tl, last["block-jacobi-pcg"][0] / tl, 3.0)
+    row("2", "%s vs CHOLMOD %.2f s" % (best2, last["cholmod"][0]), "%.2f s" % tl, last["cholmod"][0] / tl, 10.0)
+    if any(math.isnan(k) for k in exps):
+        rows.append(("2", "fitted exponent (needs 3 sizes or more)", "-", "-", "<= 1.1", "not measured"))
+    else:
+        spread = "" if a.repeats < 2 else "; sweeps %s" % ", ".join("%.2f" % k for k in exps)
+        rows.append(("2", "exponent k of time ~ n^k, best multigrid, %d sizes (largest of the sweeps%s)" % (len(sizes), spread),
+                     "k = %.2f" % max(exps), "-", "<= 1.1", "met" if max(exps) <= 1.1 else "not met"))
+
+    # 3 and 5. the twisted model
+    with tempfile.TemporaryDirectory() as d:
+        now = simulate(a.pmg, scene, {"method": "mgpcg", "tol": 1e-3}, duration, d, "default")
+        before = simulate(a.pmg, scene, dict(BEFORE, tol=1e-3), duration, d, "before")
+        bj = simulate(a.pmg, scene, {"method": "block-jacobi-pcg", "tol": 1e-3}, duration, d, "bjpcg")
+        chol = simulate(a.pmg, scene, {"method": "cholmod"}, duration, d, "cholmod")
+    row("3", "twisted, wall per step: default (mgpcg) %.0f ms vs before (assembled PMG) %.0f ms" % (now["wall_ms"], before["wall_ms"]),
+        "%.0f ms" % now["wall_ms"], before["wall_ms"] / now["wall_ms"], 4.0)
+    row("3", "solve per step: %.0f ms (%.1f it.) vs block-Jacobi PCG %.0f ms (%.0f it.)" % (now["solve_ms"], now["iterations"], bj["solve_ms"], bj["iterations"]),
+        "%.0f ms" % now["solve_ms"], bj["solve_ms"] / now["solve_ms"], 5.0)
+    row("3", "wall per step vs CHOLMOD per step %.0f ms" % chol["wall_ms"], "%.0f ms" % now["wall_ms"],
+        chol["wall_ms"] / now["wall_ms"], 6.0)
+
+    # 4. the assembled V-cycle
+    c2, b2 = vcycle(bench, 2, a.quick)
+    c1, _ = vcycle(bench, 1, a.quick)
+    row("4", "assembled cubic V-cycle, 2 threads: %.1f ms against its bound %.1f ms" % (c2, b2), "%.1f ms" % c2, c2 / b2, 1.25,
+        at_least=False)
+    row("4", "the same on 1 thread: %.1f ms (ratio: 1 thread / 2 threads)" % c1, "%.1f ms" % c1, c1 / c2, 1.05)
+
+    # 5. assembly per step
+    row("5", "assembly per step (finest + hierarchy update): default %.1f ms vs before %.1f ms; %d elements, %.3g elements/s"
+        % (now["assembly_ms"], before["assembly_ms"], now["tets"], now["tets"] / max(now["assembly_ms"], 1e-9) * 1e3),
+        "%.1f ms" % now["assembly_ms"], before["assembly_ms"] / max(now["assembly_ms"], 1e-9), 4.0)
+
+    lines = ["| target | what | measured | ratio | goal | |", "| --- | --- | ---: | ---: | --- | --- |"]
+    lines += ["| %s |" % " | ".join(r) for r in rows]
+    threads = os.environ.get("OMP_NUM_THREADS", str(os.cpu_count() or 1))
+    table = "\n".join(lines) + "\n\n(" + ("--quick: small box meshes, the ratios mean nothing; " if a.quick else "") + \
+        "%s threads; times include set-up; `/usr/bin/python3 tools/perf_report.py`)\n" % threads
+    atomic_write(a.out, table)
+    print(table)
+    print("wrote", a.out)
+
+
+if __name__ == "__main__":
+    main()
