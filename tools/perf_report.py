@@ -19,7 +19,7 @@ line of this run. Needs models/homer.ele (scripts/get_models.sh) unless --quick,
 every part on small box meshes in seconds (a smoke test: its ratios mean nothing). Writes the
 table as Markdown to --out (atomically) and prints it:
 
-  /usr/bin/python3 tools/perf_report.py --pmg build/tools/pmg --out perf_report.md   # ~15 min
+  /usr/bin/python3 tools/perf_report.py --pmg build/tools/pmg --out perf_report.md   # ~10 min
 """
 import argparse
 import json
