@@ -49,11 +49,12 @@ def compare(pmg, args, solvers, tol):
     proc, report = run(cmd)
     if report is None:
         sys.exit("perf_report: pmg compare failed: %s" % (error_line(proc) or proc.stderr[-500:]))
+    key = "time_to_1e-6_s" if tol <= 1e-6 else "time_to_1e-3_s"
     times = {}
     for s in report["solvers"]:
-        if s["status"] != "converged" or s["time_to_1e-6_s" if tol <= 1e-6 else "time_to_1e-3_s"] is None:
+        if s["status"] != "converged" or s[key] is None:
             sys.exit("perf_report: %s did not converge (%s)" % (s["name"], s["message"]))
-        times[s["name"]] = (s["time_to_1e-6_s" if tol <= 1e-6 else "time_to_1e-3_s"], s["iterations"])
+        times[s["name"]] = (s[key], s["iterations"])
     return report["system"]["unknowns"], times
 
 

@@ -77,9 +77,9 @@ int main(int argc, char** argv) {
     const LinearOperator& A = mf ? *h.matrix_free_operator(L - 1) : static_cast<const LinearOperator&>(h.matrix(L - 1));
     SolverContext ctx;
     ctx.levels = &h;
-    Config c = Config::from_pairs({"method=mgpcg", "tol=" + std::to_string(tol)}, "static_memory");
-    c.set("operator", mf ? "matrix-free" : "assembled");
-    auto solver = make_solver(c, ctx);
+    auto solver = make_solver(Config::from_pairs({"method=mgpcg", "tol=" + std::to_string(tol), "operator=" + route},
+                                                 "static_memory"),
+                              ctx);
     solver->setup(A);
     const double setup = since(t0);
     Vector x = Vector::Zero(b.size());

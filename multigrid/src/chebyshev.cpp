@@ -77,7 +77,6 @@ void Chebyshev::estimate(int iterations, bool warm) {
   lambda_max_ = 1.1 * lambda;
 }
 
-
 void Chebyshev::pre_smooth_from_zero(const Vector& b, Vector& x) const {
   x.setZero(b.size());
   smooth(b, x, true);

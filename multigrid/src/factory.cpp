@@ -3,15 +3,16 @@
 
 #include "pmg/multigrid/boomeramg.hpp"
 #include "pmg/multigrid/chebyshev.hpp"
-
-#include <set>
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/petsc.hpp"
 #include "pmg/sparse/cholmod_solver.hpp"
 #include "pmg/sparse/krylov.hpp"
 
+#include <iterator>
 #include <limits>
 #include <map>
+#include <set>
+#include <sstream>
 #include <mutex>
 #include <sstream>
 
@@ -110,13 +111,16 @@ std::unique_ptr<mg::Smoother> build_smoother(const Config& c, const SolverContex
   return std::make_unique<mg::Richardson>(std::move(s));
 }
 
+/// Chebyshev's keys: its registration reads them, and operator=auto takes a smoother given only
+/// these (no method) for Chebyshev.
+const char* kChebyshevKeys = "degree kind lower_fraction power_iterations update_iterations";
+
 /// The multigrid cycle's keys (cycle, cycles, coarse_operator, restriction, operator, smoother.*,
-/// lowest_level.*); `cycles` defaults to `default_cycles`, `operator` to `default_operator` ("auto"
-/// for both PMG and MGPCG: the matrix-free cycle was the faster on every system measured, README,
-/// matrix-free section; the seed's scenes and tables name `operator=assembled`).
+/// lowest_level.*); `cycles` defaults to `default_cycles`, `operator` to "auto" (for PMG and MGPCG:
+/// the matrix-free cycle was the faster on every system measured, README, matrix-free section; the
+/// seed's scenes and tables name `operator=assembled`).
 std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverContext& ctx,
-                                                int default_cycles, const KrylovParams& iteration,
-                                                const std::string& default_operator) {
+                                                int default_cycles, const KrylovParams& iteration) {
   if (!ctx.levels || ctx.levels->num_levels() < 2)
     c.fail("method", "multigrid needs at least two levels: an FEM scene of degree >= 2, or level "
                      "matrices with prolongations");
@@ -127,7 +131,7 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
                           : mg::CoarseOperator::geometric;
   Config sc = c.child("smoother");
   const std::string op =
-      c.get_choice("operator", default_operator, {"auto", "assembled", "matrix-free"});
+      c.get_choice("operator", "auto", {"auto", "assembled", "matrix-free"});
   p.matrix_free = op == "matrix-free";
   if (op == "auto") {
     // Matrix-free where the levels offer operators and nothing asks for matrices: geometric lower
@@ -137,8 +141,8 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
     if (sc.has("method")) {
       chebyshev = sc.get_string("method", "") == "chebyshev";
     } else {
-      const std::set<std::string> keys = {"degree", "kind", "lower_fraction", "power_iterations",
-                                          "update_iterations"};
+      std::istringstream list(kChebyshevKeys);
+      const std::set<std::string> keys{std::istream_iterator<std::string>(list), {}};
       for (const auto& [key, value] : sc.items())
         if (!keys.count(key.substr(sc.full_key("").size()))) chebyshev = false;
     }
@@ -252,12 +256,12 @@ Registry::Registry() {
   // Multigrid
   add({"pmg", "stationary multigrid: one cycle per iteration", std::string(kKrylovKeys) + " " + kCycleKeys, true,
        true},
-      [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c), "auto"); });
+      [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, 1, read_krylov(c)); });
   add({"mgpcg", "CG preconditioned by multigrid cycles (cycles: per application, default 2)",
        std::string(kKrylovKeys) + " " + kCycleKeys, true, true},
       [](const Config& c, const SolverContext& ctx) {
         const KrylovParams k = read_krylov(c);
-        return std::make_unique<Cg>(k, build_cycle(c, ctx, 2, KrylovParams{}, "auto"));
+        return std::make_unique<Cg>(k, build_cycle(c, ctx, 2, KrylovParams{}));
       });
   // Direct and algebraic multigrid
   add({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update",
@@ -305,9 +309,7 @@ Registry::Registry() {
       gauss_seidel(false));
   add({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows", "sweeps ordering", false, true},
       gauss_seidel(true));
-  add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)",
-       "degree kind lower_fraction power_iterations update_iterations",
-       false, true},
+  add({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)", kChebyshevKeys, false, true},
       [](const Config& c, const SolverContext&) {
         mg::ChebyshevParams p;
         p.degree = c.get_int("degree", p.degree, 1, 100);
