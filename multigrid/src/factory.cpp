@@ -182,7 +182,11 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
   const std::string lm = lc.get_string("method", "cholmod");
   // The linear level's factorisation and solves run between the OpenMP kernels of the cycle: a
   // threaded BLAS's spinning workers would take a core from them (CholmodSolver, blas_threads).
-  if (lm == "cholmod") lc.set_default("blas_threads", "1");
+  // Its factorisations are threaded (0: the BLAS's own count), its workers ended after each.
+  if (lm == "cholmod") {
+    lc.set_default("blas_threads", "1");
+    lc.set_default("factor_threads", "0");
+  }
   if (lm == "cg" || lm == "boomeramg-pcg") {
     lc.set_default("tol", "0.1");
     lc.set_default("max_iterations", "500");
@@ -265,10 +269,11 @@ Registry::Registry() {
       });
   // Direct and algebraic multigrid
   add({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update",
-       "ordering blas_threads"},
+       "ordering blas_threads factor_threads"},
       [](const Config& c, const SolverContext&) {
         return std::make_unique<CholmodSolver>(c.get_choice("ordering", "metis", {"metis", "auto", "amd", "nesdis"}),
-                                               c.get_int("blas_threads", 0, 0, 4096));
+                                               c.get_int("blas_threads", 0, 0, 4096),
+                                               c.get_int("factor_threads", -1, -1, 4096));
       });
   add({"boomeramg", "hypre BoomerAMG V-cycles (a fixed symmetric operator)", kAmgKeys},
       [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> { return make_boomeramg(c, ctx); });

@@ -1,5 +1,7 @@
 #include "pmg/sparse/cholmod_solver.hpp"
 
+#include "pmg/sparse/bcsr.hpp"
+
 #include <cholmod.h>
 #include <dlfcn.h>
 
@@ -17,8 +19,10 @@ namespace {
 struct BlasThreadControl {
   using SetFn = void (*)(int);
   using GetFn = int (*)();
+  using ShutdownFn = int (*)();
   SetFn set = nullptr;
   GetFn get = nullptr;
+  ShutdownFn shutdown = nullptr;  // ends the worker threads (re-created by the next threaded call)
 
   static const BlasThreadControl& instance() {
     static const BlasThreadControl control = [] {
@@ -35,6 +39,8 @@ struct BlasThreadControl {
       c.set = reinterpret_cast<SetFn>(dlsym(blas, "openblas_set_num_threads"));
       c.get = reinterpret_cast<GetFn>(dlsym(blas, "openblas_get_num_threads"));
       if (!c.set || !c.get) c.set = nullptr, c.get = nullptr;
+      // OpenBLAS's own pthread_atfork handler uses it: safe while no BLAS call runs.
+      if (c.set) c.shutdown = reinterpret_cast<ShutdownFn>(dlsym(blas, "blas_thread_shutdown_"));
       return c;
     }();
     return control;
@@ -61,6 +67,43 @@ class ScopedBlasThreads {
   int previous_ = 0;
 };
 
+// Factorisations of fewer flops run on the solves' BLAS threads (factor_threads is ignored).
+constexpr double kThreadedFactorFlops = 1e9;
+
+// The entries of a symmetric pattern's rows on or left of the diagonal: row r's are column r of
+// the upper triangle in CSC (p, i); `from` (when given) receives their positions in the pattern.
+void upper_triangle(const CsrPattern& pat, std::vector<SuiteSparse_long>& p, std::vector<SuiteSparse_long>& i,
+                    std::vector<offset_t>* from) {
+  p.assign(static_cast<std::size_t>(pat.rows) + 1, 0);
+  i.clear();
+  i.reserve((pat.nnz() + pat.rows) / 2);
+  if (from) from->clear(), from->reserve((pat.nnz() + pat.rows) / 2);
+  for (index_t r = 0; r < pat.rows; ++r) {
+    for (offset_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1] && pat.col_idx[k] <= r; ++k) {
+      i.push_back(pat.col_idx[k]);
+      if (from) from->push_back(k);
+    }
+    p[r + 1] = static_cast<SuiteSparse_long>(i.size());
+  }
+}
+
+// CHOLMOD's view of such an upper triangle (no copy); values nullptr: the pattern alone.
+cholmod_sparse upper_view(std::vector<SuiteSparse_long>& p, std::vector<SuiteSparse_long>& i, double* values) {
+  cholmod_sparse A{};
+  A.nrow = A.ncol = p.size() - 1;
+  A.nzmax = i.size();
+  A.p = p.data();
+  A.i = i.data();
+  A.x = values;
+  A.stype = 1;
+  A.itype = CHOLMOD_LONG;
+  A.xtype = values ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+  A.dtype = CHOLMOD_DOUBLE;
+  A.sorted = 1;
+  A.packed = 1;
+  return A;
+}
+
 }  // namespace
 
 // CHOLMOD's long-integer interface (cholmod_l_*): our row pointers are 64-bit. CHOLMOD reads one
@@ -76,6 +119,8 @@ struct CholmodSolver::Impl {
   std::vector<offset_t> from;          // its entries' positions in the full CSR values
   std::vector<double> x;               // its values
   bool factorized = false;
+  bool block_ordering = false;         // the ordering was computed on the 3x3 blocks' graph
+  double flops = 0;                    // of one numeric factorisation, from the analysis
   double analyze_seconds = 0, factorize_seconds = 0;
 
   Impl() {
@@ -87,27 +132,16 @@ struct CholmodSolver::Impl {
     if (factor) cholmod_l_free_factor(&factor, &common);
     cholmod_l_finish(&common);
   }
-  // Row r of a symmetric CSR, columns <= r, is column r of the upper triangle in CSC.
-  cholmod_sparse view(const double* values) {
-    cholmod_sparse A{};
-    A.nrow = A.ncol = p.size() - 1;
-    A.nzmax = i.size();
-    A.p = p.data();
-    A.i = i.data();
-    A.x = const_cast<double*>(values);
-    A.stype = 1;
-    A.itype = CHOLMOD_LONG;
-    A.xtype = values ? CHOLMOD_REAL : CHOLMOD_PATTERN;
-    A.dtype = CHOLMOD_DOUBLE;
-    A.sorted = 1;
-    A.packed = 1;
-    return A;
-  }
+  cholmod_sparse view(const double* values) { return upper_view(p, i, const_cast<double*>(values)); }
 };
 
-CholmodSolver::CholmodSolver(const std::string& ordering, int blas_threads)
-    : impl_(std::make_unique<Impl>()), blas_threads_(blas_threads) {
+CholmodSolver::CholmodSolver(const std::string& ordering, int blas_threads, int factor_threads)
+    : impl_(std::make_unique<Impl>()),
+      blas_threads_(blas_threads),
+      factor_threads_(factor_threads < 0 ? blas_threads : factor_threads) {
   if (blas_threads < 0) throw InputError("CHOLMOD: blas_threads must be >= 0 (0: the BLAS's own setting)");
+  if (factor_threads < -1)
+    throw InputError("CHOLMOD: factor_threads must be >= -1 (-1: blas_threads, 0: the BLAS's own setting)");
   cholmod_common& c = impl_->common;
   if (ordering == "auto") return;
   int method = 0;
@@ -124,7 +158,7 @@ CholmodSolver::CholmodSolver(const std::string& ordering, int blas_threads)
 }
 CholmodSolver::~CholmodSolver() = default;
 
-void CholmodSolver::analyze(const Csr& A) {
+void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   if (A.rows() != A.cols()) throw InputError("CHOLMOD: matrix is not square");
   Impl& d = *impl_;
   if (d.factor) cholmod_l_free_factor(&d.factor, &d.common);
@@ -133,23 +167,31 @@ void CholmodSolver::analyze(const Csr& A) {
   d.pattern = A.shared_pattern();
   const CsrPattern& pat = A.pattern();
   n_ = A.rows();
-  d.p.assign(static_cast<std::size_t>(n_) + 1, 0);
-  d.i.clear();
-  d.from.clear();
-  const offset_t half = (A.nnz() + n_) / 2;
-  d.i.reserve(half);
-  d.from.reserve(half);
-  for (index_t r = 0; r < n_; ++r) {
-    for (offset_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1] && pat.col_idx[k] <= r; ++k) {
-      d.i.push_back(pat.col_idx[k]);
-      d.from.push_back(k);
-    }
-    d.p[r + 1] = static_cast<SuiteSparse_long>(d.i.size());
-  }
+  upper_triangle(pat, d.p, d.i, &d.from);
   d.x.resize(d.i.size());
   cholmod_sparse view = d.view(nullptr);
-  d.factor = cholmod_l_analyze(&view, &d.common);
+  d.block_ordering = blocks && d.common.nmethods == 1 && d.common.method[0].ordering == CHOLMOD_METIS &&
+                     3 * static_cast<offset_t>(blocks->rows) == n_;
+  if (d.block_ordering) {
+    // METIS on the graph of the nodes (the blocks' upper triangle, as CSC), expanded to the
+    // unknowns; CHOLMOD then analyses with that ordering (its elimination-tree postordering kept).
+    const index_t nb = blocks->rows;
+    std::vector<SuiteSparse_long> bp, bi;
+    upper_triangle(*blocks, bp, bi, nullptr);
+    cholmod_sparse B = upper_view(bp, bi, nullptr);
+    std::vector<SuiteSparse_long> node_perm(static_cast<std::size_t>(nb)), perm(static_cast<std::size_t>(n_));
+    if (!cholmod_l_metis(&B, nullptr, 0, 0, node_perm.data(), &d.common))
+      throw Error("CHOLMOD: METIS ordering of the blocks failed (status " + std::to_string(d.common.status) + ")");
+    for (index_t k = 0; k < nb; ++k)
+      for (int c = 0; c < 3; ++c) perm[3 * k + c] = 3 * node_perm[k] + c;
+    d.common.method[0].ordering = CHOLMOD_GIVEN;
+    d.factor = cholmod_l_analyze_p(&view, perm.data(), nullptr, 0, &d.common);
+    d.common.method[0].ordering = CHOLMOD_METIS;
+  } else {
+    d.factor = cholmod_l_analyze(&view, &d.common);
+  }
   d.analyze_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  d.flops = d.common.fl;
   if (!d.factor || d.common.status < CHOLMOD_OK)
     throw Error("CHOLMOD: symbolic analysis failed (status " + std::to_string(d.common.status) + ")");
 }
@@ -168,10 +210,17 @@ void CholmodSolver::factorize(const Csr& A) {
   const std::size_t m = d.from.size();
   for (std::size_t k = 0; k < m; ++k) d.x[k] = values[d.from[k]];
   cholmod_sparse view = d.view(d.x.data());
+  // A small factorisation runs with the solves' threads: starting and ending workers would cost
+  // more than they save (the twisted Homer's linear level, 4.5e7 flops, is refactorised every step).
+  const int threads = d.flops < kThreadedFactorFlops ? blas_threads_ : factor_threads_;
   {
-    ScopedBlasThreads blas(blas_threads_);
+    ScopedBlasThreads blas(threads);
     cholmod_l_factorize(&view, d.factor, &d.common);
   }
+  // Threaded factorisation, serial solves: the workers would otherwise spin on for a while after
+  // the factorisation, beside the caller's OpenMP kernels.
+  if (blas_threads_ == 1 && threads != 1 && BlasThreadControl::instance().shutdown)
+    BlasThreadControl::instance().shutdown();
   d.factorize_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n)
     throw Error("CHOLMOD: matrix is not positive definite (factorisation fails at column " +
@@ -202,7 +251,8 @@ const char* ordering_name(int ordering) {
 }  // namespace
 
 std::string CholmodSolver::ordering() const {
-  return impl_->factor ? ordering_name(impl_->factor->ordering) : "";
+  if (!impl_->factor) return "";
+  return impl_->block_ordering ? "METIS" : ordering_name(impl_->factor->ordering);
 }
 
 std::string CholmodSolver::describe() const {
@@ -219,16 +269,19 @@ std::string CholmodSolver::describe() const {
   std::snprintf(buf, sizeof buf,
                 "CHOLMOD %s, ordering %s, factor nonzeros %.4g, flops %.4g, analysis %.3f s, "
                 "factorisation %.3f s",
-                d.factor->is_super ? "supernodal" : "simplicial", ordering_name(d.factor->ordering),
+                d.factor->is_super ? "supernodal" : "simplicial",
+                d.block_ordering ? "METIS (on the 3x3 blocks)" : ordering_name(d.factor->ordering),
                 c.lnz, c.fl, d.analyze_seconds, d.factorize_seconds);
   std::string out = buf;
   if (blas_threads_ > 0) out += ", BLAS threads " + std::to_string(blas_threads_);
+  if (factor_threads_ != blas_threads_)
+    out += ", factorisation BLAS threads " + (factor_threads_ > 0 ? std::to_string(factor_threads_) : "default");
   return out + (tried.empty() ? "" : " (orderings tried, factor nonzeros: " + tried + ")");
 }
 
 void CholmodSolver::setup_impl(const LinearOperator& A) {
   scalar_.setup(A, "CHOLMOD");
-  analyze(scalar_.csr());
+  analyze(scalar_.csr(), scalar_.block() ? &scalar_.block()->pattern() : nullptr);
   factorize(scalar_.csr());
 }
 

@@ -96,6 +96,8 @@ class ScalarMatrix {
   void setup(const LinearOperator& A, const std::string& who);
   void refresh();
   const Csr& csr() const;
+  /// The block matrix the scalar copy was made from (nullptr for a CSR operator).
+  const Bcsr* block() const { return block_; }
 
  private:
   const Csr* direct_ = nullptr;
