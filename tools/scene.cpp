@@ -59,8 +59,8 @@ double FemSystem::prepare_matrix_free() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::vector<double> FemSystem::free_coordinates() const {
-  const Vector free = hierarchy().finest().free_positions();
+std::vector<double> FemSystem::free_coordinates(int level) const {
+  const Vector free = hierarchy().model(level < 0 ? hierarchy().num_levels() - 1 : level).free_positions();
   return std::vector<double>(free.data(), free.data() + free.size());
 }
 

@@ -195,7 +195,11 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
   // One smoother per level, built from the same options (read once per level: same keys).
   std::vector<std::unique_ptr<mg::Smoother>> smoothers;
   for (int l = 1; l < ctx.levels->num_levels(); ++l) smoothers.push_back(build_smoother(sc, ctx));
-  auto lowest = build_solver(lc, ctx, "cholmod");
+  // The lowest level is a system of its own: its nodes' coordinates, not the finest level's.
+  SolverContext lowest_ctx = ctx;
+  lowest_ctx.coordinates = ctx.lowest_level_coordinates;
+  lowest_ctx.lowest_level_coordinates = nullptr;
+  auto lowest = build_solver(lc, lowest_ctx, "cholmod");
   return std::make_unique<mg::MultigridCycle>(
       *ctx.levels, p, [&](int l) { return std::move(smoothers[l - 1]); }, std::move(lowest));
 }
