@@ -33,8 +33,9 @@ class CholmodSolver final : public Solver {
   /// factor_threads: the BLAS threads of the factorisations alone (-1: blas_threads; 0: the BLAS's
   /// own setting), for factorisations of 1e9 flops or more (smaller ones run on blas_threads: the
   /// threads' start-up would cost more than they save). With serial solves (blas_threads 1) and a
-  /// threaded factorisation, OpenBLAS's workers are ended after it rather than left spinning. The
-  /// cube's linear level (77k unknowns, 3.0e10 flops): 1.74 s with 1 thread, 1.25 s with 2.
+  /// threaded factorisation, OpenBLAS's workers are ended after it rather than left spinning (so no
+  /// other thread of the program may be inside OpenBLAS at that moment). The cube's linear level
+  /// (77k unknowns, 3.0e10 flops): 1.74 s with 1 thread, 1.25 s with 2.
   explicit CholmodSolver(const std::string& ordering = "metis", int blas_threads = 0, int factor_threads = -1);
   ~CholmodSolver() override;
   CholmodSolver(const CholmodSolver&) = delete;
