@@ -426,13 +426,10 @@ void run(const Options& o) {
   // Every solver is built (and its options checked) before any runs.
   SolverContext ctx;
   ctx.levels = levels;
-  // FEM: the free nodes' rest positions (rigid-body modes), of the finest and the lowest level.
-  std::vector<double> coordinates, lowest_coordinates;
+  std::vector<double> coordinates;  // FEM: the free nodes' rest positions (rigid-body modes)
   if (sys.fem) {
     coordinates = sys.fem->free_coordinates();
-    lowest_coordinates = sys.fem->free_coordinates(0);
     ctx.coordinates = &coordinates;
-    ctx.lowest_level_coordinates = &lowest_coordinates;
   }
   std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names);
   std::vector<std::unique_ptr<Solver>> solvers;

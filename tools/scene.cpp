@@ -59,9 +59,8 @@ double FemSystem::prepare_matrix_free() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::vector<double> FemSystem::free_coordinates(int level) const {
-  const Vector free = hierarchy().model(level < 0 ? hierarchy().num_levels() - 1 : level).free_positions();
-  return std::vector<double>(free.data(), free.data() + free.size());
+std::vector<double> FemSystem::free_coordinates() const {
+  return hierarchy().node_coordinates(hierarchy().num_levels() - 1);
 }
 
 sim::Scene scene_of(const SceneOptions& o) {

@@ -48,8 +48,7 @@ struct FemSystem {
   double prepare_matrix_free();
   /// x, y, z of the finest level's free nodes (rest positions), interleaved like the unknowns: the
   /// rigid-body modes of AMG baselines (BoomerAMG interpolation vectors, GAMG near-null space).
-  /// x, y, z of the free nodes of a level (the finest by default), interleaved.
-  std::vector<double> free_coordinates(int level = -1) const;
+  std::vector<double> free_coordinates() const;
 };
 
 /// The sim::Scene these options describe (clamp, material, load); build_fem_system sets it up.

@@ -11,9 +11,8 @@
 #include <iterator>
 #include <limits>
 #include <map>
-#include <set>
-#include <sstream>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 namespace pmg {
@@ -195,10 +194,11 @@ std::unique_ptr<mg::MultigridCycle> build_cycle(const Config& c, const SolverCon
   // One smoother per level, built from the same options (read once per level: same keys).
   std::vector<std::unique_ptr<mg::Smoother>> smoothers;
   for (int l = 1; l < ctx.levels->num_levels(); ++l) smoothers.push_back(build_smoother(sc, ctx));
-  // The lowest level is a system of its own: its nodes' coordinates, not the finest level's.
+  // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
+  // not the finest level's.
+  const std::vector<double> lowest_xyz = ctx.levels->node_coordinates(0);
   SolverContext lowest_ctx = ctx;
-  lowest_ctx.coordinates = ctx.lowest_level_coordinates;
-  lowest_ctx.lowest_level_coordinates = nullptr;
+  lowest_ctx.coordinates = lowest_xyz.empty() ? nullptr : &lowest_xyz;
   auto lowest = build_solver(lc, lowest_ctx, "cholmod");
   return std::make_unique<mg::MultigridCycle>(
       *ctx.levels, p, [&](int l) { return std::move(smoothers[l - 1]); }, std::move(lowest));

@@ -171,7 +171,7 @@ void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   d.x.resize(d.i.size());
   cholmod_sparse view = d.view(nullptr);
   d.block_ordering = blocks && d.common.nmethods == 1 && d.common.method[0].ordering == CHOLMOD_METIS &&
-                     3 * static_cast<offset_t>(blocks->rows) == n_;
+                     Bcsr::kBlock * static_cast<offset_t>(blocks->rows) == n_;
   if (d.block_ordering) {
     // METIS on the graph of the nodes (the blocks' upper triangle, as CSC), expanded to the
     // unknowns; CHOLMOD then analyses with that ordering (its elimination-tree postordering kept).
@@ -183,7 +183,7 @@ void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
     if (!cholmod_l_metis(&B, nullptr, 0, 0, node_perm.data(), &d.common))
       throw Error("CHOLMOD: METIS ordering of the blocks failed (status " + std::to_string(d.common.status) + ")");
     for (index_t k = 0; k < nb; ++k)
-      for (int c = 0; c < 3; ++c) perm[3 * k + c] = 3 * node_perm[k] + c;
+      for (int c = 0; c < Bcsr::kBlock; ++c) perm[Bcsr::kBlock * k + c] = Bcsr::kBlock * node_perm[k] + c;
     d.common.method[0].ordering = CHOLMOD_GIVEN;
     d.factor = cholmod_l_analyze_p(&view, perm.data(), nullptr, 0, &d.common);
     d.common.method[0].ordering = CHOLMOD_METIS;

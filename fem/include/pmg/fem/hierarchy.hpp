@@ -62,6 +62,11 @@ class DegreeHierarchy final : public mg::LevelProvider {
   const LinearOperator* matrix_free_operator(int level) const override;
   /// True: every level of degree >= 2 has (or builds on first use) its ElasticityOperator.
   bool offers_matrix_free() const override { return num_levels() >= 2; }
+  /// The rest positions of the level's free nodes.
+  std::vector<double> node_coordinates(int level) const override {
+    const Vector free = model(level).free_positions();
+    return std::vector<double>(free.data(), free.data() + free.size());
+  }
   const ElasticityOperator& matrix_free(int level) const;
   /// A level's matrix-free operator brought to rotations R (nullptr: none) and the weights
   /// mass_weight M + stiffness_weight K_R, its matrix left as it is: a matrix-free level's whole

@@ -31,9 +31,6 @@ struct SolverContext {
   /// scenes): rigid-body modes for BoomerAMG's interpolation vectors and PETSc GAMG's near-null
   /// space. Must outlive the solvers built with it.
   const std::vector<double>* coordinates = nullptr;
-  /// The same for the nodes of a multigrid's lowest level (`lowest_level.interp_vectors=rigid`
-  /// for BoomerAMG there), where known. Must outlive the solvers built with it.
-  const std::vector<double>* lowest_level_coordinates = nullptr;
 };
 
 /// Builds the solver the config's "method" names (`fallback_method` when it names none) and

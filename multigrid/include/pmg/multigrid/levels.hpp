@@ -50,6 +50,10 @@ class LevelProvider {
   /// Whether matrix_free_operator() gives an operator for every level above the lowest, answered
   /// without building them (the factory's operator=auto asks before choosing).
   virtual bool offers_matrix_free() const { return false; }
+  /// x, y, z of the level's nodes, interleaved like its unknowns, where the provider knows them
+  /// (empty otherwise, the default): the rigid-body modes of a BoomerAMG lowest level
+  /// (`lowest_level.interp_vectors=rigid`).
+  virtual std::vector<double> node_coordinates(int /*level*/) const { return {}; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };
