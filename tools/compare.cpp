@@ -341,7 +341,6 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
     return out;
   }
   out.setup = seconds_since(t0) + extra_setup;
-  out.settings = solver.describe();
   if (const auto* c = find_cycle(solver)) c->reset_timings();
   SolveMonitor mon;
   t0 = std::chrono::steady_clock::now();
@@ -353,6 +352,7 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
     out.message = e.what();
   }
   out.solve = seconds_since(t0);
+  out.settings = solver.describe();  // after the solve: the GPU solvers report its copies' times
   out.history = mon.history();
   out.iterations = r.iterations;
   out.rel_residual = std::isnan(r.true_rel_residual) ? r.rel_residual : r.true_rel_residual;

@@ -2,6 +2,9 @@
 #include "commands.hpp"
 
 #include "pmg/sparse/monitor.hpp"
+#ifdef PMG_HAVE_CUDA
+#include "pmg/gpu/factory.hpp"
+#endif
 
 #include <filesystem>
 #include <iostream>
@@ -28,6 +31,9 @@ int main(int argc, char** argv) {
   CLI::App app{"pmgkit: block-sparse formats, Krylov and direct solvers, p-multigrid"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "pmgkit 0.1.0");
+#ifdef PMG_HAVE_CUDA
+  pmg::gpu::register_solvers();  // gpu-mcg, gpu-pcg, gpu-pmg (they say so when there is no device)
+#endif
   pmg::tools::register_compare(app);
   pmg::tools::register_mesh(app);
   pmg::tools::register_coarse(app);

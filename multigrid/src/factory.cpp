@@ -24,25 +24,6 @@ constexpr int kMaxInt = std::numeric_limits<int>::max();
 
 // ---- shared readers ------------------------------------------------------------------------------
 
-/// The stopping rule of an iterative method (CG, MCG, stationary multigrid).
-KrylovParams read_krylov(const Config& c, KrylovParams p = {}) {
-  p.rel_tol = c.get_double("tol", p.rel_tol, 0.0, 1.0);
-  if (!(p.rel_tol < 1.0)) c.fail("tol", "must be < 1");
-  p.abs_tol = c.get_double("abs_tol", p.abs_tol, 0.0, kInf);
-  p.rhs_floor = c.get_double("rhs_floor", p.rhs_floor, 0.0, 1.0);
-  p.max_iterations = c.get_int("max_iterations", p.max_iterations, 1, kMaxInt);
-  const int fixed = c.get_int("fixed_iterations", 0, 0, kMaxInt);
-  if (fixed > 0) {
-    if (c.has("max_iterations")) c.fail("fixed_iterations", "give either fixed_iterations or max_iterations");
-    p.max_iterations = fixed;
-    p.fixed_iterations = true;
-  }
-  p.divergence_limit = c.get_double("divergence_limit", p.divergence_limit, 1.0, kInf);
-  p.stagnation_window = c.get_int("stagnation_window", p.stagnation_window, 0, kMaxInt);
-  p.check_every = c.get_int("check_every", p.check_every, 1, kMaxInt);
-  p.throw_on_failure = c.get_bool("throw_on_failure", p.throw_on_failure);
-  return p;
-}
 
 mg::BoomerAMGParams read_boomeramg(const Config& c) {
   mg::BoomerAMGParams p;
@@ -357,6 +338,27 @@ Registry::Registry() {
 }
 
 }  // namespace
+
+KrylovParams read_krylov(const Config& c, KrylovParams p) {
+  p.rel_tol = c.get_double("tol", p.rel_tol, 0.0, 1.0);
+  if (!(p.rel_tol < 1.0)) c.fail("tol", "must be < 1");
+  p.abs_tol = c.get_double("abs_tol", p.abs_tol, 0.0, kInf);
+  p.rhs_floor = c.get_double("rhs_floor", p.rhs_floor, 0.0, 1.0);
+  p.max_iterations = c.get_int("max_iterations", p.max_iterations, 1, kMaxInt);
+  const int fixed = c.get_int("fixed_iterations", 0, 0, kMaxInt);
+  if (fixed > 0) {
+    if (c.has("max_iterations")) c.fail("fixed_iterations", "give either fixed_iterations or max_iterations");
+    p.max_iterations = fixed;
+    p.fixed_iterations = true;
+  }
+  p.divergence_limit = c.get_double("divergence_limit", p.divergence_limit, 1.0, kInf);
+  p.stagnation_window = c.get_int("stagnation_window", p.stagnation_window, 0, kMaxInt);
+  p.check_every = c.get_int("check_every", p.check_every, 1, kMaxInt);
+  p.throw_on_failure = c.get_bool("throw_on_failure", p.throw_on_failure);
+  return p;
+}
+
+const char* krylov_keys() { return kKrylovKeys; }
 
 std::unique_ptr<Solver> build_solver(const Config& config, const SolverContext& context,
                                      const std::string& fallback_method) {

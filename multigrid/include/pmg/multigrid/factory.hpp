@@ -15,6 +15,7 @@
 
 #include "pmg/multigrid/levels.hpp"
 #include "pmg/sparse/config.hpp"
+#include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <functional>
@@ -57,6 +58,13 @@ struct SolverInfo {
 void register_solver(const SolverInfo& info, SolverBuilder builder);
 /// Every registered method, in registration order.
 std::vector<SolverInfo> registered_solvers();
+
+/// The stopping rule of an iterative method from a config (tol, abs_tol, rhs_floor, max_iterations
+/// or fixed_iterations, divergence_limit, stagnation_window, check_every, throw_on_failure) over
+/// `defaults`: for the methods registered here and for those registered elsewhere (pmg::gpu).
+KrylovParams read_krylov(const Config& config, KrylovParams defaults = {});
+/// Those keys but check_every, space-separated, as a SolverInfo's keys list them.
+const char* krylov_keys();
 
 /// Whether a method needs a level hierarchy (multigrid, mgpcg) — for tools choosing defaults.
 bool method_uses_levels(const std::string& method);

@@ -1,0 +1,22 @@
+// pmg/gpu/factory.hpp — the GPU solvers as factory methods (pmg/multigrid/factory.hpp), so that
+// `pmg compare --solvers gpu-pmg,pmg,...` and scene files run them beside the CPU solvers:
+//
+//   gpu-mcg   the merged CG with block Jacobi (gpu::Mcg on BIN-BCSR); check_every (default 10)
+//   gpu-pcg   block-Jacobi PCG from cuSPARSE/cuBLAS calls (gpu::LibraryPcg), the vendor baseline
+//   gpu-pmg   stationary p-multigrid, Chebyshev V-cycle on the GPU, CHOLMOD on the host for the
+//             lowest level (gpu::VCycle + gpu::multigrid_solve); reads the levels' assembled
+//             matrices; degree and lower_fraction set the Chebyshev smoother (first kind)
+//
+// Each is a pmg::Solver on host vectors: solve() uploads b and x, solves on the device and
+// downloads x. The copies are timed apart from the solve and reported by describe() ("upload
+// 0.4 ms, solve ..., download 0.3 ms"), as are set-up's uploads; SolveResult::seconds covers the
+// whole call, copies included. Stopping rules, keys and messages are those of the CPU methods.
+#pragma once
+
+namespace pmg::gpu {
+
+/// Registers gpu-mcg, gpu-pcg and gpu-pmg (again: replaced, not duplicated). Registering needs no
+/// device; setting a solver up without one throws pmg::InputError saying so.
+void register_solvers();
+
+}  // namespace pmg::gpu

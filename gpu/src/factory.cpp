@@ -1,0 +1,238 @@
+// The GPU solvers as pmg::Solver objects on host vectors, registered in the solver factory.
+#include "pmg/gpu/factory.hpp"
+
+#include "pmg/gpu/solvers.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/multigrid/transfer.hpp"
+#include "pmg/sparse/preconditioners.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+namespace pmg::gpu {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::string ms(double seconds) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f ms", 1e3 * seconds);
+  return buf;
+}
+
+/// What every GPU solver shares: the device check, the host <-> device copies of b and x around a
+/// device solve, and their times for describe().
+class DeviceSolver : public Solver {
+ public:
+  explicit DeviceSolver(KrylovParams params) : params_(params) {}
+  bool is_linear() const override { return false; }
+  std::string describe() const override {
+    std::string s = "on " + device_name_ + "; set-up upload " + ms(setup_upload_);
+    if (solved_)
+      s += "; last solve: upload " + ms(upload_) + ", device " + ms(device_) + ", download " + ms(download_);
+    const std::string d = describe_device();
+    return d.empty() ? s : d + "; " + s;
+  }
+
+ protected:
+  /// Builds the device objects for A (a Bcsr) and uploads them.
+  virtual void upload_system(const Bcsr& A) = 0;
+  virtual void update_system() = 0;
+  virtual SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
+                                   SolveMonitor* monitor) const = 0;
+  virtual std::string describe_device() const { return ""; }
+
+  KrylovParams params_;
+
+ private:
+  void setup_impl(const LinearOperator& A) override {
+    if (device_count() == 0) throw InputError(name() + ": no CUDA device or driver on this machine");
+    device_name_ = device_info().name;
+    const Bcsr& B = as_bcsr(A, name());
+    const auto t0 = Clock::now();
+    upload_system(B);
+    synchronize();
+    setup_upload_ = since(t0);
+    b_.resize(static_cast<std::size_t>(B.rows()));
+    x_.resize(static_cast<std::size_t>(B.rows()));
+    solved_ = false;
+  }
+  void update_impl() override {
+    const auto t0 = Clock::now();
+    update_system();
+    synchronize();
+    setup_upload_ = since(t0);
+  }
+  void apply_impl(const Vector& b, Vector& x) const override {
+    x = Vector::Zero(b.size());
+    KrylovParams p = params_;
+    p.throw_on_failure = false;  // a preconditioner's use: whatever it reached
+    run(b, x, p, nullptr);
+  }
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override {
+    return run(b, x, params_, monitor);
+  }
+  SolveResult run(const Vector& b, Vector& x, const KrylovParams& p, SolveMonitor* monitor) const {
+    const auto t0 = Clock::now();
+    b_.upload(b);
+    x_.upload(x);
+    synchronize();
+    upload_ = since(t0);
+    const auto t1 = Clock::now();
+    SolveResult r;
+    try {
+      r = device_solve(b_, x_, p, monitor);
+    } catch (const SolveError& e) {
+      x_.download(x);  // the iterate the failure left, as the CPU solvers leave it
+      throw;
+    }
+    synchronize();
+    device_ = since(t1);
+    const auto t2 = Clock::now();
+    x_.download(x);
+    download_ = since(t2);
+    solved_ = true;
+    r.seconds = since(t0);
+    return r;
+  }
+
+  std::string device_name_;
+  double setup_upload_ = 0;
+  mutable DeviceVector b_, x_;
+  mutable double upload_ = 0, device_ = 0, download_ = 0;
+  mutable bool solved_ = false;
+};
+
+class McgSolver final : public DeviceSolver {
+ public:
+  using DeviceSolver::DeviceSolver;
+  std::string name() const override { return "gpu-mcg"; }
+
+ private:
+  void upload_system(const Bcsr& A) override {
+    A_ = &A;
+    mcg_.reset();
+    M_.setup(A);
+    bin_ = std::make_unique<BinBcsr>(A);
+    dA_ = std::make_unique<DeviceBinBcsr>(*bin_);
+    dM_ = std::make_unique<DeviceBlockJacobi>(M_);
+    mcg_ = std::make_unique<Mcg>(*dA_, *dM_);
+  }
+  void update_system() override {
+    M_.update();
+    bin_->update_values(*A_);
+    dA_->update_values(*bin_);
+    dM_->update(M_);
+  }
+  SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
+                           SolveMonitor* monitor) const override {
+    return mcg_->solve(b, x, p, monitor);
+  }
+  std::string describe_device() const override { return "BIN-BCSR, block Jacobi"; }
+
+  const Bcsr* A_ = nullptr;
+  BlockJacobiPreconditioner M_;
+  std::unique_ptr<BinBcsr> bin_;
+  std::unique_ptr<DeviceBinBcsr> dA_;
+  std::unique_ptr<DeviceBlockJacobi> dM_;
+  std::unique_ptr<Mcg> mcg_;
+};
+
+class LibraryPcgSolver final : public DeviceSolver {
+ public:
+  using DeviceSolver::DeviceSolver;
+  std::string name() const override { return "gpu-pcg"; }
+
+ private:
+  void upload_system(const Bcsr& A) override {
+    A_ = &A;
+    pcg_.reset();
+    M_.setup(A);
+    pcg_ = std::make_unique<LibraryPcg>(A, M_);
+  }
+  /// LibraryPcg keeps no host references: a new one on the new values (the baseline's update).
+  void update_system() override { upload_system(*A_); }
+  SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
+                           SolveMonitor* monitor) const override {
+    return pcg_->solve(b, x, p, monitor);
+  }
+  std::string describe_device() const override { return "cusparseDbsrmv + cuBLAS, block Jacobi"; }
+
+  const Bcsr* A_ = nullptr;
+  BlockJacobiPreconditioner M_;
+  std::unique_ptr<LibraryPcg> pcg_;
+};
+
+class PmgSolver final : public DeviceSolver {
+ public:
+  PmgSolver(KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev)
+      : DeviceSolver(params), levels_(levels), chebyshev_(chebyshev) {}
+  std::string name() const override { return "gpu-pmg"; }
+  bool uses_levels() const override { return true; }
+
+ private:
+  void upload_system(const Bcsr& A) override {
+    const int L = levels_.num_levels();
+    if (L < 2) throw InputError("gpu-pmg: needs at least two levels (a degree >= 2 hierarchy)");
+    if (levels_.matrix(L - 1).rows() != A.rows())
+      throw InputError("gpu-pmg: the system is not the finest level of the hierarchy (" +
+                       std::to_string(A.rows()) + " vs " + std::to_string(levels_.matrix(L - 1).rows()) +
+                       " unknowns)");
+    cycle_.reset();
+    transfers_.clear();
+    transfers_.reserve(static_cast<std::size_t>(L - 1));
+    std::vector<const Bcsr*> matrices;
+    for (int l = 0; l + 1 < L; ++l) matrices.push_back(&levels_.matrix(l));
+    matrices.push_back(&A);
+    std::vector<const mg::BlockTransfer*> transfers;
+    for (int l = 1; l < L; ++l) transfers_.emplace_back(levels_.prolongation(l));
+    for (const auto& t : transfers_) transfers.push_back(&t);
+    cycle_ = std::make_unique<VCycle>(matrices, transfers, chebyshev_);
+  }
+  void update_system() override { cycle_->update(); }
+  SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
+                           SolveMonitor* monitor) const override {
+    return multigrid_solve(*cycle_, b, x, p, monitor);
+  }
+  std::string describe_device() const override {
+    return std::to_string(cycle_ ? cycle_->num_levels() : 0) + " levels, Chebyshev degree " +
+           std::to_string(chebyshev_.degree) + " (first kind), CHOLMOD on the host below";
+  }
+
+  const mg::LevelProvider& levels_;
+  mg::ChebyshevParams chebyshev_;
+  std::vector<mg::BlockTransfer> transfers_;
+  std::unique_ptr<VCycle> cycle_;
+};
+
+}  // namespace
+
+void register_solvers() {
+  const std::string keys = krylov_keys();
+  register_solver({"gpu-mcg", "GPU: merged CG with block Jacobi on BIN-BCSR (CUDA)", keys + " check_every", false, true},
+                  [](const Config& c, const SolverContext&) -> std::unique_ptr<Solver> {
+                    KrylovParams d;
+                    d.check_every = 10;
+                    return std::make_unique<McgSolver>(read_krylov(c, d));
+                  });
+  register_solver({"gpu-pcg", "GPU: block-Jacobi PCG from cuSPARSE/cuBLAS calls (CUDA)", keys, false, true},
+                  [](const Config& c, const SolverContext&) -> std::unique_ptr<Solver> {
+                    return std::make_unique<LibraryPcgSolver>(read_krylov(c));
+                  });
+  register_solver({"gpu-pmg", "GPU: p-multigrid, Chebyshev V-cycle on the GPU, CHOLMOD lowest level (CUDA)",
+                   keys + " degree lower_fraction", true, true},
+                  [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                    if (!ctx.levels) c.fail("method", "gpu-pmg needs a level hierarchy (an FEM system)");
+                    mg::ChebyshevParams cheb;
+                    cheb.degree = c.get_int("degree", cheb.degree, 1, 64);
+                    cheb.lower_fraction = c.get_double("lower_fraction", cheb.lower_fraction, 1e-6, 1.0 - 1e-6);
+                    return std::make_unique<PmgSolver>(read_krylov(c), *ctx.levels, cheb);
+                  });
+}
+
+}  // namespace pmg::gpu
