@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Fuzzes every reader of untrusted input with libFuzzer (clang, ASan + UBSan): Matrix Market,
 # Gmsh, TetGen, OFF, STL and scene JSON. Each target starts from its corpus in tests/fuzz/corpus/
-# (seeds and every input that once crashed a reader) and runs SECONDS (default 30); the corpus it
-# grows stays in build-fuzz/corpus/, crashes go to build-fuzz/crashes/<target>/ and fail the run.
+# (seeds and every input that once crashed a reader) and runs SECONDS (default 30), one target per
+# core at a time; the corpus it grows stays in build-fuzz/corpus/, crashes go to
+# build-fuzz/crashes/<target>/ and fail the run.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]     e.g. scripts/fuzz.sh 600 gmsh scene
 #   scripts/fuzz.sh --install ...             first install clang and its runtimes (apt, Debian 12)
 #   PMG_FUZZ_SEED=1 scripts/fuzz.sh 30        a fixed seed (CI: the same inputs every run); 0: random
@@ -12,16 +13,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ "${1:-}" = "--install" ]; then
   shift
-  need=()
-  for p in clang-14 libclang-rt-14-dev libomp-14-dev; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || need+=("$p")
-  done
-  if [ ${#need[@]} -gt 0 ]; then
-    SUDO=""
-    [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-    $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${need[@]}"
-  fi
+  scripts/install_clang.sh
 fi
 seconds=${1:-30}
 shift || true
@@ -40,23 +32,37 @@ cmake --build "$build" -j "$(nproc)" --target $(printf 'fuzz_%s ' "${targets[@]}
 # Leaks are LeakSanitizer's business in the sanitizer suite; a reader refusing input by exception
 # must not be reported as a crash because of OpenMP's or MPI's start-up allocations.
 export ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-status=0
-summary=()
-for t in "${targets[@]}"; do
-  work="$build/corpus/$t" crashes="$build/crashes/$t"
+# One target per core at a time (each libFuzzer process is single-threaded): the same time per
+# target, the whole run in 1/nproc of the wall time.
+fuzz_one() {
+  local t=$1 work="$build/corpus/$1" crashes="$build/crashes/$1" log="$build/fuzz_$1.log"
   mkdir -p "$work" "$crashes"
-  log="$build/fuzz_$t.log"
-  echo "== fuzz_$t: $seconds s =="
   # -rss_limit_mb/-malloc_limit_mb: a reader allocating for a count its input does not back is a
   # finding; -timeout: a reader looping on its input is one too.
   if "$build/tests/fuzz/fuzz_$t" "$work" "tests/fuzz/corpus/$t" -max_total_time="$seconds" \
       -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=10 -max_len=65536 -print_final_stats=1 \
       -seed="${PMG_FUZZ_SEED:-0}" -artifact_prefix="$crashes/" > "$log" 2>&1; then
-    result=ok
+    echo ok > "$build/fuzz_$t.result"
   else
-    result="FAILED (see $log; inputs in $crashes/)"
+    echo "FAILED (see $log; inputs in $crashes/)" > "$build/fuzz_$t.result"
+  fi
+}
+jobs_max=$(nproc)
+for t in "${targets[@]}"; do
+  rm -f "$build/fuzz_$t.result"
+  while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do wait -n || true; done
+  echo "== fuzz_$t: $seconds s =="
+  fuzz_one "$t" &
+done
+wait
+status=0
+summary=()
+for t in "${targets[@]}"; do
+  log="$build/fuzz_$t.log"
+  result=$(cat "$build/fuzz_$t.result" 2>/dev/null || echo "FAILED (no result; see $log)")
+  if [ "$result" != ok ]; then
     status=1
-    tail -40 "$log"
+    tail -40 "$log" || true
   fi
   runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo "?")

@@ -30,7 +30,7 @@ std::string find_data_file(const std::string& name) {
 int main(int argc, char** argv) {
   CLI::App app{"pmgkit: block-sparse formats, Krylov and direct solvers, p-multigrid"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "pmgkit 0.1.0");
+  app.set_version_flag("--version", "pmgkit " PMG_VERSION);
 #ifdef PMG_HAVE_CUDA
   pmg::gpu::register_solvers();  // gpu-mcg, gpu-pcg, gpu-pmg (they say so when there is no device)
 #endif
