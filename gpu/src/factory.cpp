@@ -32,7 +32,7 @@ class DeviceSolver : public Solver {
   explicit DeviceSolver(KrylovParams params) : params_(params) {}
   bool is_linear() const override { return false; }
   std::string describe() const override {
-    std::string s = "on " + device_name_ + "; set-up upload " + ms(setup_upload_);
+    std::string s = "on " + device_name_ + "; set-up " + ms(setup_seconds_);
     if (solved_)
       s += "; last solve: upload " + ms(upload_) + ", device " + ms(device_) + ", download " + ms(download_);
     const std::string d = describe_device();
@@ -42,7 +42,8 @@ class DeviceSolver : public Solver {
  protected:
   /// Builds the device objects for A (a Bcsr) and uploads them.
   virtual void upload_system(const Bcsr& A) = 0;
-  virtual void update_system() = 0;
+  /// A's values changed (same pattern): refresh the device copies.
+  virtual void update_system(const Bcsr& A) = 0;
   virtual SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
                                    SolveMonitor* monitor) const = 0;
   virtual std::string describe_device() const { return ""; }
@@ -57,16 +58,17 @@ class DeviceSolver : public Solver {
     const auto t0 = Clock::now();
     upload_system(B);
     synchronize();
-    setup_upload_ = since(t0);
+    setup_seconds_ = since(t0);
+    // b and x on the device, allocated once: each solve's uploads reuse them.
     b_.resize(static_cast<std::size_t>(B.rows()));
     x_.resize(static_cast<std::size_t>(B.rows()));
     solved_ = false;
   }
   void update_impl() override {
     const auto t0 = Clock::now();
-    update_system();
+    update_system(as_bcsr(system(), name()));
     synchronize();
-    setup_upload_ = since(t0);
+    setup_seconds_ = since(t0);
   }
   void apply_impl(const Vector& b, Vector& x) const override {
     x = Vector::Zero(b.size());
@@ -102,7 +104,7 @@ class DeviceSolver : public Solver {
   }
 
   std::string device_name_;
-  double setup_upload_ = 0;
+  double setup_seconds_ = 0;  ///< the last setup() or update(): host work and uploads
   mutable DeviceVector b_, x_;
   mutable double upload_ = 0, device_ = 0, download_ = 0;
   mutable bool solved_ = false;
@@ -115,7 +117,6 @@ class McgSolver final : public DeviceSolver {
 
  private:
   void upload_system(const Bcsr& A) override {
-    A_ = &A;
     mcg_.reset();
     M_.setup(A);
     bin_ = std::make_unique<BinBcsr>(A);
@@ -123,9 +124,9 @@ class McgSolver final : public DeviceSolver {
     dM_ = std::make_unique<DeviceBlockJacobi>(M_);
     mcg_ = std::make_unique<Mcg>(*dA_, *dM_);
   }
-  void update_system() override {
+  void update_system(const Bcsr& A) override {
     M_.update();
-    bin_->update_values(*A_);
+    bin_->update_values(A);
     dA_->update_values(*bin_);
     dM_->update(M_);
   }
@@ -135,7 +136,6 @@ class McgSolver final : public DeviceSolver {
   }
   std::string describe_device() const override { return "BIN-BCSR, block Jacobi"; }
 
-  const Bcsr* A_ = nullptr;
   BlockJacobiPreconditioner M_;
   std::unique_ptr<BinBcsr> bin_;
   std::unique_ptr<DeviceBinBcsr> dA_;
@@ -150,20 +150,18 @@ class LibraryPcgSolver final : public DeviceSolver {
 
  private:
   void upload_system(const Bcsr& A) override {
-    A_ = &A;
     pcg_.reset();
     M_.setup(A);
     pcg_ = std::make_unique<LibraryPcg>(A, M_);
   }
   /// LibraryPcg keeps no host references: a new one on the new values (the baseline's update).
-  void update_system() override { upload_system(*A_); }
+  void update_system(const Bcsr& A) override { upload_system(A); }
   SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
                            SolveMonitor* monitor) const override {
     return pcg_->solve(b, x, p, monitor);
   }
   std::string describe_device() const override { return "cusparseDbsrmv + cuBLAS, block Jacobi"; }
 
-  const Bcsr* A_ = nullptr;
   BlockJacobiPreconditioner M_;
   std::unique_ptr<LibraryPcg> pcg_;
 };
@@ -194,7 +192,7 @@ class PmgSolver final : public DeviceSolver {
     for (const auto& t : transfers_) transfers.push_back(&t);
     cycle_ = std::make_unique<VCycle>(matrices, transfers, chebyshev_);
   }
-  void update_system() override { cycle_->update(); }
+  void update_system(const Bcsr&) override { cycle_->update(); }
   SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
                            SolveMonitor* monitor) const override {
     return multigrid_solve(*cycle_, b, x, p, monitor);
