@@ -2,33 +2,23 @@
 # Fuzzes every reader of untrusted input with libFuzzer (clang, ASan + UBSan): Matrix Market,
 # Gmsh, TetGen, OFF, STL and scene JSON. Each target starts from its corpus in tests/fuzz/corpus/
 # (seeds and every input that once crashed a reader) and runs SECONDS (default 30), one target per
-# core at a time; the corpus it grows stays in build-fuzz/corpus/, crashes go to
-# build-fuzz/crashes/<target>/ and fail the run.
+# core at a time; the corpus it grows stays in build-asan/corpus/, crashes go to
+# build-asan/crashes/<target>/ and fail the run. The targets are built in the sanitizer build
+# (scripts/sanitize_build.sh: clang, ASan + UBSan, libFuzzer coverage on the readers' sources).
 #   scripts/fuzz.sh [SECONDS] [TARGET...]     e.g. scripts/fuzz.sh 600 gmsh scene
-#   scripts/fuzz.sh --install ...             first install clang and its runtimes (apt, Debian 12)
+#   (clang 14 and its runtimes are installed where missing: apt, Debian 12)
 #   PMG_FUZZ_SEED=1 scripts/fuzz.sh 30        a fixed seed (CI: the same inputs every run); 0: random
 # A crash found here is fixed, then its input is copied into tests/fuzz/corpus/<target>/ as
 # crash-<what>: the normal test suite replays that folder (ctest -L fuzz).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if [ "${1:-}" = "--install" ]; then
-  shift
-  scripts/install_clang.sh
-fi
+if [ "${1:-}" = "--install" ]; then shift; fi  # clang is installed where missing in any case
 seconds=${1:-30}
 shift || true
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(matrix_market petsc_binary gmsh tetgen off stl scene)
-clangxx=$(command -v clang++-14 || command -v clang++ || true)
-if [ -z "$clangxx" ]; then
-  echo "fuzz: clang++ not found (scripts/fuzz.sh --install, or apt install clang-14 libclang-rt-14-dev libomp-14-dev)" >&2
-  exit 2
-fi
-build=build-fuzz
-# -O1 -g1, as the sanitizer suite (scripts/test.sh): the sanitizers make -O2 -g compiles 3x slower.
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$clangxx" -DPMG_FUZZ=ON \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DPMG_BUILD_BENCHMARKS=OFF > /dev/null
-cmake --build "$build" -j "$(nproc)" --target $(printf 'fuzz_%s ' "${targets[@]}")
+build=build-asan
+scripts/sanitize_build.sh $(printf 'fuzz_%s ' "${targets[@]}")
 # Leaks are LeakSanitizer's business in the sanitizer suite; a reader refusing input by exception
 # must not be reported as a crash because of OpenMP's or MPI's start-up allocations.
 export ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

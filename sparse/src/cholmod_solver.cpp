@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <mutex>
 #include <string>
 
 namespace pmg {
@@ -122,6 +123,13 @@ struct CholmodSolver::Impl {
   bool block_ordering = false;         // the ordering was computed on the 3x3 blocks' graph
   double flops = 0;                    // of one numeric factorisation, from the analysis
   double analyze_seconds = 0, factorize_seconds = 0;
+  // cholmod_l_solve2's result and workspaces, kept from one solve to the next: cholmod_l_solve
+  // allocated the result (and freed its workspace) on every call, fresh pages each time (a lowest
+  // level is solved once per cycle). The mutex keeps concurrent solves on one solver correct.
+  cholmod_dense* X = nullptr;
+  cholmod_dense* Y = nullptr;
+  cholmod_dense* E = nullptr;
+  std::mutex solve_mutex;
 
   Impl() {
     cholmod_l_start(&common);
@@ -129,6 +137,8 @@ struct CholmodSolver::Impl {
     common.print = 0;  // errors are reported by exceptions, not printed by CHOLMOD
   }
   ~Impl() {
+    for (cholmod_dense** w : {&X, &Y, &E})
+      if (*w) cholmod_l_free_dense(w, &common);
     if (factor) cholmod_l_free_factor(&factor, &common);
     cholmod_l_finish(&common);
   }
@@ -316,14 +326,14 @@ void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
   B.x = const_cast<double*>(b.data());
   B.xtype = CHOLMOD_REAL;
   B.dtype = CHOLMOD_DOUBLE;
-  cholmod_dense* X;
+  std::lock_guard<std::mutex> lock(d.solve_mutex);
+  int ok;
   {
     ScopedBlasThreads blas(blas_threads_);
-    X = cholmod_l_solve(CHOLMOD_A, d.factor, &B, &d.common);
+    ok = cholmod_l_solve2(CHOLMOD_A, d.factor, &B, nullptr, &d.X, nullptr, &d.Y, &d.E, &d.common);
   }
-  if (!X) throw Error("CHOLMOD: solve failed (status " + std::to_string(d.common.status) + ")");
-  x = Eigen::Map<const Vector>(static_cast<const double*>(X->x), b.size());
-  cholmod_l_free_dense(&X, &d.common);
+  if (!ok || !d.X) throw Error("CHOLMOD: solve failed (status " + std::to_string(d.common.status) + ")");
+  x = Eigen::Map<const Vector>(static_cast<const double*>(d.X->x), b.size());
 }
 
 }  // namespace pmg

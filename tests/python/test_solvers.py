@@ -166,7 +166,9 @@ def test_the_gil_is_released_during_solves():
     """Another Python thread runs while a solve is inside C++."""
     import threading
     import time
-    n = 40
+    # 262k unknowns to 1e-12: about half a second on a 2-core VM, many switch intervals (5 ms) long
+    # on any machine (at n = 40 the solve once took 0.08 s, too short to tell)
+    n = 64
     T = sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])
     I = sp.identity(n)
     A = (sp.kron(sp.kron(T, I), I) + sp.kron(sp.kron(I, T), I) + sp.kron(sp.kron(I, I), T)).tocsr()
@@ -192,7 +194,7 @@ def test_the_gil_is_released_during_solves():
         if state["in_call"]:
             during += 1
     t.join()
-    assert state["seconds"] > 0.1, "the solve is too short to tell"
+    assert state["seconds"] > 0.1, ("the solve is too short to tell", state["seconds"])
     # a held GIL would let the loop run at most about one switch interval (5 ms) of the call; a
     # released one lets it run through the call (slowed by the solver's threads on this machine)
     import sys
