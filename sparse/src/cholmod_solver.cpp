@@ -4,6 +4,7 @@
 
 #include <cholmod.h>
 #include <dlfcn.h>
+#include <omp.h>
 
 #include <chrono>
 #include <cstdio>
@@ -66,6 +67,33 @@ class ScopedBlasThreads {
 
  private:
   int previous_ = 0;
+};
+
+// Runs CHOLMOD's own OpenMP regions on the calling thread for one call (enabled), restoring the
+// setting after. CHOLMOD 3's supernodal factorisation (SuiteSparse 5.12, Debian 12) copies each
+// large supernode's columns in a parallel region whose thread count is fixed when CHOLMOD is
+// compiled (CHOLMOD_OMP_NUM_THREADS, 4), whatever the machine: on 2 cores, and between pmgkit's
+// OpenMP kernels, the 373 supernodes of the twisted Homer's linear level cost a refactorisation
+// 21-23 ms of wall time for 10-12 ms of CPU time on the calling thread (threads woken and waited
+// for at every supernode). With no active parallel level allowed, those regions run on one
+// thread. libgomp (GCC 12) and LLVM's libomp keep this setting per thread, so each scope saves
+// and restores its own thread's value and factorisations on other threads are not affected.
+class ScopedSerialOpenMP {
+ public:
+  explicit ScopedSerialOpenMP(bool enabled) : enabled_(enabled) {
+    if (!enabled_) return;
+    previous_ = omp_get_max_active_levels();
+    omp_set_max_active_levels(0);
+  }
+  ~ScopedSerialOpenMP() {
+    if (enabled_) omp_set_max_active_levels(previous_);
+  }
+  ScopedSerialOpenMP(const ScopedSerialOpenMP&) = delete;
+  ScopedSerialOpenMP& operator=(const ScopedSerialOpenMP&) = delete;
+
+ private:
+  bool enabled_;
+  int previous_ = 1;
 };
 
 // Factorisations of fewer flops run on the solves' BLAS threads (factor_threads is ignored).
@@ -225,6 +253,8 @@ void CholmodSolver::factorize(const Csr& A) {
   const int threads = d.flops < kThreadedFactorFlops ? blas_threads_ : factor_threads_;
   {
     ScopedBlasThreads blas(threads);
+    // A factorisation on one BLAS thread keeps CHOLMOD's own regions on one thread too.
+    ScopedSerialOpenMP serial(threads == 1);
     cholmod_l_factorize(&view, d.factor, &d.common);
   }
   // Threaded factorisation, serial solves: the workers would otherwise spin on for a while after

@@ -6,6 +6,10 @@
 #include <catch2/catch.hpp>
 
 #include <dlfcn.h>
+#include <omp.h>
+
+#include <thread>
+#include <vector>
 
 using namespace pmg;
 using namespace pmg::test;
@@ -100,6 +104,84 @@ TEST_CASE("CHOLMOD with factor_threads: threaded factorisations, serial solves, 
   }
   if (get) CHECK(get() == before);
   CHECK_THROWS_AS(CholmodSolver("metis", 1, -2), InputError);
+}
+
+TEST_CASE("CHOLMOD on one BLAS thread: serial OpenMP regions give the same factor, and the setting is restored",
+          "[sparse][cholmod]") {
+  // 12^3 nodes: supernodes wide enough for CHOLMOD's parallel copies; below the threaded
+  // factorisation's threshold, so blas_threads 1 factorises on one thread.
+  Bcsr A = spring_lattice(12);
+  const Vector x_true = smooth_field(12);
+  const Vector b = A.to_csr().to_eigen() * x_true;
+  const int levels = omp_get_max_active_levels();
+  CholmodSolver serial("metis", 1), reference("metis", 0);
+  serial.setup(A);
+  reference.setup(A);
+  CHECK(omp_get_max_active_levels() == levels);
+  Vector x, x_ref;
+  serial.apply(b, x);
+  reference.apply(b, x_ref);
+  CHECK((x - x_true).norm() / x_true.norm() < 1e-10);
+  CHECK((x - x_ref).norm() / x_ref.norm() < 1e-12);
+  for (double& v : A.values()) v *= 2.0;
+  serial.update();
+  serial.apply(b, x);
+  CHECK((2.0 * x - x_true).norm() / x_true.norm() < 1e-10);
+  CHECK(omp_get_max_active_levels() == levels);
+  // OpenMP regions after it still run on every thread.
+  int team = 0;
+#pragma omp parallel
+  {
+#pragma omp single
+    team = omp_get_num_threads();
+  }
+  CHECK(team == omp_get_max_threads());
+}
+
+TEST_CASE("CHOLMOD factorisations on several threads at once leave each thread's OpenMP setting",
+          "[sparse][cholmod]") {
+  // The serial scope's setting belongs to the calling thread: factorisations that overlap on two
+  // threads must leave each thread's own setting, and its parallel regions' team, as they were.
+  const Bcsr A = spring_lattice(8);
+  const Vector x_true = smooth_field(8);
+  const Vector b = A.to_csr().to_eigen() * x_true;
+  const int levels = omp_get_max_active_levels();
+  struct Seen {
+    int levels_before = -1, levels_after = -1, team_before = -1, team_after = -1;
+    double error = 1.0;
+  };
+  auto team_size = [] {
+    int team = 0;
+#pragma omp parallel num_threads(2)
+    {
+#pragma omp single
+      team = omp_get_num_threads();
+    }
+    return team;
+  };
+  std::vector<Seen> seen(2);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t)
+    threads.emplace_back([&, t] {
+      Seen& s = seen[t];
+      s.levels_before = omp_get_max_active_levels();
+      s.team_before = team_size();
+      CholmodSolver solver("metis", 1);
+      solver.setup(A);
+      for (int i = 0; i < 20; ++i) solver.update();
+      Vector x;
+      solver.apply(b, x);
+      s.error = (x - x_true).norm() / x_true.norm();
+      s.levels_after = omp_get_max_active_levels();
+      s.team_after = team_size();
+    });
+  for (std::thread& t : threads) t.join();
+  for (const Seen& s : seen) {
+    CHECK(s.error < 1e-10);
+    CHECK(s.levels_after == s.levels_before);
+    CHECK(s.team_after == s.team_before);
+  }
+  CHECK(omp_get_max_active_levels() == levels);
 }
 
 TEST_CASE("CHOLMOD reports a matrix that is not positive definite", "[sparse][cholmod][errors]") {
