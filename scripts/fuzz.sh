@@ -12,7 +12,6 @@
 # crash-<what>: the normal test suite replays that folder (ctest -L fuzz).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if [ "${1:-}" = "--install" ]; then shift; fi  # clang is installed where missing in any case
 seconds=${1:-30}
 shift || true
 targets=("$@")

@@ -49,51 +49,38 @@ struct BlasThreadControl {
   }
 };
 
-// Sets the BLAS thread count for one CHOLMOD call and restores it (threads <= 0: untouched).
-class ScopedBlasThreads {
+// The threads of one CHOLMOD call, restored after it (threads <= 0: untouched): OpenBLAS's thread
+// count and, on one thread, CHOLMOD's own OpenMP regions too. CHOLMOD 3's supernodal factorisation
+// (SuiteSparse 5.12, Debian 12) copies each large supernode's columns in a parallel region whose
+// thread count is fixed when CHOLMOD is compiled (CHOLMOD_OMP_NUM_THREADS, 4), whatever the
+// machine: on 2 cores, and between pmgkit's OpenMP kernels, the 373 supernodes of the twisted
+// Homer's linear level cost a refactorisation 21-23 ms of wall time for 10-12 ms of CPU time on
+// the calling thread (threads woken and waited for at every supernode). With no active parallel
+// level allowed, those regions run on the calling thread. libgomp (GCC 12) and LLVM's libomp keep
+// that setting per thread, so calls on other threads are not affected.
+class ScopedCholmodThreads {
  public:
-  explicit ScopedBlasThreads(int threads) {
+  explicit ScopedCholmodThreads(int threads) {
+    if (threads == 1) {
+      previous_levels_ = omp_get_max_active_levels();
+      omp_set_max_active_levels(0);
+    }
     const BlasThreadControl& c = BlasThreadControl::instance();
     if (threads <= 0 || !c.set) return;
-    previous_ = c.get();
-    if (previous_ != threads) c.set(threads);
-    else previous_ = 0;
+    previous_blas_ = c.get();
+    if (previous_blas_ != threads) c.set(threads);
+    else previous_blas_ = 0;
   }
-  ~ScopedBlasThreads() {
-    if (previous_ > 0) BlasThreadControl::instance().set(previous_);
+  ~ScopedCholmodThreads() {
+    if (previous_blas_ > 0) BlasThreadControl::instance().set(previous_blas_);
+    if (previous_levels_ >= 0) omp_set_max_active_levels(previous_levels_);
   }
-  ScopedBlasThreads(const ScopedBlasThreads&) = delete;
-  ScopedBlasThreads& operator=(const ScopedBlasThreads&) = delete;
+  ScopedCholmodThreads(const ScopedCholmodThreads&) = delete;
+  ScopedCholmodThreads& operator=(const ScopedCholmodThreads&) = delete;
 
  private:
-  int previous_ = 0;
-};
-
-// Runs CHOLMOD's own OpenMP regions on the calling thread for one call (enabled), restoring the
-// setting after. CHOLMOD 3's supernodal factorisation (SuiteSparse 5.12, Debian 12) copies each
-// large supernode's columns in a parallel region whose thread count is fixed when CHOLMOD is
-// compiled (CHOLMOD_OMP_NUM_THREADS, 4), whatever the machine: on 2 cores, and between pmgkit's
-// OpenMP kernels, the 373 supernodes of the twisted Homer's linear level cost a refactorisation
-// 21-23 ms of wall time for 10-12 ms of CPU time on the calling thread (threads woken and waited
-// for at every supernode). With no active parallel level allowed, those regions run on one
-// thread. libgomp (GCC 12) and LLVM's libomp keep this setting per thread, so each scope saves
-// and restores its own thread's value and factorisations on other threads are not affected.
-class ScopedSerialOpenMP {
- public:
-  explicit ScopedSerialOpenMP(bool enabled) : enabled_(enabled) {
-    if (!enabled_) return;
-    previous_ = omp_get_max_active_levels();
-    omp_set_max_active_levels(0);
-  }
-  ~ScopedSerialOpenMP() {
-    if (enabled_) omp_set_max_active_levels(previous_);
-  }
-  ScopedSerialOpenMP(const ScopedSerialOpenMP&) = delete;
-  ScopedSerialOpenMP& operator=(const ScopedSerialOpenMP&) = delete;
-
- private:
-  bool enabled_;
-  int previous_ = 1;
+  int previous_blas_ = 0;     // > 0: OpenBLAS's count to restore
+  int previous_levels_ = -1;  // >= 0: the calling thread's max-active-levels to restore
 };
 
 // Factorisations of fewer flops run on the solves' BLAS threads (factor_threads is ignored).
@@ -252,9 +239,7 @@ void CholmodSolver::factorize(const Csr& A) {
   // more than they save (the twisted Homer's linear level, 4.5e7 flops, is refactorised every step).
   const int threads = d.flops < kThreadedFactorFlops ? blas_threads_ : factor_threads_;
   {
-    ScopedBlasThreads blas(threads);
-    // A factorisation on one BLAS thread keeps CHOLMOD's own regions on one thread too.
-    ScopedSerialOpenMP serial(threads == 1);
+    ScopedCholmodThreads scoped(threads);
     cholmod_l_factorize(&view, d.factor, &d.common);
   }
   // Threaded factorisation, serial solves: the workers would otherwise spin on for a while after
@@ -359,7 +344,7 @@ void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
   std::lock_guard<std::mutex> lock(d.solve_mutex);
   int ok;
   {
-    ScopedBlasThreads blas(blas_threads_);
+    ScopedCholmodThreads scoped(blas_threads_);
     ok = cholmod_l_solve2(CHOLMOD_A, d.factor, &B, nullptr, &d.X, nullptr, &d.Y, &d.E, &d.common);
   }
   if (!ok || !d.X) throw Error("CHOLMOD: solve failed (status " + std::to_string(d.common.status) + ")");
