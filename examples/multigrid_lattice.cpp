@@ -12,6 +12,7 @@
 //   4. Solvers from options (key=value or JSON), set up on the finest matrix.
 //   5. Solve, with the same stopping rules and monitor as every other solver.
 #include <pmg/multigrid/factory.hpp>
+#include <pmg/multigrid/levels.hpp>
 #include <pmg/multigrid/transfer.hpp>
 #include <pmg/sparse/generators.hpp>
 #include <pmg/sparse/krylov.hpp>
@@ -43,6 +44,7 @@ Csr trilinear(index_t m) {
 }  // namespace
 
 int main() {
+  mg::register_solvers();  // the multigrid methods join the core's in the factory
   // 1.
   const index_t n = 33;
   Bcsr A2 = spring_lattice(n);

@@ -1,5 +1,5 @@
-// A cubic cantilever sagging under gravity, simulated with the library alone (the README's
-// simulation snippet): implicit Euler, each step solved by PMG to 1e-3 with a warm start.
+// A cubic cantilever sagging under gravity, simulated with the library alone (the
+// simulation snippet of docs/library.md): implicit Euler, each step solved by PMG to 1e-3 with a warm start.
 #include <pmg/fem/generators.hpp>
 #include <pmg/fem/simulation.hpp>
 #include <pmg/multigrid/factory.hpp>
@@ -7,6 +7,7 @@
 #include <cstdio>
 
 int main() {
+  pmg::mg::register_solvers();  // pmg, mgpcg and the smoothers (or pmg::register_all_solvers())
   pmg::fem::TetMesh mesh = pmg::fem::box_mesh_24(4, 1, 1, 4.0, 1.0, 1.0);
   pmg::fem::DegreeHierarchy h(mesh, 3, {5e6, 0.3, 1000.0},  // E, nu, rho
                               [](const pmg::fem::Vec3& X) { return X.x() < 1e-9; });  // clamp

@@ -13,6 +13,7 @@
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/fem/static_solve.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -23,8 +24,6 @@ namespace pmg::tools {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 struct CoarseOptions {
   SceneOptions scene;
@@ -68,7 +67,7 @@ void run(const CoarseOptions& o) {
           for (int l = 0; l + 1 < h.num_levels(); ++l)
             h.assemble_level(l, &R, nullptr, sys.mass_weight, sys.stiffness_weight);
         }
-        update = std::min(update, since(t0));
+        update = std::min(update, seconds_since(t0));
       }
       cycle.update();
       // Cycles to reduce the residual by 1e2..1e5.
@@ -86,7 +85,7 @@ void run(const CoarseOptions& o) {
         for (int k = 0; k < 4; ++k)
           if (reached[k] < 0 && rel <= std::pow(10.0, -2 - k)) reached[k] = cycles + 1;
       }
-      const double cycle_ms = 1e3 * since(t0) / cycles;
+      const double cycle_ms = 1e3 * seconds_since(t0) / cycles;
       auto cell = [](int c) { return c < 0 ? std::string(">500") : std::to_string(c); };
       t.add({galerkin ? "Galerkin" : "geometric", interpolating ? "interpolating (seed)" : "P^T",
              fmt("%.2f", 1e3 * update), fmt("%.2f", cycle_ms), cell(reached[0]), cell(reached[1]),

@@ -5,6 +5,11 @@
 
 namespace pmg::tools {
 
+/// pmg solvers: every registered method with its keys, defaults and descriptions (text or the
+/// Markdown of docs/solvers.md).
+void register_solvers(CLI::App& app);
+/// The registered method names, comma-separated (for help texts).
+std::string method_list();
 /// pmg compare: run several solvers on one system, write the residual history, print a table.
 void register_compare(CLI::App& app);
 /// pmg mesh: closed surface to tetrahedral mesh (TetGen), or statistics of a mesh file.

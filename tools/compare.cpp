@@ -13,21 +13,18 @@
 #include "scene.hpp"
 #include "table.hpp"
 
-#include "pmg/multigrid/boomeramg.hpp"
-#include "pmg/multigrid/cycle.hpp"
-#include "pmg/multigrid/factory.hpp"
-#include "pmg/multigrid/petsc.hpp"
 #include "pmg/multigrid/user_levels.hpp"
+#include "pmg/sparse/factory.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include "pmg/sparse/bin_bcsr.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
 #include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/generators.hpp"
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/matrix_market.hpp"
 #include "pmg/sparse/petsc_binary.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <omp.h>
 
@@ -41,6 +38,7 @@
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -62,12 +60,6 @@ struct Options {
   std::vector<std::string> solvers;  // default depends on the system
   std::vector<std::string> overrides;  // --set key=value, for every solver of the run
   std::string solver_config;           // --solver-config FILE.json: named configurations
-  std::set<std::string> given;         // multigrid flags given explicitly
-  // PMG
-  std::string coarse_operator = "geometric", restriction = "transpose", cycle = "V",
-              smoother = "gauss-seidel", lowest_level = "cholmod";
-  int sweeps = 5, mgpcg_cycles = 2, lowest_level_cycles = 1;
-  double lowest_level_tol = 0.1;
   std::string format = "bcsr";
   double tol = 1e-8;
   int max_iterations = 20000;
@@ -77,9 +69,8 @@ struct Options {
   bool warm_up = false;
 };
 
-/// One solver's options from the command line: its method, the stopping flags where the method
-/// reads them, and the multigrid flags for multigrid methods (each translated to the factory key
-/// it stands for; the factory then refuses any that the chosen parts do not read).
+/// One solver's options from the command line: its method and the stopping flags where the
+/// method reads them (solver options beyond those come from --set and --solver-config).
 Config cli_config(const Options& o, const std::string& method) {
   Config c = Config::from_pairs({"method=" + method}, "pmg compare (" + method + ")");
   auto accepts = [&](const char* k) { return method_accepts_key(method, k); };
@@ -89,19 +80,7 @@ Config cli_config(const Options& o, const std::string& method) {
   else if (accepts("max_iterations"))
     c.set("max_iterations", std::to_string(o.max_iterations));
   if (accepts("check_every") && o.check_every != 1) c.set("check_every", std::to_string(o.check_every));
-  if (method_uses_levels(method)) {  // only the flags given: the factory's defaults are the same
-    auto given = [&](const char* flag) { return o.given.count(flag) > 0; };
-    if (given("--smoother")) c.set("smoother.method", o.smoother);
-    if (given("--sweeps")) c.set("smoother.sweeps", std::to_string(o.sweeps));  // chebyshev: refused, named
-    if (given("--cycle")) c.set("cycle", o.cycle);
-    if (given("--coarse-operator")) c.set("coarse_operator", o.coarse_operator);
-    else if (o.galerkin_from_finest) c.set("coarse_operator", "galerkin");
-    if (given("--restriction")) c.set("restriction", o.restriction);
-    if (given("--lowest-level")) c.set("lowest_level.method", o.lowest_level);
-    if (given("--lowest-level-cycles")) c.set("lowest_level.cycles", std::to_string(o.lowest_level_cycles));
-    if (given("--lowest-level-tol")) c.set("lowest_level.tol", fmt("%.17g", o.lowest_level_tol));
-    if (given("--mgpcg-cycles") && method == "mgpcg") c.set("cycles", std::to_string(o.mgpcg_cycles));
-  }
+  if (o.galerkin_from_finest && accepts("coarse_operator")) c.set("coarse_operator", "galerkin");
   return c;
 }
 
@@ -163,10 +142,6 @@ struct Outcome {
   std::vector<IterationRecord> history;
 };
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 /// Files ending in .petsc are PETSc's binary format, others Matrix Market.
 bool is_petsc_file(const std::string& path) {
   return path.size() > 6 && path.compare(path.size() - 6, 6, ".petsc") == 0;
@@ -192,7 +167,7 @@ System load_system(const Options& o) {
     mg::UserLevelOptions lo;
     lo.layout = mg::parse_layout(o.layout);
     lo.galerkin_only = o.galerkin_from_finest;
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
     s.levels = std::make_unique<mg::UserLevels>(mv, pv, lo);
     s.user_levels_s = seconds_since(t0);
     s.bcsr = borrow(s.levels->matrix(s.levels->num_levels() - 1));
@@ -300,37 +275,12 @@ void plot_history(const std::string& csv, const std::string& png, const std::str
   std::cout << "plot: " << png << "\n";
 }
 
-/// The multigrid cycle inside a solver (itself, or CG's preconditioner), or nullptr.
-const mg::MultigridCycle* find_cycle(const Solver& s) {
-  if (const auto* c = dynamic_cast<const mg::MultigridCycle*>(&s)) return c;
-  if (const auto* cg = dynamic_cast<const Cg*>(&s))
-    if (cg->preconditioner()) return find_cycle(*cg->preconditioner());
-  return nullptr;
-}
-
-/// Where one cycle's time goes, averaged over the cycles run.
-std::string cycle_breakdown(const mg::MultigridCycle& c) {
-  const mg::CycleTimings& t = c.timings();
-  if (t.cycles == 0) return "";
-  const double n = static_cast<double>(t.cycles);
-  double total = t.transfer + t.residual + t.lowest_level;
-  for (double s : t.smoothing) total += s;
-  std::ostringstream out;
-  out << "one cycle " << fmt("%.2f", 1e3 * total / n) << " ms:";
-  for (int l = c.num_levels() - 1; l >= 1; --l)
-    out << " smoothing " << c.levels().level_name(l) << " " << fmt("%.2f", 1e3 * t.smoothing[l] / n) << " ms,";
-  out << " residuals " << fmt("%.2f", 1e3 * t.residual / n) << " ms, transfers "
-      << fmt("%.2f", 1e3 * t.transfer / n) << " ms, lowest-level solve "
-      << fmt("%.2f", 1e3 * t.lowest_level / n) << " ms (" << t.cycles << " cycles)";
-  return out.str();
-}
-
 /// Sets up (timed), solves from x (timed, monitored) and reports.
 Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator& A,
                    const Vector& b, Vector& x, double extra_setup) {
   Outcome out;
   out.name = name;
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   try {
     solver.setup(A);
   } catch (const Error& e) {  // e.g. a lowest level that is not positive definite
@@ -341,9 +291,9 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
     return out;
   }
   out.setup = seconds_since(t0) + extra_setup;
-  if (const auto* c = find_cycle(solver)) c->reset_timings();
+  solver.reset_timings();
   SolveMonitor mon;
-  t0 = std::chrono::steady_clock::now();
+  t0 = Clock::now();
   SolveResult r;
   try {
     r = solver.solve(b, x, &mon);
@@ -357,7 +307,7 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
   out.iterations = r.iterations;
   out.rel_residual = std::isnan(r.true_rel_residual) ? r.rel_residual : r.true_rel_residual;
   out.status = to_string(r.status);
-  if (const auto* c = find_cycle(solver)) out.breakdown = cycle_breakdown(*c);
+  out.breakdown = solver.timings().to_string();
   return out;
 }
 
@@ -382,13 +332,13 @@ void run(const Options& o) {
     if (!o.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
     prepare_output_directory(o.export_petsc, "--export-petsc");
   }
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   System sys = load_system(o);
   // (an FEM scene: checked above)
   if (!o.export_levels.empty()) export_levels(*sys.fem, o.export_levels);
   if (!o.export_petsc.empty()) export_petsc(*sys.fem, o.export_petsc);
   const double load_time = seconds_since(t0);
-  t0 = std::chrono::steady_clock::now();
+  t0 = Clock::now();
   const Formats fmt_ = select_format(o, sys);
   const double convert_time = seconds_since(t0);
 
@@ -420,7 +370,16 @@ void run(const Options& o) {
     names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
     if (levels && levels->num_levels() > 1) {
       names.push_back("pmg");
-      if (o.lowest_level != "boomeramg-pcg") names.push_back("mgpcg");
+      // A lowest level solved by an inner Krylov iteration is not a fixed operator: CG cannot be
+      // preconditioned by such a cycle, so mgpcg is left out (named in the output).
+      const Config set = Config::from_pairs(o.overrides, "--set");
+      const std::string lowest = set.has("lowest_level.method") ? set.get_string("lowest_level.method", "")
+                                                                : set.get_string("lowest_level", "");
+      if (lowest == "cg" || lowest == "boomeramg-pcg" || lowest == "gamg-pcg")
+        std::cout << "mgpcg: left out of the default solvers (lowest_level=" << lowest
+                  << " is an inner iteration, not a fixed operator)\n\n";
+      else
+        names.push_back("mgpcg");
     }
   }
   // Every solver is built (and its options checked) before any runs.
@@ -445,10 +404,9 @@ void run(const Options& o) {
     for (const auto& k : set_keys)
       // "smoother=X" is stored as smoother.method where the solver's options have a smoother tree.
       if (c.was_used(k) || c.was_used(k + ".method")) set_used.insert(k);
-    // hypre's MPI start-up (about half a second here) is paid once per process: started here,
-    // before the clocks, so that it is charged to no solver.
-    mpi = std::max(mpi, mg::start_mpi_for_hypre(c));
-    mpi = std::max(mpi, mg::start_petsc(c));
+    // MPI's and PETSc's start-up is paid once per process: started here, before the clocks, so
+    // that it is charged to no solver.
+    mpi = std::max(mpi, start_libraries(c));
     if (auto* cg = dynamic_cast<Cg*>(solvers.back().get())) cg->set_multiplication_operator(&A);
     if (auto* mcg = dynamic_cast<MergedCg*>(solvers.back().get())) mcg->set_multiplication_operator(&A);
   }
@@ -459,27 +417,29 @@ void run(const Options& o) {
   if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << "\n";
   if (mpi >= 0) std::cout << "MPI (and PETSc) start-up: " << fmt("%.3f", mpi) << " s (charged to no solver)\n\n";
   std::vector<Outcome> outcomes;
-  double lower_levels = -1.0;  // seconds to assemble PMG's lower levels (once, charged to each)
-  double matrix_free = -1.0;   // seconds to build the matrix-free levels (once, charged to each)
+  // FEM systems: what each solver needs beyond the finest matrix (lower levels, matrix-free
+  // operators), prepared once per kind of need outside the solvers' clocks and charged to every
+  // solver that needs it.
+  std::map<std::pair<bool, bool>, double> prepared;
+  double lower_levels = -1.0;  // seconds to assemble the lower levels (the report's lower_levels_s)
+  double matrix_free = -1.0;   // seconds to build the matrix-free levels (matrix_free_s)
   auto run_one = [&](size_t k, Vector& x) {
     Solver& solver = *solvers[k];
+    if (!sys.fem) return run_solver(configs[k].first, solver, entries, sys.b, x, 0.0);
+    const SolverNeeds needs = solver.needs();
     double extra = 0.0;
-    if (solver.uses_matrix_free() && sys.fem) {
-      // Matrix-free levels: the linear level assembled and the operators built, outside the clock
-      // and charged to the solver as above; the solver multiplies with the finest operator too.
-      if (matrix_free < 0) matrix_free = sys.fem->prepare_matrix_free();
-      const fem::DegreeHierarchy& h = sys.fem->hierarchy();
-      const LinearOperator& Amf = *h.matrix_free_operator(h.num_levels() - 1);
-      if (auto* cg = dynamic_cast<Cg*>(&solver)) cg->set_multiplication_operator(&Amf);
-      return run_solver(configs[k].first, solver, Amf, sys.b, x, matrix_free);
+    if (needs.lower_levels || needs.matrix_free) {
+      const auto key = std::make_pair(needs.lower_levels, needs.matrix_free);
+      if (!prepared.count(key)) prepared[key] = sys.fem->prepare(needs);
+      extra = prepared[key];
+      if (needs.matrix_free) matrix_free = extra;
+      else if (needs.lower_levels) lower_levels = extra;
     }
-    if (solver.uses_levels() && sys.fem) {
-      // The lower levels are the multigrid's own set-up (re-discretised operators), assembled once
-      // here, outside the solver's clock, and charged to every multigrid solver alike.
-      if (lower_levels < 0) lower_levels = sys.fem->assemble_lower_levels();
-      extra = lower_levels;
-    }
-    return run_solver(configs[k].first, solver, entries, sys.b, x, extra);
+    const LinearOperator& Afem = sys.fem->hierarchy().system_operator(needs);
+    // A matrix-free solver multiplies with the finest operator too.
+    if (needs.matrix_free)
+      if (auto* cg = dynamic_cast<Cg*>(&solver)) cg->set_multiplication_operator(&Afem);
+    return run_solver(configs[k].first, solver, needs.matrix_free ? Afem : entries, sys.b, x, extra);
   };
   if (o.warm_up)
     std::cout << "warm-up: each solver runs once untimed before its timed run (the first solver in a "
@@ -506,15 +466,15 @@ void run(const Options& o) {
       if (configs[k].second.get_string("method", "cg") == "cholmod" && outcomes[k].message.empty())
         sys.x_true = solutions[k];
     if (sys.x_true.size() == 0) {
-      CholmodSolver chol;
+      auto chol = make_solver(Config::from_pairs({"method=cholmod"}, "the reference solve"));
       try {
-        chol.setup(*sys.bcsr);
+        chol->setup(*sys.bcsr);
       } catch (const Error& e) {
         throw InputError(std::string(e.what()) + ": the clamped nodes (" +
                          std::to_string(sys.fem->hierarchy().finest().num_fixed()) +
                          ") do not remove every rigid motion; raise --fix-fraction");
       }
-      chol.apply(sys.b, sys.x_true);
+      chol->apply(sys.b, sys.x_true);
     }
     sys.error_reference = "CHOLMOD solution";
   }
@@ -584,6 +544,7 @@ void run(const Options& o) {
         {"warm_up", o.warm_up},
         {"mpi_startup_s", mpi >= 0 ? nlohmann::json(mpi) : nlohmann::json(nullptr)},
         {"lower_levels_s", lower_levels >= 0 ? nlohmann::json(lower_levels) : nlohmann::json(nullptr)},
+        {"matrix_free_s", matrix_free >= 0 ? nlohmann::json(matrix_free) : nlohmann::json(nullptr)},
         {"user_levels_s", sys.user_levels_s >= 0 ? nlohmann::json(sys.user_levels_s) : nlohmann::json(nullptr)},
         {"error_reference", sys.x_true.size() ? nlohmann::json(sys.error_reference) : nlohmann::json(nullptr)},
         {"history", history},
@@ -599,8 +560,8 @@ void run(const Options& o) {
 void register_compare(CLI::App& app) {
   auto opts = std::make_shared<Options>();
   CLI::App* sub = app.add_subcommand(
-      "compare",
-      "Run PMG, MGPCG, CG, PCG (Jacobi, block Jacobi, BoomerAMG), merged CG and CHOLMOD on one SPD system");
+      "compare", "Run several solvers on one SPD system and report residual against time (methods and their "
+                 "keys: pmg solvers)");
   sub->add_option("-m,--matrix", opts->matrix, "Matrix Market file (symmetric positive definite)")
       ->check(CLI::ExistingFile);
   sub->add_option("-b,--rhs", opts->rhs, "right-hand side (Matrix Market array or n x 1)")
@@ -612,13 +573,16 @@ void register_compare(CLI::App& app) {
       ->check(CLI::Range(2, 400))
       ->capture_default_str();
   sub->add_option("-s,--solvers", opts->solvers,
-                  "comma-separated: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, boomeramg-pcg, pmg, "
-                  "mgpcg "
-                  "(default: all that apply)")
+                  "comma-separated methods: " + method_list() +
+                      " (default: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, boomeramg-pcg, and pmg, mgpcg "
+                      "where there are levels)")
       ->delimiter(',');
   sub->add_option("--set", opts->overrides,
-                  "solver option key=value for every solver of the run (repeatable; e.g. "
-                  "smoother.sweeps=3 lowest_level=boomeramg; see docs/solvers.md)");
+                  "solver option key=value for every solver of the run (repeatable; e.g. smoother=chebyshev "
+                  "smoother.degree=4 cycle=W lowest_level=boomeramg; keys and defaults: pmg solvers METHOD). "
+                  "PMG and MGPCG on FEM levels default to the matrix-free route (operator=auto: optimised "
+                  "fourth-kind Chebyshev of degree 3, one cycle per MGPCG application, CHOLMOD on the linear "
+                  "level)");
   sub->add_option("--solver-config", opts->solver_config,
                   "JSON file of named solver configurations run side by side "
                   "({\"name\": {\"method\": \"mgpcg\", ...}, ...}); replaces --solvers")
@@ -678,46 +642,26 @@ void register_compare(CLI::App& app) {
                   "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc_reference read)");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
-  sub->add_option("--coarse-operator", opts->coarse_operator, "PMG lower levels")
-      ->check(CLI::IsMember({"geometric", "galerkin"}))
-      ->capture_default_str();
-  sub->add_option("--restriction", opts->restriction, "PMG restriction: P transposed or the seed's")
-      ->check(CLI::IsMember({"transpose", "interpolating"}))
-      ->capture_default_str();
-  sub->add_option("--cycle", opts->cycle, "PMG cycle")->check(CLI::IsMember({"V", "W"}))->capture_default_str();
-  sub->add_option("--smoother", opts->smoother,
-                  "PMG smoother on FEM scenes: 3x3-block Gauss-Seidel, point (scalar) Gauss-Seidel, Chebyshev")
-      ->check(CLI::IsMember({"gauss-seidel", "point-gauss-seidel", "chebyshev"}))
-      ->capture_default_str();
-  sub->add_option("--sweeps", opts->sweeps, "Gauss-Seidel sweeps before and after")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  sub->add_option("--lowest-level", opts->lowest_level,
-                  "PMG/MGPCG linear level: CHOLMOD (exact), BoomerAMG V-cycles, or CG preconditioned "
-                  "by BoomerAMG to a tolerance (pmg only)")
-      ->check(CLI::IsMember({"cholmod", "boomeramg", "boomeramg-pcg"}))
-      ->capture_default_str();
-  sub->add_option("--lowest-level-cycles", opts->lowest_level_cycles,
-                  "BoomerAMG V-cycles per application (boomeramg, boomeramg-pcg)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  sub->add_option("--lowest-level-tol", opts->lowest_level_tol,
-                  "relative tolerance of the linear-level CG (boomeramg-pcg)")
-      ->check(FiniteRange(1e-14, 0.5))
-      ->capture_default_str();
-  sub->add_option("--mgpcg-cycles", opts->mgpcg_cycles, "cycles per MGPCG preconditioner application")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  sub->callback([opts, sub] {
+  // Multigrid flags of earlier versions: each duplicated a --set key, so they are retired with a
+  // message naming it (hidden from the help).
+  static const std::pair<const char*, const char*> retired[] = {
+      {"--coarse-operator", "coarse_operator"}, {"--restriction", "restriction"}, {"--cycle", "cycle"},
+      {"--smoother", "smoother"}, {"--sweeps", "smoother.sweeps"}, {"--lowest-level", "lowest_level"},
+      {"--lowest-level-cycles", "lowest_level.cycles"}, {"--lowest-level-tol", "lowest_level.tol"},
+      {"--mgpcg-cycles", "cycles"}};
+  auto retired_values = std::make_shared<std::vector<std::string>>(std::size(retired));
+  for (size_t k = 0; k < std::size(retired); ++k) sub->add_option(retired[k].first, (*retired_values)[k])->group("");
+  sub->callback([opts, sub, retired_values] {
     opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
                 sub->count("--load") || sub->count("--dt");
-    if (sub->count("--lowest-level-cycles") && opts->lowest_level == "cholmod")
-      throw InputError("--lowest-level-cycles needs --lowest-level boomeramg or boomeramg-pcg");
-    if (sub->count("--lowest-level-tol") && opts->lowest_level != "boomeramg-pcg")
-      throw InputError("--lowest-level-tol needs --lowest-level boomeramg-pcg");
-    for (const char* flag : {"--sweeps", "--smoother", "--cycle", "--coarse-operator", "--restriction",
-                             "--lowest-level", "--lowest-level-cycles", "--lowest-level-tol", "--mgpcg-cycles"})
-      if (sub->count(flag)) opts->given.insert(flag);
+    for (size_t k = 0; k < std::size(retired); ++k)
+      if (sub->count(retired[k].first))
+        throw InputError(std::string(retired[k].first) + " was retired: use --set " + retired[k].second + "=" +
+                         (*retired_values)[k] +
+                         (std::string(retired[k].first) == "--mgpcg-cycles"
+                              ? " with --solvers mgpcg (--set reaches every solver of the run)"
+                              : "") +
+                         " (keys and defaults: pmg solvers)");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
     run(*opts);

@@ -1,10 +1,8 @@
 // pmg — the pmgkit command-line tool. Each subcommand lives in its own file (commands.hpp).
 #include "commands.hpp"
 
+#include "pmg/solvers.hpp"
 #include "pmg/sparse/monitor.hpp"
-#ifdef PMG_HAVE_CUDA
-#include "pmg/gpu/factory.hpp"
-#endif
 
 #include <filesystem>
 #include <iostream>
@@ -31,9 +29,10 @@ int main(int argc, char** argv) {
   CLI::App app{"pmgkit: block-sparse formats, Krylov and direct solvers, p-multigrid"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "pmgkit " PMG_VERSION);
-#ifdef PMG_HAVE_CUDA
-  pmg::gpu::register_solvers();  // gpu-mcg, gpu-pcg, gpu-pmg (they say so when there is no device)
-#endif
+  // Every method of this build (the GPU ones where the CUDA module is built: they say so when there
+  // is no device); the subcommands' help is generated from this registry.
+  pmg::register_all_solvers();
+  pmg::tools::register_solvers(app);
   pmg::tools::register_compare(app);
   pmg::tools::register_mesh(app);
   pmg::tools::register_coarse(app);

@@ -2,7 +2,9 @@
 
 #include "checks.hpp"
 
+#include "pmg/fem/simulation.hpp"
 #include "pmg/sim/setup.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -10,6 +12,13 @@
 #include <sstream>
 
 namespace pmg::tools {
+
+SceneOptions::SceneOptions() {
+  const sim::Scene bar = sim::table_bar();
+  box.assign(bar.box.begin(), bar.box.end());
+  size.assign(bar.size.begin(), bar.size.end());
+  young = bar.young, poisson = bar.poisson, density = bar.density;
+}
 
 void add_scene_options(CLI::App* sub, SceneOptions& o) {
   sub->add_option("--mesh", o.mesh, "tetrahedral mesh (.msh, .node/.ele) instead of the box bar")
@@ -44,19 +53,11 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
   add_allow_option(sub, o.allow);
 }
 
-double FemSystem::assemble_lower_levels() {
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int l = 0; l + 1 < hierarchy().num_levels(); ++l)
-    hierarchy().assemble_level(l, nullptr, nullptr, mass_weight, stiffness_weight);
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double FemSystem::prepare_matrix_free() {
-  const auto t0 = std::chrono::steady_clock::now();
-  hierarchy().assemble_level(0, nullptr, nullptr, mass_weight, stiffness_weight);
-  for (int l = 1; l < hierarchy().num_levels(); ++l)
-    hierarchy().update_matrix_free(l, nullptr, mass_weight, stiffness_weight);
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+double FemSystem::prepare(const SolverNeeds& needs) {
+  const auto t0 = Clock::now();
+  // The finest matrix is assembled already; a matrix-free solver needs the finest operator too.
+  hierarchy().prepare(needs, nullptr, mass_weight, stiffness_weight, /*finest=*/needs.matrix_free);
+  return seconds_since(t0);
 }
 
 std::vector<double> FemSystem::free_coordinates() const {
@@ -64,7 +65,7 @@ std::vector<double> FemSystem::free_coordinates() const {
 }
 
 sim::Scene scene_of(const SceneOptions& o) {
-  sim::Scene s;
+  sim::Scene s = sim::table_bar();  // its end load unless gravity is asked for
   s.source = "pmg compare options";
   s.mesh_file = o.mesh;
   for (int d = 0; d < 3; ++d) s.box[d] = o.box[d], s.size[d] = o.size[d];
@@ -72,8 +73,10 @@ sim::Scene scene_of(const SceneOptions& o) {
   s.young = o.young, s.poisson = o.poisson, s.density = o.density;
   s.clamp_axis = o.fix[0] - 'x';
   s.clamp_fraction = o.fix_fraction;
-  if (o.load == "gravity") s.gravity = fem::Vec3(0, 0, -9.81);
-  else s.end_force = fem::Vec3(0, 0, -10.0);  // 10 N in total on the far face
+  if (o.load == "gravity") {
+    s.gravity = fem::Vec3(0, 0, -9.81);
+    s.end_force = fem::Vec3::Zero();
+  }
   for (const auto& a : o.allow) fem::allow_mesh_defect(s.mesh_checks, a);
   s.dynamic = o.dt > 0;
   if (o.dt > 0) s.dt = o.dt;
@@ -91,14 +94,18 @@ FemSystem build_fem_system(const SceneOptions& o) {
   const fem::ElasticityModel& m = s.setup.finest();
   Vector f = s.setup.f_ext;
   if (o.dt > 0) {
-    s.mass_weight = 1.0;
-    s.stiffness_weight = o.dt * o.dt;
+    fem::SimulationParams sp;  // the step system of an undamped implicit-Euler step
+    sp.dt = o.dt;
+    sp.rayleigh_alpha = sp.rayleigh_beta = 0.0;
+    const fem::StepWeights w = fem::step_weights(sp);
+    s.mass_weight = w.mass;
+    s.stiffness_weight = w.stiffness;
     f *= o.dt;
   }
   s.b = m.restrict_to_free(f);
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   s.hierarchy().assemble_level(o.degree - 1, nullptr, nullptr, s.mass_weight, s.stiffness_weight);
-  s.finest_assembly = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s.finest_assembly = seconds_since(t0);
   s.description += ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
                    " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " + o.load +
                    (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");

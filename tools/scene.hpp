@@ -14,12 +14,14 @@
 
 namespace pmg::tools {
 
+/// The scene flags of pmg compare and pmg coarse; the defaults are sim::table_bar()'s.
 struct SceneOptions {
+  SceneOptions();
   std::string mesh;                 ///< .msh/.node/.ele; empty: the box bar below
-  std::vector<int> box{5, 1, 1};    ///< boxes of 24 tets along x, y, z
-  std::vector<double> size{1.0, 0.2, 0.2};
+  std::vector<int> box;             ///< boxes of 24 tets along x, y, z
+  std::vector<double> size;         ///< side lengths [m]
   int degree = 3;
-  double young = 500e3, poisson = 0.3, density = 1000.0;
+  double young, poisson, density;
   std::string fix = "x";            ///< axis whose minimum face (plus fix_fraction) is clamped
   double fix_fraction = 0.0;        ///< of the extent along that axis
   std::string load = "traction";    ///< traction (10 N on the max face of `fix`'s axis, -z) | gravity
@@ -40,12 +42,11 @@ struct FemSystem {
   double mass_weight = 0.0, stiffness_weight = 1.0;
   fem::DegreeHierarchy& hierarchy() const { return *setup.hierarchy; }
   const Bcsr& matrix() const { return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1); }
-  /// Assembles the lower levels (PMG's extra set-up work); returns the seconds it took.
-  double assemble_lower_levels();
-  /// What a matrix-free multigrid needs (operator=matrix-free): the linear level assembled and the
-  /// matrix-free operators of the higher levels built with the system's weights; returns the
-  /// seconds taken.
-  double prepare_matrix_free();
+  /// What a solver needs beyond the finest matrix (assembled by build_fem_system), prepared with
+  /// the system's weights (fem::DegreeHierarchy::prepare): lower levels, matrix-free operators.
+  /// Returns the seconds it took; the operator to set the solver up on is
+  /// hierarchy().system_operator(needs).
+  double prepare(const SolverNeeds& needs);
   /// x, y, z of the finest level's free nodes (rest positions), interleaved like the unknowns: the
   /// rigid-body modes of AMG baselines (BoomerAMG interpolation vectors, GAMG near-null space).
   std::vector<double> free_coordinates() const;

@@ -9,6 +9,7 @@
 #include "pmg/sim/scene.hpp"
 #include "pmg/sim/setup.hpp"
 #include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <nlohmann/json.hpp>
 #include <omp.h>
@@ -26,8 +27,6 @@ namespace pmg::tools {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 using json = nlohmann::json;
 
@@ -43,7 +42,7 @@ class Progress {
   Progress(int total, bool quiet) : total_(total), quiet_(quiet), tty_(isatty(fileno(stdout))), t0_(Clock::now()) {}
   void update(int step, double t) {
     if (quiet_) return;
-    const double elapsed = since(t0_);
+    const double elapsed = seconds_since(t0_);
     const double eta = step > 0 ? elapsed * (total_ - step) / step : 0.0;
     if (tty_) {
       const int width = 30, filled = static_cast<int>(width * static_cast<double>(step) / total_);
@@ -83,11 +82,15 @@ constexpr int kInterrupted = 130;  // 128 + SIGINT, the shell's convention
 
 void run_static(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& report) {
   const sim::StaticOutcome r = sim::solve_static(s, b, cli.output);
-  std::cout << "static solve (CHOLMOD" << (s.corotational ? ", corotational fixed point" : "") << "): "
-            << r.result.iterations << " iteration(s), " << fmt("%.3f", r.seconds) << " s\n"
+  std::cout << "solver:  " << r.settings << "\n"
+            << "static solve (" << r.method << (s.corotational ? ", corotational fixed point" : "") << "): "
+            << r.result.iterations << " iteration(s)"
+            << (r.method == "cholmod" ? std::string() : ", " + std::to_string(r.result.solver_iterations) + " solver iterations")
+            << ", " << fmt("%.3f", r.seconds) << " s\n"
             << "probe (" << b.probe.point.transpose() << ") displacement: " << r.probe.transpose() << "\n"
             << "skipped: mass matrix, time loop (static scene)\n";
-  report["static"] = {{"solver", "cholmod"}, {"iterations", r.result.iterations}, {"seconds", r.seconds}};
+  report["static"] = {{"solver", r.method}, {"settings", r.settings}, {"iterations", r.result.iterations},
+                      {"solver_iterations", r.result.solver_iterations}, {"seconds", r.seconds}};
   report["probe"] = {{"point_m", vec3(b.probe.point)}, {"displacement_m", vec3(r.probe)}};
   for (const auto& f : r.outputs) std::cout << "wrote " << f << "\n";
   if (!r.outputs.empty()) report["outputs"] = r.outputs;
@@ -202,7 +205,7 @@ void run(const Cli& cli_in) {
             << m.num_fixed() << " clamped nodes\n"
             << "model:   " << (s.corotational ? "corotational" : "linear") << ", E = " << s.young << " Pa, nu = " << s.poisson
             << ", rho = " << s.density << " kg/m^3; initial state " << s.initial << "\n"
-            << "set-up:  " << fmt("%.3f", since(t0)) << " s, " << omp_get_max_threads() << " threads\n";
+            << "set-up:  " << fmt("%.3f", seconds_since(t0)) << " s, " << omp_get_max_threads() << " threads\n";
   json report = {{"command", "pmg simulate"},
                  {"scene", s.source},
                  {"mesh", {{"source", s.mesh_file.empty() ? "box" : s.mesh_file},
@@ -215,7 +218,7 @@ void run(const Cli& cli_in) {
                             {"poisson", s.poisson},
                             {"density_kg_m3", s.density},
                             {"initial_state", s.initial}}},
-                 {"setup_s", since(t0)},
+                 {"setup_s", seconds_since(t0)},
                  {"threads", omp_get_max_threads()}};
   auto write_report = [&] {
     if (!cli.json_report.empty()) write_file_atomically(cli.json_report, report.dump(2) + "\n");

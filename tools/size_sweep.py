@@ -12,7 +12,7 @@ Markdown table. Needs Debian's python3 (numpy, matplotlib):
 --variant LABEL=ARGS (repeatable) runs `pmg compare` once more per size with extra arguments and
 reports its solvers as SOLVER[LABEL], e.g. PMG with BoomerAMG on the linear level:
 
-  --variant "amg=--solvers pmg --lowest-level boomeramg-pcg"
+  --variant "amg=--solvers pmg --set lowest_level=boomeramg-pcg"
 """
 import argparse
 import csv

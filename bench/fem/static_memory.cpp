@@ -8,10 +8,11 @@
 // assembled route assembles every level; the matrix-free one assembles the linear level only.
 // Prints unknowns, set-up and solve seconds, iterations, the true relative residual (of the
 // assembled matrix for the assembled route, of the operator for the matrix-free one) and the peak
-// resident set size (getrusage) — the figure the README compares.
+// resident set size (getrusage) — the figure docs/performance.md compares.
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include "../bandwidth.hpp"
 
@@ -27,9 +28,6 @@ double peak_rss_mib() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return u.ru_maxrss / 1024.0;  // kilobytes on Linux
-}
-double since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 }  // namespace
 
@@ -77,15 +75,16 @@ int main(int argc, char** argv) {
     const LinearOperator& A = mf ? *h.matrix_free_operator(L - 1) : static_cast<const LinearOperator&>(h.matrix(L - 1));
     SolverContext ctx;
     ctx.levels = &h;
+    mg::register_solvers();
     auto solver = make_solver(Config::from_pairs({"method=mgpcg", "tol=" + std::to_string(tol), "operator=" + route},
                                                  "static_memory"),
                               ctx);
     solver->setup(A);
-    const double setup = since(t0);
+    const double setup = seconds_since(t0);
     Vector x = Vector::Zero(b.size());
     const auto t1 = std::chrono::steady_clock::now();
     const SolveResult res = solver->solve(b, x);
-    const double solve = since(t1);
+    const double solve = seconds_since(t1);
     Vector r;
     A.residual(b, x, r);
     std::printf("%s: degree %d, %ld unknowns, set-up (mesh, levels, solver) %.3f s, solve %.3f s, %d "

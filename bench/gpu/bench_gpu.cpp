@@ -167,6 +167,7 @@ Cycles& cycles() {
   const fem::DegreeHierarchy& h = *problem(3).h;
   SolverContext ctx;
   ctx.levels = &h;
+  mg::register_solvers();
   c->cpu = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev", "operator=assembled"}, "bench"), ctx);
   c->cpu->setup(h.matrix(h.num_levels() - 1));
   const auto& cycle = dynamic_cast<const mg::MultigridCycle&>(*c->cpu);

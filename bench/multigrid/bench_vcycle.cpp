@@ -17,8 +17,7 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/multigrid/factory.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 
 #include "../bandwidth.hpp"
 
@@ -57,6 +56,7 @@ Scene& scene() {
   s->h->assemble(nullptr);
   SolverContext ctx;
   ctx.levels = s->h.get();
+  mg::register_solvers();
   s->pmg = make_solver(
       Config::from_pairs({"method=pmg", "smoother.sweeps=" + std::to_string(g_sweeps)}, "bench"), ctx);
   s->pmg->setup(s->h->matrix(s->h->num_levels() - 1));

@@ -168,7 +168,7 @@ int main(int argc, char** argv) {
              {"BM_SpMV_BCSR", BM_SpMV_BCSR},
              {"BM_SpMV_BinBCSR", BM_SpMV_BinBCSR}})
       benchmark::RegisterBenchmark(name, fn)->Arg(n)->UseRealTime()->Unit(benchmark::kMillisecond);
-  // Colour only on a terminal: the output is also pasted into logs and the README.
+  // Colour only on a terminal: the output is also pasted into logs and the docs.
   SummaryReporter reporter(isatty(fileno(stdout)) ? benchmark::ConsoleReporter::OO_ColorTabular
                                                   : benchmark::ConsoleReporter::OO_Tabular);
   benchmark::RunSpecifiedBenchmarks(&reporter);

@@ -6,7 +6,7 @@
 #include <pmg/fem/generators.hpp>
 #include <pmg/fem/static_solve.hpp>
 #include <pmg/sim/run.hpp>
-#include <pmg/sparse/cholmod_solver.hpp>
+#include <pmg/cholmod/cholmod_solver.hpp>
 #include <pmg/sparse/krylov.hpp>
 
 #include <cmath>

@@ -2,7 +2,7 @@
 
 A 1.0 x 0.2 x 0.2 m bar, E = 500 kPa, nu = 0.3, every BB node of the face x = 0 fixed, 10 N down
 as a uniform traction on the end face; the end-face centre's deflection against the converged 3-D
-value 0.05087 m (the README's Table 2.6: cubic elements on 20x4x4 boxes give 0.050851 m).
+value 0.05087 m (Table 2.6 in docs/performance.md: cubic elements on 20x4x4 boxes give 0.050851 m).
 
     PYTHONPATH=build/python /usr/bin/python3 examples/python/cantilever.py
 """

@@ -13,7 +13,7 @@ import sys
 import time
 
 # SciPy's CG runs in Python between pmgkit's calls; with libgomp's default wait policy for idle
-# threads the block-Jacobi row took 1.45-1.53 s on 2 cores, with "passive" 0.92 s (README).
+# threads the block-Jacobi row took 1.45-1.53 s on 2 cores, with "passive" 0.92 s (docs/python.md).
 # Set before pmgkit (and libgomp) loads; a value the caller set is kept.
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 

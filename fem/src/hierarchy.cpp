@@ -210,4 +210,22 @@ void DegreeHierarchy::update_matrix_free(int l, const Rotations* R, double mass_
   record(l, R, mass_weight, stiffness_weight);
 }
 
+const LinearOperator& DegreeHierarchy::prepare(const SolverNeeds& needs, const Rotations* R,
+                                               double mass_weight, double stiffness_weight, bool finest) {
+  const int L = num_levels();
+  for (int l = L - 1; l >= 0; --l) {
+    if (l == L - 1 && !finest) continue;
+    if (l < L - 1 && !needs.lower_levels) break;
+    if (needs.matrix_free && l > 0) update_matrix_free(l, R, mass_weight, stiffness_weight);
+    else assemble_level(l, R, nullptr, mass_weight, stiffness_weight);
+  }
+  return system_operator(needs);
+}
+
+const LinearOperator& DegreeHierarchy::system_operator(const SolverNeeds& needs) const {
+  const int L = num_levels();
+  if (needs.matrix_free && L > 1) return *matrix_free_operator(L - 1);
+  return matrix(L - 1);
+}
+
 }  // namespace pmg::fem

@@ -1,4 +1,5 @@
 #include "pmg/fem/simulation.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -7,9 +8,11 @@
 namespace pmg::fem {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 }  // namespace
+
+StepWeights step_weights(const SimulationParams& p) {
+  return {1.0 + p.dt * p.rayleigh_alpha, p.dt * p.rayleigh_beta + p.dt * p.dt};
+}
 
 const char* stage_name(int stage) {
   static const char* names[kNumStages] = {"rotations", "finest matrix", "hierarchy update",
@@ -21,7 +24,7 @@ const char* stage_name(int stage) {
 
 ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
                              const SimulationParams& p)
-    : h_(h), solver_(solver), f_ext_(f_ext), p_(p) {
+    : h_(h), solver_(solver), needs_(solver.needs()), f_ext_(f_ext), p_(p) {
   const ElasticityModel& m = h_.finest();
   if (f_ext_.size() != m.num_dofs())
     throw InputError("simulation: external force has " + std::to_string(f_ext_.size()) +
@@ -60,25 +63,25 @@ void ImplicitEuler::evaluate_state() const {
   auto t0 = Clock::now();
   if (p_.corotational) {
     state_.R = h_.finest().rotations(u_);
-    state_.seconds[kRotations] = since(t0);
+    state_.seconds[kRotations] = seconds_since(t0);
   }
   const Rotations* R = p_.corotational ? &state_.R : nullptr;
   t0 = Clock::now();
   state_.matrix_assembled = p_.corotational || !assembled_;
-  if (solver_.uses_matrix_free()) {
+  if (needs_.matrix_free) {
     // The finest level is an operator: its update is the rotation of the stored gradients, and
     // force and energy come from the same operator.
     if (state_.matrix_assembled) {
       h_.update_matrix_free(L - 1, R, mass_weight(), stiffness_weight());
-      state_.seconds[kAssembly] = since(t0);
+      state_.seconds[kAssembly] = seconds_since(t0);
       assembled_ = true;
     }
     t0 = Clock::now();
     h_.matrix_free(L - 1).element_force(u_, R, state_.force, &state_.energy);
-    state_.seconds[kForces] = since(t0);
+    state_.seconds[kForces] = seconds_since(t0);
   } else if (state_.matrix_assembled) {
     h_.assemble_level(L - 1, R, mass_weight(), stiffness_weight(), u_, &state_.force, &state_.energy);
-    state_.seconds[kAssembly] = since(t0);
+    state_.seconds[kAssembly] = seconds_since(t0);
     assembled_ = true;
   } else {  // linear material, matrix kept: force and energy only
     ElasticityModel::ElementPass pass;
@@ -86,14 +89,13 @@ void ImplicitEuler::evaluate_state() const {
     pass.force = &state_.force;
     pass.energy = &state_.energy;
     h_.finest().evaluate(pass);
-    state_.seconds[kForces] = since(t0);
+    state_.seconds[kForces] = seconds_since(t0);
   }
   state_.valid = true;
 }
 
 StepStats ImplicitEuler::step() {
   const ElasticityModel& m = h_.finest();
-  const int L = h_.num_levels();
   evaluate_state();
   StepStats st;
   st.seconds = state_.seconds;
@@ -101,16 +103,10 @@ StepStats ImplicitEuler::step() {
     // The lower degrees get the same rotations and weights: (1 + Δt α) M + (Δt β + Δt²) K_R.
     const auto t0 = Clock::now();
     const Rotations* R = p_.corotational ? &state_.R : nullptr;
-    const bool mf = solver_.uses_matrix_free();
-    if (solver_.uses_levels())
-      for (int l = 0; l < L - 1; ++l) {
-        if (mf && l > 0) h_.update_matrix_free(l, R, mass_weight(), stiffness_weight());
-        else h_.assemble_level(l, R, nullptr, mass_weight(), stiffness_weight());
-      }
+    const LinearOperator& A = h_.prepare(needs_, R, mass_weight(), stiffness_weight(), /*finest=*/false);
     if (solver_.is_set_up()) solver_.update();
-    else if (mf) solver_.setup(*h_.matrix_free_operator(L - 1));
-    else solver_.setup(h_.matrix(L - 1));
-    st.seconds[kHierarchy] = since(t0);
+    else solver_.setup(A);
+    st.seconds[kHierarchy] = seconds_since(t0);
   }
   // b = M v + Δt (f_ext + f_el(x)) on the free nodes.
   auto t0 = Clock::now();
@@ -118,7 +114,7 @@ StepStats ImplicitEuler::step() {
   Vector b(v_free_.size());
   mass_operator().apply(v_free_, b);
   b += p_.dt * f;
-  st.seconds[kForces] += since(t0);
+  st.seconds[kForces] += seconds_since(t0);
 
   t0 = Clock::now();
   const double bn = b.norm();
@@ -138,7 +134,7 @@ StepStats ImplicitEuler::step() {
                 " s): " + solver_.name() + " failed: " + e.what();
     throw SolveError(r);
   }
-  st.seconds[kSolve] = since(t0);
+  st.seconds[kSolve] = seconds_since(t0);
   if (!v_free_.allFinite())
     throw Error("step " + std::to_string(step_ + 1) + ": the velocity is not finite");
 
@@ -157,14 +153,10 @@ StepStats ImplicitEuler::step() {
   return st;
 }
 
-const LinearOperator& ImplicitEuler::system_operator() const {
-  const int L = h_.num_levels();
-  if (solver_.uses_matrix_free()) return *h_.matrix_free_operator(L - 1);
-  return h_.matrix(L - 1);
-}
+const LinearOperator& ImplicitEuler::system_operator() const { return h_.system_operator(needs_); }
 
 const LinearOperator& ImplicitEuler::mass_operator() const {
-  if (!solver_.uses_matrix_free()) return h_.mass(h_.num_levels() - 1);
+  if (!needs_.matrix_free) return h_.mass(h_.num_levels() - 1);
   if (!mass_op_) {
     mass_op_ = std::make_unique<ElasticityOperator>(h_.finest());
     mass_op_->set_weights(1.0, 0.0);

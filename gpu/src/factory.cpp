@@ -5,6 +5,7 @@
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/transfer.hpp"
 #include "pmg/sparse/preconditioners.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -15,9 +16,7 @@ namespace pmg::gpu {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 std::string ms(double seconds) {
   char buf[32];
@@ -58,7 +57,7 @@ class DeviceSolver : public Solver {
     const auto t0 = Clock::now();
     upload_system(B);
     synchronize();
-    setup_seconds_ = since(t0);
+    setup_seconds_ = seconds_since(t0);
     // b and x on the device, allocated once: each solve's uploads reuse them.
     b_.resize(static_cast<std::size_t>(B.rows()));
     x_.resize(static_cast<std::size_t>(B.rows()));
@@ -68,7 +67,7 @@ class DeviceSolver : public Solver {
     const auto t0 = Clock::now();
     update_system(as_bcsr(system(), name()));
     synchronize();
-    setup_seconds_ = since(t0);
+    setup_seconds_ = seconds_since(t0);
   }
   void apply_impl(const Vector& b, Vector& x) const override {
     x = Vector::Zero(b.size());
@@ -84,7 +83,7 @@ class DeviceSolver : public Solver {
     b_.upload(b);
     x_.upload(x);
     synchronize();
-    upload_ = since(t0);
+    upload_ = seconds_since(t0);
     const auto t1 = Clock::now();
     SolveResult r;
     try {
@@ -94,12 +93,12 @@ class DeviceSolver : public Solver {
       throw;
     }
     synchronize();
-    device_ = since(t1);
+    device_ = seconds_since(t1);
     const auto t2 = Clock::now();
     x_.download(x);
-    download_ = since(t2);
+    download_ = seconds_since(t2);
     solved_ = true;
-    r.seconds = since(t0);
+    r.seconds = seconds_since(t0);
     return r;
   }
 
@@ -171,7 +170,7 @@ class PmgSolver final : public DeviceSolver {
   PmgSolver(KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev)
       : DeviceSolver(params), levels_(levels), chebyshev_(chebyshev) {}
   std::string name() const override { return "gpu-pmg"; }
-  bool uses_levels() const override { return true; }
+  SolverNeeds needs() const override { return {true, false}; }
 
  private:
   void upload_system(const Bcsr& A) override {
@@ -208,27 +207,42 @@ class PmgSolver final : public DeviceSolver {
   std::unique_ptr<VCycle> cycle_;
 };
 
+/// gpu-pmg's smoother keys (the Chebyshev polynomial of the first kind on the device).
+struct GpuPmgParams {
+  int degree = mg::ChebyshevParams{}.degree;
+  double lower_fraction = mg::ChebyshevParams{}.lower_fraction;
+  void visit(ParamVisitor& v) {
+    v.integer("degree", degree, 1, 64, "Chebyshev degree (first kind) of the device smoother");
+    v.real("lower_fraction", lower_fraction, 1e-6, 1.0 - 1e-6, "lower end of the damped interval, times lmax");
+  }
+};
+
 }  // namespace
 
 void register_solvers() {
-  const std::string keys = krylov_keys();
-  register_solver({"gpu-mcg", "GPU: merged CG with block Jacobi on BIN-BCSR (CUDA)", keys + " check_every", false, true},
-                  [](const Config& c, const SolverContext&) -> std::unique_ptr<Solver> {
-                    KrylovParams d;
-                    d.check_every = 10;
-                    return std::make_unique<McgSolver>(read_krylov(c, d));
+  KrylovParams mcg_defaults;
+  mcg_defaults.check_every = 10;
+  register_builtin_solver({"gpu-mcg", "GPU: merged CG with block Jacobi on BIN-BCSR (CUDA)",
+                   krylov_keys(mcg_defaults) + check_every_key(mcg_defaults), false, true, "gpu"},
+                  [mcg_defaults](const Config& c, const SolverContext&) -> std::unique_ptr<Solver> {
+                    KrylovParams p = read_krylov(c, mcg_defaults);
+                    ParamReader r(c);
+                    p.visit_check_every(r);
+                    return std::make_unique<McgSolver>(p);
                   });
-  register_solver({"gpu-pcg", "GPU: block-Jacobi PCG from cuSPARSE/cuBLAS calls (CUDA)", keys, false, true},
+  register_builtin_solver({"gpu-pcg", "GPU: block-Jacobi PCG from cuSPARSE/cuBLAS calls (CUDA)", krylov_keys(), false, true,
+                   "gpu"},
                   [](const Config& c, const SolverContext&) -> std::unique_ptr<Solver> {
                     return std::make_unique<LibraryPcgSolver>(read_krylov(c));
                   });
-  register_solver({"gpu-pmg", "GPU: p-multigrid, Chebyshev V-cycle on the GPU, CHOLMOD lowest level (CUDA)",
-                   keys + " degree lower_fraction", true, true},
+  register_builtin_solver({"gpu-pmg", "GPU: p-multigrid, Chebyshev V-cycle on the GPU, CHOLMOD lowest level (CUDA)",
+                   krylov_keys() + list_params<GpuPmgParams>(), true, true, "gpu"},
                   [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
                     if (!ctx.levels) c.fail("method", "gpu-pmg needs a level hierarchy (an FEM system)");
+                    const GpuPmgParams g = read_params<GpuPmgParams>(c);
                     mg::ChebyshevParams cheb;
-                    cheb.degree = c.get_int("degree", cheb.degree, 1, 64);
-                    cheb.lower_fraction = c.get_double("lower_fraction", cheb.lower_fraction, 1e-6, 1.0 - 1e-6);
+                    cheb.degree = g.degree;
+                    cheb.lower_fraction = g.lower_fraction;
                     return std::make_unique<PmgSolver>(read_krylov(c), *ctx.levels, cheb);
                   });
 }

@@ -74,7 +74,7 @@ __global__ void step2_kernel(int block_rows, const double* __restrict__ inv_diag
       ri[c] = r[o + c] - alpha * q[o + c];
       r[o + c] = ri[c];
     }
-    detail::block_apply(inv_diag + 9LL * I, ri, zi);
+    block3_apply(inv_diag + 9LL * I, ri, zi);
     for (int c = 0; c < 3; ++c) {
       z[o + c] = zi[c];
       v[0] += ri[c] * zi[c];
@@ -109,7 +109,7 @@ __global__ void restart_kernel(int block_rows, const double* __restrict__ inv_di
   if (I < block_rows) {
     const long long o = 3LL * I;
     double zi[3];
-    detail::block_apply(inv_diag + 9LL * I, r + o, zi);
+    block3_apply(inv_diag + 9LL * I, r + o, zi);
     for (int c = 0; c < 3; ++c) {
       z[o + c] = s[o + c] = zi[c];
       v[0] += r[o + c] * zi[c];
@@ -135,7 +135,7 @@ __global__ void dot_kernel(int n, const double* __restrict__ a, const double* __
 __global__ void block_jacobi_kernel(int block_rows, const double* __restrict__ inv_diag,
                                     const double* __restrict__ r, double* __restrict__ z) {
   const int I = blockIdx.x * blockDim.x + threadIdx.x;
-  if (I < block_rows) detail::block_apply(inv_diag + 9LL * I, r + 3LL * I, z + 3LL * I);
+  if (I < block_rows) block3_apply(inv_diag + 9LL * I, r + 3LL * I, z + 3LL * I);
 }
 
 __global__ void axpy_kernel(int n, double alpha, const double* __restrict__ x, double* __restrict__ y) {

@@ -1,5 +1,7 @@
 #include "pmg/multigrid/chebyshev.hpp"
 
+#include "pmg/sparse/vector_ops.hpp"
+
 #include <cmath>
 #include <string>
 
@@ -39,16 +41,7 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
 }
 
 void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
-  const Eigen::Index nb = r.size() / 3;
-  z.resize(r.size());
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index I = 0; I < nb; ++I) {
-    const double* d = inv_diag_.data() + 9 * I;
-    const double r0 = r[3 * I], r1 = r[3 * I + 1], r2 = r[3 * I + 2];
-    z[3 * I] = d[0] * r0 + d[1] * r1 + d[2] * r2;
-    z[3 * I + 1] = d[3] * r0 + d[4] * r1 + d[5] * r2;
-    z[3 * I + 2] = d[6] * r0 + d[7] * r1 + d[8] * r2;
-  }
+  ops::block_diagonal_apply(inv_diag_, r, z);
 }
 
 void Chebyshev::update_impl() {

@@ -2,6 +2,7 @@
 
 #include "pmg/sparse/convergence.hpp"
 #include "pmg/sparse/vector_ops.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <chrono>
 #include <limits>
@@ -9,8 +10,6 @@
 namespace pmg::mg {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 }  // namespace
 
 MultigridCycle::MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
@@ -120,6 +119,18 @@ void MultigridCycle::update_impl() {
   lowest_->update();
 }
 
+TimingBreakdown MultigridCycle::timings() const {
+  TimingBreakdown b;
+  b.unit = "cycle";
+  b.count = timings_.cycles;
+  for (int l = num_levels() - 1; l >= 1; --l)
+    b.parts.emplace_back("smoothing " + levels_.level_name(l), timings_.smoothing[l]);
+  b.parts.emplace_back("residuals", timings_.residual);
+  b.parts.emplace_back("transfers", timings_.transfer);
+  b.parts.emplace_back("lowest-level solve", timings_.lowest_level);
+  return b;
+}
+
 void MultigridCycle::reset_timings() const {
   timings_ = CycleTimings{};
   timings_.smoothing.assign(num_levels(), 0.0);
@@ -134,7 +145,7 @@ void MultigridCycle::cycle(int l, const Vector& b, Vector& x, bool x_is_zero) co
   if (l == 0) {
     const auto t0 = Clock::now();
     lowest_->apply(b, x);
-    timings_.lowest_level += since(t0);
+    timings_.lowest_level += seconds_since(t0);
     return;
   }
   if (l == num_levels() - 1) ++timings_.cycles;
@@ -142,21 +153,21 @@ void MultigridCycle::cycle(int l, const Vector& b, Vector& x, bool x_is_zero) co
   auto t0 = Clock::now();
   if (x_is_zero) smoothers_[l - 1]->pre_smooth_from_zero(b, x);
   else smoothers_[l - 1]->pre_smooth(b, x);
-  timings_.smoothing[l] += since(t0);
+  timings_.smoothing[l] += seconds_since(t0);
   t0 = Clock::now();
   level_operator(l).residual(b, x, w.r);
-  timings_.residual += since(t0);
+  timings_.residual += seconds_since(t0);
   t0 = Clock::now();
   transfers_[l - 1].restrict_to_coarse(w.r, w.rc);
-  timings_.transfer += since(t0);
+  timings_.transfer += seconds_since(t0);
   w.xc.setZero();
   for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle(l - 1, w.rc, w.xc, g == 0);
   t0 = Clock::now();
   transfers_[l - 1].prolongate_add(w.xc, x);
-  timings_.transfer += since(t0);
+  timings_.transfer += seconds_since(t0);
   t0 = Clock::now();
   smoothers_[l - 1]->post_smooth(b, x);
-  timings_.smoothing[l] += since(t0);
+  timings_.smoothing[l] += seconds_since(t0);
 }
 
 SolveResult MultigridCycle::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {

@@ -2,6 +2,7 @@
 
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/preconditioners.hpp"
+#include "pmg/sparse/vector_ops.hpp"
 
 #include <cmath>
 
@@ -49,17 +50,9 @@ void BlockJacobi::invert_diagonal(const LinearOperator& A) {
 
 void BlockJacobi::smooth(const Vector& b, Vector& x) const {
   const LinearOperator& A = system();
-  const Eigen::Index nb = x.size() / 3;
   for (int s = 0; s < params_.sweeps; ++s) {
     A.residual(b, x, r_);
-#pragma omp parallel for schedule(static)
-    for (Eigen::Index I = 0; I < nb; ++I) {
-      const double* d = inv_diag_.data() + 9 * I;
-      const double r0 = r_[3 * I], r1 = r_[3 * I + 1], r2 = r_[3 * I + 2];
-      x[3 * I] += params_.omega * (d[0] * r0 + d[1] * r1 + d[2] * r2);
-      x[3 * I + 1] += params_.omega * (d[3] * r0 + d[4] * r1 + d[5] * r2);
-      x[3 * I + 2] += params_.omega * (d[6] * r0 + d[7] * r1 + d[8] * r2);
-    }
+    ops::block_diagonal_axpy(params_.omega, inv_diag_, r_, x);
   }
 }
 

@@ -2,11 +2,6 @@
 
 namespace pmg::mg {
 
-Csr LevelProvider::interpolating_restriction(int level) const {
-  throw InputError("these multigrid levels define no interpolating restriction (level " +
-                   std::to_string(level) + "); use the transposed prolongation");
-}
-
 StoredLevels::StoredLevels(std::vector<Bcsr> matrices, std::vector<Csr> prolongations)
     : matrices_(std::move(matrices)), prolongations_(std::move(prolongations)) {
   if (matrices_.empty()) throw InputError("multigrid levels: no level matrices");

@@ -32,7 +32,8 @@ __all__ = ["make_solver", "multigrid", "methods", "Solver", "Csr", "Bcsr", "BinB
 
 
 def methods():
-    """Every solver method of the factory: name, description, keys, uses_levels, needs_blocks."""
+    """Every solver method of the factory: name, description, component, keys (each a dict: key, type,
+    default, range, description), uses_levels, needs_blocks."""
     return _core.methods()
 
 

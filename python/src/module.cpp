@@ -15,7 +15,7 @@
 #include "pmg/fem/mesh.hpp"
 #include "pmg/fem/mesh_io.hpp"
 #include "pmg/fem/static_solve.hpp"
-#include "pmg/multigrid/factory.hpp"
+#include "pmg/solvers.hpp"
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sim/run.hpp"
 #include "pmg/sim/scene.hpp"
@@ -24,6 +24,7 @@
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/csr_view.hpp"
 #include "pmg/sparse/petsc_binary.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
@@ -44,8 +45,6 @@ using namespace pmg;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // ---- arrays ------------------------------------------------------------------------------------
 
@@ -189,7 +188,7 @@ class PySolver {
       py::gil_scoped_release nogil;
       const auto t0 = Clock::now();
       r = solver_->solve(b, x, &monitor);
-      seconds = since(t0);
+      seconds = seconds_since(t0);
       Vector res(b.size());
       op_->residual(b, x, res);
       const double bn = b_full.norm();
@@ -240,7 +239,7 @@ class PySolver {
     if (bcsr_) bcsr_->set_values(csr_);
     if (bin_) bin_->update_values(*bcsr_);
     solver_->update();
-    setup_seconds_ = since(t0);
+    setup_seconds_ = seconds_since(t0);
   }
 
   void update_levels(py::list matrices) {
@@ -252,7 +251,7 @@ class PySolver {
     const auto t0 = Clock::now();
     levels_->set_values(views(mats));
     solver_->update();
-    setup_seconds_ = since(t0);
+    setup_seconds_ = seconds_since(t0);
   }
 
   Eigen::Index full_size() const { return levels_ ? levels_->full_size() : op_->rows(); }
@@ -272,7 +271,7 @@ class PySolver {
     py::gil_scoped_release nogil;
     const auto t0 = Clock::now();
     solver_->setup(*op_);
-    setup_seconds_ = since(t0);
+    setup_seconds_ = seconds_since(t0);
   }
 
   Config config_;
@@ -438,6 +437,7 @@ py::dict run_records(const sim::RunSummary& r) {
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "pmgkit's compiled core; use the pmgkit package";
+  register_all_solvers();  // every method of this build, as in pmg compare and scenes
 
   // Errors: the C++ types as Python exceptions, with the same messages.
   static py::exception<Error> error(m, "Error", PyExc_RuntimeError);
@@ -486,7 +486,15 @@ PYBIND11_MODULE(_core, m) {
     py::list out;
     for (const auto& s : registered_solvers()) {
       py::dict d;
-      d["name"] = s.name, d["description"] = s.description, d["keys"] = s.keys;
+      d["name"] = s.name, d["description"] = s.description, d["component"] = s.component;
+      py::list keys;
+      for (const KeyInfo& k : s.keys) {
+        py::dict kd;
+        kd["key"] = k.key, kd["type"] = k.type, kd["default"] = k.default_value, kd["range"] = k.range;
+        kd["description"] = k.description;
+        keys.append(kd);
+      }
+      d["keys"] = keys;
       d["uses_levels"] = s.uses_levels, d["needs_blocks"] = s.needs_blocks;
       out.append(d);
     }

@@ -2,6 +2,7 @@
 
 #include "pmg/fem/vtk_writer.hpp"
 #include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <sys/stat.h>
 
@@ -16,8 +17,6 @@ namespace pmg::sim {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 void make_dir(const std::string& dir) {
   if (mkdir(dir.c_str(), 0777) != 0 && errno != EEXIST)
@@ -48,10 +47,11 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   auto& notes = setup.notes;
   if (!scene.corotational)
     notes.push_back("rotations: skipped (linear material); matrices assembled and factorised once");
-  if (solver_->uses_matrix_free())
+  const SolverNeeds needs = solver_->needs();
+  if (needs.matrix_free)
     notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
                     "rotations); the linear level assembled and factorised per step");
-  if (!solver_->uses_levels() && setup.hierarchy->num_levels() > 1)
+  if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
     notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
   if (!scene.energy) notes.push_back("energies: not recorded (output.energy false)");
   if (output_.empty()) notes.push_back("output: nothing written (no output.directory)");
@@ -81,7 +81,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
       fem::write_pvd(output_ + "/simulation.pvd", pvd);
     }
     if (!output_.empty()) write_file_atomically(output_ + "/steps.csv", csv.str());
-    r.output_s += since(t0);
+    r.output_s += seconds_since(t0);
   };
   // The elastic energy comes from the pass over the elements the next step reuses: free.
   auto energies = [&](double& kin, double& el, double& tot) {
@@ -141,7 +141,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
       break;
     }
   }
-  r.wall_s = since(t_run);
+  r.wall_s = seconds_since(t_run);
   if (!output_.empty()) write_outputs(false);
   r.steps_done = sim.steps();
   r.energy_final = E_prev;
@@ -157,11 +157,12 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
 StaticOutcome solve_static(const Scene& scene, SceneSetup& setup, const std::string& output_dir) {
   const fem::ElasticityModel& m = setup.finest();
   StaticOutcome out;
+  const auto solver = make_step_solver(scene, *setup.hierarchy, out.method, out.settings, setup.notes);
   const auto t0 = Clock::now();
   fem::StaticOptions so;
   so.corotational_tol = 1e-6;
-  out.result = fem::solve_static(m, setup.f_ext, scene.corotational, so);
-  out.seconds = since(t0);
+  out.result = fem::solve_static(*setup.hierarchy, setup.f_ext, scene.corotational, *solver, so);
+  out.seconds = seconds_since(t0);
   out.probe = setup.probe.displacement(m, out.result.u);
   if (!output_dir.empty()) {
     make_dir(output_dir);

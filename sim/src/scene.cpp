@@ -1,6 +1,7 @@
 #include "pmg/sim/scene.hpp"
 
-#include "pmg/multigrid/factory.hpp"
+#include "pmg/fem/elasticity.hpp"
+#include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
 
 #include <nlohmann/json.hpp>
@@ -253,7 +254,9 @@ Scene parse_scene(const std::string& text, const std::string& path) {
                                                             std::string(new_key).substr(0, std::string(new_key).find('.')) +
                                                             "\": {...}})");
     s.solver = Config::from_json(sj.dump(), path + ": solver");
-    Scene::set_solver_defaults(s.solver);
+    Scene::set_solver_defaults(s.solver, s.dynamic);
+  } else if (!s.dynamic) {
+    s.solver = Scene::default_solver(false);
   }
   if (root.has("output")) {
     Section o = root.sub("output");
@@ -285,19 +288,35 @@ std::string Scene::check_time() const {
   return why.str();
 }
 
-Config Scene::default_solver() {
+Scene table_bar() {
+  Scene s;
+  s.source = "the seed's box bar";
+  s.box = {5, 1, 1};
+  s.size = {1.0, 0.2, 0.2};
+  const fem::Material m;
+  s.young = m.young, s.poisson = m.poisson, s.density = m.density;
+  s.clamp_axis = 0;
+  s.end_force = fem::Vec3(0, 0, -10.0);
+  s.dynamic = false;
+  s.solver = Scene::default_solver(false);
+  return s;
+}
+
+Config Scene::default_solver(bool dynamic) {
   Config c = Config::from_pairs({}, "scene solver");
-  set_solver_defaults(c);
+  set_solver_defaults(c, dynamic);
   return c;
 }
 
-void Scene::set_solver_defaults(Config& c) {
-  // PMG to 1e-3 per step (the seed's setting), at most 1000 iterations.
-  c.set_default("method", "pmg");
+void Scene::set_solver_defaults(Config& c, bool dynamic) {
+  register_all_solvers();
+  // Dynamic: PMG to 1e-3 per step (the seed's setting), at most 1000 iterations. Static: CHOLMOD,
+  // or an iterative method to 1e-10 (the fixed point's accuracy is the solves').
+  c.set_default("method", dynamic ? "pmg" : "cholmod");
   const std::string method = c.get_string("method", "pmg");
   if (!c.has("fixed_iterations") && method_accepts_key(method, "tol")) {
-    c.set_default("tol", "1e-3");
-    c.set_default("max_iterations", "1000");
+    c.set_default("tol", dynamic ? "1e-3" : "1e-10");
+    c.set_default("max_iterations", dynamic ? "1000" : "10000");
   }
 }
 

@@ -3,9 +3,9 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mesh_io.hpp"
 #include "pmg/fem/static_solve.hpp"
-#include "pmg/multigrid/boomeramg.hpp"
-#include "pmg/multigrid/factory.hpp"
+#include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -17,8 +17,6 @@
 namespace pmg::sim {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 std::string seconds(double s, int digits) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", digits, s);
@@ -155,7 +153,7 @@ std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
     const fem::StaticResult r = fem::solve_static(m, f, s.corotational, so);
     u = r.u;
     b.notes.push_back("initial state: static deflection under the end force, " +
-                      std::to_string(r.iterations) + " fixed-point iterations, " + seconds(since(t0), 2) + " s");
+                      std::to_string(r.iterations) + " fixed-point iterations, " + seconds(seconds_since(t0), 2) + " s");
   } else if (s.initial == "compressed") {
     u = m.interpolate([&](const fem::Vec3& X) {
       fem::Vec3 d = fem::Vec3::Zero();
@@ -184,6 +182,7 @@ std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
 std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierarchy& h,
                                          std::string& method, std::string& settings,
                                          std::vector<std::string>& notes) {
+  register_all_solvers();
   Config c = s.solver.clone();
   method = c.get_string("method", "pmg");
   if (method_uses_levels(method) && h.num_levels() < 2) {
@@ -193,11 +192,11 @@ std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierar
   }
   // Warm-started steps end at once when the start is within rounding of the solution.
   if (method_accepts_key(method, "rhs_floor")) c.set_default("rhs_floor", "1e-12");
-  const double mpi = mg::start_mpi_for_hypre(c);  // once per process: not a step's cost
-  if (mpi >= 0) notes.push_back("MPI start-up for hypre: " + seconds(mpi, 3) + " s");
   SolverContext ctx;
   ctx.levels = &h;
   auto solver = make_solver(c, ctx, "pmg");
+  const double start = start_libraries(c);  // MPI, PETSc: once per process, not a step's cost
+  if (start >= 0) notes.push_back("MPI (and PETSc) start-up: " + seconds(start, 3) + " s");
   settings = c.to_string();
   return solver;
 }

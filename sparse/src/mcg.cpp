@@ -1,5 +1,6 @@
 #include "pmg/sparse/convergence.hpp"
 #include "pmg/sparse/krylov.hpp"
+#include "pmg/sparse/block3.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
 #include <limits>
@@ -30,11 +31,11 @@ Step2Sums update_and_precondition(double alpha, const Vector& s, const Vector& q
       ri[c] = r[i] - alpha * q[i];
       r[i] = ri[c];
     }
-    const double* d = D + 9 * I;
+    double zi[3];
+    block3_apply(D + 9 * I, ri, zi);
     for (int c = 0; c < 3; ++c) {
-      const double zi = d[3 * c] * ri[0] + d[3 * c + 1] * ri[1] + d[3 * c + 2] * ri[2];
-      z[3 * I + c] = zi;
-      rz += ri[c] * zi;
+      z[3 * I + c] = zi[c];
+      rz += ri[c] * zi[c];
       rr += ri[c] * ri[c];
     }
   }

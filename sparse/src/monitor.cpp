@@ -1,14 +1,15 @@
 #include "pmg/sparse/monitor.hpp"
+#include "pmg/sparse/timer.hpp"
 
 namespace pmg {
 
 void SolveMonitor::start() {
   history_.clear();
-  t0_ = std::chrono::steady_clock::now();
+  t0_ = Clock::now();
 }
 
 double SolveMonitor::elapsed() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  return seconds_since(t0_);
 }
 
 void SolveMonitor::record(int iteration, double rel_residual) {

@@ -2,11 +2,29 @@
 
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/vector_ops.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 namespace pmg {
+
+std::string TimingBreakdown::to_string() const {
+  if (empty()) return "";
+  const double n = static_cast<double>(count);
+  double total = 0.0;
+  for (const auto& p : parts) total += p.second;
+  auto ms = [n](double s) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f ms", 1e3 * s / n);
+    return std::string(buf);
+  };
+  std::string out = "one " + unit + " " + ms(total) + ":";
+  for (size_t k = 0; k < parts.size(); ++k)
+    out += (k ? ", " : " ") + parts[k].first + " " + ms(parts[k].second);
+  return out + " (" + std::to_string(count) + " " + unit + "s)";
+}
 
 void Solver::setup(const LinearOperator& A) {
   if (A.rows() != A.cols())
@@ -44,7 +62,7 @@ SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) con
 }
 
 SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const LinearOperator& A = system();
   if (monitor) monitor->start();
   Vector r, z;
@@ -67,7 +85,7 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
     res.message = name() + ": the solution has NaN/Inf";
     throw SolveError(res);
   }
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.seconds = seconds_since(t0);
   return res;
 }
 

@@ -1,5 +1,7 @@
 #include "pmg/sparse/vector_ops.hpp"
 
+#include "pmg/sparse/block3.hpp"
+
 #include <cmath>
 
 namespace pmg::ops {
@@ -40,6 +42,29 @@ bool all_finite(const Vector& x) {
 #pragma omp parallel for schedule(static) reduction(+ : s)
   for (Eigen::Index i = 0; i < n; ++i) s += xp[i] * 0.0;
   return std::isfinite(s) || n == 0;
+}
+
+void block_diagonal_apply(const std::vector<double>& D, const Vector& r, Vector& z) {
+  const Eigen::Index nb = r.size() / 3;
+  z.resize(r.size());
+  const double* d = D.data();
+  const double* rp = r.data();
+  double* zp = z.data();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index I = 0; I < nb; ++I) block3_apply(d + 9 * I, rp + 3 * I, zp + 3 * I);
+}
+
+void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x) {
+  const Eigen::Index nb = r.size() / 3;
+  const double* d = D.data();
+  const double* rp = r.data();
+  double* xp = x.data();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index I = 0; I < nb; ++I) {
+    double z[3];
+    block3_apply(d + 9 * I, rp + 3 * I, z);
+    for (int c = 0; c < 3; ++c) xp[3 * I + c] += a * z[c];
+  }
 }
 
 }  // namespace pmg::ops

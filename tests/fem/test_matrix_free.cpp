@@ -3,7 +3,8 @@
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/matrix_free.hpp"
 #include "pmg/multigrid/factory.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/multigrid/levels.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <catch2/catch.hpp>
@@ -171,7 +172,7 @@ TEST_CASE("matrix-free p-multigrid (PMG and MGPCG) reaches the tolerance of the 
       INFO(method);
       auto s = make_solver(Config::from_pairs({std::string("method=") + method, "operator=matrix-free",
                                                "tol=1e-9"}, "test"), ctx);
-      CHECK(s->uses_matrix_free());
+      CHECK(s->needs().matrix_free);
       s->setup(*h.matrix_free_operator(L - 1));
       Vector x = Vector::Zero(b.size());
       const SolveResult res = s->solve(b, x);
@@ -219,7 +220,7 @@ TEST_CASE("matrix-free p-multigrid (PMG and MGPCG) reaches the tolerance of the 
     SolverContext ctx;
     ctx.levels = &h;
     auto uses_mf = [&](std::vector<std::string> pairs) {
-      return make_solver(Config::from_pairs(pairs, "test"), ctx)->uses_matrix_free();
+      return make_solver(Config::from_pairs(pairs, "test"), ctx)->needs().matrix_free;
     };
     CHECK(uses_mf({"method=mgpcg"}));
     CHECK(uses_mf({"method=mgpcg", "smoother=chebyshev", "smoother.degree=3"}));

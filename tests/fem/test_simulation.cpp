@@ -3,7 +3,7 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/simulation.hpp"
 #include "pmg/multigrid/factory.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -158,7 +158,7 @@ TEST_CASE("a corotational simulation with matrix-free levels follows the assembl
     }
     u_end = sim.displacement();
     energy = sim.elastic_energy();
-    return solver->uses_matrix_free();
+    return solver->needs().matrix_free;
   };
   Vector u_mf, u_as;
   double e_mf = 0, e_as = 0;

@@ -24,6 +24,7 @@ struct GpuCantilever {
     if (h.num_levels() >= 2) {  // a linear cantilever has no hierarchy, only its matrix
       SolverContext ctx;
       ctx.levels = &h;
+      mg::register_solvers();
       pmg = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev", "operator=assembled"}, "test"), ctx);  // as the GPU cycle
       pmg->setup(h.matrix(h.num_levels() - 1));
     }

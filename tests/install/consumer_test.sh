@@ -10,6 +10,15 @@ cmake -S "$src/examples/consumer" -B "$work/consumer" -DCMAKE_PREFIX_PATH="$work
   -DCMAKE_BUILD_TYPE=Release > "$work/configure.log"
 cmake --build "$work/consumer" > "$work/build.log"
 "$work/consumer/consumer"
+"$work/consumer/core_consumer"
+# The core's consumer loads no MPI, hypre, PETSc or CHOLMOD library, not even indirectly.
+deps=$(ldd "$work/consumer/core_consumer")
+if printf '%s\n' "$deps" | grep -Eiq 'libmpi|libpetsc|libHYPRE|libcholmod|libpmg_(mpi|hypre|petsc|cholmod|multigrid)'; then
+  printf '%s\n' "$deps"
+  echo "consumer_test: a consumer of pmg::sparse loads MPI, hypre, PETSc or CHOLMOD"
+  exit 1
+fi
+echo "core consumer: no MPI, hypre, PETSc or CHOLMOD among its $(printf '%s\n' "$deps" | wc -l) libraries"
 # The Python module, where it was built: importable from the prefix's site-packages and working.
 pydir=$(sed -n 's/^PMG_PYTHON_INSTALL_DIR:STRING=//p' "$build/CMakeCache.txt")
 if [ -n "$pydir" ] && [ -d "$work/prefix/$pydir/pmgkit" ]; then

@@ -14,12 +14,17 @@
 
 namespace pmg::fem {
 
+/// The assembly plan of one BB space and set of fixed nodes: the BCSR pattern over the free nodes,
+/// the element-to-slot map and the element colouring (see the file comment). Holds a pointer to
+/// the space, which must outlive it.
 class BlockAssembler {
  public:
   /// free_index[node] = index of the node among the free nodes, or -1 for a fixed node.
   BlockAssembler(const BBSpace& space, std::vector<index_t> free_index);
 
+  /// Number of free nodes (block rows of the matrices).
   index_t num_free() const { return num_free_; }
+  /// Per node: its index among the free nodes, or -1 for a fixed node.
   const std::vector<index_t>& free_index() const { return free_index_; }
   /// A matrix on the pattern of the free nodes with all values zero.
   Bcsr make_matrix() const { return Bcsr(pattern_, std::vector<double>(9 * pattern_->nnz(), 0.0)); }

@@ -4,8 +4,8 @@
 // B_a(λ) = p!/(a0! a1! a2! a3!) λ0^a0 λ1^a1 λ2^a2 λ3^a3 for multi-indices |a| = p. A node lies on the
 // sub-simplex of its nonzero entries and is shared by every element holding that sub-simplex; it is
 // identified by its global vertex ids together with their multiplicities. Global numbering: vertex
-// nodes first (node v is vertex v), then edge nodes, then face nodes (p = 3). Counts: V (p = 1),
-// V + E (p = 2), V + 2E + F (p = 3).
+// nodes first (node v is vertex v), then the edge and face nodes (p = 3) in the order the elements
+// meet them, element by element. Counts: V (p = 1), V + E (p = 2), V + 2E + F (p = 3).
 #pragma once
 
 #include "pmg/fem/mesh.hpp"
@@ -35,19 +35,30 @@ int local_index(const MultiIndex& alpha);
 double bernstein(const MultiIndex& alpha, const Eigen::Vector4d& lambda);
 Eigen::Vector4d bernstein_gradient(const MultiIndex& alpha, const Eigen::Vector4d& lambda);
 
+/// The degree-p Bernstein–Bézier space of a tetrahedral mesh: the global node numbering and the
+/// nodes' rest positions (see the file comment). Holds a pointer to the mesh, which must outlive
+/// it.
 class BBSpace {
  public:
+  /// Numbers the nodes of `mesh` for degree 1, 2 or 3 (InputError otherwise).
   BBSpace(const TetMesh& mesh, int degree);
 
+  /// Polynomial degree p (1 to 3).
   int degree() const { return p_; }
+  /// Nodes per element: (p+1)(p+2)(p+3)/6.
   int nodes_per_element() const { return n_; }
+  /// Number of global nodes (see the file comment for the counts).
   index_t num_nodes() const { return static_cast<index_t>(positions_.size()); }
+  /// Number of distinct mesh edges.
   index_t num_edges() const { return num_edges_; }
+  /// Number of distinct mesh faces (triangles).
   index_t num_faces() const { return num_faces_; }
+  /// The mesh the space was built on.
   const TetMesh& mesh() const { return *mesh_; }
 
   /// Global node of local node a (position in multi_indices(p)) of element e.
   index_t node(index_t e, int a) const { return element_nodes_[static_cast<size_t>(e) * n_ + a]; }
+  /// The nodes_per_element() global nodes of element e, in multi_indices(p) order (e unchecked).
   const index_t* element_nodes(index_t e) const {
     return element_nodes_.data() + static_cast<size_t>(e) * n_;
   }

@@ -23,8 +23,11 @@ struct Material {
   double young = 500e3;   ///< Pa
   double poisson = 0.3;   ///< -
   double density = 1e3;   ///< kg/m³
+  /// Throws InputError naming the first value out of range (see the struct comment).
   void check() const;
+  /// First Lamé parameter λ = E ν / ((1 + ν)(1 - 2ν)), Pa.
   double lambda() const { return young * poisson / ((1 + poisson) * (1 - 2 * poisson)); }
+  /// Shear modulus (second Lamé parameter) μ = E / (2 (1 + ν)), Pa.
   double mu() const { return young / (2 * (1 + poisson)); }
 };
 
@@ -38,30 +41,43 @@ int clamped_dimension(const TetMesh& mesh, const std::vector<char>& clamped);
 
 using Rotations = std::vector<Mat3>;
 
+/// Linear or corotational elasticity on the degree-p BB space of a tetrahedral mesh: Dirichlet
+/// nodes, assembly, forces, energies, loads and point evaluation (see the file comment). Holds a
+/// reference to the mesh, which must outlive it.
 class ElasticityModel {
  public:
   /// Checks material and element geometry (MeshError names a degenerate or inverted element).
   ElasticityModel(const TetMesh& mesh, int degree, const Material& material);
 
+  /// The BB space (nodes, positions, element-to-node map).
   const BBSpace& space() const { return space_; }
+  /// The (homogeneous) material; see stiffness_scale() for per-element Young's moduli.
   const Material& material() const { return material_; }
+  /// Number of BB nodes, fixed ones included.
   index_t num_nodes() const { return space_.num_nodes(); }
+  /// Entries of a full vector: 3 per node.
   index_t num_dofs() const { return 3 * space_.num_nodes(); }
 
   // ---- Dirichlet conditions (set before the first assembly) -------------------------------------
   /// Fixes every node whose rest position satisfies the predicate (all BB nodes of a face lying in
   /// a plane, say: that fixes the face exactly).
   void fix_where(const std::function<bool(const Vec3&)>& predicate);
+  /// Fixes the given nodes. Throws InputError for a node that does not exist, and Error (as every
+  /// fix_* call) after the first assembly.
   void fix_nodes(const std::vector<index_t>& nodes);
   /// Fixes every node whose support sub-simplex (the vertex, edge, face or tet it belongs to) has
   /// only clamped vertices: the same clamped set on every degree, so the fixed spaces are nested
   /// and prolongation maps free coarse nodes to free fine nodes. `clamped` has one entry per vertex.
   void fix_vertices(const std::vector<char>& clamped);
+  /// Number of fixed nodes (a count over all nodes).
   index_t num_fixed() const;
+  /// Whether the node is fixed; node must lie in [0, num_nodes()) (unchecked).
   bool is_fixed(index_t node) const { return fixed_[node] != 0; }
   /// Pattern, slot map and colouring for the current fixed set (built on first use, then kept).
   const BlockAssembler& assembler() const;
+  /// Entries of a reduced (free) vector: 3 per free node. Builds the assembler on first use.
   index_t num_free_dofs() const { return 3 * assembler().num_free(); }
+  /// The free nodes' entries of a full vector (which must have num_dofs() entries), in node order.
   Vector restrict_to_free(const Vector& full) const;
   /// Rest positions of the free nodes, x, y, z interleaved like a free vector: the rigid-body modes
   /// of algebraic solvers (BB coefficients reproduce linear fields, so these span them exactly).
@@ -70,6 +86,8 @@ class ElasticityModel {
   Vector expand(const Vector& free, const Vector& prescribed) const;
 
   // ---- rotations, matrices, forces --------------------------------------------------------------
+  /// One rotation per element for the full displacement u: the polar rotation of the deformation
+  /// gradient of the element's linear part (its four vertices; see the file comment).
   Rotations rotations(const Vector& u) const;
 
   /// What one pass over the elements computes (every output optional). Each element's rotated
@@ -82,13 +100,15 @@ class ElasticityModel {
     const Rotations* R = nullptr;        ///< one per element; nullptr: R = I (linear elasticity)
     Bcsr* stiffness = nullptr;           ///< K_ff (assembler()'s pattern), overwritten with
                                          ///< stiffness_weight K_ff, or that added to it
-    double stiffness_weight = 1.0;
+    double stiffness_weight = 1.0;       ///< factor of K_ff in `stiffness` (a step's Δt β + Δt²)
     bool add_to_stiffness = false;       ///< keep the values (e.g. m M) and add to them
     Vector* force = nullptr;             ///< elastic force, full vector, overwritten
     double* energy = nullptr;            ///< elastic energy
     Vector* rhs = nullptr;               ///< free vector: += f_el|free - K_fd u_d (see assemble)
     const Vector* prescribed = nullptr;  ///< u_d for rhs (full vector; empty or nullptr: zero)
   };
+  /// Runs one pass over the elements computing the outputs `pass` asks for. Throws InputError when
+  /// a given output or input has the wrong size (or the matrix not assembler()'s pattern).
   void evaluate(const ElementPass& pass) const;
   /// K_ff for rotations R (nullptr: linear elasticity) into K (a matrix of assembler()'s pattern),
   /// and if rhs != nullptr: rhs -= K_fd u_d + Σ_e R K_e (Rᵀ X_e - X_e) restricted to the free nodes,
@@ -118,6 +138,8 @@ class ElasticityModel {
   // ---- evaluation -------------------------------------------------------------------------------
   /// Element containing rest point X and its barycentric coordinates; throws if outside.
   std::pair<index_t, Eigen::Vector4d> locate(const Vec3& X) const;
+  /// The displacement u (full vector) at rest point X: locate() then evaluation of the BB
+  /// polynomial. Throws InputError when X lies outside the mesh. Cost: a scan of every element.
   Vec3 displacement_at(const Vector& u, const Vec3& X) const;
   /// The same at a point located once (element and barycentric coordinates from locate()).
   Vec3 displacement_at(const Vector& u, index_t element, const Eigen::Vector4d& barycentric) const;
@@ -125,11 +147,13 @@ class ElasticityModel {
   /// polynomials of degree <= p).
   Vector interpolate(const std::function<Vec3(const Vec3&)>& u) const;
 
+  /// Rest geometry of element e (volume, barycentric gradients); e is not range-checked.
   const ElementGeometry& geometry(index_t e) const { return geometry_[e]; }
 
   /// Heterogeneous stiffness: element e's Young's modulus is material().young * scale[e] (ν and ρ
   /// stay). One positive finite factor per element; an empty vector restores the homogeneous body.
   void set_stiffness_scale(std::vector<double> scale);
+  /// The per-element factors of Young's modulus (empty: homogeneous).
   const std::vector<double>& stiffness_scale() const { return stiffness_scale_; }
 
  private:

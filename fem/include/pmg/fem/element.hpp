@@ -14,12 +14,16 @@
 
 namespace pmg::fem {
 
+/// The per-degree tables of the closed-form element integrals (see the file comment), shared by
+/// every element of that degree.
 struct ElementTables {
-  int p = 0, n = 0;
+  /// The degree p.
+  int p = 0, n = 0;  ///< nodes per element, (p+1)(p+2)(p+3)/6
   std::vector<Eigen::Matrix4d> G;  ///< n*n, G[a*n+b]
   Eigen::MatrixXd mass;            ///< ∫ B_a B_b / (6V)
   double load = 0.0;               ///< ∫ B_a / (6V) = 1 / (6 C(p+3,3)), the same for every a
 };
+/// The tables of degree p (1 to 3, InputError otherwise), built once for the program's lifetime.
 const ElementTables& element_tables(int p);
 
 /// ∫_T B^p_a B^q_b dV / (6V) for multi-indices of any degrees p, q >= 0 (closed form above).
@@ -27,7 +31,9 @@ double bernstein_product_integral(const MultiIndex& a, const MultiIndex& b);
 
 /// Rest geometry of one element: gradients of the barycentric coordinates (row k = ∇λ_k) and volume.
 struct ElementGeometry {
+  /// Row k is ∇λ_k, the gradient of barycentric coordinate k (1/length).
   Eigen::Matrix<double, 4, 3> grad;
+  /// Volume V of the element (> 0).
   double volume = 0.0;
 };
 /// Throws MeshError if the element is degenerate or inverted.
@@ -43,9 +49,13 @@ void element_stiffness(const ElementTables& t, const ElementGeometry& g, double 
 /// Quadrature on the reference tetrahedron in barycentric coordinates (Grundmann–Möller), exact for
 /// polynomials of the given degree; weights sum to 1 (multiply by V).
 struct QuadratureRule {
+  /// Quadrature points as barycentric coordinates (λ0..λ3, summing to 1).
   std::vector<Eigen::Vector4d> points;
+  /// One weight per point, summing to 1.
   std::vector<double> weights;
 };
+/// A rule exact for polynomials of degree exact_degree, built on first use and cached
+/// (thread-safe); the reference stays valid for the program's lifetime.
 const QuadratureRule& tet_quadrature(int exact_degree);
 
 }  // namespace pmg::fem

@@ -2,7 +2,7 @@
 // p, p-1, ..., 1 with the same material and Dirichlet set, their matrices (re-discretised with the
 // same rotations: the "geometric" coarse operators), and the transfers between them over the free
 // nodes. It is a mg::LevelProvider: pmg::multigrid builds its cycles from it (through the solver
-// factory, pmg/multigrid/factory.hpp) exactly as from a user's own levels.
+// factory, pmg/sparse/factory.hpp) exactly as from a user's own levels.
 //
 // Prolongation by degree elevation (exact: the BB spaces are nested):
 //   b^p_α = Σ_{k: α_k>0} (α_k/p) b^{p-1}_{α-e_k}
@@ -13,7 +13,8 @@
 
 #include "pmg/fem/elasticity.hpp"
 #include "pmg/fem/matrix_free.hpp"
-#include "pmg/multigrid/levels.hpp"
+#include "pmg/sparse/level_provider.hpp"
+#include "pmg/sparse/solver.hpp"
 
 #include <functional>
 #include <memory>
@@ -28,6 +29,9 @@ Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
 Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& fine_free,
                               const BBSpace& coarse, const std::vector<index_t>& coarse_free);
 
+/// The p-multigrid levels of an FEM discretisation: one ElasticityModel per degree 1..p on the same
+/// mesh and clamp, their matrices, mass matrices, matrix-free operators and the degree-elevation
+/// prolongations between them. Holds references to the mesh, which must outlive it.
 class DegreeHierarchy final : public mg::LevelProvider {
  public:
   /// Levels l = 0..degree-1 hold degree l+1; `fixed` selects the clamped mesh vertices by rest
@@ -38,8 +42,11 @@ class DegreeHierarchy final : public mg::LevelProvider {
 
   int num_levels() const override { return static_cast<int>(models_.size()); }
   std::string level_name(int level) const override { return "degree " + std::to_string(level + 1); }
+  /// The model of a level (degree level + 1); level is not range-checked.
   const ElasticityModel& model(int level) const { return *models_[level]; }
+  /// The model of the finest level (the highest degree).
   const ElasticityModel& finest() const { return *models_.back(); }
+  /// One flag per mesh vertex: 1 where `fixed` selected it.
   const std::vector<char>& clamped_vertices() const { return clamped_; }
   /// Per-element Young's modulus factors on every level (ElasticityModel::set_stiffness_scale).
   void set_stiffness_scale(const std::vector<double>& scale) {
@@ -67,12 +74,27 @@ class DegreeHierarchy final : public mg::LevelProvider {
     const Vector free = model(level).free_positions();
     return std::vector<double>(free.data(), free.data() + free.size());
   }
+  /// The same operator as the concrete type, built on first use with the level's last rotations and
+  /// weights; throws InputError for level 0 or a level out of range.
   const ElasticityOperator& matrix_free(int level) const;
   /// A level's matrix-free operator brought to rotations R (nullptr: none) and the weights
   /// mass_weight M + stiffness_weight K_R, its matrix left as it is: a matrix-free level's whole
   /// per-step work.
   void update_matrix_free(int level, const Rotations* R, double mass_weight = 0.0,
                           double stiffness_weight = 1.0);
+
+  /// The one preparation of the levels for a solver (a time step, a static solve, pmg compare):
+  /// brings what `needs` asks for (Solver::needs(), asked once) to rotations R (nullptr: none) and
+  /// the weights mass_weight M + stiffness_weight K_R — the finest level's matrix, or with
+  /// needs.matrix_free its operator; with needs.lower_levels the levels below (matrix-free
+  /// operators above the lowest level, assembled matrices otherwise). `finest` false leaves the
+  /// finest level to the caller (a time step assembles it in the pass that gives the force).
+  /// Returns the operator to set the solver up on (system_operator(needs)).
+  const LinearOperator& prepare(const SolverNeeds& needs, const Rotations* R, double mass_weight = 0.0,
+                                double stiffness_weight = 1.0, bool finest = true);
+  /// The operator a solver with these needs is set up on and multiplies with: the finest level's
+  /// matrix-free operator (needs.matrix_free) or its matrix.
+  const LinearOperator& system_operator(const SolverNeeds& needs) const;
 
   /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
   /// level, and on the finest level also the right-hand side correction (see

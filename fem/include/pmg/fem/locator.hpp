@@ -10,6 +10,8 @@
 
 namespace pmg::fem {
 
+/// A uniform-grid index of an ElasticityModel's elements for fast point location (see the file
+/// comment).
 class PointLocator {
  public:
   /// Keeps a reference to the model (and its mesh), which must outlive the locator.

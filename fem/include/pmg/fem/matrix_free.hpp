@@ -40,6 +40,8 @@
 
 namespace pmg::fem {
 
+/// The matrix-free elasticity operator y = m M x + s K_R x over a model's free nodes (see the file
+/// comment).
 class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSource {
  public:
   /// Over the model's free nodes (its Dirichlet set must be final); R = I, m = 0, s = 1 until
@@ -49,11 +51,14 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
 
   index_t rows() const override { return 3 * num_free_; }
   index_t cols() const override { return rows(); }
+  /// The model the operator was built on.
   const ElasticityModel& model() const { return *model_; }
 
   /// y = m M x + s K_R x. Weights must be finite, >= 0 and not both zero (m = 1, s = 0: the mass).
   void set_weights(double mass_weight, double stiffness_weight);
+  /// The mass weight m (0 until set_weights()).
   double mass_weight() const { return mass_weight_; }
+  /// The stiffness weight s (1 until set_weights()).
   double stiffness_weight() const { return stiffness_weight_; }
   /// One rotation per element (nullptr: linear elasticity, R = I).
   void update(const Rotations* R);
@@ -68,6 +73,7 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// The cost model of one apply(): floating-point operations and the bytes it must move at least
   /// (element data once, x read once, y written and read back once).
   double flops_per_apply() const;
+  /// The bytes one apply() must move at least (see flops_per_apply()).
   double bytes_per_apply() const;
 
  private:

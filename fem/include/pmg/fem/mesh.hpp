@@ -21,11 +21,17 @@ class MeshError : public InputError {
   using InputError::InputError;
 };
 
+/// A tetrahedral mesh: rest positions of the vertices and four vertex ids per element (checked by
+/// check_mesh(), not on construction).
 struct TetMesh {
+  /// Rest positions of the vertices.
   std::vector<Vec3> vertices;
+  /// Four vertex ids per element (positively oriented after check_mesh()).
   std::vector<Tet> tets;
 
+  /// Number of vertices.
   index_t num_vertices() const { return static_cast<index_t>(vertices.size()); }
+  /// Number of elements.
   index_t num_tets() const { return static_cast<index_t>(tets.size()); }
   /// Signed volume det([X1-X0, X2-X0, X3-X0]) / 6 of element e.
   double signed_volume(index_t e) const;
@@ -33,6 +39,7 @@ struct TetMesh {
   double diameter() const;
 };
 
+/// What check_mesh() accepts or repairs.
 struct MeshCheckOptions {
   /// Elements with |V| below this fraction of (mean edge length)^3 / 6 count as degenerate.
   double degenerate_volume = 1e-10;

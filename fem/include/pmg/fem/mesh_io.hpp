@@ -38,7 +38,9 @@ void write_tetgen(const std::string& base, const TetMesh& mesh);
 
 /// A closed triangle surface.
 struct Surface {
+  /// Vertex positions.
   std::vector<Vec3> vertices;
+  /// Three vertex ids per triangle (outward orientation gives a positive volume()).
   std::vector<std::array<index_t, 3>> triangles;
   /// Enclosed volume by the divergence theorem (positive for outward-oriented triangles).
   double volume() const;

@@ -14,7 +14,8 @@
 // recording the energy after every step costs nothing extra, and the finest matrix in the
 // hierarchy may already be the next step's once the energy of the new state has been asked for.
 //
-// With a matrix-free multigrid (operator=matrix-free, Solver::uses_matrix_free) the levels of
+// What the solver needs (Solver::needs(), asked once) decides what a step prepares
+// (DegreeHierarchy::prepare). With a matrix-free multigrid (operator=matrix-free) the levels of
 // degree >= 2 are ElasticityOperators: a step rotates their stored gradients instead of
 // assembling them, assembles the linear level only, and takes the force from the finest operator.
 //
@@ -35,19 +36,34 @@
 
 namespace pmg::fem {
 
+/// Parameters of ImplicitEuler (the step equation is in the file comment).
 struct SimulationParams {
+  /// Time step Δt in seconds (> 0, else the ImplicitEuler constructor throws InputError).
   double dt = 0.01;
-  double rayleigh_alpha = 0.0;  ///< C = α M + β K_R
+  double rayleigh_alpha = 0.0;  ///< mass-proportional damping α in C = α M + β K_R (>= 0, 1/s)
+  /// Rayleigh stiffness-proportional damping β in C = α M + β K_R (>= 0, seconds).
   double rayleigh_beta = 0.0;
+  /// Corotational material (rotations per state); false: linear material, matrices assembled once.
   bool corotational = true;
 };
 
+/// The weights of the implicit-Euler step matrix  mass M + stiffness K_R.
+struct StepWeights {
+  double mass = 1.0;       ///< 1 + Δt α
+  double stiffness = 0.0;  ///< Δt β + Δt²
+};
+/// The step matrix's weights for these parameters (the one formula, for steps and for tools that
+/// build the system of one step).
+StepWeights step_weights(const SimulationParams& p);
+
 /// The stages of a step, timed separately.
 enum Stage { kRotations, kAssembly, kHierarchy, kForces, kSolve, kNumStages };
+/// Display name of a Stage ("rotations", "finest matrix", ...); stage must be below kNumStages.
 const char* stage_name(int stage);
 
+/// What one ImplicitEuler::step() did: where the state is now and what the solve cost.
 struct StepStats {
-  int step = 0;
+  int step = 0;  ///< number of the step just done (1 for the first)
   double time = 0.0;                       ///< simulated time after the step
   std::array<double, kNumStages> seconds{};  ///< wall time per stage (0 when skipped)
   int iterations = 0;                      ///< iterations or cycles of the solve
@@ -55,6 +71,8 @@ struct StepStats {
   double residual = 0.0;      ///< true residual ||b - A v|| / ||b|| (<= 2 tol: see step())
 };
 
+/// Linearised implicit Euler time stepping of (corotational) elasticity on a degree hierarchy
+/// (see the file comment). Holds references to the hierarchy and the solver, which must outlive it.
 class ImplicitEuler {
  public:
   /// f_ext: full external force vector (constant in time). The hierarchy is assembled here.
@@ -64,9 +82,13 @@ class ImplicitEuler {
 
   /// Full displacement (3 per node) and velocity; fixed nodes must be zero in both.
   void set_state(const Vector& u, const Vector& v);
+  /// Current full displacement u (3 per node, zero on clamped nodes).
   const Vector& displacement() const { return u_; }
+  /// Current full velocity v (3 per node, zero on clamped nodes).
   const Vector& velocity() const { return v_; }
+  /// Simulated time in seconds (dt per step done).
   double time() const { return t_; }
+  /// Number of steps done since construction.
   int steps() const { return step_; }
 
   /// One step. Throws SolveError (with the step in the message) when the solve fails, and
@@ -77,11 +99,12 @@ class ImplicitEuler {
   /// Corotational (or linear) strain energy of the state, from the pass the next step uses.
   double elastic_energy() const;
   double external_work() const;   ///< f_extᵀ u (the potential of the constant loads is -f_extᵀ u)
+  /// Total energy of the state: kinetic_energy() + elastic_energy() - external_work().
   double total_energy() const { return kinetic_energy() + elastic_energy() - external_work(); }
 
  private:
-  double mass_weight() const { return 1.0 + p_.dt * p_.rayleigh_alpha; }
-  double stiffness_weight() const { return p_.dt * p_.rayleigh_beta + p_.dt * p_.dt; }
+  double mass_weight() const { return step_weights(p_).mass; }
+  double stiffness_weight() const { return step_weights(p_).stiffness; }
   /// The pass over the elements for the current state, once per state.
   void evaluate_state() const;
   /// The finest step matrix, or its matrix-free operator for a solver that uses those.
@@ -93,6 +116,7 @@ class ImplicitEuler {
 
   DegreeHierarchy& h_;
   Solver& solver_;
+  SolverNeeds needs_;  ///< what the solver reads of the hierarchy
   Vector f_ext_;
   SimulationParams p_;
   Vector u_, v_, v_free_;

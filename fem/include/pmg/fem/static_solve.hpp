@@ -1,35 +1,53 @@
-// pmg/fem/static_solve.hpp — static equilibrium, linear and corotational.
+// pmg/fem/static_solve.hpp — static equilibrium, linear and corotational, with any solver of the
+// factory (pmg/sparse/factory.hpp).
 //
-// Linear: K_ff u_f = f_f - K_fd u_d, solved by CHOLMOD.
-// Corotational: fixed point on the rotations. With R_k from u_k, solve
-//   K_R u_{k+1} = f_ext - Σ_e R K_e (Rᵀ X_e - X_e)
-// (the linearisation of f_e = -R K_e (Rᵀ x_e - X_e) at fixed R) until
-// ‖u_{k+1} - u_k‖ <= tol ‖u_{k+1}‖. The symbolic factorisation is done once; each iteration only
-// refactorises numerically.
+// A fixed point on the rotations in residual form. With R_k from u_k (R = I for linear material):
+//   K_R δ = (f_ext + f_el(u_k))|free,   f_el(u) = -Σ_e R K_e (Rᵀ x_e - X_e),
+//   u_{k+1} = u_k + ω δ,
+// until ‖δ‖ <= tol ‖u_k + δ‖ (linear material: one step, exact up to the solver's tolerance). The
+// solver is set up once and update()d per iteration (a direct solver refactorises numerically
+// only). Whenever the relative change grows from one iteration to the next, ω is halved (down to
+// 1/64): large rotations make the plain iteration oscillate.
 #pragma once
 
 #include "pmg/fem/elasticity.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/sparse/config.hpp"
+#include "pmg/sparse/solver.hpp"
 
 namespace pmg::fem {
 
+/// Options of solve_static().
 struct StaticOptions {
+  /// The fixed point stops when ‖δ‖ <= corotational_tol ‖u_k + δ‖ (see the file comment).
   double corotational_tol = 1e-8;
+  /// Fixed-point iterations at most; reaching it unconverged throws pmg::Error.
   int max_corotational_iterations = 200;
-  /// Initial under-relaxation ω of the fixed point, u <- u + ω (u_new - u). Whenever the relative
-  /// change grows from one iteration to the next, ω is halved (down to 1/64): large rotations make
-  /// the plain iteration oscillate.
+  /// Initial under-relaxation ω of the fixed point (see the file comment).
   double relaxation = 1.0;
+  /// The model overload's solver, built by the factory (empty: method cholmod).
+  Config solver;
 };
 
+/// The solution of solve_static() and how it was reached.
 struct StaticResult {
   Vector u;                ///< full displacement (3 per node)
   int iterations = 0;      ///< corotational fixed-point iterations (1 for linear)
   double last_change = 0;  ///< relative change of the last corotational iteration
+  int solver_iterations = 0;  ///< iterations of the linear solves, summed
 };
 
-/// Throws InputError when no node is fixed (the static problem is singular) and pmg::Error when the
-/// system is not positive definite or the fixed point does not converge.
+/// On one model with options.solver (a single-level method: CHOLMOD by default). `prescribed`
+/// (full vector, may be empty) gives the clamped nodes' displacements. Throws InputError when no
+/// node is fixed (the static problem is singular) and pmg::Error when the system is not positive
+/// definite or the fixed point does not converge.
 StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, bool corotational,
                           const StaticOptions& options = {}, const Vector& prescribed = Vector());
+
+/// On the finest level of a degree hierarchy with any solver (multigrid methods built with `h` as
+/// their levels included): each iteration brings the levels the solver needs (Solver::needs) to
+/// the rotations (DegreeHierarchy::prepare). The solver is set up here on the first iteration.
+StaticResult solve_static(DegreeHierarchy& h, const Vector& f_ext, bool corotational, Solver& solver,
+                          const StaticOptions& options = {});
 
 }  // namespace pmg::fem

@@ -16,6 +16,7 @@
 
 namespace pmg::fem {
 
+/// Options of write_vtu().
 struct VtuOptions {
   /// Write the deformed control points X + u as the geometry (else the rest positions).
   bool deformed = false;

@@ -1,4 +1,4 @@
-// pmg/gpu/factory.hpp — the GPU solvers as factory methods (pmg/multigrid/factory.hpp), so that
+// pmg/gpu/factory.hpp — the GPU solvers as factory methods (pmg/sparse/factory.hpp), so that
 // `pmg compare --solvers gpu-pmg,pmg,...` and scene files run them beside the CPU solvers:
 //
 //   gpu-mcg   the merged CG with block Jacobi (gpu::Mcg on BIN-BCSR); check_every (default 10)
@@ -17,8 +17,8 @@
 
 namespace pmg::gpu {
 
-/// Registers gpu-mcg, gpu-pcg and gpu-pmg (again: replaced, not duplicated). Registering needs no
-/// device; setting a solver up without one throws pmg::InputError saying so.
+/// Registers gpu-mcg, gpu-pcg and gpu-pmg (idempotent; a name the user registered is kept).
+/// Registering needs no device; setting a solver up without one throws pmg::InputError saying so.
 void register_solvers();
 
 }  // namespace pmg::gpu

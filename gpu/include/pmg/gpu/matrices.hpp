@@ -17,6 +17,7 @@
 
 namespace pmg::gpu {
 
+/// A BinBcsr matrix in device memory with its SpMV and residual kernels (see the file comment).
 class DeviceBinBcsr {
  public:
   /// Uploads the layout and the values of A.
@@ -25,6 +26,7 @@ class DeviceBinBcsr {
   /// from or one with the same layout (BinBcsr::update_values keeps the layout).
   void update_values(const BinBcsr& A);
 
+  /// Number of scalar rows (= columns: the matrix is square).
   index_t rows() const { return rows_; }
   /// y = A x
   void multiply(const DeviceVector& x, DeviceVector& y) const;
@@ -32,6 +34,8 @@ class DeviceBinBcsr {
   void residual(const DeviceVector& b, const DeviceVector& x, DeviceVector& r) const;
   /// Bytes one SpMV moves at least (the host matrix's count).
   double bytes_per_spmv() const { return bytes_; }
+  /// The device arrays as the plain struct the library's kernels take (pointers into this object:
+  /// valid while it lives).
   detail::BinBcsrView view() const;
 
  private:
@@ -47,14 +51,21 @@ class DeviceBinBcsr {
 /// the block pattern and 3x3 blocks of a BCSR matrix.
 class DeviceCsr {
  public:
+  /// Uploads a scalar CSR matrix. Throws CudaError on failure.
   explicit DeviceCsr(const Csr& A) : DeviceCsr(A.pattern(), A.values()) {}
+  /// Uploads a pattern and its values (one per entry, or 9 per entry for 3x3 blocks). Throws
+  /// CudaError on failure.
   DeviceCsr(const CsrPattern& pattern, const std::vector<double>& values);
   /// New values on the same pattern (same count).
   void update_values(const std::vector<double>& values);
+  /// Number of (block) rows of the pattern.
   index_t rows() const { return rows_; }
+  /// Number of (block) columns of the pattern.
   index_t cols() const { return cols_; }
   /// Bytes of values, column indices and row pointers.
   double bytes() const { return 8.0 * values_.size() + 4.0 * col_idx_.size() + 8.0 * row_ptr_.size(); }
+  /// The device arrays as the plain struct the library's kernels take (pointers into this object:
+  /// valid while it lives).
   detail::CsrView view() const;
 
  private:
@@ -64,14 +75,22 @@ class DeviceCsr {
   DeviceArray<double> values_;
 };
 
+/// A Bcsr matrix in device memory with a plain SpMV kernel, one thread per scalar row (see the
+/// file comment).
 class DeviceBcsr {
  public:
+  /// Uploads A's block pattern and values. Throws InputError when A is not square.
   explicit DeviceBcsr(const Bcsr& A);
+  /// Re-uploads A's values; A must have the uploaded pattern (InputError when the block count
+  /// differs).
   void update_values(const Bcsr& A) { blocks_.update_values(A.values()); }
+  /// Number of scalar rows (= columns).
   index_t rows() const { return 3 * blocks_.rows(); }
+  /// y = A x (y resized); x must have rows() entries (InputError otherwise).
   void multiply(const DeviceVector& x, DeviceVector& y) const;
   /// Values, columns, row pointers, x once and y once.
   double bytes_per_spmv() const { return blocks_.bytes() + 16.0 * rows(); }
+  /// The block arrays as the plain struct the library's kernels take (valid while this lives).
   detail::CsrView view() const { return blocks_.view(); }
 
  private:
@@ -81,14 +100,19 @@ class DeviceBcsr {
 /// cuSPARSE's BSR SpMV (cusparseDbsrmv, 3x3 row-major blocks) on a copy of A.
 class CusparseBsr {
  public:
+  /// Uploads A and creates the cuSPARSE handle. Throws InputError when A is not square or has
+  /// 2^31 blocks or more, CudaError when a CUDA or cuSPARSE call fails.
   explicit CusparseBsr(const Bcsr& A);
   ~CusparseBsr();
   CusparseBsr(const CusparseBsr&) = delete;
   CusparseBsr& operator=(const CusparseBsr&) = delete;
+  /// Re-uploads A's values; A must have the uploaded pattern (InputError otherwise).
   void update_values(const Bcsr& A);
+  /// Number of scalar rows (= columns).
   index_t rows() const { return 3 * block_rows_; }
   /// y = A x
   void multiply(const DeviceVector& x, DeviceVector& y) const;
+  /// Values, 32-bit columns and row pointers, x once and y once.
   double bytes_per_spmv() const;
 
  private:
@@ -102,13 +126,17 @@ class CusparseBsr {
 /// cuSPARSE's generic SpMV (cusparseSpMV, CSR, default algorithm) on a copy of A.
 class CusparseCsr {
  public:
+  /// Uploads A and creates the cuSPARSE handle and descriptor. Throws InputError when A has 2^31
+  /// entries or more, CudaError when a CUDA or cuSPARSE call fails.
   explicit CusparseCsr(const Csr& A);
   ~CusparseCsr();
   CusparseCsr(const CusparseCsr&) = delete;
   CusparseCsr& operator=(const CusparseCsr&) = delete;
+  /// Number of rows.
   index_t rows() const { return rows_; }
   /// y = A x
   void multiply(const DeviceVector& x, DeviceVector& y) const;
+  /// Values and 32-bit columns (12 bytes per entry), row pointers, x once and y once.
   double bytes_per_spmv() const;
 
  private:

@@ -12,7 +12,7 @@
 #include "pmg/gpu/matrices.hpp"
 #include "pmg/multigrid/chebyshev.hpp"
 #include "pmg/multigrid/cycle.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 #include "pmg/sparse/krylov.hpp"
 
 #include <memory>
@@ -23,10 +23,15 @@ namespace pmg::gpu {
 /// Inverted 3x3 diagonal blocks on the device (z = D⁻¹ r).
 class DeviceBlockJacobi {
  public:
+  /// Uploads M's inverted blocks (M must be set up). Throws CudaError on failure.
   explicit DeviceBlockJacobi(const BlockJacobiPreconditioner& M) { update(M); }
+  /// Re-uploads M's inverted blocks (after M.update()).
   void update(const BlockJacobiPreconditioner& M) { inv_.upload(M.inverse_blocks()); }
+  /// Number of scalar rows (3 per block).
   index_t rows() const { return static_cast<index_t>(inv_.size() / 3); }
+  /// Device pointer to the inverted blocks, 9 doubles per block row, row-major.
   const double* inverse_blocks() const { return inv_.data(); }
+  /// z = D⁻¹ r (z resized); r must have rows() entries (InputError otherwise).
   void apply(const DeviceVector& r, DeviceVector& z) const;
 
  private:
@@ -65,10 +70,15 @@ class Mcg {
 /// cublasDgeam with the scalars on the host (three dot products per iteration, each a round trip).
 class LibraryPcg {
  public:
+  /// Uploads copies of A and of M's inverted blocks (M set up on A) and creates the cuBLAS handle.
+  /// Throws InputError when the sizes differ, CudaError when a CUDA library call fails.
   LibraryPcg(const Bcsr& A, const BlockJacobiPreconditioner& M);
   ~LibraryPcg();
   LibraryPcg(const LibraryPcg&) = delete;
   LibraryPcg& operator=(const LibraryPcg&) = delete;
+  /// Block-Jacobi PCG for A x = b with the stopping rules of `params`; x: initial guess in,
+  /// solution out (zero when its size does not match b). Throws SolveError on failure unless
+  /// params.throw_on_failure is false.
   SolveResult solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& params = {},
                     SolveMonitor* monitor = nullptr) const;
 
@@ -86,12 +96,17 @@ class LibraryPcg {
 /// GPU and CPU cycles apply the same polynomial.
 class VCycle {
  public:
+  /// Level matrices coarsest first (square), and one transfer per pair of adjacent levels
+  /// (transfers[l-1] maps level l-1 to level l). Factorises the lowest level with CHOLMOD and
+  /// uploads the others. Throws InputError when sizes do not match, CudaError on a device failure.
   VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
          const mg::ChebyshevParams& chebyshev = {});
   ~VCycle();
   /// The matrices' values changed (same patterns): re-upload, new D⁻¹ and λmax, refactorise.
   void update();
+  /// Number of scalar rows of the finest level.
   index_t rows() const;
+  /// Number of levels, the lowest included.
   int num_levels() const { return static_cast<int>(matrices_.size()); }
   /// One cycle improving x for A x = b (finest level) in place.
   void cycle(const DeviceVector& b, DeviceVector& x) const;
@@ -115,8 +130,8 @@ class VCycle {
   mutable Vector coarse_b_, coarse_x_;
 };
 
-/// PMG on the GPU: x <- x + C (b - A x) with the stopping rules of mg::multigrid_solve (the true
-/// residual's norm is read back once per cycle).
+/// PMG on the GPU: x <- x + C (b - A x) with the stopping rules of mg::MultigridCycle::solve (the
+/// CPU's stationary multigrid; the true residual's norm is read back once per cycle).
 SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
                             const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
 

@@ -14,14 +14,18 @@ namespace pmg::mg {
 /// needs no lower bound, and its variant with Lottes' optimised weights (degree <= 6).
 enum class ChebyshevKind { first, fourth, optimal_fourth };
 
+/// Parameters of Chebyshev (solver keys: see visit()).
 struct ChebyshevParams {
   int degree = 4;               ///< polynomial degree = products with A per smoothing
+  /// Which polynomial (see ChebyshevKind).
   ChebyshevKind kind = ChebyshevKind::first;
   double lower_fraction = 0.1;  ///< first kind: smooth eigenvalues in [f λmax, λmax] of D⁻¹A
   int power_iterations = 15;    ///< estimate of λmax (then raised by 10%) at setup()
   /// update(): 0 repeats the set-up estimate; k > 0 runs k power iterations started from the last
   /// estimate's vector (a time step moves the spectrum little; matrix-free levels pay per product).
   int update_iterations = 0;
+  /// The keys degree, kind, lower_fraction, power_iterations and update_iterations.
+  void visit(ParamVisitor& v);
 };
 
 /// Damps the eigenvalues of D⁻¹A in [f λmax, λmax] with the Chebyshev polynomial of the given
@@ -29,13 +33,18 @@ struct ChebyshevParams {
 /// before and after keeps the cycle symmetric. Work vectors are allocated at setup().
 class Chebyshev final : public Smoother {
  public:
+  /// Not yet set up. Throws InputError when degree or power_iterations is below 1, lower_fraction
+  /// lies outside (0, 1), or the optimised fourth kind is asked for beyond its tabulated degrees.
   explicit Chebyshev(const ChebyshevParams& params = {});
+  /// Constructs and sets up on A, which must outlive the smoother (see Solver::setup()).
   Chebyshev(const LinearOperator& A, const ChebyshevParams& params = {}) : Chebyshev(params) { setup(A); }
   std::string name() const override { return "chebyshev"; }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
   /// From x = 0 the first residual is b: one product with A fewer.
   void pre_smooth_from_zero(const Vector& b, Vector& x) const override;
+  /// The upper bound λmax of D⁻¹A's spectrum in use: the power-iteration estimate raised by 10%
+  /// (0 before setup()).
   double lambda_max() const { return lambda_max_; }
   /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update()).
   const std::vector<double>& inverse_diagonal() const { return inv_diag_; }

@@ -34,14 +34,17 @@
 
 namespace pmg::mg {
 
+/// Where the matrices of the levels below the finest come from.
 enum class CoarseOperator {
   geometric,  ///< the provider's own level matrices (re-discretised, same rotations on every level)
   galerkin,   ///< R A P from the finest matrix down (two sparse products per level)
 };
 
+/// Parameters of MultigridCycle (checked by its constructor and setup()).
 struct MultigridParams {
   int gamma = 1;   ///< 1: V-cycle, 2: W-cycle
   int cycles = 1;  ///< cycles per apply() (as a preconditioner; the seed's MGPCG uses 2)
+  /// The lower levels' matrices: the provider's own or Galerkin products R A P.
   CoarseOperator coarse_operator = CoarseOperator::geometric;
   /// The provider's interpolating restriction instead of Pᵀ (the cycle is then not symmetric).
   bool interpolating_restriction = false;
@@ -56,16 +59,26 @@ struct MultigridParams {
 /// Time spent in each part of the cycles applied so far (seconds), for cost breakdowns.
 struct CycleTimings {
   std::vector<double> smoothing;  ///< per level
-  double transfer = 0.0, residual = 0.0, lowest_level = 0.0;
+  /// \var residual
+  /// Forming the residuals b - A x on the levels above the lowest.
+
+  /// Restrictions and prolongations.
+  double transfer = 0.0, residual = 0.0, lowest_level = 0.0;  ///< the lowest-level solves
+  /// Number of cycles the times cover.
   long cycles = 0;
 };
 
 /// Builds the smoother of level l (1 <= l <= L-1); called at construction.
 using SmootherFactory = std::function<std::unique_ptr<Smoother>(int level)>;
 
+/// A V- or W-cycle over a LevelProvider's levels as a Solver (see the file comment): PMG's
+/// stationary iteration through solve(), MGPCG's preconditioner through apply().
 class MultigridCycle final : public Solver {
  public:
-  /// The provider must outlive the cycle; its matrices stay where they are.
+  /// The provider must outlive the cycle; its matrices stay where they are. Takes ownership of
+  /// the lowest-level solver and calls `smoothers` once per level above the lowest. Throws
+  /// InputError for no levels, gamma other than 1 or 2, cycles below 1, or a null solver or
+  /// smoother.
   MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
                  const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level);
 
@@ -74,13 +87,25 @@ class MultigridCycle final : public Solver {
   /// R = Pᵀ on every level, the smoothers linear adjoint pairs (is_symmetric) and the lowest-level
   /// solver linear and symmetric.
   bool is_symmetric() const override;
-  /// Geometric lower levels are the provider's matrices; Galerkin ones are formed here from A.
-  bool uses_levels() const override { return params_.coarse_operator != CoarseOperator::galerkin; }
-  bool uses_matrix_free() const override { return params_.matrix_free; }
+  /// Geometric lower levels are the provider's matrices (Galerkin ones are formed here from A);
+  /// the matrix-free route applies the provider's operators above the lowest level.
+  SolverNeeds needs() const override {
+    return {params_.coarse_operator != CoarseOperator::galerkin, params_.matrix_free};
+  }
+  /// Per cycle: smoothing on each level above the lowest (finest first), residuals, transfers and
+  /// the lowest-level solve.
+  TimingBreakdown timings() const override;
+  void reset_timings() const override;
 
+  /// Number of levels L (the provider's).
   int num_levels() const { return levels_.num_levels(); }
+  /// The level provider the cycle was built on.
   const LevelProvider& levels() const { return levels_; }
+  /// The parameters.
   const MultigridParams& params() const { return params_; }
+  /// The parameters, to change between solves: cycles, gamma and the iteration's stopping rule
+  /// take effect at once; coarse_operator, matrix_free and interpolating_restriction only at the
+  /// next setup().
   MultigridParams& params() { return params_; }
   /// The matrix a level's smoother and residual use (a Galerkin product below the finest level
   /// when asked for).
@@ -88,15 +113,19 @@ class MultigridCycle final : public Solver {
   /// The operator a level's smoother and residual apply: the provider's matrix-free operator
   /// (matrix_free, levels >= 1) or level_matrix().
   const LinearOperator& level_operator(int level) const;
+  /// The transfer between level `level` - 1 and `level` (1 <= level <= L-1; built by setup():
+  /// std::out_of_range before it).
   const BlockTransfer& transfer(int level) const { return transfers_.at(level - 1); }
+  /// The smoother of level `level` (1 <= level <= L-1; std::out_of_range otherwise).
   const Smoother& smoother(int level) const { return *smoothers_.at(level - 1); }
+  /// The lowest-level solver (level 0).
   const Solver& lowest_level() const { return *lowest_; }
 
   /// One cycle improving x for A x = b in place (x is the initial guess).
   void cycle(const Vector& b, Vector& x) const { cycle(num_levels() - 1, b, x); }
 
-  const CycleTimings& timings() const { return timings_; }
-  void reset_timings() const;
+  /// The raw seconds behind timings().
+  const CycleTimings& cycle_timings() const { return timings_; }
   /// Galerkin coarse operators only: recomputes the products R A P from the finest level down into
   /// their kept patterns (update() does this, then refreshes smoothers and the lowest level).
   void refresh_galerkin();

@@ -1,70 +1,27 @@
-// pmg/multigrid/levels.hpp — where a multigrid cycle gets its levels from.
-//
-// A LevelProvider hands out level matrices (3x3-block BCSR, coarsest first) and scalar node
-// prolongations between them; MultigridCycle builds everything else (transfers, Galerkin
-// products, smoothers, the lowest-level solver). fem::DegreeHierarchy (the BB degree hierarchy),
-// StoredLevels (matrices a user built in their own code), UserLevels (CSR arrays as FEM codes
-// hand them over, user_levels.hpp) and any class of a
-// user's implement it the same way (MFEM's Multigrid::AddLevel, with ownership made explicit).
-//
-// Matrix-free levels: a provider may also hand out operators that apply a level's matrix without
-// storing it (matrix_free_operator); a cycle asked for them (MultigridParams::matrix_free, the
-// factory's operator=matrix-free) reads no matrix above the lowest level.
-//
-// Values change, patterns do not: after new values are written into the provider's matrices (a
-// corotational time step re-assembles them), MultigridCycle::update() refreshes smoothers,
-// Galerkin products and the lowest-level factorisation; nothing symbolic is redone.
+// pmg/multigrid/levels.hpp — level hierarchies held in memory. The interface every hierarchy
+// implements, mg::LevelProvider, is in the solver core (pmg/sparse/level_provider.hpp), so that a
+// discretisation (pmg::fem) can offer levels without linking the multigrid library.
 #pragma once
 
 #include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/level_provider.hpp"
 
 #include <string>
 #include <vector>
 
 namespace pmg::mg {
 
-class LevelProvider {
- public:
-  virtual ~LevelProvider() = default;
-  /// Number of levels L >= 1; level 0 is the coarsest, L-1 the finest.
-  virtual int num_levels() const = 0;
-  /// The matrix of a level (3 unknowns per node, interleaved). It must stay at the same address
-  /// while a cycle built from the provider lives. With Galerkin coarse operators only the finest
-  /// one is read.
-  virtual const Bcsr& matrix(int level) const = 0;
-  /// Scalar prolongation from level-1 to level (nodes of level x nodes of level-1), level >= 1.
-  virtual const Csr& prolongation(int level) const = 0;
-  /// An explicit restriction (nodes of level-1 x nodes of level) instead of the transpose; only
-  /// providers that define one (the BB hierarchy's interpolating restriction) override this.
-  virtual Csr interpolating_restriction(int level) const;
-  /// Whether the level has a matrix of its own; false for levels meant for Galerkin products
-  /// only (UserLevels given the finest matrix alone), which then hold an empty matrix of the
-  /// right size and refuse coarse_operator=geometric.
-  virtual bool has_matrix(int /*level*/) const { return true; }
-  /// A matrix-free operator of the level (the same map as its matrix, applied without one), or
-  /// nullptr when the provider has none (the default). A cycle with matrix_free set smooths and
-  /// forms residuals with these on every level above the lowest, whose matrix it factorises; the
-  /// provider keeps them current (fem::DegreeHierarchy: its degree >= 2 levels, updated with the
-  /// rotations and weights of every assemble_level() or update_matrix_free()).
-  virtual const LinearOperator* matrix_free_operator(int /*level*/) const { return nullptr; }
-  /// Whether matrix_free_operator() gives an operator for every level above the lowest, answered
-  /// without building them (the factory's operator=auto asks before choosing).
-  virtual bool offers_matrix_free() const { return false; }
-  /// x, y, z of the level's nodes, interleaved like its unknowns, where the provider knows them
-  /// (empty otherwise, the default): the rigid-body modes of a BoomerAMG lowest level
-  /// (`lowest_level.interp_vectors=rigid`).
-  virtual std::vector<double> node_coordinates(int /*level*/) const { return {}; }
-  /// For messages and timing breakdowns ("degree 3", "level 2").
-  virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
-};
-
 /// Levels owned in memory: matrices and prolongations handed over by value. Sizes are checked
 /// (3 x nodes per level, prolongations nodes x nodes) with the level named.
 class StoredLevels final : public LevelProvider {
  public:
+  /// Level matrices coarsest first (square) and one scalar prolongation per level above the lowest
+  /// (prolongations[l-1]: level l-1 to level l). Throws InputError naming the level whose sizes do
+  /// not fit.
   StoredLevels(std::vector<Bcsr> matrices, std::vector<Csr> prolongations);
   int num_levels() const override { return static_cast<int>(matrices_.size()); }
   const Bcsr& matrix(int level) const override { return matrices_.at(level); }
+  /// A level's matrix, writable: new values on the same pattern, then update() the solver.
   Bcsr& matrix(int level) { return matrices_.at(level); }
   const Csr& prolongation(int level) const override { return prolongations_.at(level - 1); }
 

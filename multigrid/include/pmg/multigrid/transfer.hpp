@@ -14,6 +14,8 @@
 
 namespace pmg::mg {
 
+/// The transfer of 3-component vectors between two adjacent levels: P ⊗ I₃ and R ⊗ I₃ (see the file
+/// comment).
 class BlockTransfer {
  public:
   /// R = Pᵀ.
@@ -23,8 +25,11 @@ class BlockTransfer {
 
   index_t fine_size() const { return 3 * P_.rows(); }    ///< in unknowns
   index_t coarse_size() const { return 3 * P_.cols(); }  ///< in unknowns
+  /// True when R = Pᵀ (built by the one-argument constructor).
   bool restriction_is_transpose() const { return transpose_; }
+  /// The scalar prolongation P (fine nodes x coarse nodes).
   const Csr& prolongation() const { return P_; }
+  /// The scalar restriction R (coarse nodes x fine nodes), Pᵀ unless given.
   const Csr& restriction() const { return R_; }
 
   /// xf = (P ⊗ I₃) xc
@@ -49,9 +54,12 @@ Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A);
 class GalerkinProduct {
  public:
   GalerkinProduct() = default;
+  /// Builds C's pattern and plan and computes C from A (A's size must be T's fine size, else
+  /// InputError).
   GalerkinProduct(const BlockTransfer& T, const Bcsr& A);
   /// New values of A on the pattern the product was built on (InputError otherwise).
   void update(const Bcsr& A);
+  /// The coarse operator C (coarse x coarse, 3x3 blocks).
   const Bcsr& matrix() const { return C_; }
 
  private:

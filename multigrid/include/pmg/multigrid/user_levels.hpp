@@ -37,17 +37,23 @@
 
 namespace pmg::mg {
 
+/// Order of the unknowns in a caller's vectors and matrices: interleaved (x0 y0 z0 x1 ...) or
+/// component-major (x0 x1 ... y0 y1 ... z0 ...).
 enum class DofLayout { interleaved, component };
 
 /// "interleaved" | "component"; InputError otherwise.
 DofLayout parse_layout(const std::string& name);
 
+/// How UserLevels reads the caller's matrices.
 struct UserLevelOptions {
+  /// Layout of the unknowns in the given matrices (and vectors).
   DofLayout layout = DofLayout::interleaved;
   /// Only the finest matrix is given: the lower levels come from Galerkin products.
   bool galerkin_only = false;
 };
 
+/// A FEM code's level matrices and prolongations, converted to the cycle's form with clamped nodes
+/// removed (see the file comment).
 class UserLevels final : public LevelProvider {
  public:
   /// `matrices`: one per level, coarsest first (just the finest with galerkin_only);
@@ -65,6 +71,7 @@ class UserLevels final : public LevelProvider {
 
   /// Unknowns of the finest matrix as given, and after the clamped nodes are removed.
   index_t full_size() const { return full_size_; }
+  /// Unknowns of the finest level after the clamped nodes are removed.
   index_t reduced_size() const { return matrix(num_levels() - 1).rows(); }
   /// Clamped nodes removed per level (0 when the matrix had no identity rows).
   const std::vector<index_t>& removed_nodes() const { return removed_; }

@@ -24,40 +24,71 @@ namespace pmg::sim {
 
 /// One row of steps.csv: the state after a step (step 0: the initial state).
 struct StepRecord {
+  /// Step number (0: the initial state).
   int step = 0;
+  /// Simulated time after the step, seconds.
   double time = 0.0;
   fem::Vec3 probe = fem::Vec3::Zero();  ///< probe displacement
-  double kinetic = 0.0, elastic = 0.0, total_energy = 0.0;  ///< NaN when not recorded
+  /// \var elastic
+  /// Elastic (strain) energy of the state; NaN after step 0 when energies are not recorded.
+
+  /// Kinetic energy of the state. It, `elastic` and `total_energy` are NaN after step 0 when
+  /// energies are not recorded (output.energy false).
+  double kinetic = 0.0, elastic = 0.0, total_energy = 0.0;  ///< kinetic + elastic - external work
+  /// Iterations (cycles for a multigrid method) of the step's solve; 0 for step 0.
   int iterations = 0;
-  double rel_residual = 0.0, residual = 0.0;
+  /// True residual of the step's solve relative to its start (fem::StepStats::rel_residual).
+  double rel_residual = 0.0, residual = 0.0;  ///< true ||b - A v|| / ||b|| of the step's solve
+  /// Wall time of each stage of the step (fem::Stage), seconds; 0 for skipped stages and step 0.
   std::array<double, fem::kNumStages> stage_s{};
 };
 
+/// What DynamicRun::run() did: every figure `pmg simulate` reports, and the per-step records.
 struct RunSummary {
-  int steps_planned = 0, steps_done = 0;
+  /// Steps the scene asks for: duration / dt, rounded.
+  int steps_planned = 0, steps_done = 0;  ///< steps completed (fewer on failure or interruption)
   double wall_s = 0.0;                          ///< the time loop, outputs included
   std::array<double, fem::kNumStages> stage_s{};  ///< per stage, summed over the steps
+  /// Seconds spent writing steps.csv and the frames, the initial state's included.
   double output_s = 0.0;
   long iterations = 0;  ///< summed over the steps (cycles for PMG)
+  /// Most iterations (cycles) of any one step.
   int max_iterations = 0;
   double max_residual = 0.0;  ///< largest ‖b − Av‖/‖b‖ of a step
   fem::Vec3 probe = fem::Vec3::Zero();  ///< final probe displacement
-  double probe_z_min = 0.0, probe_z_max = 0.0;
+  /// Smallest z displacement of the probe over every state, the initial one included.
+  double probe_z_min = 0.0, probe_z_max = 0.0;  ///< largest z displacement of the probe
   bool energy = false;  ///< energies recorded (output.energy)
+  /// \var energy_final
+  /// Total energy of the last state (energy_initial when energies are not recorded).
+
+  /// \var energy_peak
+  /// Largest total energy of any state, the initial one included.
+
+  /// \var energy_max_rise
+  /// Largest rise of the total energy in one step (0 when it never rose).
+
+  /// Total energy (kinetic + elastic - external work) of the initial state.
   double energy_initial = 0.0, energy_final = 0.0, energy_peak = 0.0, energy_max_rise = 0.0;
+  /// Number of .vtu frames written (listed in simulation.pvd).
   int frames = 0;
   std::vector<std::string> outputs;  ///< files written
   int failed_step = 0;               ///< 0: every step succeeded
+  /// The error message of the failed step (empty when none failed).
   std::string failure;
   bool interrupted = false;          ///< stopped early by the stop flag (set_stop_flag)
   std::vector<StepRecord> records;   ///< step 0 and every step done, as in steps.csv
 };
 
+/// The time loop of a dynamic scene (see the file comment). Holds references to the scene and the
+/// setup, which must outlive it.
 class DynamicRun {
  public:
   /// Builds the step solver and the initial state (nothing is stepped yet). output_dir empty:
-  /// nothing is written. setup.notes gains what the run does once or skips.
+  /// nothing is written. setup.notes gains what the run does once or skips. Throws InputError for
+  /// a static scene.
   DynamicRun(const Scene& scene, SceneSetup& setup, const std::string& output_dir);
+  /// The step solver's options as `key=value` pairs (Config::to_string()).
   const std::string& solver_settings() const { return settings_; }
   /// The solver's method ("pmg", "cg", …; "cholmod" for degree 1 with a multigrid method).
   const std::string& method() const { return method_; }
@@ -65,6 +96,7 @@ class DynamicRun {
   /// the run stops after the step in progress, writes its outputs complete and reports
   /// RunSummary::interrupted.
   void set_stop_flag(const volatile std::sig_atomic_t* flag) { stop_ = flag; }
+  /// Steps the run plans: the scene's duration / dt, rounded.
   int steps() const { return steps_; }
   /// Runs every step; progress(step, time) after each. A failed step (a solve that fails, a
   /// non-finite state) ends the run: the summary names it, the outputs so far stay written.
@@ -80,15 +112,23 @@ class DynamicRun {
   const volatile std::sig_atomic_t* stop_ = nullptr;
 };
 
+/// What solve_static() did.
 struct StaticOutcome {
+  /// The displacement and how the solve went (fem::solve_static).
   fem::StaticResult result;
+  /// The solver's method ("cholmod", "pmg", ...).
+  std::string method, settings;  ///< the options the solver used, as `key=value` pairs
+  /// Wall time of the solve (rotation fixed point included), seconds; set-up and output excluded.
   double seconds = 0.0;
+  /// Displacement of the probe in the solution.
   fem::Vec3 probe = fem::Vec3::Zero();
+  /// Files written (output_dir/static.vtu; empty when output_dir is empty).
   std::vector<std::string> outputs;
 };
 
-/// A static scene: one CHOLMOD solve (a fixed point on the rotations when corotational), written
-/// to output_dir/static.vtu when output_dir is not empty.
+/// A static scene: solved by the scene's solver (any method of the factory; CHOLMOD when the scene
+/// names none) on the degree hierarchy, a fixed point on the rotations when corotational
+/// (fem::solve_static), written to output_dir/static.vtu when output_dir is not empty.
 StaticOutcome solve_static(const Scene& scene, SceneSetup& setup, const std::string& output_dir);
 
 }  // namespace pmg::sim

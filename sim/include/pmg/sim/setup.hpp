@@ -35,21 +35,33 @@ double estimated_memory_bytes(double tets, int degree);
 /// The point whose displacement a run records: a mesh vertex (node v = vertex v on every degree),
 /// or an element and barycentric coordinates found once.
 struct Probe {
+  /// The probe's position in the reference configuration (mesh coordinates).
   fem::Vec3 point = fem::Vec3::Zero();
   index_t vertex = -1;   ///< >= 0: the probe is this vertex
   index_t element = -1;  ///< otherwise: this element, at `barycentric`
+  /// Barycentric coordinates of `point` in `element` (unused when `vertex` >= 0).
   Eigen::Vector4d barycentric = Eigen::Vector4d::Zero();
+  /// The displacement of the probe under u, a full displacement vector of m (3 per node).
   fem::Vec3 displacement(const fem::ElasticityModel& m, const Vector& u) const;
 };
 
+/// Everything set_up() builds from a scene; the hierarchy and the run refer into it, so it must
+/// outlive them.
 struct SceneSetup {
   std::unique_ptr<const fem::TetMesh> mesh;  ///< held by pointer: the hierarchy refers to it
+  /// The degree hierarchy (degrees 1 to the scene's degree) with clamp and material.
   std::unique_ptr<fem::DegreeHierarchy> hierarchy;
   Vector f_ext;                     ///< constant external force, full vector of the finest degree
-  fem::Vec3 lo, hi, centre;         ///< bounding box
+  /// \var hi
+  /// Upper corner of the mesh's bounding box.
+
+  /// Lower corner of the mesh's bounding box (the mesh as refined, at rest).
+  fem::Vec3 lo, hi, centre;         ///< centre of the bounding box
+  /// The point whose displacement the run records (located once, here).
   Probe probe;
   std::vector<std::string> notes;     ///< what was done once or skipped, for the report
   std::vector<std::string> warnings;  ///< the mesh reader's (e.g. unused vertices)
+  /// The model of the finest degree (the scene's degree).
   const fem::ElasticityModel& finest() const { return hierarchy->finest(); }
 };
 

@@ -15,23 +15,32 @@
 
 namespace pmg {
 
+/// A dense 3x3 block, row-major like the blocks stored in Bcsr::values().
 using Block3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
+/// One 3x3 block of a block matrix under construction (Bcsr::from_block_triplets()).
 struct BlockTriplet {
   index_t row;  ///< block row
   index_t col;  ///< block column
-  Block3 value;
+  Block3 value;  ///< the block's 3x3 values
 };
 
 /// Pattern of a block matrix: the same arrays as CsrPattern, counted in blocks.
 using BlockPattern = CsrPattern;
 
+/// A matrix of dense 3x3 blocks in block CSR (see the file comment); the pattern is shared and
+/// immutable, the values are updated in place.
 class Bcsr final : public LinearOperator {
  public:
+  /// Rows (and columns) of one block.
   static constexpr int kBlock = 3;
+  /// Values per block.
   static constexpr int kBlockSize = kBlock * kBlock;
 
+  /// The empty 0x0 matrix.
   Bcsr() : pattern_(std::make_shared<BlockPattern>()) {}
+  /// Shares `pattern` (validated, counted in blocks) and takes the values, 9 per block in pattern
+  /// order. Throws InputError for a null or inconsistent pattern or a wrong number of values.
   Bcsr(std::shared_ptr<const BlockPattern> pattern, std::vector<double> values);
 
   /// Duplicates are summed.
@@ -49,16 +58,25 @@ class Bcsr final : public LinearOperator {
 
   index_t rows() const override { return kBlock * pattern_->rows; }
   index_t cols() const override { return kBlock * pattern_->cols; }
+  /// Number of block rows (rows() / 3).
   index_t block_rows() const { return pattern_->rows; }
+  /// Number of block columns (cols() / 3).
   index_t block_cols() const { return pattern_->cols; }
+  /// Number of stored blocks.
   offset_t num_blocks() const { return pattern_->nnz(); }
 
+  /// The block pattern (row pointers and column indices counted in blocks).
   const BlockPattern& pattern() const { return *pattern_; }
+  /// The pattern as the shared pointer other matrices of the same pattern can share.
   const std::shared_ptr<const BlockPattern>& shared_pattern() const { return pattern_; }
+  /// Values, 9 per block (row-major) in pattern order.
   const std::vector<double>& values() const { return values_; }
+  /// Mutable values in pattern order: write new values in place (the pattern stays).
   std::vector<double>& values() { return values_; }
 
+  /// Block k (0 <= k < num_blocks(), unchecked) as a writable 3x3 view into values().
   Eigen::Map<Block3> block(offset_t k) { return Eigen::Map<Block3>(values_.data() + kBlockSize * k); }
+  /// Block k (0 <= k < num_blocks(), unchecked) as a read-only 3x3 view into values().
   Eigen::Map<const Block3> block(offset_t k) const {
     return Eigen::Map<const Block3>(values_.data() + kBlockSize * k);
   }
@@ -72,6 +90,7 @@ class Bcsr final : public LinearOperator {
   void multiply(const double* x, double* y) const;
   /// Diagonal blocks (zero where a block row has none), 9 doubles each.
   std::vector<double> diagonal_blocks() const;
+  /// The scalar main diagonal (the diagonals of the diagonal blocks; zero where there is none).
   Vector diagonal() const;
 
  private:

@@ -27,8 +27,11 @@
 
 namespace pmg {
 
+/// A square 3x3-block matrix in the BIN-BCSR layout (see the file comment): the CPU reference of
+/// the GPU kernel, sliced once from a Bcsr and refilled with update_values().
 class BinBcsr final : public LinearOperator {
  public:
+  /// Scalar rows per bin (one GPU warp).
   static constexpr int kBinRows = 32;
 
   BinBcsr() = default;
@@ -40,17 +43,27 @@ class BinBcsr final : public LinearOperator {
 
   index_t rows() const override { return 3 * block_rows_; }
   index_t cols() const override { return 3 * block_rows_; }
+  /// Number of block rows (rows() / 3).
   index_t block_rows() const { return block_rows_; }
+  /// Number of bins: rows() / kBinRows, rounded up.
   index_t num_bins() const { return static_cast<index_t>(width_.size()); }
 
   // Layout arrays (read-only), for uploads to a device and for tests.
+  /// Per bin: the most off-diagonal blocks of any block row it touches (rows are padded to it).
   const std::vector<index_t>& width() const { return width_; }
+  /// Per bin: the first block row it touches.
   const std::vector<index_t>& first_block_row() const { return first_block_row_; }
+  /// Per bin: the number of block rows it touches (nbr in the file comment).
   const std::vector<index_t>& bin_block_rows() const { return bin_block_rows_; }
+  /// Per bin, plus one at the end: where the bin's block columns start in columns().
   const std::vector<offset_t>& col_offset() const { return col_offset_; }
+  /// Per bin, plus one at the end: where the bin's values start in values().
   const std::vector<offset_t>& val_offset() const { return val_offset_; }
+  /// Block-column indices of the off-diagonal blocks, bin by bin (-1: padding).
   const std::vector<index_t>& columns() const { return columns_; }
+  /// Off-diagonal values in the bins' column-major layout (zero in padding).
   const std::vector<double>& values() const { return values_; }
+  /// The diagonal blocks, 9 doubles per block row, row-major (zero where the source has none).
   const std::vector<double>& diagonal_blocks() const { return diag_; }
 
   /// Stored values including padding, over the values of the source matrix (>= 1).
@@ -58,6 +71,8 @@ class BinBcsr final : public LinearOperator {
   /// Bytes one SpMV reads and writes at least (values, columns, diagonal, x once, y once).
   double bytes_per_spmv() const;
 
+  /// Raw kernel: y[0:rows) = A x (x has cols() entries; x and y must not overlap). OpenMP parallel
+  /// over bins.
   void multiply(const double* x, double* y) const;
 
  private:

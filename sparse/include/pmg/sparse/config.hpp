@@ -19,8 +19,11 @@
 
 namespace pmg {
 
+/// A solver's options as a tree of dotted keys with a record of the keys read (see the file
+/// comment). A Config is a view: copies and child() views share the values and the record.
 class Config {
  public:
+  /// An empty tree with no origin.
   Config();
 
   /// Nested JSON object; arrays are refused, numbers and booleans kept as their JSON text.
@@ -31,6 +34,7 @@ class Config {
 
   /// A deep copy (a plain copy shares the values with the original, as child() views do).
   Config clone() const;
+  /// Where the values came from, as named in messages (empty when not given).
   const std::string& origin() const { return tree_->origin; }
 
   /// Sets (or replaces) a value; `key` is relative to this view's prefix.
@@ -39,6 +43,7 @@ class Config {
   void set_default(const std::string& key, const std::string& value);
   /// Every key of `other` (same prefix rules) set here, replacing existing values.
   void merge(const Config& other);
+  /// Whether the key has a value (does not mark it used).
   bool has(const std::string& key) const;
   /// Whether any key lies under `key.` (the subtree exists).
   bool has_child(const std::string& key) const;
@@ -48,12 +53,18 @@ class Config {
   /// Full dotted name of a key of this view ("preconditioner.smoother.sweeps").
   std::string full_key(const std::string& key) const;
 
+  /// The key's value as text, or `fallback` when it is not set. Every get_* reader marks the key
+  /// used and throws InputError naming the key (see fail()) when the value does not parse or lies
+  /// out of range.
   std::string get_string(const std::string& key, const std::string& fallback) const;
   /// One of `allowed` (the message lists them).
   std::string get_choice(const std::string& key, const std::string& fallback,
                          const std::vector<std::string>& allowed) const;
+  /// A decimal integer in [lo, hi], or `fallback` when the key is not set.
   int get_int(const std::string& key, int fallback, int lo, int hi) const;
+  /// A finite number in [lo, hi], or `fallback` when the key is not set.
   double get_double(const std::string& key, double fallback, double lo, double hi) const;
+  /// true/1/on or false/0/off, or `fallback` when the key is not set.
   bool get_bool(const std::string& key, bool fallback) const;
   /// Marks a key as read without reading it (a key a caller handles itself).
   void mark_used(const std::string& key) const;

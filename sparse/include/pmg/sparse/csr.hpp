@@ -16,12 +16,17 @@ namespace pmg {
 
 using Triplet = Eigen::Triplet<double, index_t>;
 
+/// The sparsity pattern of a CSR matrix (see the file comment): row pointers and sorted column
+/// indices, without values.
 struct CsrPattern {
+  /// Number of rows.
   index_t rows = 0;
+  /// Number of columns.
   index_t cols = 0;
   std::vector<offset_t> row_ptr{0};  ///< rows+1 entries
   std::vector<index_t> col_idx;      ///< sorted and unique within each row
 
+  /// Number of stored entries (row_ptr[rows]).
   offset_t nnz() const { return row_ptr.back(); }
   /// Position of entry (i, j) in the value array, or -1 if it is not in the pattern. O(log row).
   offset_t find(index_t i, index_t j) const;
@@ -29,9 +34,13 @@ struct CsrPattern {
   void validate() const;
 };
 
+/// A scalar CSR matrix: a shared immutable pattern and its values (see the file comment).
 class Csr final : public LinearOperator {
  public:
+  /// The empty 0x0 matrix.
   Csr() : pattern_(std::make_shared<CsrPattern>()) {}
+  /// Shares `pattern` (validated) and takes the values, one per entry in pattern order. Throws
+  /// InputError for a null or inconsistent pattern or a wrong number of values.
   Csr(std::shared_ptr<const CsrPattern> pattern, std::vector<double> values);
 
   /// Builds pattern and values from triplets; duplicates are summed. Throws on out-of-range indices.
@@ -39,14 +48,19 @@ class Csr final : public LinearOperator {
   /// Copies any Eigen sparse matrix (explicit zeros are kept in the pattern).
   template <int Options, typename Index>
   static Csr from_eigen(const Eigen::SparseMatrix<double, Options, Index>& A);
+  /// A copy as an Eigen row-major sparse matrix.
   Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> to_eigen() const;
 
   index_t rows() const override { return pattern_->rows; }
   index_t cols() const override { return pattern_->cols; }
+  /// Number of stored entries (explicit zeros included).
   offset_t nnz() const { return pattern_->nnz(); }
 
+  /// The pattern (row pointers and column indices).
   const CsrPattern& pattern() const { return *pattern_; }
+  /// The pattern as the shared pointer other matrices of the same pattern can share.
   const std::shared_ptr<const CsrPattern>& shared_pattern() const { return pattern_; }
+  /// Values in pattern order (nnz() of them).
   const std::vector<double>& values() const { return values_; }
   /// Mutable values in pattern order: write new values in place (the pattern stays).
   std::vector<double>& values() { return values_; }
@@ -57,7 +71,10 @@ class Csr final : public LinearOperator {
 
   /// Raw kernel: y[0:rows) = A x. OpenMP parallel over rows.
   void multiply(const double* x, double* y) const;
+  /// The main diagonal, min(rows, cols) entries (zero where the pattern has none).
   Vector diagonal() const;
+  /// Whether the matrix is square and every |a_ij - a_ji| <= rel_tol max |a| (a missing entry
+  /// counts as zero). Cost: one binary search per entry.
   bool is_symmetric(double rel_tol = 1e-12) const;
 
  private:

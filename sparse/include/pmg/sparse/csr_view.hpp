@@ -10,8 +10,12 @@
 
 namespace pmg {
 
+/// A CSR matrix in arrays owned by the caller, read in place (see the file comment). Nothing is
+/// copied: the arrays must outlive every use of the view.
 struct CsrView {
-  index_t rows = 0, cols = 0;
+  /// Number of rows.
+  index_t rows = 0, cols = 0;  ///< number of columns
+  /// Number of stored entries.
   offset_t nnz = 0;
   const void* row_ptr = nullptr;  ///< rows+1 entries of row_ptr_bytes each
   int row_ptr_bytes = 8;          ///< 4 (int32) or 8 (int64)
@@ -19,8 +23,11 @@ struct CsrView {
   int col_idx_bytes = 4;          ///< 4 or 8
   const double* values = nullptr; ///< nnz values
 
+  /// Position of row i's first entry (row_ptr[i]); i in [0, rows], unchecked.
   offset_t row_begin(index_t i) const { return ptr(i); }
+  /// One past row i's last entry (row_ptr[i + 1]); i in [0, rows), unchecked.
   offset_t row_end(index_t i) const { return ptr(i + 1); }
+  /// Column index of entry k; k in [0, nnz), unchecked.
   index_t col(offset_t k) const {
     return col_idx_bytes == 4 ? static_cast<const std::int32_t*>(col_idx)[k]
                               : static_cast<index_t>(static_cast<const std::int64_t*>(col_idx)[k]);

@@ -10,6 +10,7 @@
 
 #include "pmg/sparse/monitor.hpp"
 #include "pmg/sparse/operator.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/preconditioners.hpp"
 #include "pmg/sparse/solver.hpp"
 
@@ -17,7 +18,11 @@
 
 namespace pmg {
 
+/// Stopping and failure rules of the CG-type methods (and the stationary multigrid iteration);
+/// solver keys: see visit().
 struct KrylovParams {
+  /// Converged when ||r_i|| <= rel_tol ||r_0|| (key `tol`, in [0, 1)); the true residual must then
+  /// be within 2 rel_tol.
   double rel_tol = 1e-8;
   /// Also converged when ||r|| <= abs_tol (0: off). A warm-started time step can begin so close to
   /// its solution that rel_tol ||r_0|| lies below rounding; a floor such as 1e-12 ||b|| ends it.
@@ -25,6 +30,7 @@ struct KrylovParams {
   /// Also converged when ||r|| <= rhs_floor ||b|| (0: off): the rounding floor of warm-started
   /// solves, independent of the size of the right-hand side (simulations use 1e-12).
   double rhs_floor = 0.0;
+  /// Iteration limit: reaching it unconverged is SolveStatus::iteration_limit (a failure).
   int max_iterations = 10000;
   /// Run exactly max_iterations (the seed's "20 CG iterations"); only failures stop it early.
   bool fixed_iterations = false;
@@ -36,16 +42,33 @@ struct KrylovParams {
   /// total decrease over the same window. The residual alone is no test for CG: on hard problems
   /// it can stay above its initial value for thousands of iterations while CG progresses steadily.
   int stagnation_window = 1000;
+  /// Progress means a relative residual below stagnation_factor times the last reference value
+  /// (see stagnation_window); not a solver key.
   double stagnation_factor = 0.9;
   /// MCG only: read the residual for the convergence test every k iterations (as on a GPU).
   int check_every = 1;
+  /// A failed solve (breakdown, divergence, NaN/Inf, stagnation, iteration limit) throws
+  /// SolveError; false: it only sets the status of the returned SolveResult.
   bool throw_on_failure = true;
+  /// The keys tol, abs_tol, rhs_floor, max_iterations, fixed_iterations, divergence_limit,
+  /// stagnation_window and throw_on_failure (check_every is the merged CG's alone:
+  /// visit_check_every).
+  void visit(ParamVisitor& v);
+  /// The key check_every.
+  void visit_check_every(ParamVisitor& v);
 };
 
 /// Work vectors of one CG-type solve; reused across calls of the same size (no allocation per
 /// solve when a solver object keeps one).
 struct KrylovWorkspace {
-  Vector r, q, p, z;
+  /// \var q
+  /// The operator times the search direction (q = A p).
+
+  /// \var p
+  /// The search direction.
+
+  /// The residual (resized by each solve; the other vectors alike).
+  Vector r, q, p, z;  ///< the preconditioned residual (unused without a preconditioner)
 };
 
 /// Unpreconditioned CG on an SPD operator. x holds the initial guess and receives the solution.
@@ -75,14 +98,22 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
 /// CG, but it can solve a multigrid cycle's lowest level. Work vectors live in the object.
 class Cg final : public Solver {
  public:
+  /// Takes ownership of the preconditioner (nullptr: plain CG), which is set up and updated with
+  /// the Cg. Throws InputError when the preconditioner is not linear and symmetric.
   explicit Cg(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr);
   std::string name() const override;
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
-  bool uses_levels() const override { return M_ && M_->uses_levels(); }
-  bool uses_matrix_free() const override { return M_ && M_->uses_matrix_free(); }
+  SolverNeeds needs() const override { return M_ ? M_->needs() : SolverNeeds{}; }
+  TimingBreakdown timings() const override { return M_ ? M_->timings() : TimingBreakdown{}; }
+  void reset_timings() const override {
+    if (M_) M_->reset_timings();
+  }
+  /// The stopping rules, to change between solves (read at each solve).
   KrylovParams& params() { return params_; }
+  /// The stopping rules.
   const KrylovParams& params() const { return params_; }
+  /// The preconditioner, owned by the Cg (nullptr for plain CG).
   Solver* preconditioner() const { return M_.get(); }
   std::string describe() const override { return M_ ? M_->describe() : ""; }
   /// Multiply with `op` instead of the set-up matrix (the same matrix in another format, e.g.
@@ -104,12 +135,16 @@ class Cg final : public Solver {
 /// The merged CG with its built-in block-Jacobi preconditioner as a Solver.
 class MergedCg final : public Solver {
  public:
+  /// Not yet set up; setup() needs an operator of 3x3 blocks (size divisible by 3).
   explicit MergedCg(const KrylovParams& params = {}) : params_(params) {}
   std::string name() const override { return "mcg"; }
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
+  /// The stopping rules, to change between solves (read at each solve).
   KrylovParams& params() { return params_; }
+  /// Multiply with `op` instead of the set-up matrix, as Cg::set_multiplication_operator().
   void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }
+  /// The built-in block-Jacobi preconditioner (set up with the solver).
   const BlockJacobiPreconditioner& preconditioner() const { return M_; }
 
  private:

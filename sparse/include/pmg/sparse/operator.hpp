@@ -4,7 +4,7 @@
 // (Krylov solvers, preconditioners, smoothers, cycles, direct solvers) is a Solver
 // (pmg/sparse/solver.hpp), which is a LinearOperator too, so any of them can precondition or smooth
 // any other. The public
-// apply() checks sizes and then calls the private virtual apply_impl(); kernels never re-check.
+// apply() checks sizes and then calls the protected virtual apply_impl(); kernels never re-check.
 #pragma once
 
 #include "pmg/sparse/types.hpp"
@@ -14,28 +14,42 @@
 
 namespace pmg {
 
+/// A linear map from vectors of cols() entries to vectors of rows() entries (see the file comment):
+/// the base of every matrix and every Solver.
 class LinearOperator {
  public:
   virtual ~LinearOperator() = default;
 
+  /// Number of rows: the size of the result of apply().
   virtual index_t rows() const = 0;
+  /// Number of columns: the size of the argument of apply().
   virtual index_t cols() const = 0;
 
-  /// y = Op(x). y is resized to rows(); x must have cols() entries.
+  /// y = Op(x). y is resized to rows(); x must have cols() entries (InputError otherwise) and must
+  /// not be the same vector as y.
   void apply(const Vector& x, Vector& y) const;
 
-  /// y = Op(x) and returns dot(x, y) (square operators only). Matrices override this with a fused
+  /// y = Op(x) and returns dot(x, y) (square operators only: InputError otherwise, or when x does
+  /// not have cols() entries). Matrices override apply_dot_impl() with a fused
   /// kernel that reads y once (the merged CG's first step); the default applies then dots.
   double apply_dot(const Vector& x, Vector& y) const;
 
-  /// r = b - Op(x).
+  /// r = b - Op(x). r is resized to rows(); x must have cols() entries and b rows() entries
+  /// (InputError otherwise).
   void residual(const Vector& b, const Vector& x, Vector& r) const;
 
  protected:
+  /// y = Op(x), the operator's kernel. Called by apply() with x of cols() entries and y already
+  /// resized to rows(); need not re-check sizes, and may assume x and y do not alias.
   virtual void apply_impl(const Vector& x, Vector& y) const = 0;
+  /// y = Op(x), returning dot(x, y); called by apply_dot() on a square operator with sizes checked
+  /// and y resized. The default calls apply_impl() and then dots; override with a fused kernel.
   virtual double apply_dot_impl(const Vector& x, Vector& y) const;
+  /// r = b - Op(x); called by residual() with sizes checked and r resized to rows(). The default
+  /// applies into r and subtracts; matrices override it with a one-pass kernel.
   virtual void residual_impl(const Vector& b, const Vector& x, Vector& r) const;
 
+  /// Throws InputError, prefixed with `what`, unless rows() == cols().
   void check_square(const char* what) const;
 };
 

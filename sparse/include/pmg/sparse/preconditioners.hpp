@@ -14,8 +14,11 @@ namespace pmg {
 class JacobiPreconditioner final : public Solver {
  public:
   JacobiPreconditioner() = default;
+  /// Constructs and sets up on A (see Solver::setup()); throws InputError for a diagonal entry
+  /// that is not positive and finite.
   explicit JacobiPreconditioner(const LinearOperator& A) { setup(A); }
   std::string name() const override { return "jacobi"; }
+  /// D⁻¹ as a vector (as of the last setup() or update()).
   const Vector& inverse_diagonal() const { return inv_diag_; }
 
  private:
@@ -29,6 +32,8 @@ class JacobiPreconditioner final : public Solver {
 class BlockJacobiPreconditioner final : public Solver {
  public:
   BlockJacobiPreconditioner() = default;
+  /// Constructs and sets up on A (see Solver::setup()); throws InputError for a diagonal block
+  /// that is not SPD or an operator without 3x3 diagonal blocks.
   explicit BlockJacobiPreconditioner(const LinearOperator& A) { setup(A); }
   std::string name() const override { return "block-jacobi"; }
   /// Inverted diagonal blocks, 9 doubles each, row-major (used by the merged CG's fused step).

@@ -14,9 +14,9 @@
 //   apply(b,x)  x = M b, the solver started from x = 0: its use as a preconditioner or smoother.
 //   solve(b,x)  improves x (the initial guess) for A x = b and reports what happened.
 //
-// The public methods check their preconditions and call private virtuals (Ginkgo's LinOp
+// The public methods check their preconditions and call protected virtuals (Ginkgo's LinOp
 // pattern), so an implementation never re-checks sizes. Adding a solver is one class deriving
-// from Solver plus one registration in the factory (pmg/multigrid/factory.hpp).
+// from Solver plus one registration in the factory (pmg/sparse/factory.hpp).
 #pragma once
 
 #include "pmg/sparse/monitor.hpp"
@@ -25,12 +25,41 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pmg {
 
 class Bcsr;
 
+/// What a solver needs of a system's owner besides the finest matrix (the seam between an FEM
+/// discretisation and the solvers: one record, prepared by one call on the FEM side).
+struct SolverNeeds {
+  /// The matrices of the levels below the finest (a geometric multigrid reads them; a Galerkin
+  /// cycle forms its own from the finest).
+  bool lower_levels = false;
+  /// Matrix-free operators on every level above the lowest, the finest included: the solver is
+  /// set up on (and multiplies with) the finest level's operator, and no matrix above the lowest
+  /// level is assembled.
+  bool matrix_free = false;
+};
+
+/// A timing breakdown: named parts in seconds over `count` repetitions of a `unit` ("cycle").
+struct TimingBreakdown {
+  /// (part name, total seconds over all `count` repetitions), in report order.
+  std::vector<std::pair<std::string, double>> parts;
+  /// Number of repetitions the totals cover (0: nothing timed).
+  long count = 0;
+  /// What one repetition is, singular ("cycle"); to_string() appends "s" after the count.
+  std::string unit;
+  /// True when there is nothing to report (no parts or no repetitions).
+  bool empty() const { return parts.empty() || count == 0; }
+  /// "one cycle T ms: smoothing degree 3 T3 ms, ... (N cycles)" (times per unit); empty when empty().
+  std::string to_string() const;
+};
+
+/// Anything that approximates A⁻¹ (see the file comment): set up on A, then applied as a
+/// preconditioner or smoother (apply()) or run as a solver (solve()).
 class Solver : public LinearOperator {
  public:
   /// Short name for tables and messages ("cg", "cholmod", "multigrid", ...).
@@ -48,8 +77,9 @@ class Solver : public LinearOperator {
   /// parameters say otherwise.
   SolveResult solve(const Vector& b, Vector& x, SolveMonitor* monitor = nullptr) const;
 
+  /// True after a successful setup() (a setup() that threw leaves it false).
   bool is_set_up() const { return A_ != nullptr; }
-  /// The operator of the last setup().
+  /// The operator of the last setup(). Throws Error before setup().
   const LinearOperator& system() const;
   index_t rows() const override { return n_; }
   index_t cols() const override { return rows(); }
@@ -58,19 +88,28 @@ class Solver : public LinearOperator {
   virtual bool is_linear() const { return true; }
   /// apply() is a symmetric map, so that it can precondition CG.
   virtual bool is_symmetric() const { return true; }
-  /// The solver reads the lower level matrices of a hierarchy besides A (geometric multigrid): a
-  /// simulation then assembles its lower levels too. (A Galerkin cycle forms its own from A.)
-  virtual bool uses_levels() const { return false; }
-  /// The solver applies the hierarchy's matrix-free operators above the lowest level (a
-  /// multigrid cycle with operator=matrix-free): a simulation then updates those operators instead
-  /// of assembling their matrices, and sets the solver up on the finest matrix-free operator.
-  virtual bool uses_matrix_free() const { return false; }
+  /// What the solver needs from the code that owns the system (an FEM hierarchy), asked once after
+  /// it is built: fem::DegreeHierarchy::prepare() brings exactly those levels up to date and
+  /// returns the operator to set the solver up on. A Krylov method answers for its preconditioner.
+  virtual SolverNeeds needs() const { return {}; }
+  /// Where the time of the solves since the last reset_timings() went, by part (a multigrid
+  /// cycle's smoothing per level, residuals, transfers, lowest-level solve); empty when the solver
+  /// keeps no breakdown. A Krylov method reports its preconditioner's.
+  virtual TimingBreakdown timings() const { return {}; }
+  /// Starts the breakdown afresh (before a timed solve).
+  virtual void reset_timings() const {}
   /// What set-up chose and found, for reports (settings, hierarchy, ordering, factor size); empty
   /// when there is nothing beyond the name. A Krylov method reports its preconditioner's.
   virtual std::string describe() const { return ""; }
 
  protected:
+  /// The solver's set-up on A, called by setup() with A square (rows() and system() are not yet
+  /// valid: use A). Prepares everything apply() needs, work vectors included, and throws
+  /// InputError or Error as setup() documents. A outlives the set-up, so it may be kept by
+  /// reference.
   virtual void setup_impl(const LinearOperator& A) = 0;
+  /// Numeric set-up again after A's values changed on the same pattern; called by update() only
+  /// after a successful setup() (system() is the operator to read).
   virtual void update_impl() = 0;
   /// Default: x += M (b - A x), reported with its true residual relative to ||b - A x0||.
   virtual SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const;
@@ -80,10 +119,11 @@ class Solver : public LinearOperator {
   index_t n_ = 0;
 };
 
-/// A's diagonal: from Csr, Bcsr or BinBcsr. Throws InputError naming `who` for other operators.
+/// A's diagonal: from Csr, Bcsr, BinBcsr or a DiagonalBlocksSource (a matrix-free operator).
+/// Throws InputError naming `who` for other operators.
 Vector diagonal_of(const LinearOperator& A, const std::string& who);
-/// A's 3x3 diagonal blocks, 9 doubles each, row-major: from Bcsr, BinBcsr or a Csr with a size
-/// divisible by 3. Throws InputError naming `who` otherwise.
+/// A's 3x3 diagonal blocks, 9 doubles each, row-major: from Bcsr, BinBcsr, a Csr with a size
+/// divisible by 3 or a DiagonalBlocksSource. Throws InputError naming `who` otherwise.
 std::vector<double> diagonal_blocks_of(const LinearOperator& A, const std::string& who);
 /// A as a 3x3-block matrix; throws InputError naming `who` when A is not a Bcsr.
 const Bcsr& as_bcsr(const LinearOperator& A, const std::string& who);
@@ -93,8 +133,12 @@ const Bcsr& as_bcsr(const LinearOperator& A, const std::string& who);
 /// is used directly, without a copy.
 class ScalarMatrix {
  public:
+  /// Takes a Csr as is or copies a Bcsr to scalar CSR (pattern and values); A must outlive this
+  /// object. Throws InputError naming `who` for any other operator (BinBcsr, matrix-free).
   void setup(const LinearOperator& A, const std::string& who);
+  /// Copies the Bcsr's current values into the scalar copy (same pattern); nothing to do for a Csr.
   void refresh();
+  /// The scalar matrix: the Csr itself or the copy. Throws Error before setup().
   const Csr& csr() const;
   /// The block matrix the scalar copy was made from (nullptr for a CSR operator).
   const Bcsr* block() const { return block_; }

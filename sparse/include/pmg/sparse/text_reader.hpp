@@ -10,6 +10,8 @@
 
 namespace pmg {
 
+/// Reads a text stream line by line and throws errors that name the file and the line (see the
+/// file comment). Holds a reference to the stream, which must outlive it.
 class TextReader {
  public:
   /// comment: lines whose first non-blank character is this are skipped by next_data_line().
@@ -22,6 +24,7 @@ class TextReader {
   /// Next data line split on white space (never empty); fails with `what` at end of file.
   std::vector<std::string> next_tokens(const char* what);
 
+  /// Throws InputError "name:line: what" for the current line.
   [[noreturn]] void fail(const std::string& what) const;
   /// The whole token as an integer (an embedded NUL or trailing junk is an error).
   long long to_integer(const std::string& token, const char* what) const;
@@ -36,7 +39,10 @@ class TextReader {
   /// A finite real number.
   double to_real(const std::string& token, const char* what = "a real value") const;
 
+  /// The input's name as messages give it (usually the file path).
   const std::string& name() const { return name_; }
+  /// Number of the current line, 1-based: the line last read, or at end of file the missing one
+  /// (0 before the first read).
   long line_number() const { return line_no_; }
 
  private:

@@ -4,6 +4,8 @@
 
 #include "pmg/sparse/types.hpp"
 
+#include <vector>
+
 namespace pmg::ops {
 
 double dot(const Vector& x, const Vector& y);
@@ -14,5 +16,9 @@ void axpy(double a, const Vector& x, Vector& y);
 void xpby(const Vector& x, double b, Vector& y);
 /// True if every entry is finite.
 bool all_finite(const Vector& x);
+/// z = D r, D block diagonal: 3x3 row-major blocks (9 doubles each), one per 3 entries of r.
+void block_diagonal_apply(const std::vector<double>& D, const Vector& r, Vector& z);
+/// x += a D r, D as for block_diagonal_apply.
+void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x);
 
 }  // namespace pmg::ops

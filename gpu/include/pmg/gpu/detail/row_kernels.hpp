@@ -6,6 +6,8 @@
 // Layouts are those of pmg/sparse/bin_bcsr.hpp and bcsr.hpp (index_t = int32, offset_t = int64).
 #pragma once
 
+#include "pmg/sparse/block3.hpp"
+
 #include <cstdint>
 
 #if defined(__CUDACC__)
@@ -94,20 +96,13 @@ PMG_HD void transfer_row(const CsrView& T, const double* x, double* y, int i, bo
   }
 }
 
-/// z = B r for one 3x3 row-major block B and 3-vectors r, z.
-PMG_HD void block_apply(const double* B, const double* r, double* z) {
-  z[0] = B[0] * r[0] + B[1] * r[1] + B[2] * r[2];
-  z[1] = B[3] * r[0] + B[4] * r[1] + B[5] * r[2];
-  z[2] = B[6] * r[0] + B[7] * r[1] + B[8] * r[2];
-}
-
 /// One Chebyshev step on block row I (tests/gpu checks it against mg::Chebyshev):
 ///   d_I = c1 d_I + c2 D_I⁻¹ r_I ;  x_I += d_I      (c1 = 0: d is not read, may be uninitialised)
 PMG_HD void chebyshev_block(const double* inv_diag, const double* r, double* d, double* x, int I,
                             double c1, double c2) {
   const std::int64_t o = 3 * static_cast<std::int64_t>(I);
   double z[3];
-  block_apply(inv_diag + 9 * static_cast<std::int64_t>(I), r + o, z);
+  block3_apply(inv_diag + 9 * static_cast<std::int64_t>(I), r + o, z);
   for (int c = 0; c < 3; ++c) {
     d[o + c] = c1 == 0.0 ? c2 * z[c] : c1 * d[o + c] + c2 * z[c];
     x[o + c] += d[o + c];

@@ -1,4 +1,7 @@
-#include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/hypre/boomeramg.hpp"
+
+#include "pmg/mpi/session.hpp"
+#include "pmg/sparse/factory.hpp"
 
 #include <HYPRE.h>
 #include <HYPRE_parcsr_ls.h>
@@ -8,35 +11,13 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <string>
 
 namespace pmg::mg {
 
 namespace {
-
-/// Initialises MPI once; finalises it at exit if we initialised it.
-struct MpiSession {
-  bool owned = false;
-  MpiSession() {
-    int initialized = 0;
-    MPI_Initialized(&initialized);
-    if (!initialized) {
-      MPI_Init(nullptr, nullptr);
-      owned = true;
-    }
-  }
-  ~MpiSession() {
-    int finalized = 0;
-    MPI_Finalized(&finalized);
-    if (owned && !finalized) MPI_Finalize();
-  }
-};
-
-MpiSession& mpi() {
-  static MpiSession session;
-  return session;
-}
 
 void check(HYPRE_Int err, const char* what) {
   if (err) {
@@ -48,20 +29,6 @@ void check(HYPRE_Int err, const char* what) {
 }
 
 }  // namespace
-
-int mpi_rank() {
-  mpi();
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
-}
-
-int mpi_size() {
-  mpi();
-  int s = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &s);
-  return s;
-}
 
 struct BoomerAMG::Impl {
   BoomerAMGParams params;
@@ -105,21 +72,35 @@ BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Imp
                      "them only there): set nodal=1..6, e.g. nodal=4");
 }
 
+void BoomerAMGParams::visit(ParamVisitor& v) {
+  v.integer("cycles", cycles, 1, 1000, "V-cycles per application");
+  v.integer("num_functions", num_functions, 1, 64, "unknowns per node (systems AMG), interleaved");
+  v.integer("nodal", nodal, 0, 6, "0: unknown-based coarsening; 1-6: nodal, on a norm of each node's block");
+  v.integer("nodal_diag", nodal_diag, 0, 2, "nodal: 1 = the nodal matrix's diagonal is minus its row sum");
+  v.real("strong_threshold", strong_threshold, 1e-6, 1 - 1e-6, "strength of connection");
+  v.integer("coarsen_type", coarsen_type, 0, 22, "10 HMIS, 8 PMIS, 6 Falgout, ...");
+  v.integer("interp_type", interp_type, 0, 100, "6 extended+i, 0 classical, ...");
+  v.integer("p_max", p_max_elements, 0, 1000, "interpolation entries per row (0: no limit)");
+  v.real("trunc_factor", trunc_factor, 0.0, 1.0, "interpolation truncation factor");
+  v.integer("relax_type", relax_type, 0, 100, "8 l1-symmetric Gauss-Seidel, 6 hybrid symmetric GS, 16 Chebyshev, ...");
+  v.integer("relax_coarse", relax_coarse, 0, 100, "relaxation on the coarsest level (9: Gaussian elimination)");
+  v.integer("relax_order", relax_order, 0, 1, "0 natural order, 1 C/F order");
+  v.integer("sweeps", sweeps, 1, 100, "relaxation sweeps per level, down and up");
+  v.integer("agg_levels", agg_levels, 0, 100, "levels of aggressive coarsening");
+  v.integer("agg_interp_type", agg_interp_type, 1, 8, "interpolation on aggressive levels (4: multipass)");
+  v.integer("max_levels", max_levels, 2, 100, "levels at most");
+  v.integer("max_coarse_size", max_coarse_size, 1, 1000000, "coarsest level size at most");
+  std::string vectors = interp_vectors > 0 ? "rigid" : "none";
+  v.choice("interp_vectors", vectors, {"none", "rigid"},
+           "rigid: the rotations from node coordinates as interpolation vectors (needs nodal)");
+  interp_vectors = vectors == "rigid" ? 3 : 0;
+  v.integer("interp_vec_variant", interp_vec_variant, 1, 3, "1, 2: GM approaches, 3: LN approach");
+}
+
 std::string to_string(const BoomerAMGParams& p) {
-  std::ostringstream s;
-  s << "num_functions=" << p.num_functions << " nodal=" << p.nodal;
-  if (p.nodal) s << " nodal_diag=" << p.nodal_diag;
-  s << " coarsen_type=" << p.coarsen_type << " strong_threshold=" << p.strong_threshold
-    << " interp_type=" << p.interp_type << " p_max=" << p.p_max_elements
-    << " trunc_factor=" << p.trunc_factor << " relax_type=" << p.relax_type
-    << " relax_coarse=" << p.relax_coarse << " relax_order=" << p.relax_order
-    << " sweeps=" << p.sweeps << " agg_levels=" << p.agg_levels;
-  if (p.agg_levels) s << " agg_interp_type=" << p.agg_interp_type;
-  s << " max_levels=" << p.max_levels << " max_coarse_size=" << p.max_coarse_size
-    << " interp_vectors=" << (p.interp_vectors ? "rigid" : "none");
-  if (p.interp_vectors) s << " interp_vec_variant=" << p.interp_vec_variant;
-  s << " cycles=" << p.cycles;
-  return s.str();
+  std::string s;
+  for (const KeyInfo& k : list_params(p)) s += (s.empty() ? "" : " ") + k.key + "=" + k.default_value;
+  return s;
 }
 
 void BoomerAMG::set_coordinates(std::vector<double> xyz) { impl_->coordinates = std::move(xyz); }
@@ -162,7 +143,7 @@ void BoomerAMG::build(const Csr& A) {
   // hierarchy can flag an argument), so that this set-up reports only its own errors.
   HYPRE_ClearAllErrors();
   const index_t n = A.rows();
-  const int size = mpi_size(), rank = mpi_rank();
+  const int size = mpi::size(), rank = mpi::rank();
   // Contiguous row blocks, whole nodes per rank.
   const index_t nodes = n / d.params.num_functions;
   d.counts.assign(size, 0);
@@ -272,7 +253,7 @@ void BoomerAMG::build(const Csr& A) {
   if (setup_error && q.interp_vectors > 0 && q.interp_vec_variant > 1) {
     HYPRE_ClearAllErrors();
     // Measured with hypre 2.26: the GM-2 and LN variants fail ("Error in argument 1") on the
-    // README's Homer P3 (any p_max) and on a 6x2x2 quadratic bar with p_max=4; GM-1 sets up.
+    // Homer P3 system of docs/performance.md (any p_max) and on a 6x2x2 quadratic bar with p_max=4; GM-1 sets up.
     throw Error("hypre: BoomerAMGSetup failed with rigid-body interpolation vectors of variant " +
                 std::to_string(q.interp_vec_variant) + " (p_max=" + std::to_string(q.p_max_elements) +
                 "), which hypre does not manage on this matrix: try interp_vec_variant=1, or p_max=0");
@@ -312,7 +293,7 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   check(HYPRE_BoomerAMGSolve(d.solver, parA, parb, parx), "BoomerAMGSolve");
   std::vector<double> local(nlocal);
   if (nlocal > 0) HYPRE_IJVectorGetValues(d.x, nlocal, d.local_rows.data(), local.data());
-  if (mpi_size() == 1) {
+  if (mpi::size() == 1) {
     std::copy(local.begin(), local.end(), z.data());
   } else {
     MPI_Allgatherv(local.data(), nlocal, MPI_DOUBLE, z.data(), d.counts.data(), d.displs.data(),
@@ -320,13 +301,43 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   }
 }
 
-double start_mpi_for_hypre(const Config& config) {
-  bool hypre = false;
-  for (const auto& kv : config.items()) hypre |= kv.second.rfind("boomeramg", 0) == 0;
-  if (!hypre) return -1.0;
-  const auto t0 = std::chrono::steady_clock::now();
-  mpi_size();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}  // namespace pmg::mg
+
+namespace pmg::hypre {
+
+namespace {
+
+/// BoomerAMG with the context's node coordinates (for rigid-body interpolation vectors).
+std::unique_ptr<mg::BoomerAMG> make_boomeramg(const Config& c, const SolverContext& ctx) {
+  auto amg = std::make_unique<mg::BoomerAMG>(read_params<mg::BoomerAMGParams>(c));
+  if (amg->params().interp_vectors > 0) {
+    if (!ctx.coordinates)
+      c.fail("interp_vectors", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
+                               "them; a matrix read from a file does not");
+    amg->set_coordinates(*ctx.coordinates);
+  }
+  return amg;
 }
 
-}  // namespace pmg::mg
+}  // namespace
+
+void register_solvers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    const std::vector<KeyInfo> amg = list_params<mg::BoomerAMGParams>();
+    auto start = [] { mpi::start(); };
+    register_builtin_solver({"boomeramg-pcg", "CG preconditioned by hypre BoomerAMG V-cycles", krylov_keys() + amg, false,
+                     false, "hypre", start},
+                    [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                      const KrylovParams k = read_krylov(c);
+                      return std::make_unique<Cg>(k, make_boomeramg(c, ctx));
+                    });
+    register_builtin_solver({"boomeramg", "hypre BoomerAMG V-cycles (a fixed symmetric operator)", amg, false, false,
+                     "hypre", start},
+                    [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                      return make_boomeramg(c, ctx);
+                    });
+  });
+}
+
+}  // namespace pmg::hypre

@@ -2,10 +2,10 @@
 // against our CHOLMOD on a small SPD elasticity system, and their bad options named in errors.
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
-#include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/hypre/boomeramg.hpp"
 #include "pmg/multigrid/factory.hpp"
-#include "pmg/multigrid/petsc.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/petsc/petsc.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 
 #include <catch2/catch.hpp>
 

@@ -1,28 +1,25 @@
-// pmg/multigrid/boomeramg.hpp — hypre's BoomerAMG, the algebraic-multigrid baseline, as a Solver
+// pmg/hypre/boomeramg.hpp — hypre's BoomerAMG, the algebraic-multigrid baseline, as a Solver
 // (V-cycles per apply, for PCG, or as the lowest-level solver of PMG). The one hypre adapter.
 //
-// Every BoomerAMG option that matters for elasticity is a field of BoomerAMGParams (and a key of
-// the factory: docs/solvers.md); the defaults are the fastest measured on the README's Homer P3 and
-// Bunny P2 systems by tools/amg_sweep.py (table in the README): HMIS coarsening with one level of
-// aggressive coarsening (multipass interpolation there), extended+i interpolation truncated to 6
-// entries, strong threshold 0.5, unknown-based systems AMG, l1-Gauss-Seidel. What the sweep found:
-//   - nodal coarsening (SetNodal 4, the norm of each node's 3x3 block) needs 2-3x the iterations
-//     of unknown-based systems AMG on these higher-order matrices, so it is off (nodal = 0);
-//   - one level of aggressive coarsening cuts the operator complexity from 1.5-1.8 to 1.1 and the
-//     time per iteration by 25-40% for 0-25% more iterations: the fastest to 1e-6 on both models;
-//     strong_threshold=0.25 agg_levels=0 needs the fewest iterations (94 and 61) at 1.2-1.4x the time;
-//   - one rank's l1-Gauss-Seidel (8) and hybrid Gauss-Seidel (6) are the same sweep; C/F order
-//     (relax_order=1, PETSc's default for hypre) costs iterations here.
+// Every BoomerAMG option that matters for elasticity is a field of BoomerAMGParams and a key of the
+// factory (BoomerAMGParams::visit; `pmg solvers`). The defaults are the fastest that
+// tools/amg_sweep.py found on the Homer P3 and Bunny P2 systems (docs/performance.md): HMIS
+// coarsening with one level of aggressive coarsening (multipass interpolation there), extended+i
+// interpolation truncated to 6 entries, strong threshold 0.5, unknown-based systems AMG,
+// l1-Gauss-Seidel. Nodal coarsening needed more iterations than unknown-based systems AMG on these
+// higher-order matrices, so it is off.
 // Rigid-body interpolation vectors (Baker, Kolev & Yang, "Improving algebraic multigrid
 // interpolation operators for linear elasticity problems", 2010) are an option: the three
 // rotations computed from node coordinates (SolverContext::coordinates), which hypre supports only
 // with nodal coarsening.
-// MPI is initialised on first use (one rank by default; under mpirun each rank owns a contiguous
-// block of rows, every rank holds the whole matrix and vectors, and results are gathered).
+// MPI is started on first use (pmg/mpi/session.hpp; one rank by default; under mpirun each rank
+// owns a contiguous block of rows, every rank holds the whole matrix and vectors, and results are
+// gathered).
 #pragma once
 
 #include "pmg/sparse/config.hpp"
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <memory>
@@ -31,10 +28,12 @@
 
 namespace pmg::mg {
 
+/// BoomerAMG's options (hypre's numeric codes; see the file comment for the defaults).
 struct BoomerAMGParams {
   int num_functions = 3;        ///< unknowns per node (systems AMG), interleaved
   int nodal = 0;                ///< 0: unknown-based; 1-6: nodal coarsening on a norm of the blocks
   int nodal_diag = 1;           ///< nodal: 1 = diagonal of the nodal matrix is minus the row sum
+  /// Strength-of-connection threshold, in (0, 1).
   double strong_threshold = 0.5;
   int coarsen_type = 10;        ///< 10 HMIS, 8 PMIS, 6 Falgout, ...
   int interp_type = 6;          ///< 6 extended+i, 0 classical, ...
@@ -46,18 +45,24 @@ struct BoomerAMGParams {
   int sweeps = 1;               ///< relaxation sweeps per level, down and up
   int agg_levels = 1;           ///< levels of aggressive coarsening
   int agg_interp_type = 4;      ///< interpolation on aggressive levels (4: multipass)
-  int max_levels = 25;
-  int max_coarse_size = 9;
+  int max_levels = 25;          ///< levels at most
+  int max_coarse_size = 9;      ///< coarsest level size at most
   int interp_vectors = 0;       ///< 0 none, 3 the rigid-body rotations (needs coordinates, nodal)
   int interp_vec_variant = 2;   ///< 1, 2: GM approaches, 3: LN approach
   int cycles = 1;               ///< V-cycles per apply
+  /// Every field above as a factory key (p_max_elements is `p_max`, interp_vectors none | rigid).
+  void visit(ParamVisitor& v);
 };
 
 /// The settings as "key=value ..." in the factory's key names.
 std::string to_string(const BoomerAMGParams& params);
 
+/// hypre's BoomerAMG as a Solver (see the file comment).
 class BoomerAMG final : public Solver {
  public:
+  /// Not yet set up. Throws InputError for inconsistent parameters (num_functions or cycles below
+  /// 1, strong_threshold outside (0, 1), rigid-body vectors without nodal coarsening or without 3
+  /// functions).
   explicit BoomerAMG(const BoomerAMGParams& params = {});
   /// Sets up on A at once (CSR or BCSR).
   BoomerAMG(const LinearOperator& A, const BoomerAMGParams& params) : BoomerAMG(params) { setup(A); }
@@ -66,6 +71,7 @@ class BoomerAMG final : public Solver {
   BoomerAMG& operator=(const BoomerAMG&) = delete;
 
   std::string name() const override { return "boomeramg"; }
+  /// The parameters given at construction.
   const BoomerAMGParams& params() const;
   /// Node coordinates (x, y, z per node of the system, interleaved like the unknowns) for the
   /// rigid-body interpolation vectors; needed before setup() when params.interp_vectors > 0.
@@ -74,7 +80,9 @@ class BoomerAMG final : public Solver {
   std::string describe() const override;
   /// After set-up: number of levels, sum of the level sizes / finest size, and the same for nonzeros.
   int num_levels() const;
+  /// After set-up: the sum of the level sizes over the finest size (0 before set-up).
   double grid_complexity() const;
+  /// After set-up: the sum of the levels' nonzeros over the finest level's (0 before set-up).
   double operator_complexity() const;
 
  private:
@@ -89,13 +97,12 @@ class BoomerAMG final : public Solver {
   ScalarMatrix scalar_;
 };
 
-/// Rank and number of ranks of MPI_COMM_WORLD (initialising MPI if needed).
-int mpi_rank();
-int mpi_size();
-
-/// When a solver configuration uses hypre (a method starting "boomeramg" anywhere in it), starts
-/// MPI now — its start-up is paid once per process, not per solve, so a caller does this before
-/// its clocks — and returns the seconds it took; otherwise returns a negative number.
-double start_mpi_for_hypre(const Config& config);
-
 }  // namespace pmg::mg
+
+namespace pmg::hypre {
+
+/// Registers the methods boomeramg and boomeramg-pcg (idempotent; a name the user registered is kept); their
+/// start-up hook starts MPI (pmg::start_libraries).
+void register_solvers();
+
+}  // namespace pmg::hypre

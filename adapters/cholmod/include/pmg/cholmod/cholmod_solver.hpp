@@ -1,4 +1,4 @@
-// pmg/sparse/cholmod_solver.hpp — sparse Cholesky through CHOLMOD (supernodal), with the symbolic
+// pmg/cholmod/cholmod_solver.hpp — sparse Cholesky through CHOLMOD (supernodal), with the symbolic
 // analysis (ordering, elimination tree, supernodes: once per pattern) separate from the numeric
 // factorisation (once per change of values), as Eigen's analyzePattern/factorize. The one adapter
 // of CHOLMOD in pmgkit: as a Solver (setup(A) analyses and factorises, update() refactorises
@@ -6,37 +6,50 @@
 #pragma once
 
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <memory>
+#include <string>
 
 namespace pmg {
 
+/// The options of the `cholmod` method (see CholmodSolver's constructor).
+struct CholmodParams {
+  std::string ordering = "metis";  ///< metis, auto, amd or nesdis
+  int blas_threads = 0;            ///< BLAS threads of factorisations and solves (0: BLAS's own)
+  int factor_threads = -1;         ///< BLAS threads of large factorisations (-1: blas_threads)
+  /// The keys ordering, blas_threads and factor_threads.
+  void visit(ParamVisitor& v);
+};
+
+/// CHOLMOD's supernodal Cholesky as a Solver (see the file comment).
 class CholmodSolver final : public Solver {
  public:
   std::string name() const override { return "cholmod"; }
   /// ordering: "metis" (the default: METIS nested dissection alone), "auto" (CHOLMOD's default:
   /// AMD, and METIS too when AMD's factor is costly; the better one is kept), "amd", or "nesdis"
-  /// (CHOLMOD's nested dissection). On the README's 3-D elasticity systems METIS gives the
-  /// smallest factor every time (Homer P3: 3.43e7 nonzeros against AMD's 3.70e7; Bunny P2: 2.57e7
-  /// against 3.12e7), so "auto" only adds AMD's time to the analysis (0.2-0.3 s of 1 s).
+  /// (CHOLMOD's nested dissection). On 3-D elasticity systems METIS gives the smallest factor
+  /// (docs/performance.md), so "auto" only adds AMD's analysis time.
   ///
   /// blas_threads: threads of the BLAS under CHOLMOD's supernodes during this solver's
   /// factorisations and solves (restored after each call); 0 leaves the BLAS's own setting. Only
   /// OpenBLAS is steered (found at run time; other BLAS libraries ignore it). OpenBLAS's pthreads
-  /// build keeps its own worker threads, which spin on sched_yield for a while after every call:
-  /// next to pmgkit's OpenMP kernels they take a core from them. A multigrid's lowest level is
-  /// factorised and solved between those kernels, so the factory gives it 1 (on the twisted cubic
-  /// Homer this halved the matrix-free solve time: README, matrix-free section); a large standalone
-  /// factorisation gains a little from more (Homer P3: 2.30 s with 2 threads, 2.58 s with 1).
+  /// build keeps its own worker threads, which spin for a while after every call: next to
+  /// pmgkit's OpenMP kernels they take a core from them, so a multigrid's lowest level, factorised
+  /// and solved between those kernels, gets 1 from the factory. With one BLAS thread, CHOLMOD's
+  /// own OpenMP regions run on the calling thread too.
   ///
   /// factor_threads: the BLAS threads of the factorisations alone (-1: blas_threads; 0: the BLAS's
   /// own setting), for factorisations of 1e9 flops or more (smaller ones run on blas_threads: the
   /// threads' start-up would cost more than they save). With serial solves (blas_threads 1) and a
   /// threaded factorisation, OpenBLAS's workers are ended after it rather than left spinning (so no
-  /// other thread of the program may be inside OpenBLAS at that moment). The cube's linear level
-  /// (77k unknowns, 3.0e10 flops): 1.74 s with 1 thread, 1.25 s with 2.
+  /// other thread of the program may be inside OpenBLAS at that moment).
+  ///
+  /// Throws InputError for an unknown ordering, blas_threads below 0 or factor_threads below -1.
   explicit CholmodSolver(const std::string& ordering = "metis", int blas_threads = 0, int factor_threads = -1);
+  /// The same with the options as a parameter struct (the factory's keys).
+  explicit CholmodSolver(const CholmodParams& p) : CholmodSolver(p.ordering, p.blas_threads, p.factor_threads) {}
   ~CholmodSolver() override;
   CholmodSolver(const CholmodSolver&) = delete;
   CholmodSolver& operator=(const CholmodSolver&) = delete;
@@ -44,9 +57,7 @@ class CholmodSolver final : public Solver {
   /// Symbolic analysis of a symmetric matrix (only one triangle is read). With `blocks` (the 3x3
   /// block pattern A was expanded from, interleaved unknowns) and ordering "metis", the
   /// fill-reducing ordering is computed on the graph of the blocks (9x fewer edges) and expanded to
-  /// the unknowns: each node's three unknowns stay together. On the cube's linear level (77k
-  /// unknowns) this cut the analysis from 0.60 to 0.32 s for the same factor size (2.33e7 against
-  /// 2.34e7 nonzeros); on the cubic Homer (97.5k unknowns) 1.23 to 0.99 s, 1.5% more nonzeros.
+  /// the unknowns: each node's three unknowns stay together, for about the same factor size.
   void analyze(const Csr& A, const CsrPattern* blocks = nullptr);
   /// Numeric factorisation; A must have the analysed pattern. Throws Error naming the column where
   /// positive definiteness fails.
@@ -80,3 +91,10 @@ class CholmodSolver final : public Solver {
 };
 
 }  // namespace pmg
+
+namespace pmg::cholmod {
+
+/// Registers the method `cholmod` in the solver factory (idempotent; a name the user registered is kept).
+void register_solvers();
+
+}  // namespace pmg::cholmod

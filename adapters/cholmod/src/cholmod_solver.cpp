@@ -1,6 +1,7 @@
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 
 #include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include <cholmod.h>
 #include <dlfcn.h>
@@ -188,7 +189,7 @@ void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   Impl& d = *impl_;
   if (d.factor) cholmod_l_free_factor(&d.factor, &d.common);
   d.factorized = false;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   d.pattern = A.shared_pattern();
   const CsrPattern& pat = A.pattern();
   n_ = A.rows();
@@ -215,7 +216,7 @@ void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   } else {
     d.factor = cholmod_l_analyze(&view, &d.common);
   }
-  d.analyze_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  d.analyze_seconds = seconds_since(t0);
   d.flops = d.common.fl;
   if (!d.factor || d.common.status < CHOLMOD_OK)
     throw Error("CHOLMOD: symbolic analysis failed (status " + std::to_string(d.common.status) + ")");
@@ -230,7 +231,7 @@ void CholmodSolver::factorize(const Csr& A) {
   for (double v : A.values())
     if (!std::isfinite(v)) throw InputError("CHOLMOD: matrix has NaN/Inf entries");
   d.factorized = false;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const double* values = A.values().data();
   const std::size_t m = d.from.size();
   for (std::size_t k = 0; k < m; ++k) d.x[k] = values[d.from[k]];
@@ -246,7 +247,7 @@ void CholmodSolver::factorize(const Csr& A) {
   // the factorisation, beside the caller's OpenMP kernels.
   if (blas_threads_ == 1 && threads != 1 && BlasThreadControl::instance().shutdown)
     BlasThreadControl::instance().shutdown();
-  d.factorize_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  d.factorize_seconds = seconds_since(t0);
   if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n)
     throw Error("CHOLMOD: matrix is not positive definite (factorisation fails at column " +
                 std::to_string(d.factor->minor) + " of " + std::to_string(d.factor->n) + ")");
@@ -316,7 +317,7 @@ void CholmodSolver::update_impl() {
 }
 
 SolveResult CholmodSolver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   if (monitor) monitor->start(), monitor->record(0, 1.0);
   apply(b, x);
   Vector r;
@@ -328,7 +329,7 @@ SolveResult CholmodSolver::solve_impl(const Vector& b, Vector& x, SolveMonitor* 
   res.initial_residual = bn;  // a direct solve ignores x0: report relative to ||b||
   res.rel_residual = res.true_rel_residual = bn > 0 ? r.norm() / bn : 0.0;
   if (monitor) monitor->record(1, res.rel_residual);
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.seconds = seconds_since(t0);
   return res;
 }
 
@@ -351,4 +352,36 @@ void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
   x = Eigen::Map<const Vector>(static_cast<const double*>(d.X->x), b.size());
 }
 
+}  // namespace pmg
+
+// ---- the factory method -------------------------------------------------------------------------
+
+#include "pmg/sparse/factory.hpp"
+
+namespace pmg {
+
+void CholmodParams::visit(ParamVisitor& v) {
+  v.choice("ordering", ordering, {"metis", "auto", "amd", "nesdis"},
+           "fill-reducing ordering (metis on a BCSR matrix orders the graph of its 3x3 blocks)");
+  v.integer("blas_threads", blas_threads, 0, 4096,
+            "BLAS threads in factorisations and solves (0: the BLAS's own; a multigrid's lowest level: 1)");
+  v.integer("factor_threads", factor_threads, -1, 4096,
+            "BLAS threads of factorisations of >= 1e9 flops (-1: blas_threads, 0: the BLAS's own; "
+            "a multigrid's lowest level: 0)");
+}
+
+namespace cholmod {
+
+void register_solvers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    register_builtin_solver({"cholmod", "sparse Cholesky (CHOLMOD, supernodal): symbolic once, numeric per update",
+                     list_params<CholmodParams>(), false, false, "cholmod"},
+                    [](const Config& c, const SolverContext&) {
+                      return std::make_unique<CholmodSolver>(read_params<CholmodParams>(c));
+                    });
+  });
+}
+
+}  // namespace cholmod
 }  // namespace pmg

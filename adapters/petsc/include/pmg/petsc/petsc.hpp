@@ -1,4 +1,4 @@
-// pmg/multigrid/petsc.hpp — PETSc's preconditioners beside hypre's, as a Solver: GAMG (smoothed
+// pmg/petsc/petsc.hpp — PETSc's preconditioners beside hypre's, as a Solver: GAMG (smoothed
 // aggregation with the rigid-body near-null space, the recipe FEniCSx gives for elasticity), and
 // PETSc's Cholesky factorisations through MUMPS and CHOLMOD. The one PETSc adapter; built when
 // PETSc is found (Debian's libpetsc-real-dev: scripts/setup.sh installs it), else the factory's
@@ -6,7 +6,7 @@
 //
 // The matrix is a PETSc AIJ matrix over our scalar CSR's column indices and values (no copy of
 // them; the 64-bit row offsets are narrowed once to PETSc's 32-bit PetscInt), with block size 3.
-// PETSc is initialised once per process after MPI (hypre's session) and finalised before it.
+// PETSc is initialised once per process after MPI (pmg/mpi/session.hpp) and finalised before it.
 // Options beyond the keys below go through PETSc's options database under a prefix of this
 // object's own ("options": "-pc_gamg_threshold 0.02 -mg_levels_ksp_max_it 3"), so two solvers of
 // one run never share settings.
@@ -14,6 +14,7 @@
 
 #include "pmg/sparse/config.hpp"
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <memory>
@@ -22,34 +23,44 @@
 
 namespace pmg::mg {
 
+/// The options of PetscPreconditioner (solver keys: see visit()).
 struct PetscParams {
   /// "gamg": one GAMG V-cycle per apply (a fixed symmetric operator, for CG); "mumps" and
   /// "cholmod": PETSc's Cholesky factorisation by that package (a direct solve per apply).
   std::string type = "gamg";
-  /// gamg: the six rigid-body modes from node coordinates as the near-null space (else PETSc's
-  /// default, the constants of each of the 3 components).
+  /// gamg, the factory's key: "rigid" (the six rigid-body modes from node coordinates), "none"
+  /// (PETSc's default, the constants of each of the 3 components) or "auto" (rigid where the
+  /// coordinates are known); resolved into rigid_near_null_space.
+  std::string near_null_space = "auto";
+  /// gamg: the rigid-body modes as the near-null space (set_coordinates before setup).
   bool rigid_near_null_space = true;
   /// Further PETSc options ("-name value ..."; "-pc_" and "-mg_" options of the PC), applied
   /// after the defaults, so they override them.
   std::string options;
+  /// The keys near_null_space (gamg) and options.
+  void visit(ParamVisitor& v);
 };
 
 /// Whether this build has PETSc.
 bool petsc_available();
 
-/// When a solver configuration uses PETSc (a method gamg, gamg-pcg, mumps or petsc-cholmod anywhere
-/// in it), initialises PETSc (and MPI) now, before a caller's clocks, and returns the seconds it
-/// took; otherwise returns a negative number.
-double start_petsc(const Config& config);
+/// Initialises PETSc (and MPI) now, once per process (the methods' start-up hook); nothing
+/// without PETSc.
+void start_petsc();
 
+/// A PETSc preconditioner (GAMG, or a Cholesky factorisation by MUMPS or CHOLMOD) as a Solver (see
+/// the file comment).
 class PetscPreconditioner final : public Solver {
  public:
+  /// Not yet set up. Throws InputError for an unknown params.type, and in a build without PETSc
+  /// always (saying that PETSc is missing).
   explicit PetscPreconditioner(const PetscParams& params = {});
   ~PetscPreconditioner() override;
   PetscPreconditioner(const PetscPreconditioner&) = delete;
   PetscPreconditioner& operator=(const PetscPreconditioner&) = delete;
 
-  std::string name() const override { return "petsc-" + params_.type; }
+  std::string name() const override { return params_.type == "cholmod" ? "petsc-cholmod" : params_.type; }
+  /// The parameters given at construction.
   const PetscParams& params() const { return params_; }
   /// x, y, z per node (interleaved like the unknowns): the rigid-body modes of GAMG.
   void set_coordinates(std::vector<double> xyz) { coordinates_ = std::move(xyz); }
@@ -69,3 +80,12 @@ class PetscPreconditioner final : public Solver {
 };
 
 }  // namespace pmg::mg
+
+namespace pmg::petsc {
+
+/// Registers the methods gamg-pcg, gamg, mumps and petsc-cholmod (idempotent; a name the user
+/// registered is kept). Without PETSc in the build they are registered too, and building one throws
+/// InputError saying that PETSc is missing.
+void register_solvers();
+
+}  // namespace pmg::petsc

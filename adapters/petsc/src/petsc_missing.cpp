@@ -1,5 +1,5 @@
 // The PETSc adapter when pmgkit is built without PETSc: the methods exist and say what is missing.
-#include "pmg/multigrid/petsc.hpp"
+#include "pmg/petsc/petsc.hpp"
 
 namespace pmg::mg {
 
@@ -12,7 +12,7 @@ namespace {
 }  // namespace
 
 bool petsc_available() { return false; }
-double start_petsc(const Config&) { return -1.0; }
+void start_petsc() {}
 
 struct PetscPreconditioner::Impl {};
 

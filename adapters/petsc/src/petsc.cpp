@@ -1,7 +1,7 @@
-// The PETSc adapter (pmg/multigrid/petsc.hpp): the only file that includes PETSc.
-#include "pmg/multigrid/petsc.hpp"
+// The PETSc adapter (pmg/petsc/petsc.hpp): the only file that includes PETSc.
+#include "pmg/petsc/petsc.hpp"
 
-#include "pmg/multigrid/boomeramg.hpp"  // mpi_size(): MPI is started by hypre's session
+#include "pmg/mpi/session.hpp"
 
 #include <petscksp.h>
 
@@ -40,11 +40,11 @@ void check(PetscErrorCode err, const char* what) {
   throw Error(std::string("PETSc: ") + what + " failed: " + text);
 }
 
-/// PETSc initialised once, after MPI (so it is finalised before MPI is).
+/// PETSc initialised once, after MPI, and finalised before MPI is (pmg::mpi::at_finalize).
 struct PetscSession {
   bool owned = false;
   PetscSession() {
-    mpi_size();
+    mpi::start();
     PetscBool initialized = PETSC_FALSE;
     PetscInitialized(&initialized);
     if (!initialized) {
@@ -57,11 +57,15 @@ struct PetscSession {
       owned = true;
     }
     PetscPushErrorHandler(keep_message, nullptr);
-  }
-  ~PetscSession() {
-    PetscBool finalized = PETSC_FALSE;
-    PetscFinalized(&finalized);
-    if (owned && !finalized) PetscFinalize();
+    if (owned)
+      mpi::at_finalize([] {
+        // A program that owns MPI may have finalised it already: PETSc cannot end cleanly then.
+        int mpi_finalized = 0;
+        MPI_Finalized(&mpi_finalized);
+        PetscBool finalized = PETSC_FALSE;
+        PetscFinalized(&finalized);
+        if (!finalized && !mpi_finalized) PetscFinalize();
+      });
   }
 };
 
@@ -84,15 +88,7 @@ std::string prefixed(const std::string& options, const std::string& prefix) {
 
 bool petsc_available() { return true; }
 
-double start_petsc(const Config& config) {
-  bool uses = false;
-  for (const auto& kv : config.items())
-    uses |= kv.second == "gamg" || kv.second == "gamg-pcg" || kv.second == "mumps" || kv.second == "petsc-cholmod";
-  if (!uses) return -1.0;
-  const auto t0 = std::chrono::steady_clock::now();
-  petsc();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
+void start_petsc() { petsc(); }
 
 struct PetscPreconditioner::Impl {
   Mat A = nullptr;

@@ -1,9 +1,10 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
-#include "pmg/multigrid/boomeramg.hpp"
+#include "pmg/hypre/boomeramg.hpp"
+#include "pmg/mpi/session.hpp"
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -48,8 +49,8 @@ TEST_CASE("BoomerAMG-preconditioned CG solves the quadratic bar (also on 2 MPI r
   const SolveResult plain = cg(A, bar.b, x_cg, p);
   CHECK(r.iterations < plain.iterations / 2);  // AMG at least halves the CG iterations
   CHECK((x - x_cg).norm() <= 1e-6 * x_cg.norm());
-  if (mg::mpi_rank() == 0)
-    std::printf("BoomerAMG-PCG on %d rank(s): %d iterations (CG: %d)\n", mg::mpi_size(), r.iterations,
+  if (mpi::rank() == 0)
+    std::printf("BoomerAMG-PCG on %d rank(s): %d iterations (CG: %d)\n", mpi::size(), r.iterations,
                 plain.iterations);
 }
 

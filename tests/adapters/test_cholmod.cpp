@@ -1,6 +1,6 @@
-#include "fixture.hpp"
+#include "../sparse/fixture.hpp"
 
-#include "pmg/sparse/cholmod_solver.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
 #include "pmg/sparse/generators.hpp"
 
 #include <catch2/catch.hpp>
@@ -68,7 +68,7 @@ TEST_CASE("CHOLMOD on BCSR orders the graph of the 3x3 blocks: a factor as good,
   CHECK(blocks.ordering() == "METIS");
   CHECK_THAT(scalar.describe(), !Catch::Contains("3x3 blocks"));
   // Nested dissection of the nodes is nested dissection of the unknowns with each node's three
-  // kept together: about the same fill (the README's systems: within 2%).
+  // kept together: about the same fill (the systems of docs/performance.md: within 2%).
   CHECK(blocks.factor_nnz() < 1.1 * scalar.factor_nnz());
   Vector xb, xs;
   blocks.apply(b, xb);

@@ -1,0 +1,24 @@
+// pmg/mpi/session.hpp — MPI's lifetime in a pmgkit process: the one place that starts and ends
+// it, shared by the adapters that need it (hypre's BoomerAMG, PETSc).
+//
+// MPI is started on first use (MPI_Init when nobody has: one rank, or under mpirun the job's
+// ranks). A program that initialised MPI itself keeps it: pmgkit then neither starts nor ends it.
+// When pmgkit started it, MPI is finalised at exit, after the finalisers registered with
+// at_finalize() (PETSc's, which must run while MPI is still up) in reverse order of registration.
+#pragma once
+
+#include <functional>
+
+namespace pmg::mpi {
+
+/// Starts MPI if it is not running; returns the seconds this call took (about 0 when it was).
+double start();
+/// Rank and number of ranks of MPI_COMM_WORLD (starting MPI if needed).
+int rank();
+int size();
+/// Runs `finalize` at exit, before MPI_Finalize when pmgkit owns MPI. When the program owns MPI
+/// it runs at exit too, possibly after the program's MPI_Finalize: a finaliser checks
+/// MPI_Finalized before it calls MPI.
+void at_finalize(std::function<void()> finalize);
+
+}  // namespace pmg::mpi

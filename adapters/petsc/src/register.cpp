@@ -1,0 +1,73 @@
+// The PETSc adapter's factory methods (with or without PETSc in the build: see petsc_missing.cpp).
+#include "pmg/petsc/petsc.hpp"
+#include "pmg/sparse/factory.hpp"
+
+#include <mutex>
+
+namespace pmg::mg {
+
+void PetscParams::visit(ParamVisitor& v) {
+  if (type == "gamg")
+    v.choice("near_null_space", near_null_space, {"auto", "rigid", "none"},
+             "rigid: the six rigid-body modes from node coordinates; none: PETSc's default (constants); "
+             "auto: rigid where coordinates are known");
+  v.text("options", options, "further PETSc options (\"-name value ...\"), under this solver's own prefix");
+}
+
+}  // namespace pmg::mg
+
+namespace pmg::petsc {
+
+namespace {
+
+/// A PETSc preconditioner (GAMG, or a Cholesky factorisation by MUMPS or CHOLMOD).
+std::unique_ptr<mg::PetscPreconditioner> make(const Config& c, const SolverContext& ctx, const std::string& type) {
+  mg::PetscParams p;
+  p.type = type;
+  p = read_params(c, p);
+  if (p.near_null_space == "rigid" && !ctx.coordinates)
+    c.fail("near_null_space", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
+                              "them; a matrix read from a file does not (auto: rigid where known)");
+  p.rigid_near_null_space = type == "gamg" && p.near_null_space != "none" && ctx.coordinates;
+  auto s = std::make_unique<mg::PetscPreconditioner>(p);
+  if (p.rigid_near_null_space) s->set_coordinates(*ctx.coordinates);
+  return s;
+}
+
+std::vector<KeyInfo> keys(const std::string& type) {
+  mg::PetscParams p;
+  p.type = type;
+  return list_params(p);
+}
+
+}  // namespace
+
+void register_solvers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    std::function<void()> start;
+    if (mg::petsc_available()) start = [] { mg::start_petsc(); };
+    register_builtin_solver({"gamg-pcg", "CG preconditioned by PETSc's GAMG (smoothed aggregation, rigid-body near-null space)",
+                     krylov_keys() + keys("gamg"), false, false, "petsc", start},
+                    [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                      const KrylovParams k = read_krylov(c);
+                      return std::make_unique<Cg>(k, make(c, ctx, "gamg"));
+                    });
+    register_builtin_solver({"gamg", "PETSc GAMG V-cycles (a fixed symmetric operator)", keys("gamg"), false, false, "petsc",
+                     start},
+                    [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                      return make(c, ctx, "gamg");
+                    });
+    register_builtin_solver({"mumps", "sparse Cholesky by MUMPS, through PETSc", keys("mumps"), false, false, "petsc", start},
+                    [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                      return make(c, ctx, "mumps");
+                    });
+    register_builtin_solver({"petsc-cholmod", "sparse Cholesky by CHOLMOD, through PETSc (to compare with the cholmod adapter)",
+                     keys("cholmod"), false, false, "petsc", start},
+                    [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                      return make(c, ctx, "cholmod");
+                    });
+  });
+}
+
+}  // namespace pmg::petsc

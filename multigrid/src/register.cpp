@@ -1,0 +1,221 @@
+// The multigrid component's factory methods: cycles (pmg, mgpcg) and smoothers, each reading its
+// own parameter struct's keys.
+#include "pmg/cholmod/cholmod_solver.hpp"
+#include "pmg/multigrid/chebyshev.hpp"
+#include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/multigrid/smoothers.hpp"
+
+#include <mutex>
+#include <set>
+
+namespace pmg::mg {
+
+void GaussSeidelParams::visit(ParamVisitor& v) {
+  v.integer("sweeps", sweeps, 0, 1000, "sweeps per pre-smoothing (forward) and post-smoothing (backward)");
+  v.choice("ordering", ordering, {{"multicolor", Ordering::multicolor}, {"natural", Ordering::natural}},
+           "block rows by colour (threaded) or in natural order (serial)");
+}
+
+void JacobiParams::visit(ParamVisitor& v) {
+  v.integer("sweeps", sweeps, 0, 1000, "sweeps per pre- and post-smoothing");
+  if (!l1) v.real("omega", omega, 1e-6, 2.0, "damping");
+}
+
+void RichardsonParams::visit(ParamVisitor& v) {
+  v.integer("iterations", iterations, 0, 1000, "corrections per pre- and post-smoothing");
+  v.real("omega", omega, 1e-6, 2.0, "damping of each correction");
+}
+
+void ChebyshevParams::visit(ParamVisitor& v) {
+  v.integer("degree", degree, 1, 100, "polynomial degree: products with A per smoothing");
+  v.choice("kind", kind,
+           {{"first", ChebyshevKind::first}, {"fourth", ChebyshevKind::fourth},
+            {"opt-fourth", ChebyshevKind::optimal_fourth}},
+           "first: on [lower_fraction lmax, lmax]; fourth and opt-fourth (Lottes' optimised weights, "
+           "degree <= 6): on [0, lmax], no lower bound");
+  v.real("lower_fraction", lower_fraction, 1e-6, 1 - 1e-6, "first kind: the lower end of the damped interval");
+  v.integer("power_iterations", power_iterations, 1, 1000, "power iterations estimating lmax of D^-1 A at set-up");
+  v.integer("update_iterations", update_iterations, 0, 1000,
+            "per update(): 0 re-estimates lmax as at set-up; k runs k power iterations warm-started "
+            "from the last estimate");
+}
+
+namespace {
+
+/// The options of the cycle methods (pmg, mgpcg) beside their stopping rule.
+struct CycleOptions {
+  std::string cycle = "V";
+  /// 0: 1 on the matrix-free route and for pmg, 2 for mgpcg on assembled levels (the seed's).
+  int cycles = 0;
+  std::string coarse_operator = "geometric";
+  std::string restriction = "transpose";
+  std::string op = "auto";
+
+  void visit(ParamVisitor& v) {
+    v.choice("cycle", cycle, {"V", "W"}, "V- or W-cycle");
+    v.integer("cycles", cycles, 0, 100,
+              "cycles per application (0: 1 matrix-free and for pmg, 2 for mgpcg on assembled levels)");
+    v.choice("coarse_operator", coarse_operator, {"geometric", "galerkin"},
+             "lower levels: the provider's matrices (re-discretised) or Galerkin products R A P");
+    v.choice("restriction", restriction, {"transpose", "interpolating"},
+             "P transposed, or the provider's interpolating restriction (the seed's; not symmetric)");
+    v.choice("operator", op, {"auto", "assembled", "matrix-free"},
+             "auto: matrix-free where the levels offer operators, coarse_operator is geometric and the "
+             "smoother is Chebyshev (its keys only); assembled: the level matrices");
+    v.solver("smoother", "gauss-seidel",
+             "one per level above the lowest (matrix-free route: chebyshev, kind opt-fourth, degree 3)");
+    v.solver("lowest_level", "cholmod",
+             "the lowest level's solver (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw)");
+  }
+};
+
+/// A smoother: a Smoother method, or any other solver used as Richardson's preconditioner.
+std::unique_ptr<Smoother> build_smoother(const Config& c, const SolverContext& ctx) {
+  std::unique_ptr<Solver> s = build_solver(c, ctx, "gauss-seidel");
+  if (auto* sm = dynamic_cast<Smoother*>(s.get())) {
+    s.release();
+    return std::unique_ptr<Smoother>(sm);
+  }
+  return std::make_unique<Richardson>(std::move(s));
+}
+
+/// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.
+std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext& ctx, bool mgpcg,
+                                            const KrylovParams& iteration) {
+  if (!ctx.levels || ctx.levels->num_levels() < 2)
+    c.fail("method", "multigrid needs at least two levels: an FEM scene of degree >= 2, or level "
+                     "matrices with prolongations");
+  const CycleOptions o = read_params<CycleOptions>(c);
+  MultigridParams p;
+  p.gamma = o.cycle == "W" ? 2 : 1;
+  p.coarse_operator = o.coarse_operator == "galerkin" ? CoarseOperator::galerkin : CoarseOperator::geometric;
+  p.interpolating_restriction = o.restriction == "interpolating";
+  p.iteration = iteration;
+  Config sc = c.child("smoother");
+  p.matrix_free = o.op == "matrix-free";
+  if (o.op == "auto") {
+    // Matrix-free where the levels offer operators and nothing asks for matrices: geometric lower
+    // levels, and no smoother chosen other than Chebyshev (Gauss–Seidel's keys, say, keep the
+    // assembled route the configuration was written for).
+    bool chebyshev = true;  // the smoother named Chebyshev, or given only Chebyshev's keys
+    if (sc.has("method")) {
+      chebyshev = sc.get_string("method", "") == "chebyshev";
+    } else {
+      std::set<std::string> keys;
+      for (const auto& k : list_params<ChebyshevParams>()) keys.insert(k.key);
+      for (const auto& [key, value] : sc.items())
+        if (!keys.count(key.substr(sc.full_key("").size()))) chebyshev = false;
+    }
+    p.matrix_free = ctx.levels->offers_matrix_free() && p.coarse_operator == CoarseOperator::geometric && chebyshev;
+    // Said in the solver's printed options: the route taken is part of what was run.
+    if (p.matrix_free) Config(c).set("operator", "matrix-free");
+  }
+  p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free ? 2 : 1);
+  if (p.matrix_free) {
+    if (p.coarse_operator == CoarseOperator::galerkin)
+      c.fail("operator", "matrix-free levels need coarse_operator=geometric (Galerkin products are matrices)");
+    for (int l = 1; l < ctx.levels->num_levels(); ++l)
+      if (!ctx.levels->matrix_free_operator(l))
+        c.fail("operator", "matrix-free needs levels with matrix-free operators (an FEM scene's degree "
+                           "hierarchy has them for degree >= 2); these levels have none");
+    // Gauss–Seidel needs the matrix's entries; Chebyshev needs only products and the diagonal, and
+    // its eigenvalue estimate is refreshed per update by one power iteration warm-started from the
+    // last estimate. The optimised fourth kind of degree 3 needs no lower bound (docs/performance.md).
+    sc.set_default("method", "chebyshev");
+    if (sc.get_string("method", "chebyshev") == "chebyshev") {
+      sc.set_default("kind", "opt-fourth");
+      sc.set_default("degree", "3");
+      sc.set_default("update_iterations", "1");
+    }
+  }
+  Config lc = c.child("lowest_level");
+  // The linear level solved by CG to a loose tolerance: a usable correction even when the inner
+  // solve stops early (the outer iteration judges it); only a broken one is an error.
+  const std::string lm = lc.get_string("method", "cholmod");
+  // The lowest level's factorisation and solves run between the cycle's OpenMP kernels: serial
+  // BLAS in the solves, threaded factorisations (CholmodSolver: blas_threads, factor_threads).
+  if (lm == "cholmod") {
+    lc.set_default("blas_threads", "1");
+    lc.set_default("factor_threads", "0");
+  }
+  if (lm == "cg" || lm == "boomeramg-pcg") {
+    lc.set_default("tol", "0.1");
+    lc.set_default("max_iterations", "500");
+    lc.set_default("throw_on_failure", "false");
+  }
+  // One smoother per level, built from the same options (read once per level: same keys).
+  std::vector<std::unique_ptr<Smoother>> smoothers;
+  for (int l = 1; l < ctx.levels->num_levels(); ++l) smoothers.push_back(build_smoother(sc, ctx));
+  // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
+  // not the finest level's.
+  const std::vector<double> lowest_xyz = ctx.levels->node_coordinates(0);
+  SolverContext lowest_ctx = ctx;
+  lowest_ctx.coordinates = lowest_xyz.empty() ? nullptr : &lowest_xyz;
+  auto lowest = build_solver(lc, lowest_ctx, "cholmod");
+  return std::make_unique<MultigridCycle>(
+      *ctx.levels, p, [&](int l) { return std::move(smoothers[l - 1]); }, std::move(lowest));
+}
+
+void register_all() {
+  cholmod::register_solvers();  // the cycles' default lowest level
+  const std::vector<KeyInfo> cycle_keys = list_params<CycleOptions>();
+  register_builtin_solver({"pmg", "stationary multigrid: one cycle per iteration", krylov_keys() + cycle_keys, true, true,
+                   "multigrid"},
+                  [](const Config& c, const SolverContext& ctx) { return build_cycle(c, ctx, false, read_krylov(c)); });
+  register_builtin_solver({"mgpcg", "CG preconditioned by multigrid cycles", krylov_keys() + cycle_keys, true, true,
+                   "multigrid"},
+                  [](const Config& c, const SolverContext& ctx) {
+                    const KrylovParams k = read_krylov(c);
+                    return std::make_unique<Cg>(k, build_cycle(c, ctx, true, KrylovParams{}));
+                  });
+  auto gauss_seidel = [](bool pointwise) {
+    return [pointwise](const Config& c, const SolverContext&) {
+      GaussSeidelParams p;
+      p.pointwise = pointwise;
+      return std::make_unique<BlockGaussSeidel>(read_params(c, p));
+    };
+  };
+  register_builtin_solver({"gauss-seidel", "3x3-block Gauss-Seidel (forward pre-, backward post-smoothing)",
+                   list_params<GaussSeidelParams>(), false, true, "multigrid"},
+                  gauss_seidel(false));
+  register_builtin_solver({"point-gauss-seidel", "scalar Gauss-Seidel inside 3x3 block rows",
+                   list_params<GaussSeidelParams>(), false, true, "multigrid"},
+                  gauss_seidel(true));
+  register_builtin_solver({"chebyshev", "Chebyshev polynomial on D^-1 A (3x3 blocks D)", list_params<ChebyshevParams>(),
+                   false, true, "multigrid"},
+                  [](const Config& c, const SolverContext&) {
+                    return std::make_unique<Chebyshev>(read_params<ChebyshevParams>(c));
+                  });
+  register_builtin_solver({"damped-jacobi", "damped 3x3 block Jacobi x += omega D^-1 (b - A x)",
+                   list_params<JacobiParams>(), false, true, "multigrid"},
+                  [](const Config& c, const SolverContext&) {
+                    return std::make_unique<BlockJacobi>(read_params<JacobiParams>(c));
+                  });
+  JacobiParams l1;
+  l1.sweeps = 2;
+  l1.omega = 1.0;
+  l1.l1 = true;
+  register_builtin_solver({"l1-jacobi", "l1 block Jacobi x += (D + l1 row sums)^-1 (b - A x): no damping to tune",
+                   list_params(l1), false, true, "multigrid"},
+                  [l1](const Config& c, const SolverContext&) {
+                    return std::make_unique<BlockJacobi>(read_params(c, l1));
+                  });
+  ParamLister preconditioner;
+  preconditioner.solver("preconditioner", "block-jacobi", "the solver M");
+  register_builtin_solver({"richardson", "x += omega M (b - A x) with any solver M",
+                   list_params<RichardsonParams>() + preconditioner.keys(), false, false, "multigrid"},
+                  [](const Config& c, const SolverContext& ctx) {
+                    const RichardsonParams p = read_params<RichardsonParams>(c);
+                    return std::make_unique<Richardson>(build_solver(c.child("preconditioner"), ctx, "block-jacobi"), p);
+                  });
+}
+
+}  // namespace
+
+void register_solvers() {
+  static std::once_flag once;
+  std::call_once(once, register_all);
+}
+
+}  // namespace pmg::mg

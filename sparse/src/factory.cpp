@@ -1,0 +1,196 @@
+// The solver registry and the methods of the core: Krylov solvers and point/block Jacobi.
+#include "pmg/sparse/factory.hpp"
+
+#include "pmg/sparse/krylov.hpp"
+#include "pmg/sparse/preconditioners.hpp"
+#include "pmg/sparse/timer.hpp"
+
+#include <chrono>
+#include <mutex>
+#include <set>
+
+namespace pmg {
+
+namespace {
+
+struct Entry {
+  SolverInfo info;
+  SolverBuilder build;
+};
+
+std::unique_ptr<Solver> pcg_with(const Config& c, std::unique_ptr<Solver> M) {
+  return std::make_unique<Cg>(read_krylov(c), std::move(M));
+}
+
+struct Registry {
+  std::vector<Entry> entries;
+  std::mutex mutex;
+  std::set<std::string> started;  ///< methods whose start-up hook ran
+  Registry();
+  const Entry* find(const std::string& name) const {
+    for (const auto& e : entries)
+      if (e.info.name == name) return &e;
+    return nullptr;
+  }
+};
+
+Registry& registry() {
+  static Registry r;
+  return r;
+}
+
+Registry::Registry() {
+  auto add = [&](SolverInfo info, SolverBuilder b) { entries.push_back({std::move(info), std::move(b)}); };
+  ParamLister preconditioner;
+  preconditioner.solver("preconditioner", "block-jacobi",
+                        "a fixed symmetric solver as preconditioner (none: plain CG)");
+  add({"cg", "conjugate gradients, optionally preconditioned by any fixed symmetric solver",
+       krylov_keys() + preconditioner.keys()},
+      [](const Config& c, const SolverContext& ctx) {
+        std::unique_ptr<Solver> M;
+        if (c.has_child("preconditioner") || c.has("preconditioner"))
+          M = build_solver(c.child("preconditioner"), ctx, "block-jacobi");
+        return pcg_with(c, std::move(M));
+      });
+  add({"jacobi-pcg", "CG preconditioned by point Jacobi", krylov_keys()},
+      [](const Config& c, const SolverContext&) { return pcg_with(c, std::make_unique<JacobiPreconditioner>()); });
+  add({"block-jacobi-pcg", "CG preconditioned by 3x3 block Jacobi", krylov_keys(), false, true},
+      [](const Config& c, const SolverContext&) { return pcg_with(c, std::make_unique<BlockJacobiPreconditioner>()); });
+  add({"mcg", "merged CG (three fused steps) with block Jacobi", krylov_keys() + check_every_key(), false, true},
+      [](const Config& c, const SolverContext&) {
+        KrylovParams p = read_krylov(c);
+        ParamReader r(c);
+        p.visit_check_every(r);
+        return std::make_unique<MergedCg>(p);
+      });
+  add({"jacobi", "point Jacobi D^-1", {}},
+      [](const Config&, const SolverContext&) { return std::make_unique<JacobiPreconditioner>(); });
+  add({"block-jacobi", "3x3 block Jacobi D^-1", {}, false, true},
+      [](const Config&, const SolverContext&) { return std::make_unique<BlockJacobiPreconditioner>(); });
+}
+
+/// Every value in the tree: the methods it names are among them, whether as a "method" key or in
+/// the shorthand `lowest_level=boomeramg` (stored under the plain key until the tree is built).
+std::vector<std::string> named_methods(const Config& c) {
+  std::vector<std::string> out;
+  for (const auto& kv : c.items()) out.push_back(kv.second);
+  return out;
+}
+
+}  // namespace
+
+KrylovParams read_krylov(const Config& c, KrylovParams p) { return read_params(c, p); }
+
+std::vector<KeyInfo> krylov_keys(KrylovParams defaults) { return list_params(defaults); }
+
+std::vector<KeyInfo> check_every_key(KrylovParams defaults) {
+  ParamLister l;
+  defaults.visit_check_every(l);
+  return l.keys();
+}
+
+SolverInfo solver_info(const std::string& method) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  if (const Entry* e = r.find(method)) return e->info;
+  std::string list;
+  for (const auto& e : r.entries) list += (list.empty() ? "" : ", ") + e.info.name;
+  throw InputError("unknown method '" + method + "' (registered: " + list +
+                   "; the multigrid, CHOLMOD, hypre, PETSc and GPU methods are registered by "
+                   "pmg::register_all_solvers() or their component's register_solvers())");
+}
+
+std::unique_ptr<Solver> build_solver(const Config& config, const SolverContext& context,
+                                     const std::string& fallback_method) {
+  const std::string method = config.get_string("method", fallback_method);
+  SolverBuilder build;
+  {
+    Registry& r = registry();
+    std::lock_guard<std::mutex> lock(r.mutex);
+    if (const Entry* e = r.find(method)) build = e->build;
+  }
+  if (!build) {
+    try {
+      solver_info(method);
+    } catch (const InputError& e) {
+      config.fail("method", e.what());
+    }
+  }
+  return build(config, context);
+}
+
+std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context,
+                                    const std::string& fallback_method) {
+  auto s = build_solver(config, context, fallback_method);
+  config.check_all_used();
+  return s;
+}
+
+void register_solver(const SolverInfo& info, SolverBuilder builder) {
+  if (info.name.empty() || !builder) throw InputError("register_solver: a name and a builder are needed");
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  for (auto& e : r.entries)
+    if (e.info.name == info.name) {
+      e = {info, std::move(builder)};
+      return;
+    }
+  r.entries.push_back({info, std::move(builder)});
+}
+
+void register_builtin_solver(const SolverInfo& info, SolverBuilder builder) {
+  if (info.name.empty() || !builder) throw InputError("register_solver: a name and a builder are needed");
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  if (!r.find(info.name)) r.entries.push_back({info, std::move(builder)});
+}
+
+std::vector<SolverInfo> registered_solvers() {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  std::vector<SolverInfo> out;
+  for (const auto& e : r.entries) out.push_back(e.info);
+  return out;
+}
+
+double start_libraries(const Config& config) {
+  std::vector<std::function<void()>> hooks;
+  {
+    Registry& r = registry();
+    std::lock_guard<std::mutex> lock(r.mutex);
+    for (const std::string& m : named_methods(config)) {
+      const Entry* e = r.find(m);
+      if (e && e->info.start && r.started.insert(m).second) hooks.push_back(e->info.start);
+    }
+  }
+  if (hooks.empty()) return -1.0;
+  const auto t0 = Clock::now();
+  for (auto& h : hooks) h();  // outside the lock: a hook may take long (MPI_Init)
+  return seconds_since(t0);
+}
+
+bool method_uses_levels(const std::string& method) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  const Entry* e = r.find(method);
+  return e && e->info.uses_levels;
+}
+
+bool method_needs_blocks(const std::string& method) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  const Entry* e = r.find(method);
+  return e && e->info.needs_blocks;
+}
+
+bool method_accepts_key(const std::string& method, const std::string& key) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  const Entry* e = r.find(method);
+  if (!e) return false;
+  for (const auto& k : e->info.keys)
+    if (k.key == key) return true;
+  return false;
+}
+
+}  // namespace pmg
