@@ -46,6 +46,8 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
                const mg::ChebyshevParams& chebyshev)
     : matrices_(std::move(matrices)), transfers_(std::move(transfers)), chebyshev_(chebyshev) {
   if (matrices_.empty()) throw InputError("gpu::VCycle: no levels");
+  if (chebyshev_.kind != mg::ChebyshevKind::first)
+    throw InputError("gpu::VCycle: the device smoother is Chebyshev of the first kind only");
   if (transfers_.size() + 1 != matrices_.size())
     throw InputError("gpu::VCycle: need one transfer between each pair of levels");
   for (std::size_t l = 0; l < matrices_.size(); ++l) {
@@ -108,22 +110,15 @@ const DeviceBinBcsr& VCycle::finest() const {
   return *levels_.back()->device;
 }
 
-// Chebyshev on D⁻¹A over [f λmax, λmax], the same recurrence as mg::Chebyshev::smooth.
+// Chebyshev of the first kind on D⁻¹A over [f λmax, λmax]: the steps of mg::chebyshev_steps, as
+// mg::Chebyshev::smooth takes them (the residual b - A x before each step).
 void VCycle::smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const {
-  const double lmax = L.lambda_max, lmin = chebyshev_.lower_fraction * lmax;
-  const double theta = 0.5 * (lmax + lmin), delta = 0.5 * (lmax - lmin), sigma = theta / delta;
+  const std::vector<mg::ChebyshevStep> steps = mg::chebyshev_steps(chebyshev_, L.lambda_max);
   const int nb = L.A->block_rows();
   const unsigned grid = detail::blocks_for(nb);
-  double rho = 1.0 / sigma;
-  L.device->residual(b, x, L.r);
-  chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(), 0.0,
-                                       1.0 / theta);
-  for (int k = 1; k < chebyshev_.degree; ++k) {
+  for (const mg::ChebyshevStep& s : steps) {
     L.device->residual(b, x, L.r);
-    const double rho_new = 1.0 / (2.0 * sigma - rho);
-    chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(),
-                                         rho_new * rho, 2.0 * rho_new / delta);
-    rho = rho_new;
+    chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(), s.c1, s.c2);
   }
   PMG_LAUNCHED("chebyshev_kernel");
 }

@@ -75,45 +75,61 @@ void Chebyshev::pre_smooth_from_zero(const Vector& b, Vector& x) const {
   smooth(b, x, true);
 }
 
-// x improved in place by the polynomial of D⁻¹A; from x = 0 the first residual is b itself.
-void Chebyshev::smooth(const Vector& b, Vector& x, bool x_is_zero) const {
-  const int m = params_.degree;
-  if (x_is_zero) r_ = b;
-  else A_->residual(b, x, r_);
-  if (params_.kind == ChebyshevKind::first) {
-    // First kind on [λmin, λmax] (Saad, Alg. 12.1).
-    const double lmax = lambda_max_, lmin = params_.lower_fraction * lambda_max_;
+std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& p, double lambda_max) {
+  const int m = p.degree;
+  std::vector<ChebyshevStep> steps(m);
+  if (p.kind == ChebyshevKind::first) {
+    const double lmax = lambda_max, lmin = p.lower_fraction * lambda_max;
     const double theta = 0.5 * (lmax + lmin), delta = 0.5 * (lmax - lmin);
     const double sigma = theta / delta;
     double rho = 1.0 / sigma;
-    apply_inverse_diagonal(r_, d_);
-    d_ /= theta;
-    for (int k = 1; k <= m; ++k) {
-      x += d_;
-      if (k == m) break;
-      A_->residual(b, x, r_);
-      apply_inverse_diagonal(r_, z_);
+    steps[0].c2 = 1.0 / theta;
+    for (int k = 1; k < m; ++k) {
       const double rho_new = 1.0 / (2.0 * sigma - rho);
-      d_ = (rho_new * rho) * d_ + (2.0 * rho_new / delta) * z_;
+      steps[k].c1 = rho_new * rho;
+      steps[k].c2 = 2.0 * rho_new / delta;
       rho = rho_new;
     }
-    return;
+    return steps;
   }
-  // Fourth kind on [0, λmax] (Phillips & Fischer 2022, Alg. 3; Lottes 2023): the residual follows
-  // r_k = r_(k-1) - A d_(k-1), and with Lottes' weights x takes beta_k d_(k-1) instead of d_(k-1).
-  const double* beta = params_.kind == ChebyshevKind::optimal_fourth ? kOptimalBetas[m - 1] : nullptr;
-  const double inv_rho = 1.0 / lambda_max_;
+  if (p.kind == ChebyshevKind::optimal_fourth && (m < 1 || m > kMaxOptimalDegree))
+    throw InputError("Chebyshev: the optimised fourth kind has weights for degrees 1 to " +
+                     std::to_string(kMaxOptimalDegree));
+  const double inv_rho = 1.0 / lambda_max;
+  steps[0].c2 = (4.0 / 3.0) * inv_rho;
+  for (int k = 1; k < m; ++k) {
+    steps[k].c1 = static_cast<double>(2 * k - 1) / (2 * k + 3);
+    steps[k].c2 = static_cast<double>(8 * k + 4) / (2 * k + 3) * inv_rho;
+  }
+  if (p.kind == ChebyshevKind::optimal_fourth)
+    for (int k = 0; k < m; ++k) steps[k].weight = kOptimalBetas[m - 1][k];
+  return steps;
+}
+
+// x improved in place by the polynomial of D⁻¹A (chebyshev_steps); from x = 0 the first residual is
+// b itself.
+void Chebyshev::smooth(const Vector& b, Vector& x, bool x_is_zero) const {
+  const std::vector<ChebyshevStep> steps = chebyshev_steps(params_, lambda_max_);
+  const int m = static_cast<int>(steps.size());
+  const bool first_kind = params_.kind == ChebyshevKind::first;
+  if (x_is_zero) r_ = b;
+  else A_->residual(b, x, r_);
   apply_inverse_diagonal(r_, d_);
-  d_ *= (4.0 / 3.0) * inv_rho;
-  for (int k = 1; k <= m; ++k) {
-    if (beta) x += beta[k - 1] * d_;
-    else x += d_;
-    if (k == m) break;
-    A_->apply(d_, z_);
-    r_ -= z_;
-    apply_inverse_diagonal(r_, z_);
-    d_ = (static_cast<double>(2 * k - 1) / (2 * k + 3)) * d_ +
-         (static_cast<double>(8 * k + 4) / (2 * k + 3) * inv_rho) * z_;
+  d_ *= steps[0].c2;
+  for (int k = 0; k < m; ++k) {
+    if (k > 0) {
+      apply_inverse_diagonal(r_, z_);
+      d_ = steps[k].c1 * d_ + steps[k].c2 * z_;
+    }
+    if (steps[k].weight == 1.0) x += d_;
+    else x += steps[k].weight * d_;
+    if (k == m - 1) break;
+    if (first_kind) {
+      A_->residual(b, x, r_);
+    } else {  // the residual follows the unweighted iterates: r_(k+1) = r_k - A d_k
+      A_->apply(d_, z_);
+      r_ -= z_;
+    }
   }
 }
 

@@ -98,7 +98,8 @@ class VCycle {
  public:
   /// Level matrices coarsest first (square), and one transfer per pair of adjacent levels
   /// (transfers[l-1] maps level l-1 to level l). Factorises the lowest level with CHOLMOD and
-  /// uploads the others. Throws InputError when sizes do not match, CudaError on a device failure.
+  /// uploads the others. Throws InputError when sizes do not match or the Chebyshev kind is not
+  /// the first (the only one on the device), CudaError on a device failure.
   VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
          const mg::ChebyshevParams& chebyshev = {});
   ~VCycle();

@@ -28,6 +28,22 @@ struct ChebyshevParams {
   void visit(ParamVisitor& v);
 };
 
+/// One step of a Chebyshev smoother: d = c1 d + c2 D⁻¹ r, then x += weight d (c1 = 0 in the first
+/// step: d is not read).
+struct ChebyshevStep {
+  double c1 = 0.0;      ///< weight of the previous direction
+  double c2 = 0.0;      ///< weight of the preconditioned residual D⁻¹ r
+  double weight = 1.0;  ///< x += weight d (Lottes' optimised weights; 1 otherwise)
+};
+
+/// The degree-many steps of the polynomial these parameters choose, for the bound λmax: the one
+/// formula of the CPU smoother (Chebyshev) and the GPU V-cycle (gpu::VCycle). First kind (Saad, Alg.
+/// 12.1): c1 = ρ_k ρ_(k-1), c2 = 2 ρ_k / δ on [f λmax, λmax] with θ, δ its centre and half-width;
+/// the residual before each step is b - A x. Fourth kind (Phillips and Fischer, Alg. 3):
+/// c1 = (2k-1)/(2k+3), c2 = (8k+4)/((2k+3) λmax), the residual updated by r -= A d with the
+/// unweighted d. Throws InputError for an optimised fourth kind beyond its tabulated degrees.
+std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& params, double lambda_max);
+
 /// Damps the eigenvalues of D⁻¹A in [f λmax, λmax] with the Chebyshev polynomial of the given
 /// degree (Saad, "Iterative Methods for Sparse Linear Systems", Alg. 12.1). The same polynomial
 /// before and after keeps the cycle symmetric. Work vectors are allocated at setup().
