@@ -67,6 +67,7 @@ struct Options {
   int check_every = 1;
   int threads = 0;
   bool warm_up = false;
+  std::set<std::string> given;  // the stopping flags given on the command line
 };
 
 /// One solver's options from the command line: its method and the stopping flags where the
@@ -391,6 +392,21 @@ void run(const Options& o) {
     ctx.coordinates = &coordinates;
   }
   std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names);
+  // A stopping flag given twice (as a flag and in --set), or to solvers that do not read it, is an
+  // error: a conflict is never resolved silently.
+  const Config set_pairs = Config::from_pairs(o.overrides, "--set");
+  for (const auto& [flag, key] : {std::pair<const char*, const char*>{"--tol", "tol"}, {"--max-iter", "max_iterations"},
+                                  {"--fixed-iterations", "fixed_iterations"}, {"--check-every", "check_every"}}) {
+    if (!o.given.count(flag)) continue;
+    if (set_pairs.has(key))
+      throw InputError(std::string(flag) + " and --set " + key + "=" + set_pairs.get_string(key, "") +
+                       ": give it once");
+    bool read = false;
+    for (const auto& nc : configs) read |= method_accepts_key(nc.second.get_string("method", "cg"), key);
+    if (!read)
+      throw InputError(std::string(flag) + ": no solver of this run reads it (direct solvers and "
+                       "preconditioners have no stopping rule)");
+  }
   std::vector<std::unique_ptr<Solver>> solvers;
   std::set<std::string> set_keys;
   for (const auto& kv : Config::from_pairs(o.overrides, "--set").items()) set_keys.insert(kv.first);
@@ -652,6 +668,8 @@ void register_compare(CLI::App& app) {
   auto retired_values = std::make_shared<std::vector<std::string>>(std::size(retired));
   for (size_t k = 0; k < std::size(retired); ++k) sub->add_option(retired[k].first, (*retired_values)[k])->group("");
   sub->callback([opts, sub, retired_values] {
+    for (const char* flag : {"--tol", "--max-iter", "--fixed-iterations", "--check-every"})
+      if (sub->count(flag)) opts->given.insert(flag);
     opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
                 sub->count("--load") || sub->count("--dt");
     for (size_t k = 0; k < std::size(retired); ++k)

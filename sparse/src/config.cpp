@@ -23,10 +23,21 @@ bool valid_key(const std::string& key) {
 
 using json = nlohmann::json;
 
+/// Whether setting `key` would replace a value already given: the key itself, or a method given
+/// both as `a=m` and as `a.method=m`.
+bool given_already(const Config& c, const std::string& key) {
+  constexpr const char* kMethod = ".method";
+  const bool is_method = key.size() > 7 && key.compare(key.size() - 7, 7, kMethod) == 0;
+  return c.has(key) || c.has(key + kMethod) || (is_method && c.has(key.substr(0, key.size() - 7)));
+}
+
 void flatten(const json& j, const std::string& prefix, Config& out, const std::string& origin) {
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string key = prefix + it.key();
     const json& v = it.value();
+    // The same key twice ("a.b" beside {"a": {"b": ...}}): refused, never resolved silently.
+    if (!v.is_object() && given_already(out, key))
+      throw InputError(origin + ": " + key + ": given twice (as a dotted key and inside its section)");
     if (v.is_object()) flatten(v, key + ".", out, origin);
     else if (v.is_string()) out.set(key, v.get<std::string>());
     else if (v.is_boolean()) out.set(key, v.get<bool>() ? "true" : "false");
@@ -57,7 +68,9 @@ Config Config::from_pairs(const std::vector<std::string>& pairs, const std::stri
     const auto eq = p.find('=');
     if (eq == std::string::npos || eq == 0)
       throw InputError(origin + ": '" + p + "' is not of the form key=value");
-    c.set(p.substr(0, eq), p.substr(eq + 1));
+    const std::string key = p.substr(0, eq);
+    if (given_already(c, key)) throw InputError(origin + ": " + key + ": given twice");
+    c.set(key, p.substr(eq + 1));
   }
   return c;
 }

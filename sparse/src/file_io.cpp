@@ -8,9 +8,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <atomic>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
 
@@ -33,10 +36,59 @@ std::string gigabytes(double bytes) {
   return buf;
 }
 
+/// The file a path names, links followed (a dangling link: the file it would create). Throws Error
+/// on a loop of links.
+std::string link_target(const std::string& path) {
+  std::string p = path;
+  for (int depth = 0; depth < 40; ++depth) {
+    struct stat st {};
+    if (::lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return p;
+    std::error_code ec;
+    const fs::path next = fs::read_symlink(p, ec);
+    if (ec) throw Error(path + ": cannot read the link " + p + " (" + ec.message() + ")");
+    p = next.is_absolute() ? next.string() : (fs::path(p).parent_path() / next).string();
+  }
+  throw Error(path + ": too many levels of symbolic links");
+}
+
+/// Writes into an existing file that is not a regular one (a device such as /dev/null, a FIFO, a
+/// socket) in place: it is never replaced. A FIFO without a reader is an error, not a hang.
+void write_in_place(const std::string& path, const std::string& target, const std::string& contents) {
+  const int fd = ::open(target.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    const std::string why = errno == ENXIO ? "a FIFO with no reader" : reason();
+    throw Error(path + ": cannot write (" + why + ")");
+  }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  const char* p = contents.data();
+  std::size_t left = contents.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const std::string why = n < 0 ? reason() : "nothing written";
+      ::close(fd);
+      throw Error(path + ": write failed (" + why + ")");
+    }
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+  if (::close(fd) != 0) throw Error(path + ": write failed (" + reason() + ")");
+}
+
 }  // namespace
 
 void write_file_atomically(const std::string& path, const std::string& contents) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  // A link is followed and stays a link; what is not a regular file is written in place.
+  const std::string target = link_target(path);
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    if (S_ISDIR(st.st_mode)) throw Error(path + ": is a folder, expected a file name");
+    write_in_place(path, target, contents);
+    return;
+  }
+  static std::atomic<unsigned> count{0};
+  const std::string tmp = target + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(count++);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw Error(path + ": cannot write (creating " + tmp + ": " + reason() + ")");
@@ -48,7 +100,7 @@ void write_file_atomically(const std::string& path, const std::string& contents)
       throw Error(path + ": write failed (" + why + ")");
     }
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+  if (std::rename(tmp.c_str(), target.c_str()) != 0) {
     const std::string why = reason();
     std::remove(tmp.c_str());
     throw Error(path + ": cannot put the written file in place (" + why + ")");
@@ -59,7 +111,19 @@ void check_output_file(const std::string& path, const std::string& what) {
   if (path.empty()) throw InputError(what + ": empty path");
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw InputError(what + " " + path + ": is a folder, expected a file name");
-  const std::string dir = folder_of(path);
+  std::string target;
+  try {
+    target = link_target(path);
+  } catch (const Error& e) {
+    throw InputError(what + " " + e.what());
+  }
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {  // a device or FIFO: written in place
+    if (::access(target.c_str(), W_OK) != 0)
+      throw InputError(what + " " + path + ": cannot write (" + reason() + ")");
+    return;
+  }
+  const std::string dir = folder_of(target);
   if (!fs::is_directory(dir, ec))
     throw InputError(what + " " + path + ": folder " + dir + " does not exist");
   if (::access(dir.c_str(), W_OK | X_OK) != 0)

@@ -45,6 +45,24 @@ def test_conversions_back_to_scipy_view_pmgkit_storage(levels):
         pmgkit.Bcsr(sp.identity(4, format="csr"))
 
 
+def test_write_petsc_changes_the_named_file_only(tmp_path):
+    """A link stays a link (its target is written); a FIFO without a reader is an error, not a hang;
+    a device is written in place."""
+    import os, stat
+    v = np.arange(6.0)
+    (tmp_path / "target.petsc").write_bytes(b"old")
+    os.symlink("target.petsc", tmp_path / "link.petsc")
+    pmgkit.write_petsc(tmp_path / "link.petsc", v)
+    assert (tmp_path / "link.petsc").is_symlink()
+    assert np.array_equal(pmgkit.read_petsc(tmp_path / "target.petsc"), v)
+    os.mkfifo(tmp_path / "fifo")
+    with pytest.raises(pmgkit.Error, match="a FIFO with no reader"):
+        pmgkit.write_petsc(tmp_path / "fifo", v)
+    assert stat.S_ISFIFO(os.stat(tmp_path / "fifo").st_mode)
+    pmgkit.write_petsc("/dev/null", v)
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+
+
 def test_bin_bcsr_reports_its_layout(levels):
     Bn = pmgkit.Bcsr(levels[0][-1]).to_bin_bcsr()
     assert Bn.num_bins >= 1 and Bn.padding_ratio >= 1.0 and Bn.bytes_per_spmv > 0

@@ -199,3 +199,11 @@ def test_the_gil_is_released_during_solves():
     # released one lets it run through the call (slowed by the solver's threads on this machine)
     import sys
     assert during > 4 * sys.getswitchinterval() * rate, (during, rate, state["seconds"])
+
+
+def test_a_key_given_twice_is_refused():
+    """A dotted key beside the same key inside its section: an error, not the last one winning."""
+    A = sp.diags([-np.ones(29), 2.5 * np.ones(30), -np.ones(29)], [-1, 0, 1], format="csr")
+    with pytest.raises(pmgkit.InputError, match="preconditioner.method: given twice"):
+        pmgkit.make_solver(A, {"method": "cg", "preconditioner.method": "jacobi",
+                               "preconditioner": {"method": "block-jacobi"}})

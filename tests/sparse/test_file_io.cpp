@@ -6,9 +6,13 @@
 
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <thread>
 #include <unistd.h>
 
 using namespace pmg;
@@ -44,6 +48,76 @@ TEST_CASE("output paths are checked before any work", "[sparse][io]") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("writing an output changes the named file only: links stay links, devices and FIFOs stay",
+          "[sparse][io]") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("pmg_out_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  auto read = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  // A regular file is replaced whole; no temporary is left beside it.
+  const fs::path plain = dir / "plain.txt";
+  write_file_atomically(plain.string(), "one");
+  write_file_atomically(plain.string(), "two");
+  CHECK(read(plain) == "two");
+  CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 1);
+
+  // A link keeps pointing at its target, which receives the contents; a dangling link creates it.
+  const fs::path target = dir / "target.txt", link = dir / "link.txt";
+  std::ofstream(target) << "old";
+  fs::create_symlink("target.txt", link);
+  write_file_atomically(link.string(), "new");
+  CHECK(fs::is_symlink(link));
+  CHECK(read(target) == "new");
+  const fs::path dangling = dir / "dangling.txt";
+  fs::create_symlink(dir / "created.txt", dangling);
+  write_file_atomically(dangling.string(), "made");
+  CHECK(fs::is_symlink(dangling));
+  CHECK(read(dir / "created.txt") == "made");
+
+  // Devices are written in place, never replaced (as root, a rename would replace /dev/null).
+  write_file_atomically("/dev/null", "discarded");
+  struct stat st {};
+  REQUIRE(::stat("/dev/null", &st) == 0);
+  CHECK(S_ISCHR(st.st_mode));
+  CHECK_NOTHROW(check_output_file("/dev/null", "--json"));
+  if (fs::exists("/dev/full")) {
+    CHECK_THROWS_WITH(write_file_atomically("/dev/full", "x"), Catch::Contains("/dev/full: write failed"));
+    REQUIRE(::stat("/dev/full", &st) == 0);
+    CHECK(S_ISCHR(st.st_mode));
+  }
+
+  // A FIFO: its reader gets the contents; without a reader the write fails instead of hanging.
+  const fs::path fifo = dir / "fifo";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  CHECK_THROWS_WITH(write_file_atomically(fifo.string(), "x"), Catch::Contains("a FIFO with no reader"));
+  std::string received;
+  std::thread reader([&] { received = read(fifo); });
+  // The reader opens the FIFO when its thread runs; retry until it is there.
+  bool written = false;
+  for (int attempt = 0; attempt < 500 && !written; ++attempt) {
+    try {
+      write_file_atomically(fifo.string(), "through the fifo");
+      written = true;
+    } catch (const Error&) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
+  if (!written) {  // unblock the reader before failing
+    const int fd = ::open(fifo.c_str(), O_WRONLY);
+    if (fd >= 0) ::close(fd);
+  }
+  reader.join();
+  CHECK(written);
+  CHECK(received == "through the fifo");
+  CHECK(fs::is_fifo(fifo));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("require_memory refuses an estimate beyond the machine, naming both", "[sparse][io]") {
   CHECK(physical_memory_bytes() > 0);
   CHECK_NOTHROW(require_memory(1e6, "a small run"));
@@ -73,4 +147,22 @@ TEST_CASE("a configuration key is a value or a section, never both (found by fuz
                     Catch::Contains("'method.method.x' reaches below 'method.method', which holds 'pmg'"));
   CHECK_THROWS_WITH(Config::from_pairs({"a.method.b=1", "a=x"}, "t"),
                     Catch::Contains("'a' = 'x' has no place: 'a.method' is a section of its own"));
+}
+
+TEST_CASE("a configuration key given twice is refused, never resolved silently", "[sparse][io]") {
+  CHECK_THROWS_WITH(Config::from_pairs({"tol=1e-3", "tol=1e-4"}, "--set"), Catch::Contains("--set: tol: given twice"));
+  CHECK_THROWS_WITH(Config::from_pairs({"smoother=chebyshev", "smoother.method=jacobi"}, "--set"),
+                    Catch::Contains("smoother.method: given twice"));
+  CHECK_THROWS_WITH(Config::from_json(R"({"preconditioner.method": "jacobi", "preconditioner": {"method": "block-jacobi"}})",
+                                      "t.json"),
+                    Catch::Contains("t.json: preconditioner.method: given twice"));
+  CHECK_THROWS_WITH(Config::from_json(R"({"smoother.method": "jacobi", "smoother": "chebyshev"})", "t.json"),
+                    Catch::Contains("t.json: smoother") && Catch::Contains("given twice"));
+  // Different keys of one section, dotted or nested, are fine.
+  const Config c = Config::from_json(R"({"smoother": {"method": "chebyshev"}, "smoother.degree": 3})", "t.json");
+  CHECK(c.get_string("smoother.degree", "") == "3");
+  // merge() and set() replace on purpose (presets, --set over a file's options).
+  Config d = Config::from_pairs({"tol=1e-3"}, "d");
+  d.merge(Config::from_pairs({"tol=1e-6"}, "e"));
+  CHECK(d.get_string("tol", "") == "1e-6");
 }

@@ -52,6 +52,8 @@ def drop_components(md, keep):
         head = re.match(r"^## (\S+)$", line)
         if head:
             skip = head.group(1) in doc_methods and doc_methods[head.group(1)] not in keep
+            if skip and out and not out[-1].strip():
+                out.pop()  # the blank line that opened the dropped section
         if not skip:
             out.append(line)
     return "".join(out)

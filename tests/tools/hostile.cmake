@@ -153,6 +153,21 @@ add_test(NAME "hostile: the per-step residual report stays within the step toler
 add_test(NAME "hostile: SIGINT stops pmg simulate -o with complete outputs and says where"
   COMMAND sh
   ${CMAKE_CURRENT_SOURCE_DIR}/sigint.sh $<TARGET_FILE:pmg>)
+# Outputs change the named file only (issue #30): a device is written in place, never replaced by
+# the temporary file's rename (as root that would turn /dev/null into a regular file).
+add_test(NAME "hostile: --json /dev/null leaves /dev/null a device"
+  COMMAND sh -c "${EXPECT} 0 'report: +/dev/null' $<TARGET_FILE:pmg> compare --grid 4 --solvers cg --json /dev/null && test -c /dev/null")
+add_test(NAME "hostile: --history /dev/full is a write error, and /dev/full stays a device"
+  COMMAND sh -c "${EXPECT} 1 '/dev/full: write failed .No space left on device.' $<TARGET_FILE:pmg> compare --grid 4 --solvers cg --history /dev/full; rc=$?; test -c /dev/full && exit $rc")
+add_test(NAME "hostile: an output path that is a link keeps the link and writes its target"
+  COMMAND sh -c "d=$(mktemp -d) && ln -s real.json $d/link.json && $<TARGET_FILE:pmg> compare --grid 4 --solvers cg --json $d/link.json > /dev/null && test -L $d/link.json && grep -q 'pmg compare' $d/real.json; rc=$?; rm -rf $d; exit $rc")
+# Conflicts are errors, never resolved silently (issue #30).
+add_test(NAME "hostile: --tol beside --set tol is refused"
+  COMMAND ${EXPECT} 2 "--tol and --set tol=1e-2: give it once" ${PMG} compare --grid 4 --solvers cg --tol 1e-6 --set tol=1e-2)
+add_test(NAME "hostile: --set with a key twice is refused"
+  COMMAND ${EXPECT} 2 "--set: tol: given twice" ${PMG} compare --grid 4 --solvers cg --set tol=1e-3 --set tol=1e-4)
+add_test(NAME "hostile: --fixed-iterations for a direct solver alone is refused"
+  COMMAND ${EXPECT} 2 "--fixed-iterations: no solver of this run reads it" ${PMG} compare --grid 4 --solvers cholmod --fixed-iterations 5)
 get_property(all_tests DIRECTORY PROPERTY TESTS)
 list(FILTER all_tests INCLUDE REGEX "^hostile: ")
 set_tests_properties(${all_tests} PROPERTIES LABELS "tools;hostile")

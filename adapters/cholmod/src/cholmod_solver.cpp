@@ -54,9 +54,9 @@ struct BlasThreadControl {
 // count and, on one thread, CHOLMOD's own OpenMP regions too. CHOLMOD 3's supernodal factorisation
 // (SuiteSparse 5.12, Debian 12) copies each large supernode's columns in a parallel region whose
 // thread count is fixed when CHOLMOD is compiled (CHOLMOD_OMP_NUM_THREADS, 4), whatever the
-// machine: on 2 cores, and between pmgkit's OpenMP kernels, the 373 supernodes of the twisted
-// Homer's linear level cost a refactorisation 21-23 ms of wall time for 10-12 ms of CPU time on
-// the calling thread (threads woken and waited for at every supernode). With no active parallel
+// machine: on few cores, and between pmgkit's OpenMP kernels, waking and waiting for those threads
+// at every supernode costs a refactorisation about twice its CPU time in wall time (measured in
+// CHANGELOG.md's history). With no active parallel
 // level allowed, those regions run on the calling thread. libgomp (GCC 12) and LLVM's libomp keep
 // that setting per thread, so calls on other threads are not affected.
 class ScopedCholmodThreads {

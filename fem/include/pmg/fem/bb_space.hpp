@@ -15,6 +15,7 @@
 
 namespace pmg::fem {
 
+/// A multi-index α = (α0, α1, α2, α3), |α| = p: one Bernstein–Bézier basis function of a tetrahedron.
 using MultiIndex = std::array<int, 4>;
 
 /// The multi-indices of degree p in local order: vertices (p e_i), then edge nodes (edges 01, 02,
@@ -33,6 +34,7 @@ int local_index(const MultiIndex& alpha);
 
 /// B^p_alpha(λ) and its gradient with respect to λ0..λ3.
 double bernstein(const MultiIndex& alpha, const Eigen::Vector4d& lambda);
+/// The gradient of B^p_alpha with respect to the barycentric coordinates λ0..λ3.
 Eigen::Vector4d bernstein_gradient(const MultiIndex& alpha, const Eigen::Vector4d& lambda);
 
 /// The degree-p Bernstein–Bézier space of a tetrahedral mesh: the global node numbering and the

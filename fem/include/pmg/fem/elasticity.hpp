@@ -39,6 +39,7 @@ Mat3 polar_rotation(const Mat3& F);
 /// 2 or 3. Clamping removes every rigid motion only when it is at least 2.
 int clamped_dimension(const TetMesh& mesh, const std::vector<char>& clamped);
 
+/// One rotation per element (corotational elasticity), in element order.
 using Rotations = std::vector<Mat3>;
 
 /// Linear or corotational elasticity on the degree-p BB space of a tetrahedral mesh: Dirichlet

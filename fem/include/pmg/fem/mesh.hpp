@@ -11,8 +11,11 @@
 
 namespace pmg::fem {
 
+/// A point or vector in space (m).
 using Vec3 = Eigen::Vector3d;
+/// A 3x3 matrix (rotations, gradients).
 using Mat3 = Eigen::Matrix3d;
+/// The four vertex ids of a tetrahedron (positively oriented after reading).
 using Tet = std::array<index_t, 4>;
 
 /// Invalid mesh or model input; the message names the element, vertex or face.

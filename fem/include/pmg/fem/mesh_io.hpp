@@ -20,8 +20,10 @@ namespace pmg::fem {
 /// a tangled or cracked mesh on purpose.
 TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings = nullptr,
                   const MeshCheckOptions& options = {});
+/// Reads a Gmsh .msh file (format 2.2 or 4.1, ASCII), as read_mesh().
 TetMesh read_gmsh(const std::string& path, std::vector<std::string>* warnings = nullptr,
                   const MeshCheckOptions& options = {});
+/// Reads TetGen's BASE.node and BASE.ele, as read_mesh().
 TetMesh read_tetgen(const std::string& base, std::vector<std::string>* warnings = nullptr,
                     const MeshCheckOptions& options = {});
 /// The same from streams; `name` (`node_name`, `ele_name`) names the input in every message.
@@ -29,6 +31,7 @@ TetMesh read_tetgen(const std::string& base, std::vector<std::string>* warnings 
 /// allocated.
 TetMesh read_gmsh(std::istream& in, const std::string& name, std::vector<std::string>* warnings = nullptr,
                   const MeshCheckOptions& options = {});
+/// TetGen's .node and .ele from two streams (see read_gmsh() from a stream).
 TetMesh read_tetgen(std::istream& node, const std::string& node_name, std::istream& ele,
                     const std::string& ele_name, std::vector<std::string>* warnings = nullptr,
                     const MeshCheckOptions& options = {});
@@ -46,6 +49,7 @@ struct Surface {
   double volume() const;
 };
 Surface read_surface(const std::string& path);  ///< .off or .stl
+/// An OFF surface from a stream; `name` stands for the file in messages.
 Surface read_off(std::istream& in, const std::string& name);
 Surface read_stl(std::istream& in, const std::string& name);  ///< ASCII or binary (needs seeking)
 

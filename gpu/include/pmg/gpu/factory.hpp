@@ -9,7 +9,7 @@
 //
 // Each is a pmg::Solver on host vectors: solve() uploads b and x, solves on the device and
 // downloads x. The copies are timed apart from the device solve and reported by describe()
-// ("set-up 334.25 ms; last solve: upload 1.00 ms, device 57.67 ms, download 0.37 ms"); set-up is
+// ("set-up S ms; last solve: upload U ms, device D ms, download W ms"); set-up is
 // the whole of it (host work such as BIN-BCSR slicing, gpu-pmg's CHOLMOD factorisation and λmax
 // estimates, then the uploads). SolveResult::seconds covers the whole call, copies included.
 // Stopping rules, keys and messages are those of the CPU methods.

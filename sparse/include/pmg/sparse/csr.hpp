@@ -14,6 +14,7 @@
 
 namespace pmg {
 
+/// A (row, column, value) entry, for building matrices from lists of entries.
 using Triplet = Eigen::Triplet<double, index_t>;
 
 /// The sparsity pattern of a CSR matrix (see the file comment): row pointers and sorted column

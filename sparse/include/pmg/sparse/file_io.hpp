@@ -8,8 +8,12 @@
 
 namespace pmg {
 
-/// Writes contents to "path.tmp.<pid>" and renames it to path (atomic on POSIX file systems).
-/// Errors name `path` and the reason (errno's text).
+/// Writes contents so that an interrupted run never leaves a half-written file and nothing but the
+/// named file changes: a regular (or new) file is written to "path.tmp.<pid>.<n>" beside it and
+/// renamed over it (atomic on POSIX file systems); a symbolic link is followed, so the link stays
+/// and its target is written; a device (/dev/null), FIFO or socket is written in place, never
+/// replaced (a FIFO without a reader is an error, not a hang). Errors name `path` and the reason
+/// (errno's text: /dev/full says "No space left on device").
 void write_file_atomically(const std::string& path, const std::string& contents);
 
 /// Checks, before any work, that a file can be written at `path`: its folder exists and is

@@ -16,10 +16,12 @@ namespace pmg {
 /// Reads a sparse matrix. Symmetric files are expanded to both triangles; duplicates are summed.
 /// Throws InputError("file:line: what") on any malformed or out-of-range content.
 Csr read_matrix_market(const std::string& path);
+/// The same from a stream; `name` stands for the file in messages.
 Csr read_matrix_market(std::istream& in, const std::string& name = "<stream>");
 
 /// Reads a dense vector: "array" format (one column) or a coordinate n x 1 matrix.
 Vector read_matrix_market_vector(const std::string& path);
+/// The same from a stream; `name` stands for the file in messages.
 Vector read_matrix_market_vector(std::istream& in, const std::string& name = "<stream>");
 
 /// Writes a matrix in coordinate format; symmetric=true writes the lower triangle of a symmetric

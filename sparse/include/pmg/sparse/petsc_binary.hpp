@@ -21,13 +21,16 @@ namespace pmg {
 /// Reads a matrix (AIJ/CSR); rows may list columns in any order (sorted on reading); a repeated
 /// column in a row is an error.
 Csr read_petsc_binary_matrix(const std::string& path);
+/// The same from a stream; `name` stands for the file in messages.
 Csr read_petsc_binary_matrix(std::istream& in, const std::string& name = "<stream>");
 /// Reads a vector.
 Vector read_petsc_binary_vector(const std::string& path);
+/// The same from a stream; `name` stands for the file in messages.
 Vector read_petsc_binary_vector(std::istream& in, const std::string& name = "<stream>");
 
-/// Writes a matrix / a vector (to "path.tmp", then renamed: a reader never sees half a file).
+/// Writes a matrix through write_file_atomically() (a reader never sees half a file).
 void write_petsc_binary(const std::string& path, const Csr& A);
+/// Writes a vector through write_file_atomically().
 void write_petsc_binary(const std::string& path, const Vector& v);
 
 }  // namespace pmg

@@ -53,6 +53,8 @@ class TextReader {
   long long size_ = -1;  ///< of a seekable input, else -1
 };
 
+/// The whitespace-separated tokens of a line (every isspace character separates, vertical tab
+/// and form feed too).
 std::vector<std::string> split_tokens(const std::string& line);
 
 }  // namespace pmg

@@ -8,7 +8,9 @@
 
 namespace pmg::ops {
 
+/// xᵀy.
 double dot(const Vector& x, const Vector& y);
+/// ‖x‖₂.
 double norm2(const Vector& x);
 /// y += a x
 void axpy(double a, const Vector& x, Vector& y);

@@ -13,8 +13,9 @@ namespace pmg::mpi {
 
 /// Starts MPI if it is not running; returns the seconds this call took (about 0 when it was).
 double start();
-/// Rank and number of ranks of MPI_COMM_WORLD (starting MPI if needed).
+/// Rank of this process in MPI_COMM_WORLD (starting MPI if needed).
 int rank();
+/// Number of ranks of MPI_COMM_WORLD (starting MPI if needed).
 int size();
 /// Runs `finalize` at exit, before MPI_Finalize when pmgkit owns MPI. When the program owns MPI
 /// it runs at exit too, possibly after the program's MPI_Finalize: a finaliser checks
