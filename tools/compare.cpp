@@ -655,7 +655,7 @@ void register_compare(CLI::App& app) {
                   "FEM scenes: write the level matrices, prolongations and b to this folder");
   sub->add_option("--export-petsc", opts->export_petsc,
                   "FEM scenes: write the system in PETSc's binary format to this folder (A.petsc, b.petsc, "
-                  "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc_reference read)");
+                  "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc/petsc_reference read)");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
   // Multigrid flags of earlier versions: each duplicated a --set key, so they are retired with a

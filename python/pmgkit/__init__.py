@@ -169,7 +169,7 @@ def multigrid(levels=None, prolongations=(), config=None, layout="interleaved", 
     prolongations=[P_1, ..., P_L-1] (P_l: level l-1 -> l, fine nodes x coarse nodes, or fine dofs
     x coarse dofs when it is a node prolongation applied to each component); or finest=A with the
     prolongations, the lower levels then Galerkin products. config: the factory's schema (default
-    method mgpcg; multigrid for the stationary cycle). layout: interleaved (x0 y0 z0 x1 ...) or
+    method mgpcg; pmg for the stationary cycle). layout: interleaved (x0 y0 z0 x1 ...) or
     component (x0 x1 ... y0 ...). Dirichlet identity rows (whole nodes) are removed from the
     levels and the prolongations; the solution's entries there are b / diagonal."""
     if (levels is None) == (finest is None):
