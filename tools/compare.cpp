@@ -87,8 +87,8 @@ Config cli_config(const Options& o, const std::string& method) {
 
 /// Every solver of the run with its options: --solver-config's named configurations, else the
 /// --solvers list from the command-line flags; --set overrides go to each.
-std::vector<std::pair<std::string, Config>> solver_configs(const Options& o,
-                                                           const std::vector<std::string>& names) {
+std::vector<std::pair<std::string, Config>> solver_configs(const Options& o, const std::vector<std::string>& names,
+                                                           const Config& set) {
   std::vector<std::pair<std::string, Config>> out;
   if (!o.solver_config.empty()) {
     std::ifstream in(o.solver_config);
@@ -111,10 +111,7 @@ std::vector<std::pair<std::string, Config>> solver_configs(const Options& o,
   } else {
     for (const auto& n : names) out.emplace_back(n, cli_config(o, n));
   }
-  if (!o.overrides.empty()) {
-    const Config set = Config::from_pairs(o.overrides, "--set");
-    for (auto& [name, c] : out) c.merge(set);
-  }
+  for (auto& nc : out) nc.second.merge(set);
   return out;
 }
 
@@ -366,6 +363,7 @@ void run(const Options& o) {
   const LinearOperator& entries = sys.bcsr ? static_cast<const LinearOperator&>(*sys.bcsr) : sys.csr;
   const mg::LevelProvider* levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())
                                     : sys.fem ? &sys.fem->hierarchy() : nullptr;
+  const Config set = Config::from_pairs(o.overrides, "--set");  // read once, for every solver
   std::vector<std::string> names = o.solvers;
   if (names.empty()) {
     names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
@@ -373,7 +371,6 @@ void run(const Options& o) {
       names.push_back("pmg");
       // A lowest level solved by an inner Krylov iteration is not a fixed operator: CG cannot be
       // preconditioned by such a cycle, so mgpcg is left out (named in the output).
-      const Config set = Config::from_pairs(o.overrides, "--set");
       const std::string lowest = set.has("lowest_level.method") ? set.get_string("lowest_level.method", "")
                                                                 : set.get_string("lowest_level", "");
       if (lowest == "cg" || lowest == "boomeramg-pcg" || lowest == "gamg-pcg")
@@ -391,15 +388,14 @@ void run(const Options& o) {
     coordinates = sys.fem->free_coordinates();
     ctx.coordinates = &coordinates;
   }
-  std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names);
+  std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names, set);
   // A stopping flag given twice (as a flag and in --set), or to solvers that do not read it, is an
   // error: a conflict is never resolved silently.
-  const Config set_pairs = Config::from_pairs(o.overrides, "--set");
   for (const auto& [flag, key] : {std::pair<const char*, const char*>{"--tol", "tol"}, {"--max-iter", "max_iterations"},
                                   {"--fixed-iterations", "fixed_iterations"}, {"--check-every", "check_every"}}) {
     if (!o.given.count(flag)) continue;
-    if (set_pairs.has(key))
-      throw InputError(std::string(flag) + " and --set " + key + "=" + set_pairs.get_string(key, "") +
+    if (set.has(key))
+      throw InputError(std::string(flag) + " and --set " + key + "=" + set.get_string(key, "") +
                        ": give it once");
     bool read = false;
     for (const auto& nc : configs) read |= method_accepts_key(nc.second.get_string("method", "cg"), key);
@@ -409,7 +405,7 @@ void run(const Options& o) {
   }
   std::vector<std::unique_ptr<Solver>> solvers;
   std::set<std::string> set_keys;
-  for (const auto& kv : Config::from_pairs(o.overrides, "--set").items()) set_keys.insert(kv.first);
+  for (const auto& kv : set.items()) set_keys.insert(kv.first);
   std::set<std::string> set_used;
   double mpi = -1.0;
   for (auto& [name, c] : configs) {

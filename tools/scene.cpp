@@ -96,7 +96,6 @@ FemSystem build_fem_system(const SceneOptions& o) {
   if (o.dt > 0) {
     fem::SimulationParams sp;  // the step system of an undamped implicit-Euler step
     sp.dt = o.dt;
-    sp.rayleigh_alpha = sp.rayleigh_beta = 0.0;
     const fem::StepWeights w = fem::step_weights(sp);
     s.mass_weight = w.mass;
     s.stiffness_weight = w.stiffness;

@@ -37,7 +37,7 @@ struct VCycle::Level {
   BinBcsr host;  ///< the sliced layout, refilled by update()
   std::unique_ptr<DeviceBinBcsr> device;
   DeviceArray<double> inv_diag;
-  double lambda_max = 0.0;
+  std::vector<mg::ChebyshevStep> steps;  ///< the CPU smoother's polynomial for this level's λmax
   std::unique_ptr<DeviceCsr> P, R;  ///< from the level below to this one, and back
   mutable DeviceVector b, x, r, d;  ///< b, x: this level's equation when it is not the finest
 };
@@ -89,7 +89,7 @@ VCycle::~VCycle() = default;
 // D⁻¹ (checked SPD) and λmax from the CPU smoother, so both cycles apply the same polynomial.
 void VCycle::set_up_smoother(Level& L) const {
   const mg::Chebyshev cheb(*L.A, chebyshev_);
-  L.lambda_max = cheb.lambda_max();
+  L.steps = cheb.steps();
   L.inv_diag.upload(cheb.inverse_diagonal());
 }
 
@@ -113,10 +113,9 @@ const DeviceBinBcsr& VCycle::finest() const {
 // Chebyshev of the first kind on D⁻¹A over [f λmax, λmax]: the steps of mg::chebyshev_steps, as
 // mg::Chebyshev::smooth takes them (the residual b - A x before each step).
 void VCycle::smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const {
-  const std::vector<mg::ChebyshevStep> steps = mg::chebyshev_steps(chebyshev_, L.lambda_max);
   const int nb = L.A->block_rows();
   const unsigned grid = detail::blocks_for(nb);
-  for (const mg::ChebyshevStep& s : steps) {
+  for (const mg::ChebyshevStep& s : L.steps) {
     L.device->residual(b, x, L.r);
     chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(), s.c1, s.c2);
   }

@@ -68,6 +68,7 @@ void Chebyshev::estimate(int iterations, bool warm) {
     v = z / lambda;
   }
   lambda_max_ = 1.1 * lambda;
+  steps_ = chebyshev_steps(params_, lambda_max_);  // once per estimate, not per smoothing
 }
 
 void Chebyshev::pre_smooth_from_zero(const Vector& b, Vector& x) const {
@@ -109,7 +110,7 @@ std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& p, double lamb
 // x improved in place by the polynomial of D⁻¹A (chebyshev_steps); from x = 0 the first residual is
 // b itself.
 void Chebyshev::smooth(const Vector& b, Vector& x, bool x_is_zero) const {
-  const std::vector<ChebyshevStep> steps = chebyshev_steps(params_, lambda_max_);
+  const std::vector<ChebyshevStep>& steps = steps_;
   const int m = static_cast<int>(steps.size());
   const bool first_kind = params_.kind == ChebyshevKind::first;
   if (x_is_zero) r_ = b;

