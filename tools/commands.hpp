@@ -3,6 +3,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <csignal>
+
 namespace pmg::tools {
 
 /// pmg solvers: every registered method with its keys, defaults and descriptions (text or the
@@ -23,7 +25,17 @@ void register_simulate(CLI::App& app);
 std::string find_data_file(const std::string& name);
 
 /// Exit codes shared by every subcommand.
-enum ExitCode : int { kOk = 0, kSolveFailed = 1, kBadInput = 2 };
+/// kInterrupted: 128 + SIGINT, the shell's convention for a run ended by Ctrl-C.
+enum ExitCode : int { kOk = 0, kSolveFailed = 1, kBadInput = 2, kInterrupted = 130 };
+
+/// From now on SIGINT (Ctrl-C) only sets a flag, which the subcommand reads between steps to stop
+/// with its outputs complete (and its temporary files removed); a second SIGINT ends the process
+/// at once (the default action is restored by the first).
+void catch_interrupt();
+/// The flag catch_interrupt() arms: non-zero after a SIGINT.
+const volatile std::sig_atomic_t* interrupt_flag();
+/// True after a SIGINT since catch_interrupt().
+bool interrupted();
 
 /// Thrown by a subcommand that has reported its outcome and wants this exit code.
 struct Exit {

@@ -70,12 +70,20 @@ struct Options {
   std::set<std::string> given;  // the stopping flags given on the command line
 };
 
+/// Whether `method` takes the stopping flag of solver key `key` (tol, max_iterations, ...): the
+/// iterative methods, those with an iteration limit.
+bool reads_stopping_flag(const std::string& method, const char* key) {
+  return method_accepts_key(method, "max_iterations") && method_accepts_key(method, key);
+}
+
 /// One solver's options from the command line: its method and the stopping flags where the
 /// method reads them (solver options beyond those come from --set and --solver-config).
 Config cli_config(const Options& o, const std::string& method) {
   Config c = Config::from_pairs({"method=" + method}, "pmg compare (" + method + ")");
   auto accepts = [&](const char* k) { return method_accepts_key(method, k); };
-  if (accepts("tol")) c.set("tol", fmt("%.17g", o.tol));
+  // --tol is the stopping rule of the iterative methods; a direct solver checks its answer against
+  // its own tol (--set tol=...), which rounding on ill-conditioned systems must be able to meet.
+  if (reads_stopping_flag(method, "tol")) c.set("tol", fmt("%.17g", o.tol));
   if (o.fixed_iterations > 0 && accepts("fixed_iterations"))
     c.set("fixed_iterations", std::to_string(o.fixed_iterations));
   else if (accepts("max_iterations"))
@@ -91,12 +99,9 @@ std::vector<std::pair<std::string, Config>> solver_configs(const Options& o, con
                                                            const Config& set) {
   std::vector<std::pair<std::string, Config>> out;
   if (!o.solver_config.empty()) {
-    std::ifstream in(o.solver_config);
-    if (!in) throw InputError(o.solver_config + ": cannot read");
-    std::stringstream text;
-    text << in.rdbuf();
-    check_json_text(text.str(), o.solver_config);  // syntax, duplicate keys, out-of-range numbers
-    const nlohmann::ordered_json j = nlohmann::ordered_json::parse(text.str());
+    const std::string text = read_text_file(o.solver_config, kMaxConfigBytes, "--solver-config");
+    check_json_text(text, o.solver_config);  // syntax, duplicate keys, out-of-range numbers
+    const nlohmann::ordered_json j = nlohmann::ordered_json::parse(text);
     if (!j.is_object() || j.empty())
       throw InputError(o.solver_config + ": expected an object of named solver configurations "
                        "({\"name\": {\"method\": ...}, ...})");
@@ -105,7 +110,7 @@ std::vector<std::pair<std::string, Config>> solver_configs(const Options& o, con
         throw InputError(o.solver_config + ": " + it.key() + ": expected an object of solver options");
       Config c = Config::from_json(it.value().dump(), o.solver_config + ": " + it.key());
       const std::string method = c.get_string("method", "cg");
-      if (method_accepts_key(method, "tol")) c.set_default("tol", fmt("%.17g", o.tol));
+      if (reads_stopping_flag(method, "tol")) c.set_default("tol", fmt("%.17g", o.tol));
       out.emplace_back(it.key(), c);
     }
   } else {
@@ -398,10 +403,10 @@ void run(const Options& o) {
       throw InputError(std::string(flag) + " and --set " + key + "=" + set.get_string(key, "") +
                        ": give it once");
     bool read = false;
-    for (const auto& nc : configs) read |= method_accepts_key(nc.second.get_string("method", "cg"), key);
+    for (const auto& nc : configs) read |= reads_stopping_flag(nc.second.get_string("method", "cg"), key);
     if (!read)
-      throw InputError(std::string(flag) + ": no solver of this run reads it (direct solvers and "
-                       "preconditioners have no stopping rule)");
+      throw InputError(std::string(flag) + ": no solver of this run reads it (it is the iterative methods' stopping "
+                       "rule; a direct solver's check of its residual is --set tol=...)");
   }
   std::vector<std::unique_ptr<Solver>> solvers;
   std::set<std::string> set_keys;

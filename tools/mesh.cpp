@@ -54,6 +54,30 @@ void write_off(const fs::path& path, const fem::Surface& s) {
   write_file_atomically(path.string(), out.str());
 }
 
+/// Peak memory of TetGen (-pq) and of reading and checking its mesh, per tetrahedron: measured
+/// (docs/reliability.md) with `/usr/bin/time -f %M pmg mesh cube.off -n N`, rounded up.
+constexpr double kMeshBytesPerTet = 1.5e3;
+
+/// Ends the run with exit status 130 after Ctrl-C (the scratch folder is removed on the way out).
+void stop_if_interrupted() {
+  if (!interrupted()) return;
+  std::cout << std::flush;
+  std::cerr << "pmg: interrupted: nothing was written, the temporary folder was removed\n";
+  throw Exit{kInterrupted};
+}
+
+/// A temporary folder removed when it goes out of scope, on every way out (errors, Ctrl-C).
+struct ScratchDir {
+  fs::path path;
+  explicit ScratchDir(fs::path p) : path(std::move(p)) { fs::create_directories(path); }
+  ~ScratchDir() {
+    std::error_code ignored;
+    fs::remove_all(path, ignored);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+};
+
 fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::path& scratch,
                         double max_volume) {  for (const char* ext : {".1.node", ".1.ele", ".1.face", ".1.edge"})
     fs::remove(input.parent_path() / (input.stem().string() + ext));
@@ -62,6 +86,13 @@ fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::p
   const std::string cmd = "'" + o.tetgen + "' -Q " + switches + " '" + input.string() + "' > '" +
                           (scratch / "tetgen.log").string() + "' 2>&1";
   const int rc = std::system(cmd.c_str());
+  // system() ignores SIGINT in this process while TetGen runs; TetGen (or its shell) gets it.
+  if ((WIFSIGNALED(rc) && WTERMSIG(rc) == SIGINT) || (WIFEXITED(rc) && WEXITSTATUS(rc) == 128 + SIGINT)) {
+    std::cout << std::flush;
+    std::cerr << "pmg: interrupted: TetGen was stopped, nothing was written, the temporary folder was removed\n";
+    throw Exit{kInterrupted};
+  }
+  stop_if_interrupted();
   // TetGen may exit with 134 even after writing a good mesh: judge by its output files.
   const fs::path base = input.parent_path() / (input.stem().string() + ".1");
   if (!fs::exists(base.string() + ".ele"))
@@ -81,6 +112,7 @@ void print_counts(const fem::TetMesh& m) {
 }
 
 void run(const MeshOptions& o) {
+  catch_interrupt();
   if (!o.output.empty()) check_output_file(o.output + ".node", "-o");  // before TetGen runs
   if (!o.allow.empty() && (fs::path(o.input).extension() == ".off" || fs::path(o.input).extension() == ".stl"))
     throw InputError("--allow applies to mesh files (.msh, .node, .ele), not to surfaces");
@@ -92,8 +124,13 @@ void run(const MeshOptions& o) {
     if (!(volume > 0)) throw InputError(o.input + ": the surface encloses no volume (not closed?)");
     std::cout << "surface: " << o.input << ", " << surface.vertices.size() << " vertices, "
               << surface.triangles.size() << " triangles, volume " << fmt("%.6g", volume) << "\n";
-    const fs::path scratch = fs::temp_directory_path() / ("pmg_mesh_" + std::to_string(::getpid()));
-    fs::create_directories(scratch);
+    const double estimate = kMeshBytesPerTet * static_cast<double>(o.tets) * std::pow(8.0, o.refine);
+    std::cout << "estimated peak memory: " << fmt("%.3g", estimate / 1e9) << " GB (-n " << o.tets
+              << (o.refine > 0 ? ", --refine " + std::to_string(o.refine) : std::string()) << ")\n";
+    require_memory(estimate, "-n " + std::to_string(o.tets) + " tetrahedra" +
+                                 (o.refine > 0 ? " refined " + std::to_string(o.refine) + "x" : std::string()));
+    const ScratchDir scratch_dir(fs::temp_directory_path() / ("pmg_mesh_" + std::to_string(::getpid())));
+    const fs::path& scratch = scratch_dir.path;
     // TetGen keeps every surface triangle and refines inwards from them to meet the quality bound:
     // measured on the CGAL models, about N^(2/3) surface triangles give N elements at -q1.414, so a
     // finer surface is decimated to that first.
@@ -103,6 +140,7 @@ void run(const MeshOptions& o) {
     fs::path input = scratch / ("surface" + fs::path(o.input).extension().string());
     if (keep > 0 && static_cast<long>(surface.triangles.size()) > keep) {
       surface = simplify_surface(surface, static_cast<size_t>(keep));
+      stop_if_interrupted();
       input = scratch / "surface.off";
       write_off(input, surface);
       std::cout << "surface simplified to " << surface.triangles.size() << " triangles (volume "
@@ -130,7 +168,6 @@ void run(const MeshOptions& o) {
       previous_count = count;
       max_volume *= std::pow(count / o.tets, 1.0 / k);
     }
-    fs::remove_all(scratch);
   } else {
     std::vector<std::string> warnings;
     fem::MeshCheckOptions checks;
@@ -139,12 +176,15 @@ void run(const MeshOptions& o) {
     for (const auto& w : warnings) std::cout << "warning: " << w << "\n";
   }
   if (o.refine > 0) {
+    require_memory(kMeshBytesPerTet * mesh.num_tets() * std::pow(8.0, o.refine),
+                   "--refine " + std::to_string(o.refine) + " of " + std::to_string(mesh.num_tets()) + " tetrahedra");
     mesh = fem::refine_uniform(mesh, o.refine);
     std::cout << "refined uniformly " << o.refine << "x (each tetrahedron into 8, geometry unchanged)\n";
   }
   std::cout << "mesh: " << mesh.num_tets() << " tetrahedra, " << mesh.num_vertices()
             << " vertices (all elements checked)\n";
   print_counts(mesh);
+  stop_if_interrupted();
   if (!o.output.empty()) {
     std::string base = o.output;
     for (const char* e : {".node", ".ele"})

@@ -44,7 +44,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << "pmg: error: " << e.what() << "\nRun with --help for more information.\n";
+    return e.get_exit_code();
   } catch (const pmg::tools::Exit& e) {
     return e.code;
   } catch (const pmg::InputError& e) {

@@ -67,18 +67,6 @@ class Progress {
 
 json vec3(const fem::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
-/// SIGINT (Ctrl-C): the run stops after the step in progress with its outputs complete; a second
-/// SIGINT ends the process at once (SA_RESETHAND restores the default action).
-volatile std::sig_atomic_t g_interrupted = 0;
-extern "C" void on_interrupt(int) { g_interrupted = 1; }
-void catch_interrupt() {
-  struct sigaction sa {};
-  sa.sa_handler = on_interrupt;
-  sigemptyset(&sa.sa_mask);
-  sa.sa_flags = SA_RESETHAND;
-  sigaction(SIGINT, &sa, nullptr);
-}
-constexpr int kInterrupted = 130;  // 128 + SIGINT, the shell's convention
 
 void run_static(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& report) {
   const sim::StaticOutcome r = sim::solve_static(s, b, cli.output);
@@ -98,7 +86,7 @@ void run_static(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& r
 
 void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& report) {
   sim::DynamicRun run(s, b, cli.output);
-  run.set_stop_flag(&g_interrupted);
+  run.set_stop_flag(interrupt_flag());
   const std::string& method = run.method();
   std::cout << "time:    " << run.steps() << " steps of " << s.dt << " s (" << s.duration << " s), implicit Euler"
             << (s.rayleigh_alpha > 0 || s.rayleigh_beta > 0 ? ", Rayleigh damping" : ", undamped") << "\n"
@@ -168,7 +156,8 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
   }
   if (r.failed_step) {
     report["failure"] = {{"step", r.failed_step}, {"message", r.failure}};
-    std::cout << "\nsimulation failed at step " << r.failed_step << ": " << r.failure << "\n";
+    std::cout << std::flush;
+    std::cerr << "\npmg: error: simulation failed at step " << r.failed_step << ": " << r.failure << "\n";
     throw Exit{kSolveFailed};
   }
 }

@@ -1,5 +1,6 @@
 #include "pmg/fem/matrix_free.hpp"
 
+#include <mutex>
 #include <omp.h>
 
 #include <algorithm>
@@ -209,6 +210,9 @@ struct ElasticityOperator::Impl {
   /// apply(): thread t > 0 accumulates its contiguous range of elements into buffers[t-1] (kept
   /// from call to call: no allocation per product), thread 0 directly into y; then y += Σ buffers.
   mutable std::vector<Vector> buffers;
+  /// Held by the product using `buffers`; a product that finds them taken (two solvers sharing
+  /// this operator on two threads) uses buffers of its own, so products stay concurrent and exact.
+  mutable std::mutex buffers_mutex;
 
   /// y = A x, or with b: y = b - A x (the residual in the same pass).
   template <int P>
@@ -217,6 +221,9 @@ struct ElasticityOperator::Impl {
     double* yp = y.data();
     const long len = static_cast<long>(y.size());
     const int threads = omp_get_max_threads();
+    std::unique_lock<std::mutex> lock(buffers_mutex, std::try_to_lock);
+    std::vector<Vector> own;
+    std::vector<Vector>& buffers = lock.owns_lock() ? this->buffers : own;
     if (static_cast<int>(buffers.size()) != threads - 1 || (threads > 1 && buffers[0].size() != len))
       buffers.assign(std::max(threads - 1, 0), Vector(len));
     const double sign = b ? -1.0 : 1.0;

@@ -1,6 +1,8 @@
 #include "pmg/fem/simulation.hpp"
 #include "pmg/sparse/timer.hpp"
 
+#include <cstdio>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -34,6 +36,16 @@ ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f
   if (!(p_.rayleigh_alpha >= 0) || !(p_.rayleigh_beta >= 0) || !std::isfinite(p_.rayleigh_alpha) ||
       !std::isfinite(p_.rayleigh_beta))
     throw InputError("simulation: Rayleigh damping coefficients must be >= 0");
+  // dt^2 K (and dt beta K) must stay far inside double range: the stiffness entries scale with E.
+  if (!std::isfinite(step_weights(p_).stiffness * std::max(m.material().young, 1.0) * 1e8) ||
+      !std::isfinite(step_weights(p_).mass * 1e8))
+  {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "simulation: the time step dt = %g s (with the damping) makes the step matrix M + dt^2 K "
+                  "overflow double precision; use a smaller dt", p_.dt);
+    throw InputError(text);
+  }
   if (m.num_fixed() == 0 && p_.rayleigh_alpha == 0 && m.material().density == 0)
     throw InputError("simulation: no mass and nothing clamped: the step system is singular");
   if (m.material().density == 0) throw InputError("simulation: density must be > 0 for dynamics");

@@ -20,6 +20,9 @@ void check_inputs(const ElasticityModel& model, const Vector& f_ext) {
   if (model.num_fixed() == 0)
     throw InputError("static solve: no node is fixed, so the stiffness matrix is singular (rigid "
                      "motions); fix part of the boundary");
+  if (model.num_free_dofs() == 0)
+    throw InputError("static solve: every node is fixed (no free degree of freedom): nothing to solve; "
+                     "fix part of the boundary, not all of it");
   if (f_ext.size() != model.num_dofs())
     throw InputError("static solve: force vector has " + std::to_string(f_ext.size()) +
                      " entries, model has " + std::to_string(model.num_dofs()) + " dofs");
@@ -40,6 +43,8 @@ StaticResult fixed_point(const ElasticityModel& model, const Vector& f_ext, bool
     try {
       if (it == 1) solver.setup(K);  // symbolic set-up once; later iterations are numeric only
       else solver.update();
+    } catch (const InputError&) {
+      throw;  // a solver that does not suit this system says so itself
     } catch (const Error& e) {
       throw Error(std::string("static solve: ") + e.what() + "; the constraints may not remove every rigid motion");
     }

@@ -5,6 +5,7 @@
 #include "pmg/sparse/timer.hpp"
 
 #include <chrono>
+#include <functional>
 #include <limits>
 
 namespace pmg::mg {
@@ -96,8 +97,22 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     galerkin_.resize(L > 0 ? L - 1 : 0);
     for (int l = L - 2; l >= 0; --l) galerkin_[l] = GalerkinProduct(transfers_[l], level_matrix(l + 1));
   }
-  for (int l = 1; l < L; ++l) smoothers_[l - 1]->setup(level_operator(l));
-  lowest_->setup(level_matrix(0));
+  // A set-up that fails on a level says which, and for a Galerkin product where to look.
+  auto on_level = [&](int l, const std::function<void()>& set_up) {
+    try {
+      set_up();
+    } catch (const InputError&) {
+      throw;
+    } catch (const Error& e) {
+      const bool product = params_.coarse_operator == CoarseOperator::galerkin && l < L - 1;
+      throw Error("multigrid: the set-up of " + levels_.level_name(l) + " failed: " + e.what() +
+                  (product ? " (this level's matrix is the Galerkin product P^T A P: a prolongation "
+                             "without full column rank makes it singular; check the prolongations)"
+                           : ""));
+    }
+  };
+  for (int l = 1; l < L; ++l) on_level(l, [&] { smoothers_[l - 1]->setup(level_operator(l)); });
+  on_level(0, [&] { lowest_->setup(level_matrix(0)); });
   work_.assign(L, Work{});
   for (int l = 1; l < L; ++l) {
     work_[l].r.resize(level_operator(l).rows());

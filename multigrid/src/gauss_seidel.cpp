@@ -78,7 +78,8 @@ inline void relax_row_pointwise(const index_t* cols, const double* v, offset_t b
 }  // namespace
 
 BlockGaussSeidel::BlockGaussSeidel(const GaussSeidelParams& params) : params_(params) {
-  if (params.sweeps < 0) throw InputError("Gauss-Seidel: sweeps must be >= 0");
+  if (params.sweeps < 1)
+    throw InputError("Gauss-Seidel: sweeps must be >= 1 (a smoother that does nothing leaves the cycle without smoothing)");
 }
 
 void BlockGaussSeidel::setup_impl(const LinearOperator& op) {

@@ -10,7 +10,8 @@ namespace pmg::mg {
 
 BlockJacobi::BlockJacobi(const JacobiParams& params) : params_(params) {
   if (!(params.omega > 0)) throw InputError("Jacobi: omega must be positive");
-  if (params.sweeps < 0) throw InputError("Jacobi: sweeps must be >= 0");
+  if (params.sweeps < 1)
+    throw InputError("Jacobi: sweeps must be >= 1 (a smoother that does nothing leaves the cycle without smoothing)");
 }
 
 namespace {
@@ -59,7 +60,7 @@ void BlockJacobi::smooth(const Vector& b, Vector& x) const {
 Richardson::Richardson(std::unique_ptr<Solver> M, const RichardsonParams& params)
     : M_(std::move(M)), params_(params) {
   if (!M_) throw InputError("Richardson: no preconditioner");
-  if (params.iterations < 0) throw InputError("Richardson: iterations must be >= 0");
+  if (params.iterations < 1) throw InputError("Richardson: iterations must be >= 1");
   if (!(params.omega > 0)) throw InputError("Richardson: omega must be positive");
 }
 

@@ -12,18 +12,18 @@
 namespace pmg::mg {
 
 void GaussSeidelParams::visit(ParamVisitor& v) {
-  v.integer("sweeps", sweeps, 0, 1000, "sweeps per pre-smoothing (forward) and post-smoothing (backward)");
+  v.integer("sweeps", sweeps, 1, 1000, "sweeps per pre-smoothing (forward) and post-smoothing (backward)");
   v.choice("ordering", ordering, {{"multicolor", Ordering::multicolor}, {"natural", Ordering::natural}},
            "block rows by colour (threaded) or in natural order (serial)");
 }
 
 void JacobiParams::visit(ParamVisitor& v) {
-  v.integer("sweeps", sweeps, 0, 1000, "sweeps per pre- and post-smoothing");
+  v.integer("sweeps", sweeps, 1, 1000, "sweeps per pre- and post-smoothing");
   if (!l1) v.real("omega", omega, 1e-6, 2.0, "damping");
 }
 
 void RichardsonParams::visit(ParamVisitor& v) {
-  v.integer("iterations", iterations, 0, 1000, "corrections per pre- and post-smoothing");
+  v.integer("iterations", iterations, 1, 1000, "corrections per pre- and post-smoothing");
   v.real("omega", omega, 1e-6, 2.0, "damping of each correction");
 }
 

@@ -246,9 +246,13 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
       throw InputError(level_label(l) + ": only " +
                        std::to_string(static_cast<int>(100.0 * stored / (Bcsr::kBlockSize * lv.A.num_blocks()))) +
                        "% of the entries of its 3x3 blocks are stored under the " +
-                       (options.layout == DofLayout::interleaved ? "interleaved layout (x0 y0 z0 x1 ...): is it "
-                        "component-major (x0 x1 ... y0 ...)? pass layout=component"
-                                                                  : "component-major layout: is it interleaved? pass layout=interleaved"));
+                       (options.layout == DofLayout::interleaved
+                            ? "interleaved layout (x0 y0 z0 x1 ...): is it component-major (x0 x1 ... y0 ...)? "
+                              "Give the component layout (Python layout='component', pmg compare --layout "
+                              "component, C++ DofLayout::component)"
+                            : "component-major layout: is it interleaved (x0 y0 z0 x1 ...)? Give the interleaved "
+                              "layout (Python layout='interleaved', pmg compare --layout interleaved, C++ "
+                              "DofLayout::interleaved)"));
   }
   full_size_ = matrices.back().rows;
   // Finest level: free and fixed dofs in the caller's numbering.

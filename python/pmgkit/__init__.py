@@ -98,6 +98,10 @@ class Solver:
         A tol other than the config's rebuilds the solver with it (a new set-up).
     update(A_new): new values on the same pattern; numeric set-up only.
     aspreconditioner(): a scipy.sparse.linalg.LinearOperator applying the solver (M= of cg/gmres).
+
+    Threads: the GIL is released while the solver works, so solvers on different threads run at
+    once. One Solver may be shared by several threads: its calls (solve, update, applying it) run
+    one at a time. Do not modify the arrays it was built from while it is in use.
     """
 
     def __init__(self, core, shape, keep=()):
@@ -285,7 +289,11 @@ def simulate(scene, output_dir=""):
     """Runs a dynamic scene (a dict in the scene-file schema, a JSON string, or a path to a scene
     file) and returns its summary with per-step records as NumPy arrays (records: step, time,
     probe (n x 3), kinetic, elastic, total_energy, iterations, rel_residual, residual and the
-    seconds of each stage). output_dir: also write steps.csv and the .vtu frames there."""
+    seconds of each stage). output_dir: also write steps.csv and the .vtu frames there.
+
+    A step that fails (its solve diverges, stagnates or misses the scene's tolerance) raises
+    SolveError "simulation failed at step N: ...", as `pmg simulate` exits 1; the summary of the
+    steps done before it is the exception's `summary` attribute."""
     import os
     if isinstance(scene, dict):
         text, origin = json.dumps(scene), "scene"
@@ -293,6 +301,15 @@ def simulate(scene, output_dir=""):
         text, origin = scene, "scene"
     else:
         path = os.fspath(scene)
-        with open(path) as f:
-            text, origin = f.read(), path
-    return _core.simulate(text, origin, output_dir)
+        with open(path, "rb") as f:  # read no more than a scene may hold (a device never ends)
+            data = f.read(_core.max_config_bytes + 1)
+        if len(data) > _core.max_config_bytes:
+            raise InputError("scene: '%s' is longer than %d bytes: not a scene file"
+                             % (path, _core.max_config_bytes))
+        text, origin = data.decode("utf-8", errors="replace"), path
+    out = _core.simulate(text, origin, output_dir)
+    if out["failure"]:
+        err = SolveError("simulation failed at step %d: %s" % (out["failed_step"], out["failure"]))
+        err.summary = out
+        raise err
+    return out

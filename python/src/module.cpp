@@ -23,6 +23,7 @@
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/csr_view.hpp"
+#include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/petsc_binary.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -36,6 +37,7 @@
 #include <cstdio>
 #include <set>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -126,8 +128,12 @@ class PySolver {
     std::string f = format;
     if (f == "auto") f = a.view.rows % 3 == 0 ? "bcsr" : "csr";
     if (f != "csr" && f != "bcsr" && f != "bin-bcsr") throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
+    if (method_needs_blocks(method_) && a.view.rows % 3 != 0)
+      throw InputError("method " + method_ + " reads 3x3 blocks, and the matrix's size " + std::to_string(a.view.rows) +
+                       " is not divisible by 3: choose a method for scalar matrices (cg, jacobi-pcg, cholmod, "
+                       "pmgkit.methods() lists each one's needs)");
     if (method_needs_blocks(method_) && f == "csr")
-      throw InputError("method " + method_ + " reads 3x3 blocks: use format='bcsr' (a size divisible by 3)");
+      throw InputError("method " + method_ + " reads 3x3 blocks: use format='bcsr' or 'auto'");
     {
       py::gil_scoped_release nogil;
       csr_ = to_csr(a.view, "matrix");
@@ -170,22 +176,25 @@ class PySolver {
   }
 
   py::tuple solve(const DoubleArray& b_in, std::optional<DoubleArray> x0_in, std::optional<double> tol) {
-    if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) {
-      char text[32];
-      std::snprintf(text, sizeof text, "%.17g", *tol);
-      config_.set("tol", text);  // a new stopping rule: the solver is rebuilt
-      build();
-    }
     const Eigen::Index n = full_size();
     const Vector b_full = to_vector(b_in, n, "b");
-    Vector b = levels_ ? levels_->reduce(b_full) : b_full;
     Vector x = x0_in ? to_vector(*x0_in, n, "x0") : Vector::Zero(n);
-    if (levels_) x = levels_->reduce(x);
     SolveMonitor monitor;
     SolveResult r;
-    double seconds = 0, true_res = 0;
+    double seconds = 0, true_res = 0, setup_seconds = 0;
+    std::string method;
+    Vector x_full;
     {
       py::gil_scoped_release nogil;
+      std::lock_guard<std::mutex> lock(mutex_);  // after the GIL is released: no lock-order cycle
+      if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.17g", *tol);
+        config_.set("tol", text);  // a new stopping rule: the solver is rebuilt
+        build_locked();
+      }
+      const Vector b = levels_ ? levels_->reduce(b_full) : b_full;
+      if (levels_) x = levels_->reduce(x);
       const auto t0 = Clock::now();
       r = solver_->solve(b, x, &monitor);
       seconds = seconds_since(t0);
@@ -193,8 +202,10 @@ class PySolver {
       op_->residual(b, x, res);
       const double bn = b_full.norm();
       true_res = bn > 0 ? res.norm() / bn : res.norm();
+      x_full = levels_ ? levels_->expand(x, b_full) : std::move(x);
+      setup_seconds = setup_seconds_;
+      method = solver_->name();
     }
-    Vector x_full = levels_ ? levels_->expand(x, b_full) : std::move(x);
     const auto& h = monitor.history();
     std::vector<double> hr, ht;
     for (const auto& rec : h) hr.push_back(rec.rel_residual), ht.push_back(rec.seconds);
@@ -205,9 +216,9 @@ class PySolver {
     info["rel_residual"] = r.true_rel_residual;
     info["history"] = py::array_t<double>(hr.size(), hr.data());
     info["history_seconds"] = py::array_t<double>(ht.size(), ht.data());
-    info["setup_seconds"] = setup_seconds_;
+    info["setup_seconds"] = setup_seconds;
     info["solve_seconds"] = seconds;
-    info["method"] = solver_->name();
+    info["method"] = method;
     info["message"] = r.message;
     return py::make_tuple(to_numpy(std::move(x_full)), info);
   }
@@ -218,6 +229,7 @@ class PySolver {
     Vector x;
     {
       py::gil_scoped_release nogil;
+      std::lock_guard<std::mutex> lock(mutex_);
       const Vector b = levels_ ? levels_->reduce(b_full) : b_full;
       Vector y(b.size());
       solver_->apply(b, y);
@@ -233,6 +245,7 @@ class PySolver {
       throw InputError("update: the new matrix must have the pattern of the one the solver was set up "
                        "on (same indptr and indices); build a new solver for a new pattern");
     py::gil_scoped_release nogil;
+    std::lock_guard<std::mutex> lock(mutex_);
     const auto t0 = Clock::now();
     std::copy(a.view.values, a.view.values + a.view.nnz, csr_.values().begin());
     if (!csr_.is_symmetric(1e-12)) throw InputError("update: the new matrix is not symmetric");
@@ -248,6 +261,7 @@ class PySolver {
     for (size_t l = 0; l < matrices.size(); ++l)
       mats.push_back(array_csr(matrices[l].cast<py::tuple>(), "level matrix " + std::to_string(l)));
     py::gil_scoped_release nogil;
+    std::lock_guard<std::mutex> lock(mutex_);
     const auto t0 = Clock::now();
     levels_->set_values(views(mats));
     solver_->update();
@@ -255,9 +269,19 @@ class PySolver {
   }
 
   Eigen::Index full_size() const { return levels_ ? levels_->full_size() : op_->rows(); }
-  std::string name() const { return solver_->name(); }
-  std::string describe() const { return solver_->describe(); }
-  double setup_seconds() const { return setup_seconds_; }
+  // These take the lock with the GIL held: no locked region ever waits for the GIL.
+  std::string name() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return solver_->name();
+  }
+  std::string describe() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return solver_->describe();
+  }
+  double setup_seconds() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return setup_seconds_;
+  }
   const mg::UserLevels* levels() const { return levels_.get(); }
 
  private:
@@ -266,9 +290,14 @@ class PySolver {
     for (const auto& x : a) v.push_back(x.view);
     return v;
   }
+  /// At construction (no other thread can hold the object yet).
   void build() {
-    solver_ = make_solver(config_, context_, levels_ ? "mgpcg" : "cg");
     py::gil_scoped_release nogil;
+    build_locked();
+  }
+  /// A new solver from config_, set up on op_; the GIL released and mutex_ held (or constructing).
+  void build_locked() {
+    solver_ = make_solver(config_, context_, levels_ ? "mgpcg" : "cg");
     const auto t0 = Clock::now();
     solver_->setup(*op_);
     setup_seconds_ = seconds_since(t0);
@@ -285,6 +314,9 @@ class PySolver {
   const LinearOperator* op_ = nullptr;
   std::unique_ptr<Solver> solver_;
   double setup_seconds_ = 0.0;
+  /// Serialises the calls on this object from several Python threads (solve's rebuild for a new
+  /// tol, update's new values and the solve itself must not interleave).
+  mutable std::mutex mutex_;
 };
 
 // ---- formats -------------------------------------------------------------------------------------
@@ -438,6 +470,7 @@ py::dict run_records(const sim::RunSummary& r) {
 PYBIND11_MODULE(_core, m) {
   m.doc() = "pmgkit's compiled core; use the pmgkit package";
   register_all_solvers();  // every method of this build, as in pmg compare and scenes
+  m.attr("max_config_bytes") = kMaxConfigBytes;  // the longest scene file read
 
   // Errors: the C++ types as Python exceptions, with the same messages.
   static py::exception<Error> error(m, "Error", PyExc_RuntimeError);

@@ -4,6 +4,7 @@
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -131,11 +132,7 @@ int axis_index(Section& sec, const std::string& k, const std::string& name) {
 }  // namespace
 
 Scene read_scene(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the scene file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse_scene(text.str(), path);
+  return parse_scene(read_text_file(path, kMaxConfigBytes, "scene"), path);
 }
 
 Scene parse_scene(const std::string& text, const std::string& path) {
@@ -285,6 +282,9 @@ std::string Scene::check_time() const {
         << kMaxSteps;
   else if (duration < 0.5 * dt)
     why << "duration " << duration << " s is shorter than half a step of dt " << dt << " s: no step would run";
+  else if (const double max_dt = std::sqrt(1e300 / std::max({young, inclusion_young, 1.0})); dt > max_dt)
+    why << "dt " << dt << " s makes the step matrix M + dt^2 K overflow double precision (dt^2 times "
+        << "Young's modulus); use a time step below " << max_dt << " s";
   return why.str();
 }
 
@@ -314,7 +314,9 @@ void Scene::set_solver_defaults(Config& c, bool dynamic) {
   // or an iterative method to 1e-10 (the fixed point's accuracy is the solves').
   c.set_default("method", dynamic ? "pmg" : "cholmod");
   const std::string method = c.get_string("method", "pmg");
-  if (!c.has("fixed_iterations") && method_accepts_key(method, "tol")) {
+  // Iterative methods (those with an iteration limit) get the scene's stopping rule; a direct
+  // solver keeps its own check (DirectSolveParams: a residual any sound factorisation meets).
+  if (!c.has("fixed_iterations") && method_accepts_key(method, "max_iterations")) {
     c.set_default("tol", dynamic ? "1e-3" : "1e-10");
     c.set_default("max_iterations", dynamic ? "1000" : "10000");
   }

@@ -182,6 +182,22 @@ void check_json_text(const std::string& text, const std::string& origin) {
   if (!problem.empty()) throw InputError(origin + ": " + problem);
 }
 
+std::string read_text_file(const std::string& path, std::size_t max_bytes, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(what + ": cannot open '" + path + "'");
+  std::string text;
+  std::vector<char> chunk(1 << 16);
+  while (in) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    text.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
+    if (text.size() > max_bytes)
+      throw InputError(what + ": '" + path + "' is longer than " + std::to_string(max_bytes) +
+                       " bytes: not a file of this kind");
+  }
+  if (in.bad()) throw InputError(what + ": cannot read '" + path + "'");
+  return text;
+}
+
 std::size_t physical_memory_bytes() {
   const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
   if (pages <= 0 || page <= 0) return 0;

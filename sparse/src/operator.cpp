@@ -20,6 +20,8 @@ void LinearOperator::check_square(const char* what) const {
 void LinearOperator::apply(const Vector& x, Vector& y) const {
   if (x.size() != cols()) throw InputError(size_message("apply", x.size(), cols()));
   y.resize(rows());
+  if (!call_lock_) return apply_impl(x, y);
+  std::lock_guard<std::recursive_mutex> lock(*call_lock_);
   apply_impl(x, y);
 }
 
@@ -27,6 +29,8 @@ double LinearOperator::apply_dot(const Vector& x, Vector& y) const {
   check_square("apply_dot");
   if (x.size() != cols()) throw InputError(size_message("apply_dot", x.size(), cols()));
   y.resize(rows());
+  if (!call_lock_) return apply_dot_impl(x, y);
+  std::lock_guard<std::recursive_mutex> lock(*call_lock_);
   return apply_dot_impl(x, y);
 }
 
@@ -34,6 +38,8 @@ void LinearOperator::residual(const Vector& b, const Vector& x, Vector& r) const
   if (x.size() != cols()) throw InputError(size_message("residual (x)", x.size(), cols()));
   if (b.size() != rows()) throw InputError(size_message("residual (b)", b.size(), rows()));
   r.resize(rows());
+  if (!call_lock_) return residual_impl(b, x, r);
+  std::lock_guard<std::recursive_mutex> lock(*call_lock_);
   residual_impl(b, x, r);
 }
 

@@ -1,6 +1,7 @@
 #include "pmg/sparse/solver.hpp"
 
 #include "pmg/sparse/bin_bcsr.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -26,10 +27,22 @@ std::string TimingBreakdown::to_string() const {
   return out + " (" + std::to_string(count) + " " + unit + "s)";
 }
 
+void DirectSolveParams::visit(ParamVisitor& v) {
+  v.real("tol", tol, 0.0, 1.0,
+         "relative residual ||b - A x|| / ||b|| the solve must reach (checked; refined while above)");
+  v.integer("refinement_steps", refinement_steps, 0, 100,
+            "steps of iterative refinement x += M (b - A x) taken while the residual is above tol");
+  v.boolean("throw_on_failure", throw_on_failure,
+            "a solve that misses tol throws SolveError (false: only its status says so)");
+}
+
 void Solver::setup(const LinearOperator& A) {
+  std::lock_guard<std::recursive_mutex> lock(lock_);
   if (A.rows() != A.cols())
     throw InputError(name() + ": the operator is " + std::to_string(A.rows()) + "x" +
                      std::to_string(A.cols()) + ", a solver needs a square one");
+  if (A.rows() == 0)
+    throw InputError(name() + ": the operator is 0x0: there is nothing to solve (are all unknowns fixed?)");
   A_ = nullptr;  // a failed set-up leaves the solver unusable rather than half set up
   n_ = 0;
   setup_impl(A);
@@ -38,6 +51,7 @@ void Solver::setup(const LinearOperator& A) {
 }
 
 void Solver::update() {
+  std::lock_guard<std::recursive_mutex> lock(lock_);
   if (!A_) throw Error(name() + ": update() before setup()");
   update_impl();
 }
@@ -48,6 +62,7 @@ const LinearOperator& Solver::system() const {
 }
 
 SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  std::lock_guard<std::recursive_mutex> lock(lock_);
   const LinearOperator& A = system();
   if (b.size() != A.rows())
     throw InputError(name() + ": right-hand side has " + std::to_string(b.size()) +
@@ -64,28 +79,57 @@ SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) con
 SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   const auto t0 = Clock::now();
   const LinearOperator& A = system();
+  const DirectSolveParams* check = direct_check();
   if (monitor) monitor->start();
-  Vector r, z;
-  A.residual(b, x, r);
   SolveResult res;
+  Vector r, z;
+  if (check) {
+    x.setZero();  // a direct solve does not use the initial guess: residuals relative to ||b||
+    r = b;
+  } else {
+    A.residual(b, x, r);
+  }
   res.initial_residual = ops::norm2(r);
-  if (monitor) monitor->record(0, res.initial_residual > 0 ? 1.0 : 0.0);
-  if (res.initial_residual > 0) {
+  const double r0 = res.initial_residual;
+  if (monitor) monitor->record(0, r0 > 0 ? 1.0 : 0.0);
+  double rel = 0.0;
+  // One correction; a direct solve then refines while its residual is above tol and falling.
+  const int max_corrections = check ? 1 + check->refinement_steps : 1;
+  for (int k = 0; k < max_corrections && r0 > 0; ++k) {
     apply(r, z);
     ops::axpy(1.0, z, x);
     A.residual(b, x, r);
+    const double previous = rel;
+    rel = ops::norm2(r) / r0;
+    res.iterations = k + 1;
+    if (monitor) monitor->record(k + 1, rel);
+    if (!std::isfinite(rel) || !check || rel <= check->tol || (k > 0 && rel >= previous)) break;
   }
-  const double rn = ops::norm2(r);
-  res.iterations = 1;
-  res.rel_residual = res.true_rel_residual =
-      res.initial_residual > 0 ? rn / res.initial_residual : 0.0;
-  if (monitor) monitor->record(1, res.rel_residual);
-  res.status = std::isfinite(rn) ? SolveStatus::converged : SolveStatus::non_finite;
-  if (!std::isfinite(rn)) {
-    res.message = name() + ": the solution has NaN/Inf";
+  res.rel_residual = res.true_rel_residual = rel;
+  res.seconds = seconds_since(t0);
+  if (!std::isfinite(rel) || !ops::all_finite(x)) {
+    res.status = SolveStatus::non_finite;
+    res.message = name() + ": the solution has NaN/Inf" +
+                  (check ? std::string(": the matrix is singular or not positive definite") : std::string());
     throw SolveError(res);
   }
-  res.seconds = seconds_since(t0);
+  if (!check) {
+    res.status = SolveStatus::completed;  // one correction, no tolerance asked
+    return res;
+  }
+  if (rel <= check->tol) {
+    res.status = SolveStatus::converged;
+    return res;
+  }
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "%s: the true relative residual ||b - A x|| / ||b|| = %.3g is above the tolerance "
+                "%.3g after the solve and %d refinement step%s: the matrix is singular (are the "
+                "boundary conditions missing?) or too ill-conditioned for a direct solve",
+                name().c_str(), rel, check->tol, res.iterations - 1, res.iterations == 2 ? "" : "s");
+  res.status = SolveStatus::stagnated;
+  res.message = text;
+  if (check->throw_on_failure) throw SolveError(res);
   return res;
 }
 

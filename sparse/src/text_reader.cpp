@@ -1,5 +1,7 @@
 #include "pmg/sparse/text_reader.hpp"
 
+#include "pmg/sparse/file_io.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -25,7 +27,27 @@ TextReader::TextReader(std::istream& in, std::string name, char comment)
 
 bool TextReader::next_line(std::string& line) {
   ++line_no_;
-  if (!std::getline(in_, line)) return false;
+  line.clear();
+  // std::getline would grow one string without bound on an input without line breaks (/dev/zero):
+  // characters are taken one at a time from the stream's buffer and a line is refused past
+  // kMaxLineLength.
+  std::streambuf* buf = in_.rdbuf();
+  if (!buf || !in_.good()) {
+    in_.setstate(std::ios::failbit);
+    return false;
+  }
+  for (bool any = false;; any = true) {
+    const int c = buf->sbumpc();
+    if (c == std::char_traits<char>::eof()) {
+      in_.setstate(any ? std::ios::eofbit : std::ios::eofbit | std::ios::failbit);
+      if (!any) return false;
+      break;
+    }
+    if (c == '\n') break;
+    if (line.size() == kMaxLineLength)
+      fail("a line longer than " + std::to_string(kMaxLineLength) + " characters: not a text file of this format");
+    line.push_back(static_cast<char>(c));
+  }
   if (!line.empty() && line.back() == '\r') line.pop_back();
   return true;
 }
@@ -96,7 +118,8 @@ long long TextReader::to_count(const std::string& tok, const char* what, long lo
 }
 
 long long TextReader::remaining_bytes() const {
-  if (size_ < 0) return std::numeric_limits<long long>::max();
+  // An unseekable input (a pipe, /dev/zero) cannot hold more than this machine can store.
+  if (size_ < 0) return static_cast<long long>(std::min<double>(static_cast<double>(physical_memory_bytes()), 9e18));
   const auto pos = in_.tellg();
   if (pos < 0) return 0;
   return std::max<long long>(0, size_ - static_cast<long long>(pos));

@@ -316,23 +316,6 @@ void CholmodSolver::update_impl() {
   factorize(scalar_.csr());
 }
 
-SolveResult CholmodSolver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
-  const auto t0 = Clock::now();
-  if (monitor) monitor->start(), monitor->record(0, 1.0);
-  apply(b, x);
-  Vector r;
-  system().residual(b, x, r);
-  SolveResult res;
-  res.status = SolveStatus::converged;
-  res.iterations = 1;
-  const double bn = b.norm();
-  res.initial_residual = bn;  // a direct solve ignores x0: report relative to ||b||
-  res.rel_residual = res.true_rel_residual = bn > 0 ? r.norm() / bn : 0.0;
-  if (monitor) monitor->record(1, res.rel_residual);
-  res.seconds = seconds_since(t0);
-  return res;
-}
-
 void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
   Impl& d = *impl_;
   if (!d.factorized) throw Error("CHOLMOD: solve before a successful factorize()");
@@ -368,6 +351,7 @@ void CholmodParams::visit(ParamVisitor& v) {
   v.integer("factor_threads", factor_threads, -1, 4096,
             "BLAS threads of factorisations of >= 1e9 flops (-1: blas_threads, 0: the BLAS's own; "
             "a multigrid's lowest level: 0)");
+  check.visit(v);
 }
 
 namespace cholmod {

@@ -54,7 +54,10 @@ struct BoomerAMG::Impl {
     rigid_par.clear();
     solver = nullptr, ij = nullptr, b = nullptr, x = nullptr;
   }
-  ~Impl() { destroy(); }
+  ~Impl() {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    destroy();
+  }
 };
 
 BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()) {
@@ -123,11 +126,13 @@ BoomerAMG::~BoomerAMG() = default;
 const BoomerAMGParams& BoomerAMG::params() const { return impl_->params; }
 
 void BoomerAMG::setup_impl(const LinearOperator& A) {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   scalar_.setup(A, "BoomerAMG");
   build(scalar_.csr());
 }
 
 void BoomerAMG::update_impl() {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   scalar_.refresh();
   build(scalar_.csr());
 }
@@ -276,6 +281,7 @@ void BoomerAMG::build(const Csr& A) {
 }
 
 void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   Impl& d = *impl_;
   const HYPRE_Int nlocal = d.upper - d.lower + 1;
   std::vector<double> zeros(nlocal, 0.0);

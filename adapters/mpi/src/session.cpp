@@ -20,7 +20,8 @@ struct Session {
     int initialized = 0;
     MPI_Initialized(&initialized);
     if (!initialized) {
-      MPI_Init(nullptr, nullptr);
+      int provided = 0;
+      MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided);
       owned = true;
     }
   }
@@ -39,13 +40,20 @@ Session& session() {
 
 }  // namespace
 
+std::recursive_mutex& library_lock() {
+  static std::recursive_mutex lock;
+  return lock;
+}
+
 double start() {
   const auto t0 = std::chrono::steady_clock::now();
+  std::lock_guard<std::recursive_mutex> lock(library_lock());
   session();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 int rank() {
+  std::lock_guard<std::recursive_mutex> lock(library_lock());
   session();
   int r = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &r);
@@ -53,6 +61,7 @@ int rank() {
 }
 
 int size() {
+  std::lock_guard<std::recursive_mutex> lock(library_lock());
   session();
   int s = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &s);

@@ -5,6 +5,7 @@
 
 #include <petscksp.h>
 
+#include <atomic>
 #include <cctype>
 #include <chrono>
 #include <limits>
@@ -69,7 +70,10 @@ struct PetscSession {
   }
 };
 
-void petsc() { static PetscSession session; }
+void petsc() {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  static PetscSession session;
+}
 
 /// "-pc_gamg_threshold 0.02 -mg_levels_ksp_max_it 3" with every option name given the prefix.
 std::string prefixed(const std::string& options, const std::string& prefix) {
@@ -105,14 +109,17 @@ struct PetscPreconditioner::Impl {
     if (z) VecDestroy(&z);
     if (A) MatDestroy(&A);
   }
-  ~Impl() { destroy(); }
+  ~Impl() {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    destroy();
+  }
 };
 
 PetscPreconditioner::PetscPreconditioner(const PetscParams& params)
     : impl_(std::make_unique<Impl>()), params_(params) {
   if (params.type != "gamg" && params.type != "mumps" && params.type != "cholmod")
     throw InputError("PETSc: unknown preconditioner type '" + params.type + "' (gamg, mumps, cholmod)");
-  static int count = 0;
+  static std::atomic<long> count{0};
   impl_->prefix = "pmg" + std::to_string(count++) + "_";
   // GAMG: CG-estimated Chebyshev/Jacobi smoothing, as FEniCSx's elasticity demo sets it.
   std::string defaults = params.type == "gamg"
@@ -126,6 +133,7 @@ PetscPreconditioner::~PetscPreconditioner() = default;
 
 void PetscPreconditioner::setup_impl(const LinearOperator& A) {
   petsc();
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   scalar_.setup(A, "PETSc " + params_.type);
   const Csr& S = scalar_.csr();
   Impl& d = *impl_;
@@ -178,6 +186,7 @@ void PetscPreconditioner::setup_impl(const LinearOperator& A) {
 }
 
 void PetscPreconditioner::update_impl() {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   scalar_.refresh();  // new values in the same arrays the Mat reads
   Impl& d = *impl_;
   // Assembly of an unchanged pattern: PETSc then knows the values changed (its object state).
@@ -188,6 +197,7 @@ void PetscPreconditioner::update_impl() {
 }
 
 void PetscPreconditioner::apply_impl(const Vector& r, Vector& z) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   Impl& d = *impl_;
   check(VecPlaceArray(d.r, r.data()), "VecPlaceArray");
   check(VecPlaceArray(d.z, z.data()), "VecPlaceArray");
@@ -198,6 +208,7 @@ void PetscPreconditioner::apply_impl(const Vector& r, Vector& z) const {
 }
 
 std::string PetscPreconditioner::describe() const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const Impl& d = *impl_;
   std::ostringstream s;
   s << "PETSc " << params_.type;

@@ -12,6 +12,7 @@ void PetscParams::visit(ParamVisitor& v) {
              "rigid: the six rigid-body modes from node coordinates; none: PETSc's default (constants); "
              "auto: rigid where coordinates are known");
   v.text("options", options, "further PETSc options (\"-name value ...\"), under this solver's own prefix");
+  if (type != "gamg") check.visit(v);
 }
 
 }  // namespace pmg::mg

@@ -53,8 +53,14 @@ class ConvergenceTracker {
       return false;
     }
     if (value <= 0.0) {
-      fail(SolveStatus::breakdown, std::string(what) + " = " + fmt(value) + " <= 0 at iteration " +
-                                       std::to_string(it) + ": not symmetric positive definite");
+      // r^T M^{-1} r <= 0 indicts the preconditioner (a cycle's smoother or transfers), a
+      // curvature p^T A p <= 0 the operator.
+      const bool preconditioner = std::string(what).find("M^{-1}") != std::string::npos;
+      fail(SolveStatus::breakdown,
+           std::string(what) + " = " + fmt(value) + " <= 0 at iteration " + std::to_string(it) + ": " +
+               (preconditioner ? "the preconditioner is not symmetric positive definite (a multigrid "
+                                 "cycle: check its smoother settings and prolongations)"
+                               : "the operator is not symmetric positive definite"));
       return false;
     }
     return true;
@@ -149,6 +155,14 @@ class ConvergenceTracker {
   /// Final result; throws SolveError on failure if so configured. true_norm may be NaN (unknown).
   SolveResult finish(double true_norm) {
     if (!done_) fail(SolveStatus::iteration_limit, "stopped before convergence");
+    // A curvature that vanishes because the iterate already solves the system to rounding (a
+    // method testing its residual only every check_every iterations gets there) is not a
+    // breakdown: the true residual decides.
+    if (result_.status == SolveStatus::breakdown && !p_.fixed_iterations && std::isfinite(true_norm) &&
+        (true_norm <= p_.rel_tol * r0_ || true_norm <= p_.abs_tol)) {
+      result_.message.clear();
+      finish_converged(true_norm / r0_);
+    }
     if (!result_.ok() && std::isfinite(true_norm)) result_.true_rel_residual = true_norm / r0_;
     if (monitor_) result_.seconds = monitor_->elapsed();
     if (!result_.ok() && p_.throw_on_failure) throw SolveError(result_);

@@ -25,6 +25,14 @@ void check_output_file(const std::string& path, const std::string& what);
 /// not a file. `what` names the option. Throws InputError.
 void prepare_output_directory(const std::string& path, const std::string& what);
 
+/// The whole of a small text file (a scene, a solver configuration): at most max_bytes bytes, read
+/// without trusting the file's size (a device or a pipe is read up to max_bytes + 1 and refused
+/// when longer). `what` names the file in messages. Throws InputError (missing, unreadable, too long).
+std::string read_text_file(const std::string& path, std::size_t max_bytes, const std::string& what);
+
+/// The limit of read_text_file() for configuration files (scenes, solver configurations): 16 MiB.
+inline constexpr std::size_t kMaxConfigBytes = std::size_t(16) << 20;
+
 /// Checks JSON text strictly: valid syntax, no key twice in one object (the last value would win
 /// silently), every number within double range. Throws InputError "origin: ...".
 void check_json_text(const std::string& text, const std::string& origin);

@@ -42,12 +42,13 @@ class SolveMonitor {
 /// How a solve ended: converged and completed are success (SolveResult::ok()), the rest failures.
 enum class SolveStatus {
   converged,        ///< relative residual (recursive and true) below the tolerance
-  completed,        ///< fixed-iteration mode ran its iterations
+  completed,        ///< fixed-iteration mode ran its iterations, or a preconditioner's one correction
   iteration_limit,  ///< tolerance not reached within max_iterations
   breakdown,        ///< a division by a non-positive curvature: operator or preconditioner not SPD
   diverged,         ///< relative residual above the divergence limit
   non_finite,       ///< NaN or Inf appeared
   stagnated,        ///< no progress over the stagnation window, or true residual stuck above tol
+                    ///< (a direct solve's after its refinement steps)
 };
 /// The status in words ("converged", "iteration limit", ...).
 const char* to_string(SolveStatus s);

@@ -9,6 +9,7 @@
 
 #include "pmg/sparse/types.hpp"
 
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,11 @@ class LinearOperator {
 
   /// Throws InputError, prefixed with `what`, unless rows() == cols().
   void check_square(const char* what) const;
+
+  /// When set (a Solver sets it to its own lock), apply(), apply_dot() and residual() hold this
+  /// lock around the kernel, so that calls on one object from several threads run one at a time
+  /// (a matrix has none: its products only read it).
+  std::recursive_mutex* call_lock_ = nullptr;
 };
 
 /// An operator held as no matrix (a matrix-free FEM operator) that can still compute its 3x3

@@ -17,6 +17,13 @@
 // The public methods check their preconditions and call protected virtuals (Ginkgo's LinOp
 // pattern), so an implementation never re-checks sizes. Adding a solver is one class deriving
 // from Solver plus one registration in the factory (pmg/sparse/factory.hpp).
+//
+// Threads. Distinct solvers may be used from different threads at the same time. Calls on one
+// solver (setup, update, apply, solve) from several threads are serialised by the solver's own
+// lock: they run one at a time, each as if alone, so a shared solver is safe but not parallel.
+// The adapters of MPI-based libraries (PETSc with MUMPS, hypre) hold one process-wide lock around
+// every call into them, because those libraries keep global state. What a caller must guarantee:
+// the matrix (and vectors) a solver reads are not modified while a call runs.
 #pragma once
 
 #include "pmg/sparse/monitor.hpp"
@@ -24,6 +31,7 @@
 #include "pmg/sparse/operator.hpp"
 
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +39,23 @@
 namespace pmg {
 
 class Bcsr;
+class ParamVisitor;
+
+/// How a direct solver's solve() checks its answer (solver keys tol, refinement_steps,
+/// throw_on_failure): x = M b, then while ||b - A x|| / ||b|| is above tol, up to refinement_steps
+/// steps of iterative refinement x += M (b - A x). Still above tol: status stagnated, a message
+/// naming the residual, and SolveError unless throw_on_failure is false. The initial guess is not
+/// used, and the residuals are reported relative to ||b||.
+struct DirectSolveParams {
+  /// Relative residual ||b - A x|| / ||b|| the solve must reach. The default accepts what a sound
+  /// factorisation gives on an ill-conditioned system (the residual's rounding floor, about
+  /// eps ||A|| ||x|| / ||b||, reaches 1e-7 on stiff FEM systems) and refuses a singular one.
+  double tol = 1e-6;
+  int refinement_steps = 2;   ///< refinement steps taken while above tol
+  bool throw_on_failure = true;  ///< a failed check throws SolveError
+  /// The keys tol, refinement_steps and throw_on_failure.
+  void visit(ParamVisitor& v);
+};
 
 /// What a solver needs of a system's owner besides the finest matrix (the seam between an FEM
 /// discretisation and the solvers: one record, prepared by one call on the FEM side).
@@ -62,6 +87,10 @@ struct TimingBreakdown {
 /// preconditioner or smoother (apply()) or run as a solver (solve()).
 class Solver : public LinearOperator {
  public:
+  Solver() { call_lock_ = &lock_; }
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
   /// Short name for tables and messages ("cg", "cholmod", "multigrid", ...).
   virtual std::string name() const = 0;
 
@@ -111,10 +140,15 @@ class Solver : public LinearOperator {
   /// Numeric set-up again after A's values changed on the same pattern; called by update() only
   /// after a successful setup() (system() is the operator to read).
   virtual void update_impl() = 0;
-  /// Default: x += M (b - A x), reported with its true residual relative to ||b - A x0||.
+  /// Default: a preconditioner's one correction x += M (b - A x), reported as completed with its
+  /// true residual relative to ||b - A x0||; or, when direct_check() is set, a direct solve checked
+  /// (and refined) as DirectSolveParams says.
   virtual SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const;
+  /// A direct solver returns its check of solve()'s answer; a preconditioner nullptr (the default).
+  virtual const DirectSolveParams* direct_check() const { return nullptr; }
 
  private:
+  mutable std::recursive_mutex lock_;
   const LinearOperator* A_ = nullptr;
   index_t n_ = 0;
 };

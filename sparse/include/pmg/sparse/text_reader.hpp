@@ -4,6 +4,7 @@
 
 #include "pmg/sparse/types.hpp"
 
+#include <cstddef>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -14,6 +15,10 @@ namespace pmg {
 /// file comment). Holds a reference to the stream, which must outlive it.
 class TextReader {
  public:
+  /// The longest line accepted (1 MiB): longer is an error naming the line, so that an input
+  /// without line breaks is refused after reading that much.
+  static constexpr std::size_t kMaxLineLength = std::size_t(1) << 20;
+
   /// comment: lines whose first non-blank character is this are skipped by next_data_line().
   TextReader(std::istream& in, std::string name, char comment = '#');
 
@@ -34,7 +39,7 @@ class TextReader {
   /// `limit_is` says what sets the limit in the message.
   long long to_count(const std::string& token, const char* what, long long limit,
                      const char* limit_is = "the rest of the file could hold") const;
-  /// Bytes left after the current position (the largest long long for an unseekable stream).
+  /// Bytes left after the current position (for an unseekable stream: this machine's memory).
   long long remaining_bytes() const;
   /// A finite real number.
   double to_real(const std::string& token, const char* what = "a real value") const;

@@ -19,7 +19,9 @@ struct CholmodParams {
   std::string ordering = "metis";  ///< metis, auto, amd or nesdis
   int blas_threads = 0;            ///< BLAS threads of factorisations and solves (0: BLAS's own)
   int factor_threads = -1;         ///< BLAS threads of large factorisations (-1: blas_threads)
-  /// The keys ordering, blas_threads and factor_threads.
+  DirectSolveParams check;         ///< how solve() checks (and refines) its answer
+  /// The keys ordering, blas_threads and factor_threads, and the check's tol, refinement_steps and
+  /// throw_on_failure.
   void visit(ParamVisitor& v);
 };
 
@@ -49,7 +51,9 @@ class CholmodSolver final : public Solver {
   /// Throws InputError for an unknown ordering, blas_threads below 0 or factor_threads below -1.
   explicit CholmodSolver(const std::string& ordering = "metis", int blas_threads = 0, int factor_threads = -1);
   /// The same with the options as a parameter struct (the factory's keys).
-  explicit CholmodSolver(const CholmodParams& p) : CholmodSolver(p.ordering, p.blas_threads, p.factor_threads) {}
+  explicit CholmodSolver(const CholmodParams& p) : CholmodSolver(p.ordering, p.blas_threads, p.factor_threads) {
+    check_ = p.check;
+  }
   ~CholmodSolver() override;
   CholmodSolver(const CholmodSolver&) = delete;
   CholmodSolver& operator=(const CholmodSolver&) = delete;
@@ -79,8 +83,8 @@ class CholmodSolver final : public Solver {
   /// A: Csr or Bcsr (converted once; update() copies the values into the same scalar pattern).
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
-  /// x = A⁻¹ b (the guess is not used), reported relative to ||b||.
-  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+  /// solve(): x = A⁻¹ b (the guess is not used), checked and refined as check_ says.
+  const DirectSolveParams* direct_check() const override { return &check_; }
   void apply_impl(const Vector& b, Vector& x) const override;
   ScalarMatrix scalar_;
   struct Impl;
@@ -88,6 +92,7 @@ class CholmodSolver final : public Solver {
   index_t n_ = 0;
   int blas_threads_ = 0;
   int factor_threads_ = 0;
+  DirectSolveParams check_;
 };
 
 }  // namespace pmg

@@ -5,9 +5,14 @@
 // ranks). A program that initialised MPI itself keeps it: pmgkit then neither starts nor ends it.
 // When pmgkit started it, MPI is finalised at exit, after the finalisers registered with
 // at_finalize() (PETSc's, which must run while MPI is still up) in reverse order of registration.
+//
+// Threads: MPI is started at MPI_THREAD_SERIALIZED (any thread may call it, one at a time), and
+// library_lock() is the one lock that makes it so: every call into MPI or into a library built on
+// it (PETSc with MUMPS, hypre: they keep process-wide state) holds it.
 #pragma once
 
 #include <functional>
+#include <mutex>
 
 namespace pmg::mpi {
 
@@ -21,5 +26,8 @@ int size();
 /// it runs at exit too, possibly after the program's MPI_Finalize: a finaliser checks
 /// MPI_Finalized before it calls MPI.
 void at_finalize(std::function<void()> finalize);
+/// The process-wide lock held around every call into MPI, PETSc and hypre (see the file comment).
+/// Recursive: an adapter's call may reach another that takes it.
+std::recursive_mutex& library_lock();
 
 }  // namespace pmg::mpi

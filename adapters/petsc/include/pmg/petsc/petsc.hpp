@@ -37,7 +37,9 @@ struct PetscParams {
   /// Further PETSc options ("-name value ..."; "-pc_" and "-mg_" options of the PC), applied
   /// after the defaults, so they override them.
   std::string options;
-  /// The keys near_null_space (gamg) and options.
+  /// mumps and cholmod: how solve() checks (and refines) its answer.
+  DirectSolveParams check;
+  /// The keys near_null_space (gamg), options, and the check's (mumps, cholmod).
   void visit(ParamVisitor& v);
 };
 
@@ -72,6 +74,10 @@ class PetscPreconditioner final : public Solver {
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
+  /// mumps and cholmod: solve() is a direct solve, checked as params().check says.
+  const DirectSolveParams* direct_check() const override {
+    return params_.type == "gamg" ? nullptr : &params_.check;
+  }
   struct Impl;
   std::unique_ptr<Impl> impl_;
   PetscParams params_;

@@ -1,0 +1,167 @@
+// The threading contract (pmg/sparse/solver.hpp, "Threads"): solvers of every kind used from
+// several threads at once, each its own or one shared, give the answers they give alone. Built by
+// the ThreadSanitizer stage of CI too (scripts/tsan.sh), where a data race fails the test.
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/cholmod/cholmod_solver.hpp"
+#include "pmg/petsc/petsc.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <atomic>
+#include <string>
+#include <thread>
+#include <vector>
+
+using namespace pmg;
+using namespace pmg::fem;
+
+namespace {
+
+/// A quadratic bar clamped at x = 0 (3 x 1 x 1 boxes: 1,000 unknowns), its free nodes' coordinates
+/// and right-hand sides of four loads.
+struct System {
+  TetMesh mesh = box_mesh_24(3, 1, 1, 1.0, 0.3, 0.3);
+  DegreeHierarchy h{mesh, 2, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; }};
+  std::vector<Vector> rhs;
+  std::vector<double> xyz;
+  System() {
+    h.assemble(nullptr);
+    for (int k = 0; k < 4; ++k) {
+      Vec3 g(0, 0, 0);
+      g[k % 3] = k < 3 ? -9.81 : 4.0;
+      rhs.push_back(h.finest().restrict_to_free(h.finest().gravity(g)));
+    }
+    const Vector free = h.finest().free_positions();
+    xyz.assign(free.data(), free.data() + free.size());
+  }
+  /// A solver of `method`, not set up.
+  std::unique_ptr<Solver> make(const std::string& method) {
+    SolverContext ctx;
+    ctx.coordinates = &xyz;
+    ctx.levels = &h;
+    return make_solver(Config::from_pairs({"method=" + method}, "test"), ctx);
+  }
+  /// The operator `method` is set up on, the hierarchy brought up to date for it. The hierarchy
+  /// is the caller's to guard (it is not a solver): call this on one thread, before the others.
+  const LinearOperator& prepare(const std::string& method) { return h.prepare(make(method)->needs(), nullptr); }
+  /// A solver of `method` set up on the prepared operator (safe on any thread after prepare()).
+  std::unique_ptr<Solver> build(const std::string& method, const LinearOperator& op) {
+    auto s = make(method);
+    s->setup(op);
+    return s;
+  }
+};
+
+System& system_once() {
+  static System s;
+  return s;
+}
+
+/// Whether this build has the method (the PETSc ones are registered without PETSc, and say so).
+bool available(const std::string& method) {
+  return solver_info(method).component != "petsc" || mg::petsc_available();
+}
+
+/// ||b - A x|| / ||b||.
+double relative_residual(const LinearOperator& A, const Vector& b, const Vector& x) {
+  Vector r;
+  A.residual(b, x, r);
+  return r.norm() / b.norm();
+}
+
+const std::vector<std::string> kMethods = {"cg", "block-jacobi-pcg", "mcg", "cholmod", "mgpcg",
+                                           "boomeramg-pcg", "gamg-pcg", "mumps", "petsc-cholmod"};
+
+/// Runs `work(t)` on `n` threads at once and returns the messages of the exceptions they threw.
+template <typename Work>
+std::vector<std::string> on_threads(int n, Work work) {
+  std::vector<std::string> errors(n);
+  std::vector<std::thread> threads;
+  std::atomic<int> ready{0};
+  for (int t = 0; t < n; ++t)
+    threads.emplace_back([&, t] {
+      ++ready;
+      while (ready < n) std::this_thread::yield();  // start together
+      try {
+        work(t);
+      } catch (const std::exception& e) {
+        errors[t] = e.what();
+      }
+    });
+  for (auto& th : threads) th.join();
+  return errors;
+}
+
+}  // namespace
+
+TEST_CASE("solvers of their own on several threads at once give their answers alone", "[threads]") {
+  System& sys = system_once();
+  const LinearOperator& A = sys.h.matrix(sys.h.num_levels() - 1);
+  for (const std::string& method : kMethods) {
+    if (!available(method)) continue;
+    SECTION(method) {
+      const LinearOperator& op = sys.prepare(method);
+      // Alone first: the reference answers.
+      std::vector<Vector> reference(sys.rhs.size());
+      {
+        auto s = sys.build(method, op);
+        for (size_t k = 0; k < sys.rhs.size(); ++k) s->solve(sys.rhs[k], reference[k]);
+      }
+      std::vector<std::vector<Vector>> got(4, std::vector<Vector>(sys.rhs.size()));
+      const auto errors = on_threads(4, [&](int t) {
+        auto s = sys.build(method, op);  // built, set up and used on this thread
+        for (int round = 0; round < 3; ++round)
+          for (size_t k = 0; k < sys.rhs.size(); ++k) {
+            Vector x;
+            s->solve(sys.rhs[k], x);
+            got[t][k] = x;
+          }
+        s->update();
+      });
+      for (int t = 0; t < 4; ++t) {
+        INFO(method << " thread " << t);
+        CHECK(errors[t] == "");
+        if (!errors[t].empty()) continue;
+        for (size_t k = 0; k < sys.rhs.size(); ++k) {
+          CHECK(relative_residual(A, sys.rhs[k], got[t][k]) < 1e-7);
+          // the same solution to the accuracy a 1e-8 residual gives on this system (OpenMP reductions
+          // inside a thread of its own run in another order than alone)
+          CHECK((got[t][k] - reference[k]).norm() <= 1e-4 * reference[k].norm());
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("one solver shared by several threads serialises their calls and answers each", "[threads]") {
+  System& sys = system_once();
+  const LinearOperator& A = sys.h.matrix(sys.h.num_levels() - 1);
+  for (const std::string& method : kMethods) {
+    if (!available(method)) continue;
+    SECTION(method) {
+      auto s = sys.build(method, sys.prepare(method));
+      std::vector<std::vector<Vector>> got(4, std::vector<Vector>(3));
+      const auto errors = on_threads(4, [&](int t) {
+        for (int round = 0; round < 3; ++round) {
+          const Vector& b = sys.rhs[(t + round) % sys.rhs.size()];
+          Vector x;
+          s->solve(b, x);
+          got[t][round] = x;
+          if (t == 0 && round == 1) s->update();  // numeric set-up while the others solve
+          Vector z;
+          s->apply(b, z);  // as a preconditioner, interleaved with the others' solves
+          if (!z.allFinite()) throw Error("apply gave NaN/Inf");
+        }
+      });
+      for (int t = 0; t < 4; ++t) {
+        INFO(method << " thread " << t);
+        CHECK(errors[t] == "");
+        if (!errors[t].empty()) continue;
+        for (int round = 0; round < 3; ++round)
+          CHECK(relative_residual(A, sys.rhs[(t + round) % sys.rhs.size()], got[t][round]) < 1e-7);
+      }
+    }
+  }
+}
