@@ -54,9 +54,10 @@ void write_off(const fs::path& path, const fem::Surface& s) {
   write_file_atomically(path.string(), out.str());
 }
 
-/// Peak memory of TetGen (-pq) and of reading and checking its mesh, per tetrahedron: measured
-/// (docs/reliability.md) with `/usr/bin/time -f %M pmg mesh cube.off -n N`, rounded up.
-constexpr double kMeshBytesPerTet = 1.5e3;
+/// Peak memory of a run per tetrahedron asked for (TetGen's runs, reading and checking the mesh,
+/// the node counts of degrees 1-3): `/usr/bin/time -f %M pmg mesh tests/tools/data/cube.off
+/// -n 300000` peaked at 516 MB, 1.7 kB per tetrahedron asked (its first TetGen run made 589k).
+constexpr double kMeshBytesPerTet = 2e3;
 
 /// Ends the run with exit status 130 after Ctrl-C (the scratch folder is removed on the way out).
 void stop_if_interrupted() {

@@ -172,7 +172,9 @@ void run(const Cli& cli_in) {
   if (cli.dt > 0) s.dt = cli.dt;
   if (s.dynamic && (cli.duration > 0 || cli.dt > 0))
     if (const std::string why = s.check_time(); !why.empty())
-      throw InputError(std::string(cli.duration > 0 ? "--duration" : "--dt") + ": " + why);
+      throw InputError(std::string(cli.dt > 0 && cli.duration > 0 ? "--dt, --duration"
+                                   : cli.duration > 0              ? "--duration"
+                                                                   : "--dt") + ": " + why);
   const bool output_from_cli = !cli.output.empty();
   if (cli.output.empty()) cli.output = s.output;
   if (cli.print_scene) {

@@ -12,12 +12,12 @@ TetMesh box_mesh_24(index_t nx, index_t ny, index_t nz, double lx, double ly, do
   if (nx < 1 || ny < 1 || nz < 1) throw MeshError("box mesh: need at least one box per direction");
   if (!(lx > 0 && ly > 0 && lz > 0)) throw MeshError("box mesh: side lengths must be positive");
   // Refused before anything is allocated: more elements than index_t numbers, or more memory than
-  // the machine has (the mesh with its vertex map and the checks of TetMesh: about 1 kB a box).
+  // the machine has (the mesh with its vertex map: a peak of 1.14 kB a box, measured on 100 x 100 x 10).
   const double boxes = static_cast<double>(nx) * ny * nz;
   char what[160];
   std::snprintf(what, sizeof what, "box mesh: %d x %d x %d boxes, %.3g tetrahedra", nx, ny, nz, 24 * boxes);
   if (24 * boxes > 2147483647.0) throw MeshError(std::string(what) + ": more than a 32-bit index can number");
-  require_memory(1e3 * boxes, what);
+  require_memory(1.2e3 * boxes, what);
   TetMesh m;
   // Vertices on a half-step lattice: (2i, 2j, 2k) corners, face and box centres have odd entries.
   std::map<std::tuple<index_t, index_t, index_t>, index_t> ids;

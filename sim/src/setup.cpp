@@ -92,10 +92,6 @@ SceneSetup set_up(const Scene& s) {
              "pmg compare --fix-fraction)";
       throw InputError(msg.str());
     }
-    if (std::count(clamped.begin(), clamped.end(), 1) == static_cast<long>(clamped.size()))
-      throw InputError("scene: every vertex is clamped (fraction " + std::to_string(s.clamp_fraction) +
-                       " of " + static_cast<char>('x' + axis) + "): nothing is free to move; clamp a smaller "
-                       "fraction (scene clamp.fraction, pmg compare --fix-fraction)");
   }
   if (s.inclusion) {
     std::vector<double> scale(mesh.num_tets(), 1.0);

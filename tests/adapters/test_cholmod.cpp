@@ -232,3 +232,74 @@ TEST_CASE("Bcsr::copy_values_to refreshes a to_csr() copy in place", "[sparse][f
   Csr other = spring_lattice(3).to_csr();
   CHECK_THROWS_AS(A.copy_values_to(other), InputError);
 }
+
+namespace {
+/// The 7-point Laplacian on an n^3 grid without boundary conditions (singular: the constants are
+/// its kernel) plus shift * I: positive definite on paper, numerically singular for shift 1e-14.
+Csr neumann_laplacian(index_t n, double shift) {
+  std::vector<Triplet> t;
+  auto id = [n](index_t i, index_t j, index_t k) { return (k * n + j) * n + i; };
+  for (index_t k = 0; k < n; ++k)
+    for (index_t j = 0; j < n; ++j)
+      for (index_t i = 0; i < n; ++i) {
+        const index_t r = id(i, j, k);
+        double diag = shift;
+        const index_t nb[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k}, {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
+        for (const auto& q : nb) {
+          if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= n || q[1] >= n || q[2] >= n) continue;
+          t.emplace_back(r, id(q[0], q[1], q[2]), -1.0);
+          diag += 1.0;
+        }
+        t.emplace_back(r, r, diag);
+      }
+  return Csr::from_triplets(n * n * n, n * n * n, t);
+}
+}  // namespace
+
+TEST_CASE("a direct solve is checked: a numerically singular system is a SolveError, not a success",
+          "[sparse][cholmod]") {
+  const Csr A = neumann_laplacian(12, 1e-14);
+  Vector b(A.rows());
+  for (index_t i = 0; i < A.rows(); ++i) b[i] = std::sin(0.37 * i) + 0.5;  // not orthogonal to the kernel
+  CholmodSolver chol;
+  chol.setup(A);  // the factorisation itself succeeds: every pivot is positive
+  Vector x;
+  try {
+    chol.solve(b, x);
+    FAIL("the solve of a numerically singular system reported success");
+  } catch (const SolveError& e) {
+    CHECK(e.result.status == SolveStatus::stagnated);
+    CHECK(e.result.true_rel_residual > 1e-6);
+    CHECK(e.result.iterations == 3);  // the solve and its two refinement steps
+    CHECK_THAT(e.what(), Catch::Contains("singular") && Catch::Contains("above the tolerance 1e-06"));
+  }
+  // throw_on_failure=false: the status says it, and the residual reported is the true one.
+  CholmodParams p;
+  p.check.throw_on_failure = false;
+  CholmodSolver quiet(p);
+  quiet.setup(A);
+  x.resize(0);
+  const SolveResult r = quiet.solve(b, x);
+  CHECK_FALSE(r.ok());
+  Vector res;
+  A.residual(b, x, res);
+  CHECK(r.true_rel_residual == Approx(res.norm() / b.norm()).epsilon(1e-6));
+}
+
+TEST_CASE("a direct solve refines to its tolerance and ignores the initial guess", "[sparse][cholmod]") {
+  const Csr A = neumann_laplacian(10, 1.0);  // well conditioned
+  Vector b(A.rows());
+  for (index_t i = 0; i < A.rows(); ++i) b[i] = std::cos(0.21 * i);
+  CholmodParams p;
+  p.check.tol = 1e-14;
+  CholmodSolver chol(p);
+  chol.setup(A);
+  Vector x = Vector::Constant(A.rows(), 1e6);  // a bad guess changes nothing
+  const SolveResult r = chol.solve(b, x);
+  CHECK(r.status == SolveStatus::converged);
+  CHECK(r.true_rel_residual <= 1e-14);
+  Vector res;
+  A.residual(b, x, res);
+  CHECK(res.norm() / b.norm() <= 1e-14);
+  CHECK(r.initial_residual == Approx(b.norm()));
+}

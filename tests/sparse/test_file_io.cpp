@@ -166,3 +166,39 @@ TEST_CASE("a configuration key given twice is refused, never resolved silently",
   d.merge(Config::from_pairs({"tol=1e-6"}, "e"));
   CHECK(d.get_string("tol", "") == "1e-6");
 }
+
+TEST_CASE("reads are bounded: a line without end and an endless file are refused after a fixed amount",
+          "[sparse][io]") {
+  // A line of 2 MiB without a line break: refused at 1 MiB, naming the line.
+  std::istringstream endless(std::string(2u << 20, 'x'));
+  TextReader reader(endless, "endless.txt");
+  std::string line;
+  CHECK_THROWS_WITH(reader.next_line(line), Catch::Contains("endless.txt:1: a line longer than 1048576"));
+  // A line of exactly the limit is accepted; the lines around it are read as usual.
+  std::istringstream ok("a\r\n" + std::string(TextReader::kMaxLineLength, 'y') + "\nlast");
+  TextReader r2(ok, "ok.txt");
+  REQUIRE(r2.next_line(line));
+  CHECK(line == "a");
+  REQUIRE(r2.next_line(line));
+  CHECK(line.size() == TextReader::kMaxLineLength);
+  REQUIRE(r2.next_line(line));
+  CHECK(line == "last");
+  CHECK_FALSE(r2.next_line(line));
+  CHECK(r2.line_number() == 4);
+  // An unseekable input bounds declared counts by this machine's memory, not without end.
+  std::istringstream pipe_like("1 2 3");
+  TextReader r3(pipe_like, "pipe");
+  CHECK(r3.remaining_bytes() > 0);
+  // Whole files: /dev/zero never ends; it is refused once it passes the limit.
+  CHECK_THROWS_WITH(read_text_file("/dev/zero", 1 << 16, "scene"),
+                    Catch::Contains("scene: '/dev/zero' is longer than 65536 bytes"));
+  const auto path = std::filesystem::temp_directory_path() / "pmg_read_text_file.json";
+  {
+    std::ofstream out(path);
+    out << "{\"a\": 1}";
+  }
+  CHECK(read_text_file(path.string(), 8, "config") == "{\"a\": 1}");
+  CHECK_THROWS_WITH(read_text_file(path.string(), 7, "config"), Catch::Contains("longer than 7 bytes"));
+  std::filesystem::remove(path);
+  CHECK_THROWS_WITH(read_text_file("/nonexistent/x.json", 100, "scene"), Catch::Contains("cannot open"));
+}

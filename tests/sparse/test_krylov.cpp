@@ -224,3 +224,33 @@ TEST_CASE("CG used as an operator returns an early stop but refuses a breakdown"
   indefinite.setup(S);
   CHECK_THROWS_AS(indefinite.apply(Vector::Ones(2), z), SolveError);
 }
+
+TEST_CASE("merged CG testing its residual rarely converges: no false breakdown or stagnation past tol",
+          "[sparse][krylov][mcg]") {
+  const LatticeSystem s;
+  const BlockJacobiPreconditioner M(s.A);
+  KrylovParams p;
+  p.rel_tol = 1e-8;
+  p.check_every = 5000;  // far beyond the iterations needed: rᵀz and pᵀAp underflow to 0 first
+  Vector x = Vector::Zero(s.b.size());
+  const SolveResult r = mcg(s.A, M, s.b, x, p);
+  CHECK(r.status == SolveStatus::converged);
+  CHECK(r.message.empty());
+  CHECK(true_rel_residual(s.A, s.b, x, Vector::Zero(s.b.size())) <= 2e-8);
+}
+
+TEST_CASE("a preconditioner used as a solver reports its one correction as completed, not converged",
+          "[sparse][krylov]") {
+  const LatticeSystem s;
+  BlockJacobiPreconditioner M;
+  M.setup(s.A);
+  Vector x;
+  const SolveResult r = M.solve(s.b, x);
+  CHECK(r.status == SolveStatus::completed);
+  CHECK(r.iterations == 1);
+  CHECK(r.true_rel_residual == Approx(true_rel_residual(s.A, s.b, x, Vector::Zero(s.b.size()))));
+  // A 0x0 system is named, not blamed on the constraints.
+  const Csr empty = Csr::from_triplets(0, 0, {});
+  BlockJacobiPreconditioner none;
+  CHECK_THROWS_WITH(none.setup(empty), Catch::Contains("0x0: there is nothing to solve"));
+}

@@ -168,6 +168,38 @@ add_test(NAME "hostile: --set with a key twice is refused"
   COMMAND ${EXPECT} 2 "--set: tol: given twice" ${PMG} compare --grid 4 --solvers cg --set tol=1e-3 --set tol=1e-4)
 add_test(NAME "hostile: --fixed-iterations for a direct solver alone is refused"
   COMMAND ${EXPECT} 2 "--fixed-iterations: no solver of this run reads it" ${PMG} compare --grid 4 --solvers cholmod --fixed-iterations 5)
+# Unbounded inputs are refused after a bounded read (issue #30): lines of at most 1 MiB,
+# configuration files of at most 16 MiB, size estimates before meshing.
+add_test(NAME "hostile: -m /dev/zero is refused after one long line"
+  COMMAND ${EXPECT} 2 "/dev/zero:1: a line longer than 1048576 characters" ${PMG} compare -m /dev/zero --solvers cg)
+add_test(NAME "hostile: -b /dev/zero is refused after one long line"
+  COMMAND ${EXPECT} 2 "/dev/zero:1: a line longer than 1048576 characters" ${PMG} compare -m ${DATA}/spd.mtx -b /dev/zero --format csr --solvers cg)
+add_test(NAME "hostile: a scene of /dev/urandom is refused after 16 MiB"
+  COMMAND ${EXPECT} 2 "'/dev/urandom' is longer than 16777216 bytes" ${PMG} simulate /dev/urandom)
+add_test(NAME "hostile: pmg mesh -n beyond this machine's memory is refused with its estimate"
+  COMMAND ${EXPECT} 2 "-n 100000000 tetrahedra would need an estimated [0-9.]+ GB" ${PMG} mesh ${DATA}/cube.off -n 100000000)
+add_test(NAME "hostile: SIGINT stops pmg mesh with exit 130 and removes its temporary folder"
+  COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/mesh_sigint.sh $<TARGET_FILE:pmg> ${DATA}/cube.off)
+# Silent wrong answers (issue #30): a direct solve is checked, so a numerically singular system
+# (a Laplacian without boundary conditions, + 1e-14 I: every pivot positive) is a failure.
+set(direct_methods cholmod)
+if(PMG_HAVE_PETSC)
+  list(APPEND direct_methods mumps)
+endif()
+foreach(m ${direct_methods})
+  add_test(NAME "hostile: ${m} on a numerically singular system fails with exit 1"
+    COMMAND ${EXPECT} 1 "${m}: the true relative residual .* is above the tolerance 1e-06 .*singular"
+    ${PMG} compare -m ${DATA}/neumann_laplacian.mtx -b ${DATA}/neumann_laplacian_b.mtx --format csr --solvers ${m})
+endforeach()
+# Spurious failures and misleading errors (issue #30).
+add_test(NAME "hostile: merged CG testing every 5000 iterations converges without a false breakdown"
+  COMMAND ${EXPECT} 0 "mcg +converged" ${PMG} compare --grid 6 --solvers mcg --check-every 5000)
+add_test(NAME "hostile: Gauss-Seidel with sweeps 0 is refused by its key"
+  COMMAND ${EXPECT} 2 "smoother.sweeps.*\\[1, 1000\\]" ${PMG} compare --box 2 1 1 -p 2 --solvers pmg --set smoother.sweeps=0)
+add_test(NAME "hostile: --dt 1e200 is refused naming --dt, not an operator"
+  COMMAND ${EXPECT} 2 "--dt, --duration: dt 1e\\+200 s makes the step matrix M \\+ dt\\^2 K overflow" ${PMG} simulate --dt 1e200 --duration 1e201)
+add_test(NAME "hostile: a command-line parse error has the pmg: error: prefix"
+  COMMAND ${EXPECT} 109 "^pmg: error: The following argument was not expected: --bogus" ${PMG} compare --bogus)
 get_property(all_tests DIRECTORY PROPERTY TESTS)
 list(FILTER all_tests INCLUDE REGEX "^hostile: ")
 set_tests_properties(${all_tests} PROPERTIES LABELS "tools;hostile")

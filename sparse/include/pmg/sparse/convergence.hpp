@@ -94,7 +94,9 @@ class ConvergenceTracker {
     if (rel < p_.stagnation_factor * reference_) {
       reference_ = rel;
       last_progress_ = it;
-    } else if (W > 0 && it - last_progress_ >= W && !energy_progress(W)) {
+    } else if (W > 0 && it - last_progress_ >= W && !energy_progress(W) && rel > p_.rel_tol) {
+      // (Below the tolerance the residual has no progress left to make: a method that tests it only
+      // every check_every iterations is waiting for its test, not stagnating.)
       fail(SolveStatus::stagnated, "no progress in " + std::to_string(W) +
                                        " iterations (relative residual " + fmt(rel) +
                                        (energy_.empty() ? "" : ", energy norm of the error flat") +
