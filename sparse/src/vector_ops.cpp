@@ -16,7 +16,14 @@ double dot(const Vector& x, const Vector& y) {
   return s;
 }
 
-double norm2(const Vector& x) { return std::sqrt(dot(x, x)); }
+double norm2(const Vector& x) {
+  // The fast sum of squares is exact enough while it stays in double's normal range; where it
+  // underflowed (entries below about 1e-154) or overflowed (above 1e154), Eigen's scaled
+  // stableNorm gives the norm any finite vector has.
+  const double s = dot(x, x);
+  if (s > 1e-290 && s < 1e290) return std::sqrt(s);
+  return x.stableNorm();
+}
 
 void axpy(double a, const Vector& x, Vector& y) {
   const Eigen::Index n = x.size();

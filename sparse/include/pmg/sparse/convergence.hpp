@@ -28,7 +28,9 @@ class ConvergenceTracker {
     r0_ = r0_norm;
     result_.initial_residual = r0_norm;
     if (!std::isfinite(r0_norm)) {
-      fail(SolveStatus::non_finite, "initial residual is not finite (NaN/Inf in A, b or x0)");
+      fail(SolveStatus::non_finite, "initial residual norm is not finite: NaN/Inf in A, or ||b - A x0|| beyond "
+                                    "double range (squares of entries above about 1e154 overflow: scale the "
+                                    "system towards 1)");
       return false;
     }
     if (monitor_) monitor_->record(0, r0_norm > 0 ? 1.0 : 0.0);
@@ -48,8 +50,17 @@ class ConvergenceTracker {
   /// A curvature or scalar that must be positive (p^T A p, r^T z).
   bool check_positive(double value, const char* what, int it) {
     if (!std::isfinite(value)) {
-      fail(SolveStatus::non_finite, std::string(what) + " is not finite at iteration " +
-                                        std::to_string(it));
+      fail(SolveStatus::non_finite, std::string(what) + " is not finite at iteration " + std::to_string(it) +
+                                        ": NaN/Inf in the operator or preconditioner, or an overflow of double "
+                                        "range (scale the system towards 1)");
+      return false;
+    }
+    if (value <= 0.0 && value > -std::numeric_limits<double>::min()) {
+      // Zero (or below the smallest normal double) from products of tiny values: an underflow, not
+      // an indefinite operator.
+      fail(SolveStatus::breakdown, std::string(what) + " = " + fmt(value) + " at iteration " + std::to_string(it) +
+                                       ": it underflowed (the system's values are too small for double "
+                                       "precision's products: scale A and b towards 1)");
       return false;
     }
     if (value <= 0.0) {
@@ -134,7 +145,8 @@ class ConvergenceTracker {
     }
     if (++replacements_ > 2) {
       fail(SolveStatus::stagnated, "true relative residual " + fmt(rel) + " stays above the tolerance " +
-                                       fmt(p_.rel_tol) + " (limit of attainable accuracy)");
+                                       fmt(p_.rel_tol) + " (limit of attainable accuracy; from a start near "
+                                       "the solution, rhs_floor accepts ||r|| <= rhs_floor ||b||)");
       return true;
     }
     return false;

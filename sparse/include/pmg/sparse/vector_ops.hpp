@@ -10,7 +10,7 @@ namespace pmg::ops {
 
 /// xᵀy.
 double dot(const Vector& x, const Vector& y);
-/// ‖x‖₂.
+/// ‖x‖₂, without overflow or underflow for any finite x.
 double norm2(const Vector& x);
 /// y += a x
 void axpy(double a, const Vector& x, Vector& y);
