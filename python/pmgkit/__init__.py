@@ -84,6 +84,20 @@ def _config_text(config, default_method):
         raise InputError("config: expected a dict or a JSON object string")
     config = dict(config)
     config.setdefault("method", default_method)
+
+    def non_finite(value, path):
+        if isinstance(value, float) and not np.isfinite(value):
+            return path
+        if isinstance(value, dict):
+            for k, v in value.items():
+                found = non_finite(v, f"{path}.{k}" if path else str(k))
+                if found:
+                    return found
+        return None
+
+    bad = non_finite(config, "")
+    if bad:
+        raise InputError(f"config: {bad}: expected a finite number")
     return json.dumps(config)
 
 

@@ -71,3 +71,16 @@ def test_a_block_method_on_a_size_not_divisible_by_3_names_the_size():
     A = _neumann_laplacian(4, 1.0)  # 64 unknowns
     with pytest.raises(pmgkit.InputError, match="64 is not divisible by 3"):
         pmgkit.make_solver(A, {"method": "block-jacobi-pcg"})
+
+
+def test_a_non_finite_number_in_a_config_dict_is_named():
+    A = _neumann_laplacian(3, 1.0)
+    with pytest.raises(pmgkit.InputError, match="config: preconditioner.omega: expected a finite number"):
+        pmgkit.make_solver(A, {"method": "cg", "preconditioner": {"method": "jacobi", "omega": float("nan")}})
+    with pytest.raises(pmgkit.InputError, match="config: tol: expected a finite number"):
+        pmgkit.make_solver(A, {"method": "cg", "tol": float("inf")})
+
+
+def test_a_0x0_system_is_named():
+    with pytest.raises(pmgkit.InputError, match="0x0: there is nothing to solve"):
+        pmgkit.make_solver(sp.csr_matrix((0, 0)), {"method": "cg"})

@@ -24,6 +24,14 @@ def _true_residual(A, b, x):
     return np.linalg.norm(b - A @ x) / np.linalg.norm(b)
 
 
+def _system(levels, method):
+    """The cubic bar's finest matrix and the method's config (iterative ones to 1e-10)."""
+    if not _available(method):
+        pytest.skip(method + " is not in this build")
+    cfg = {"method": method} if method in ("cholmod", "mumps") else {"method": method, "tol": 1e-10}
+    return levels[0][-1].tocsr(), cfg
+
+
 def _run_together(n, work):
     with concurrent.futures.ThreadPoolExecutor(max_workers=n) as pool:
         return list(pool.map(work, range(n)))
@@ -31,10 +39,7 @@ def _run_together(n, work):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_own_solvers_on_threads_answer_as_alone(levels, method):
-    if not _available(method):
-        pytest.skip(method + " is not in this build")
-    A = levels[0][-1].tocsr()
-    cfg = {"method": method} if method in ("cholmod", "mumps") else {"method": method, "tol": 1e-10}
+    A, cfg = _system(levels, method)
     alone = [pmgkit.make_solver(A, cfg).solve(_rhs(A.shape[0], k))[0] for k in range(3)]
 
     def work(t):
@@ -50,10 +55,7 @@ def test_own_solvers_on_threads_answer_as_alone(levels, method):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_a_shared_solver_serialises_solves_updates_and_applies(levels, method):
-    if not _available(method):
-        pytest.skip(method + " is not in this build")
-    A = levels[0][-1].tocsr()
-    cfg = {"method": method} if method in ("cholmod", "mumps") else {"method": method, "tol": 1e-10}
+    A, cfg = _system(levels, method)
     s = pmgkit.make_solver(A, cfg)
     n = A.shape[0]
 
