@@ -100,7 +100,9 @@ fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::p
     throw Error("tetgen failed (exit status " + std::to_string(WIFEXITED(rc) ? WEXITSTATUS(rc) : rc) + ", see " +
                 (scratch / "tetgen.log").string() + "); is the surface closed and free of " +
                 "self-intersections? Is tetgen installed (apt install tetgen)?");
-  return fem::read_tetgen(base.string());
+  fem::TetMesh mesh = fem::read_tetgen(base.string());
+  stop_if_interrupted();
+  return mesh;
 }
 
 void print_counts(const fem::TetMesh& m) {
@@ -130,28 +132,34 @@ void run(const MeshOptions& o) {
               << (o.refine > 0 ? ", --refine " + std::to_string(o.refine) : std::string()) << ")\n";
     require_memory(estimate, "-n " + std::to_string(o.tets) + " tetrahedra" +
                                  (o.refine > 0 ? " refined " + std::to_string(o.refine) + "x" : std::string()));
-    const ScratchDir scratch_dir(fs::temp_directory_path() / ("pmg_mesh_" + std::to_string(::getpid())));
-    const fs::path& scratch = scratch_dir.path;
+    stop_if_interrupted();
     // TetGen keeps every surface triangle and refines inwards from them to meet the quality bound:
     // measured on the CGAL models, about N^(2/3) surface triangles give N elements at -q1.414, so a
-    // finer surface is decimated to that first.
+    // finer surface is decimated to that first (before the scratch folder exists: a Ctrl-C during
+    // the decimation leaves nothing behind).
     const long keep = o.surface_triangles >= 0
                           ? o.surface_triangles
                           : static_cast<long>(std::pow(static_cast<double>(o.tets), 2.0 / 3.0));
-    fs::path input = scratch / ("surface" + fs::path(o.input).extension().string());
-    if (keep > 0 && static_cast<long>(surface.triangles.size()) > keep) {
+    const bool simplify = keep > 0 && static_cast<long>(surface.triangles.size()) > keep;
+    if (simplify) {
       surface = simplify_surface(surface, static_cast<size_t>(keep));
       stop_if_interrupted();
-      input = scratch / "surface.off";
-      write_off(input, surface);
       std::cout << "surface simplified to " << surface.triangles.size() << " triangles (volume "
                 << fmt("%.6g", std::abs(surface.volume())) << ")\n";
+    }
+    const ScratchDir scratch_dir(fs::temp_directory_path() / ("pmg_mesh_" + std::to_string(::getpid())));
+    const fs::path& scratch = scratch_dir.path;
+    fs::path input = scratch / ("surface" + fs::path(o.input).extension().string());
+    if (simplify) {
+      input = scratch / "surface.off";
+      write_off(input, surface);
     } else {
       fs::copy_file(o.input, input, fs::copy_options::overwrite_existing);
     }
     // count ~ C a^-k: k = 1 would hold without quality refinement; estimate it from the runs.
     double max_volume = volume / o.tets, previous_volume = 0.0, previous_count = 0.0, k = 1.0;
     for (int attempt = 1;; ++attempt) {
+      stop_if_interrupted();
       mesh = run_tetgen(o, input, scratch, max_volume);
       const double count = mesh.num_tets();
       std::cout << "tetgen run " << attempt << ": max volume " << fmt("%.3g", max_volume) << " -> "

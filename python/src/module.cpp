@@ -190,8 +190,10 @@ class PySolver {
       if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) {
         char text[32];
         std::snprintf(text, sizeof text, "%.17g", *tol);
-        config_.set("tol", text);  // a new stopping rule: the solver is rebuilt
-        build_locked();
+        Config with_tol = config_.clone();
+        with_tol.set("tol", text);  // a new stopping rule: a new solver, kept only if it sets up
+        build_locked(with_tol);
+        config_ = std::move(with_tol);
       }
       const Vector b = levels_ ? levels_->reduce(b_full) : b_full;
       if (levels_) x = levels_->reduce(x);
@@ -247,8 +249,12 @@ class PySolver {
     py::gil_scoped_release nogil;
     std::lock_guard<std::mutex> lock(mutex_);
     const auto t0 = Clock::now();
+    std::vector<double> previous(csr_.values().begin(), csr_.values().end());
     std::copy(a.view.values, a.view.values + a.view.nnz, csr_.values().begin());
-    if (!csr_.is_symmetric(1e-12)) throw InputError("update: the new matrix is not symmetric");
+    if (!csr_.is_symmetric(1e-12)) {
+      std::copy(previous.begin(), previous.end(), csr_.values().begin());  // the solver's matrix unchanged
+      throw InputError("update: the new matrix is not symmetric");
+    }
     if (bcsr_) bcsr_->set_values(csr_);
     if (bin_) bin_->update_values(*bcsr_);
     solver_->update();
@@ -282,7 +288,16 @@ class PySolver {
     std::lock_guard<std::mutex> lock(mutex_);
     return setup_seconds_;
   }
-  const mg::UserLevels* levels() const { return levels_.get(); }
+  /// f(levels) with mutex_ held, so that an update_levels() on another thread is not seen half
+  /// done (the GIL is held too: no locked region ever waits for it). InputError naming `what`
+  /// for a solver without user levels.
+  template <typename F>
+  auto with_levels(const char* what, F f) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!levels_) throw InputError(std::string(what) + ": not a multigrid solver on user levels");
+    return f(*levels_);
+  }
+  bool has_levels() const { return levels_ != nullptr; }
 
  private:
   static std::vector<CsrView> views(const std::vector<ArrayCsr>& a) {
@@ -293,14 +308,16 @@ class PySolver {
   /// At construction (no other thread can hold the object yet).
   void build() {
     py::gil_scoped_release nogil;
-    build_locked();
+    build_locked(config_);
   }
-  /// A new solver from config_, set up on op_; the GIL released and mutex_ held (or constructing).
-  void build_locked() {
-    solver_ = make_solver(config_, context_, levels_ ? "mgpcg" : "cg");
+  /// A new solver from `config`, set up on op_, replacing solver_ only when its set-up succeeded;
+  /// the GIL released and mutex_ held (or constructing).
+  void build_locked(const Config& config) {
+    auto solver = make_solver(config, context_, levels_ ? "mgpcg" : "cg");
     const auto t0 = Clock::now();
-    solver_->setup(*op_);
+    solver->setup(*op_);
     setup_seconds_ = seconds_since(t0);
+    solver_ = std::move(solver);
   }
 
   Config config_;
@@ -504,15 +521,14 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("setup_seconds", &PySolver::setup_seconds)
       .def("describe", &PySolver::describe)
       .def_property_readonly("removed_nodes", [](const PySolver& s) {
-        return s.levels() ? s.levels()->removed_nodes() : std::vector<index_t>{};
+        if (!s.has_levels()) return std::vector<index_t>{};
+        return s.with_levels("removed_nodes", [](const mg::UserLevels& lv) { return lv.removed_nodes(); });
       })
       .def("level_matrix", [](const PySolver& s, int l) {
-        if (!s.levels()) throw InputError("level_matrix: not a multigrid solver on user levels");
-        return bsr_copy(s.levels()->matrix(l));
+        return s.with_levels("level_matrix", [l](const mg::UserLevels& lv) { return bsr_copy(lv.matrix(l)); });
       })
       .def("level_prolongation", [](const PySolver& s, int l) {
-        if (!s.levels()) throw InputError("level_prolongation: not a multigrid solver on user levels");
-        return csr_copy(s.levels()->prolongation(l));
+        return s.with_levels("level_prolongation", [l](const mg::UserLevels& lv) { return csr_copy(lv.prolongation(l)); });
       });
 
   m.def("methods", [] {

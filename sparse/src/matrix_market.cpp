@@ -101,8 +101,7 @@ Parsed parse(std::istream& in, const std::string& name) {
       rd.fail("declares " + std::to_string(dim) + " " + what + " but only " + std::to_string(count) +
               " entries: at most " + std::to_string(backed) +
               " are accepted for that many entries (a damaged size line?)");
-  const bool sized = rd.remaining_bytes() != std::numeric_limits<long long>::max();
-  out.entries.reserve(static_cast<size_t>(sized ? count : std::min<long long>(count, 1 << 20)));
+  out.entries.reserve(static_cast<size_t>(rd.seekable() ? count : std::min<long long>(count, 1 << 20)));
   for (long long e = 0; e < count; ++e) {
     if (!rd.next_data_line(line))
       rd.fail("file ends after " + std::to_string(e) + " of the " + std::to_string(count) +

@@ -11,6 +11,10 @@ std::string size_message(const char* what, Eigen::Index got, index_t expected) {
 }
 }  // namespace
 
+std::unique_lock<std::recursive_mutex> LinearOperator::hold_call_lock() const {
+  return call_lock_ ? std::unique_lock<std::recursive_mutex>(*call_lock_) : std::unique_lock<std::recursive_mutex>();
+}
+
 void LinearOperator::check_square(const char* what) const {
   if (rows() != cols())
     throw InputError(std::string(what) + ": operator is " + std::to_string(rows()) + "x" +
@@ -18,28 +22,25 @@ void LinearOperator::check_square(const char* what) const {
 }
 
 void LinearOperator::apply(const Vector& x, Vector& y) const {
+  const auto lock = hold_call_lock();  // before the sizes: a set-up may change them
   if (x.size() != cols()) throw InputError(size_message("apply", x.size(), cols()));
   y.resize(rows());
-  if (!call_lock_) return apply_impl(x, y);
-  std::lock_guard<std::recursive_mutex> lock(*call_lock_);
   apply_impl(x, y);
 }
 
 double LinearOperator::apply_dot(const Vector& x, Vector& y) const {
+  const auto lock = hold_call_lock();
   check_square("apply_dot");
   if (x.size() != cols()) throw InputError(size_message("apply_dot", x.size(), cols()));
   y.resize(rows());
-  if (!call_lock_) return apply_dot_impl(x, y);
-  std::lock_guard<std::recursive_mutex> lock(*call_lock_);
   return apply_dot_impl(x, y);
 }
 
 void LinearOperator::residual(const Vector& b, const Vector& x, Vector& r) const {
+  const auto lock = hold_call_lock();
   if (x.size() != cols()) throw InputError(size_message("residual (x)", x.size(), cols()));
   if (b.size() != rows()) throw InputError(size_message("residual (b)", b.size(), rows()));
   r.resize(rows());
-  if (!call_lock_) return residual_impl(b, x, r);
-  std::lock_guard<std::recursive_mutex> lock(*call_lock_);
   residual_impl(b, x, r);
 }
 

@@ -97,15 +97,21 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
   double rel = 0.0;
   // One correction; a direct solve then refines while its residual is above tol and falling.
   const int max_corrections = check ? 1 + check->refinement_steps : 1;
+  Vector kept;  // a direct solve's x before a refinement step, restored if the step does not help
   for (int k = 0; k < max_corrections && r0 > 0; ++k) {
     apply(r, z);
+    if (k > 0) kept = x;
     ops::axpy(1.0, z, x);
     A.residual(b, x, r);
-    const double previous = rel;
-    rel = r.stableNorm() / r0;
+    const double next = r.stableNorm() / r0;
+    if (monitor) monitor->record(k + 1, next);
+    if (k > 0 && !(next < rel)) {
+      x = kept;  // a refinement step that did not help is undone (a NaN one included)
+      break;
+    }
+    rel = next;
     res.iterations = k + 1;
-    if (monitor) monitor->record(k + 1, rel);
-    if (!std::isfinite(rel) || !check || rel <= check->tol || (k > 0 && rel >= previous)) break;
+    if (!std::isfinite(rel) || !check || rel <= check->tol) break;
   }
   res.rel_residual = res.true_rel_residual = rel;
   res.seconds = seconds_since(t0);
@@ -113,6 +119,7 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
     res.status = SolveStatus::non_finite;
     res.message = name() + ": the solution has NaN/Inf" +
                   (check ? std::string(": the matrix is singular or not positive definite") : std::string());
+    if (check && !check->throw_on_failure) return res;
     throw SolveError(res);
   }
   if (!check) {

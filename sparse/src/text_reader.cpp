@@ -37,7 +37,13 @@ bool TextReader::next_line(std::string& line) {
     return false;
   }
   for (bool any = false;; any = true) {
-    const int c = buf->sbumpc();
+    int c;
+    try {
+      c = buf->sbumpc();
+    } catch (const std::exception&) {  // a file buffer's read error (EIO, a folder)
+      in_.setstate(std::ios::badbit);
+      fail("read error");
+    }
     if (c == std::char_traits<char>::eof()) {
       in_.setstate(any ? std::ios::eofbit : std::ios::eofbit | std::ios::failbit);
       if (!any) return false;

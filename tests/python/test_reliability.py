@@ -84,3 +84,18 @@ def test_a_non_finite_number_in_a_config_dict_is_named():
 def test_a_0x0_system_is_named():
     with pytest.raises(pmgkit.InputError, match="0x0: there is nothing to solve"):
         pmgkit.make_solver(sp.csr_matrix((0, 0)), {"method": "cg"})
+
+
+def test_a_refused_update_leaves_the_solver_on_its_matrix():
+    A = _neumann_laplacian(4, 1.0)
+    b = np.arange(A.shape[0], dtype=float)
+    s = pmgkit.make_solver(A, {"method": "cholmod"}, format="csr")
+    x_before, _ = s.solve(b)
+    bad = A.copy().tolil()
+    bad[0, 1] = 5.0  # no longer symmetric, same pattern
+    with pytest.raises(pmgkit.InputError, match="not symmetric"):
+        s.update(bad.tocsr())
+    x_after, info = s.solve(b)
+    assert info["status"] == "converged"
+    assert np.allclose(x_after, x_before, rtol=1e-12, atol=0)
+    assert np.linalg.norm(b - A @ x_after) <= 1e-10 * np.linalg.norm(b)

@@ -202,3 +202,12 @@ TEST_CASE("reads are bounded: a line without end and an endless file are refused
   std::filesystem::remove(path);
   CHECK_THROWS_WITH(read_text_file("/nonexistent/x.json", 100, "scene"), Catch::Contains("cannot open"));
 }
+
+TEST_CASE("a read error (a folder opened as a file) is named, not taken for the end of the file",
+          "[sparse][io]") {
+  std::ifstream folder(std::filesystem::temp_directory_path());
+  if (!folder) return;  // this platform refuses to open a folder at all: nothing to read
+  TextReader reader(folder, "tmpdir");
+  std::string line;
+  CHECK_THROWS_WITH(reader.next_line(line), Catch::Contains("tmpdir:1: read error"));
+}

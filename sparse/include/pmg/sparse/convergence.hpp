@@ -56,11 +56,14 @@ class ConvergenceTracker {
       return false;
     }
     if (value <= 0.0 && value > -std::numeric_limits<double>::min()) {
-      // Zero (or below the smallest normal double) from products of tiny values: an underflow, not
-      // an indefinite operator.
+      // Zero or below the smallest normal double: an operator singular on this direction, or
+      // products of tiny values that underflowed; both are named.
       fail(SolveStatus::breakdown, std::string(what) + " = " + fmt(value) + " at iteration " + std::to_string(it) +
-                                       ": it underflowed (the system's values are too small for double "
-                                       "precision's products: scale A and b towards 1)");
+                                       ": the " + (std::string(what).find("M^{-1}") != std::string::npos
+                                                      ? "preconditioner"
+                                                      : "operator") +
+                                       " is singular on this direction, or the values underflowed (values far "
+                                       "below 1 in A and b: scale them towards 1)");
       return false;
     }
     if (value <= 0.0) {

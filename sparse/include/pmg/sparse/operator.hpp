@@ -57,6 +57,8 @@ class LinearOperator {
   /// lock around the kernel, so that calls on one object from several threads run one at a time
   /// (a matrix has none: its products only read it).
   std::recursive_mutex* call_lock_ = nullptr;
+  /// call_lock_ held (or nothing, when there is none) until the returned object goes.
+  std::unique_lock<std::recursive_mutex> hold_call_lock() const;
 };
 
 /// An operator held as no matrix (a matrix-free FEM operator) that can still compute its 3x3

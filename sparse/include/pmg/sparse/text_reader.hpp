@@ -41,6 +41,9 @@ class TextReader {
                      const char* limit_is = "the rest of the file could hold") const;
   /// Bytes left after the current position (for an unseekable stream: this machine's memory).
   long long remaining_bytes() const;
+  /// Whether the input's size is known (a file, not a pipe): only then does remaining_bytes()
+  /// back a declared count, so a reader reserves for it in full.
+  bool seekable() const { return size_ >= 0; }
   /// A finite real number.
   double to_real(const std::string& token, const char* what = "a real value") const;
 
