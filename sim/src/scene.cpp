@@ -1,6 +1,7 @@
 #include "pmg/sim/scene.hpp"
 
 #include "pmg/fem/elasticity.hpp"
+#include "pmg/fem/simulation.hpp"
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
 
@@ -282,7 +283,7 @@ std::string Scene::check_time() const {
         << kMaxSteps;
   else if (duration < 0.5 * dt)
     why << "duration " << duration << " s is shorter than half a step of dt " << dt << " s: no step would run";
-  else if (const double max_dt = std::sqrt(1e300 / std::max({young, inclusion_young, 1.0})); dt > max_dt)
+  else if (const double max_dt = fem::max_time_step(std::max(young, inclusion_young), rayleigh_beta); dt > max_dt)
     why << "dt " << dt << " s makes the step matrix M + dt^2 K overflow double precision (dt^2 times "
         << "Young's modulus); use a time step below " << max_dt << " s";
   return why.str();

@@ -89,9 +89,9 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
   } else {
     A.residual(b, x, r);
   }
-  // Norms without overflow or underflow (Eigen's stableNorm): a direct solve's check holds at any
-  // scale the factorisation itself survives.
-  res.initial_residual = r.stableNorm();
+  // ops::norm2 neither overflows nor underflows: the check holds at any scale the factorisation
+  // itself survives.
+  res.initial_residual = ops::norm2(r);
   const double r0 = res.initial_residual;
   if (monitor) monitor->record(0, r0 > 0 ? 1.0 : 0.0);
   double rel = 0.0;
@@ -103,7 +103,7 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
     if (k > 0) kept = x;
     ops::axpy(1.0, z, x);
     A.residual(b, x, r);
-    const double next = r.stableNorm() / r0;
+    const double next = ops::norm2(r) / r0;
     if (monitor) monitor->record(k + 1, next);
     if (k > 0 && !(next < rel)) {
       x = kept;  // a refinement step that did not help is undone (a NaN one included)

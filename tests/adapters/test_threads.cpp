@@ -126,9 +126,9 @@ TEST_CASE("solvers of their own on several threads at once give their answers al
         if (!errors[t].empty()) continue;
         for (size_t k = 0; k < sys.rhs.size(); ++k) {
           CHECK(relative_residual(A, sys.rhs[k], got[t][k]) < 1e-7);
-          // the same solution to the accuracy a 1e-8 residual gives on this system (OpenMP reductions
-          // inside a thread of its own run in another order than alone)
-          CHECK((got[t][k] - reference[k]).norm() <= 1e-4 * reference[k].norm());
+          // the answer given alone, to round-off: inside a thread of its own OpenMP runs a team of
+          // one (nested), so sums may run in another order; measured agreement 1e-10 or better
+          CHECK((got[t][k] - reference[k]).norm() <= 1e-8 * reference[k].norm());
         }
       }
     }

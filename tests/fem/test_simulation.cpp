@@ -112,6 +112,12 @@ TEST_CASE("bad simulation set-up is refused", "[fem][simulation][errors]") {
   SimulationParams sp;
   sp.dt = -1.0;
   CHECK_THROWS_AS(ImplicitEuler(h, solver, Vector::Zero(h.finest().num_dofs()), sp), InputError);
+  // A step whose M + dt^2 K would overflow is named (max_time_step: dt^2 E = 1e300).
+  sp.dt = 2.0 * max_time_step(kRubber.young);
+  CHECK_THROWS_WITH(ImplicitEuler(h, solver, Vector::Zero(h.finest().num_dofs()), sp),
+                    Catch::Contains("overflow double precision; use a time step below"));
+  CHECK(max_time_step(1e4) == Approx(1e148));
+  CHECK(max_time_step(1e4, 1e300) == Approx(1e-4));  // beta dt dominates: dt = 1e300 / (beta E)
   sp.dt = 0.01;
   CHECK_THROWS_AS(ImplicitEuler(h, solver, Vector::Zero(5), sp), InputError);
   ImplicitEuler sim(h, solver, Vector::Zero(h.finest().num_dofs()), sp);

@@ -185,10 +185,24 @@ TEST_CASE("reads are bounded: a line without end and an endless file are refused
   CHECK(line == "last");
   CHECK_FALSE(r2.next_line(line));
   CHECK(r2.line_number() == 4);
-  // An unseekable input bounds declared counts by this machine's memory, not without end.
-  std::istringstream pipe_like("1 2 3");
-  TextReader r3(pipe_like, "pipe");
-  CHECK(r3.remaining_bytes() > 0);
+  // A seekable input bounds declared counts by its size; an unseekable one (a pipe: a stream
+  // buffer that cannot seek) by this machine's memory, not without end.
+  std::istringstream sized("1 2 3\n");
+  TextReader r3(sized, "file");
+  CHECK(r3.seekable());
+  CHECK(r3.remaining_bytes() == 6);
+  struct PipeBuffer : std::stringbuf {  // seeking fails, as on a pipe
+    using std::stringbuf::stringbuf;
+    pos_type seekoff(off_type, std::ios::seekdir, std::ios::openmode) override { return pos_type(off_type(-1)); }
+    pos_type seekpos(pos_type, std::ios::openmode) override { return pos_type(off_type(-1)); }
+  };
+  PipeBuffer pipe_buffer("1 2 3\n");
+  std::istream pipe(&pipe_buffer);
+  TextReader r4(pipe, "pipe");
+  CHECK_FALSE(r4.seekable());
+  CHECK(r4.remaining_bytes() == static_cast<long long>(physical_memory_bytes()));
+  REQUIRE(r4.next_line(line));
+  CHECK(line == "1 2 3");
   // Whole files: /dev/zero never ends; it is refused once it passes the limit.
   CHECK_THROWS_WITH(read_text_file("/dev/zero", 1 << 16, "scene"),
                     Catch::Contains("scene: '/dev/zero' is longer than 65536 bytes"));

@@ -141,11 +141,11 @@ struct CholmodSolver::Impl {
   double analyze_seconds = 0, factorize_seconds = 0;
   // cholmod_l_solve2's result and workspaces, kept from one solve to the next: cholmod_l_solve
   // allocated the result (and freed its workspace) on every call, fresh pages each time (a lowest
-  // level is solved once per cycle). The mutex keeps concurrent solves on one solver correct.
+  // level is solved once per cycle). Concurrent calls on one solver are serialised by the Solver's
+  // own lock (pmg/sparse/solver.hpp).
   cholmod_dense* X = nullptr;
   cholmod_dense* Y = nullptr;
   cholmod_dense* E = nullptr;
-  std::mutex solve_mutex;
 
   Impl() {
     cholmod_l_start(&common);
@@ -325,7 +325,6 @@ void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
   B.x = const_cast<double*>(b.data());
   B.xtype = CHOLMOD_REAL;
   B.dtype = CHOLMOD_DOUBLE;
-  std::lock_guard<std::mutex> lock(d.solve_mutex);
   int ok;
   {
     ScopedCholmodThreads scoped(blas_threads_);

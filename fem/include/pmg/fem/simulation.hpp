@@ -55,6 +55,10 @@ struct StepWeights {
 /// The step matrix's weights for these parameters (the one formula, for steps and for tools that
 /// build the system of one step).
 StepWeights step_weights(const SimulationParams& p);
+/// The largest time step whose step matrix M + (Δt β + Δt²) K stays far inside double range for
+/// stiffness entries that scale with Young's modulus `young` (the largest of the model's): the Δt
+/// with (Δt β + Δt²) max(E, 1) = 1e300. Scenes and the ImplicitEuler constructor refuse larger ones.
+double max_time_step(double young, double rayleigh_beta = 0.0);
 
 /// The stages of a step, timed separately.
 enum Stage { kRotations, kAssembly, kHierarchy, kForces, kSolve, kNumStages };

@@ -55,28 +55,22 @@ class ConvergenceTracker {
                                         "range (scale the system towards 1)");
       return false;
     }
-    if (value <= 0.0 && value > -std::numeric_limits<double>::min()) {
-      // Zero or below the smallest normal double: an operator singular on this direction, or
-      // products of tiny values that underflowed; both are named.
-      fail(SolveStatus::breakdown, std::string(what) + " = " + fmt(value) + " at iteration " + std::to_string(it) +
-                                       ": the " + (std::string(what).find("M^{-1}") != std::string::npos
-                                                      ? "preconditioner"
-                                                      : "operator") +
+    if (value > 0.0) return true;
+    // r^T M^{-1} r indicts the preconditioner (a cycle's smoother or transfers), a curvature
+    // p^T A p the operator. Zero or below the smallest normal double: singular on this direction,
+    // or products of tiny values that underflowed; both are named.
+    const bool preconditioner = std::string(what).find("M^{-1}") != std::string::npos;
+    const std::string at = std::string(what) + " = " + fmt(value) + " at iteration " + std::to_string(it) + ": ";
+    if (value > -std::numeric_limits<double>::min())
+      fail(SolveStatus::breakdown, at + (preconditioner ? "the preconditioner" : "the operator") +
                                        " is singular on this direction, or the values underflowed (values far "
                                        "below 1 in A and b: scale them towards 1)");
-      return false;
-    }
-    if (value <= 0.0) {
-      // r^T M^{-1} r <= 0 indicts the preconditioner (a cycle's smoother or transfers), a
-      // curvature p^T A p <= 0 the operator.
-      const bool preconditioner = std::string(what).find("M^{-1}") != std::string::npos;
+    else
       fail(SolveStatus::breakdown,
-           std::string(what) + " = " + fmt(value) + " <= 0 at iteration " + std::to_string(it) + ": " +
-               (preconditioner ? "the preconditioner is not symmetric positive definite (a multigrid "
-                                 "cycle: check its smoother settings and prolongations)"
-                               : "the operator is not symmetric positive definite"));
-      return false;
-    }
+           at + (preconditioner ? "the preconditioner is not symmetric positive definite (a multigrid "
+                                  "cycle: check its smoother settings and prolongations)"
+                                : "the operator is not symmetric positive definite"));
+    return false;
     return true;
   }
 
