@@ -131,15 +131,18 @@ struct System {
   double user_levels_s = -1;  // user levels: seconds to turn the matrices read into the cycle's levels
   std::string error_reference = "known solution";
   bool reference_pending = false;  // FEM: x_true is a direct solve made after the timed runs
-  index_t unknowns() const { return bcsr ? bcsr->rows() : csr.rows(); }
-  offset_t nonzeros() const { return bcsr ? 9 * static_cast<offset_t>(bcsr->num_blocks()) : csr.nnz(); }
+  index_t unknowns() const { return bcsr ? bcsr->rows() : fem ? static_cast<index_t>(b.size()) : csr.rows(); }
+  /// The finest matrix's nonzeros and 3x3 blocks; -1 where it was not assembled (FEM, matrix-free
+  /// solvers only).
+  offset_t nonzeros() const { return bcsr ? 9 * static_cast<offset_t>(bcsr->num_blocks()) : fem ? -1 : csr.nnz(); }
+  offset_t blocks() const { return bcsr ? static_cast<offset_t>(bcsr->num_blocks()) : -1; }
 };
 
 /// A non-owning pointer to a matrix that outlives the system's users (the FEM hierarchy's).
 std::shared_ptr<const Bcsr> borrow(const Bcsr& A) { return std::shared_ptr<const Bcsr>(std::shared_ptr<void>(), &A); }
 
 struct Outcome {
-  std::string name, status = "ok", message, breakdown, settings;
+  std::string name, status = "ok", message, breakdown, setup_breakdown, settings;
   int iterations = 0;
   double setup = 0, solve = 0, rel_residual = kNaN, rel_error = kNaN;
   std::vector<IterationRecord> history;
@@ -211,8 +214,12 @@ System load_system(const Options& o) {
                        " entries, matrix has " + std::to_string(s.csr.rows()) + " rows");
     if (s.csr.rows() % 3 == 0) s.bcsr = std::make_shared<const Bcsr>(Bcsr::from_csr(s.csr));
   } else if (o.fem) {
-    s.fem = std::make_unique<FemSystem>(build_fem_system(o.scene));
-    s.bcsr = borrow(s.fem->matrix());  // the hierarchy's matrix itself, not a copy
+    // The finest matrix is assembled here only where the options read it (a reference solve,
+    // exports, another format); otherwise run() assembles it once a solver that is not
+    // matrix-free asks for it.
+    const bool finest = o.reference || !o.export_levels.empty() || !o.export_petsc.empty() || o.format != "bcsr";
+    s.fem = std::make_unique<FemSystem>(build_fem_system(o.scene, finest));
+    if (finest) s.bcsr = borrow(s.fem->matrix());  // the hierarchy's matrix itself, not a copy
     if (o.format == "csr") s.csr = s.bcsr->to_csr();
     s.b = s.fem->b;
     s.description = s.fem->description;
@@ -280,7 +287,8 @@ void plot_history(const std::string& csv, const std::string& png, const std::str
 
 /// Sets up (timed), solves from x (timed, monitored) and reports.
 Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator& A,
-                   const Vector& b, Vector& x, double extra_setup) {
+                   const Vector& b, Vector& x, double extra_setup,
+                   const std::vector<std::pair<std::string, double>>& extra_parts = {}) {
   Outcome out;
   out.name = name;
   auto t0 = Clock::now();
@@ -294,6 +302,18 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
     return out;
   }
   out.setup = seconds_since(t0) + extra_setup;
+  // The set-up by stage: the levels' preparation (outside the solver), then the solver's own.
+  TimingBreakdown stages = solver.setup_timings();
+  if (!stages.empty() || !extra_parts.empty()) {
+    stages.count = 1, stages.unit = "set-up";
+    stages.parts.insert(stages.parts.begin(), extra_parts.begin(), extra_parts.end());
+    stages.parts.emplace_back("other", std::max(0.0, out.setup - [&] {
+                                double sum = 0;
+                                for (const auto& p : stages.parts) sum += p.second;
+                                return sum;
+                              }()));
+    out.setup_breakdown = stages.to_string();
+  }
   solver.reset_timings();
   SolveMonitor mon;
   t0 = Clock::now();
@@ -340,10 +360,7 @@ void run(const Options& o) {
   // (an FEM scene: checked above)
   if (!o.export_levels.empty()) export_levels(*sys.fem, o.export_levels);
   if (!o.export_petsc.empty()) export_petsc(*sys.fem, o.export_petsc);
-  const double load_time = seconds_since(t0);
-  t0 = Clock::now();
-  const Formats fmt_ = select_format(o, sys);
-  const double convert_time = seconds_since(t0);
+  double load_time = seconds_since(t0);
 
   KrylovParams params;
   params.rel_tol = o.tol;
@@ -351,21 +368,6 @@ void run(const Options& o) {
   params.fixed_iterations = o.fixed_iterations > 0;
   params.check_every = o.check_every;
 
-  std::cout << "system:  " << sys.description << "\n"
-            << "size:    " << sys.unknowns() << " unknowns, " << sys.nonzeros() << " nonzeros"
-            << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "")
-            << "\n"
-            << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
-            << fmt("%.3f", convert_time) << " s), " << omp_get_max_threads() << " threads\n"
-            << "stop:    "
-            << (params.fixed_iterations ? std::to_string(o.fixed_iterations) + " fixed iterations"
-                                        : "relative residual <= " + fmt("%.1e", o.tol))
-            << "\n\n";
-
-  const LinearOperator& A = *fmt_.op;
-  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); the Krylov methods
-  // multiply in the requested format.
-  const LinearOperator& entries = sys.bcsr ? static_cast<const LinearOperator&>(*sys.bcsr) : sys.csr;
   const mg::LevelProvider* levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())
                                     : sys.fem ? &sys.fem->hierarchy() : nullptr;
   const Config set = Config::from_pairs(o.overrides, "--set");  // read once, for every solver
@@ -374,15 +376,7 @@ void run(const Options& o) {
     names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
     if (levels && levels->num_levels() > 1) {
       names.push_back("pmg");
-      // A lowest level solved by an inner Krylov iteration is not a fixed operator: CG cannot be
-      // preconditioned by such a cycle, so mgpcg is left out (named in the output).
-      const std::string lowest = set.has("lowest_level.method") ? set.get_string("lowest_level.method", "")
-                                                                : set.get_string("lowest_level", "");
-      if (lowest == "cg" || lowest == "boomeramg-pcg" || lowest == "gamg-pcg")
-        std::cout << "mgpcg: left out of the default solvers (lowest_level=" << lowest
-                  << " is an inner iteration, not a fixed operator)\n\n";
-      else
-        names.push_back("mgpcg");
+      names.push_back("mgpcg");  // flexible where the lowest level is an inner iteration
     }
   }
   // Every solver is built (and its options checked) before any runs.
@@ -414,7 +408,7 @@ void run(const Options& o) {
   std::set<std::string> set_used;
   double mpi = -1.0;
   for (auto& [name, c] : configs) {
-    if (!sys.bcsr && method_needs_blocks(c.get_string("method", "cg")))
+    if (!sys.bcsr && !sys.fem && method_needs_blocks(c.get_string("method", "cg")))
       throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
     solvers.push_back(build_solver(c, ctx, "cg"));
     c.check_all_used(set_keys);
@@ -424,11 +418,44 @@ void run(const Options& o) {
     // MPI's and PETSc's start-up is paid once per process: started here, before the clocks, so
     // that it is charged to no solver.
     mpi = std::max(mpi, start_libraries(c));
-    if (auto* cg = dynamic_cast<Cg*>(solvers.back().get())) cg->set_multiplication_operator(&A);
-    if (auto* mcg = dynamic_cast<MergedCg*>(solvers.back().get())) mcg->set_multiplication_operator(&A);
   }
   for (const auto& k : set_keys)
     if (!set_used.count(k)) throw InputError("--set: " + k + ": no solver of this run reads it");
+  // FEM: the finest matrix, where a solver multiplies with it or reads its entries (matrix-free
+  // solvers do neither); its assembly belongs to the load time.
+  if (sys.fem && !sys.bcsr) {
+    bool finest = sys.fem->hierarchy().num_levels() < 2;
+    for (const auto& s : solvers) finest = finest || !s->needs().matrix_free;
+    if (finest) {
+      sys.fem->assemble_finest();
+      load_time += sys.fem->finest_assembly;
+      sys.bcsr = borrow(sys.fem->matrix());
+    }
+  }
+  t0 = Clock::now();
+  const Formats fmt_ = sys.bcsr || !sys.fem ? select_format(o, sys) : Formats{};
+  const double convert_time = seconds_since(t0);
+  std::cout << "system:  " << sys.description << "\n"
+            << "size:    " << sys.unknowns() << " unknowns, "
+            << (sys.nonzeros() >= 0 ? std::to_string(sys.nonzeros()) + " nonzeros" : "finest matrix not assembled (matrix-free solvers only)")
+            << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "")
+            << "\n"
+            << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
+            << fmt("%.3f", convert_time) << " s), " << omp_get_max_threads() << " threads\n"
+            << "stop:    "
+            << (params.fixed_iterations ? std::to_string(o.fixed_iterations) + " fixed iterations"
+                                        : "relative residual <= " + fmt("%.1e", o.tol))
+            << "\n\n";
+  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); the Krylov methods
+  // multiply in the requested format (matrix-free ones: with the finest operator, set per run).
+  static const Csr no_matrix;
+  const LinearOperator& entries = sys.bcsr ? static_cast<const LinearOperator&>(*sys.bcsr)
+                                  : sys.fem ? static_cast<const LinearOperator&>(no_matrix) : sys.csr;
+  for (auto& s : solvers) {
+    if (!fmt_.op) break;
+    if (auto* cg = dynamic_cast<Cg*>(s.get())) cg->set_multiplication_operator(fmt_.op);
+    if (auto* mcg = dynamic_cast<MergedCg*>(s.get())) mcg->set_multiplication_operator(fmt_.op);
+  }
   for (const auto& [name, c] : configs)
     if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << name << ": " << c.to_string() << "\n";
   if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << "\n";
@@ -438,6 +465,7 @@ void run(const Options& o) {
   // operators), prepared once per kind of need outside the solvers' clocks and charged to every
   // solver that needs it.
   std::map<std::pair<bool, bool>, double> prepared;
+  std::map<std::pair<bool, bool>, std::vector<std::pair<std::string, double>>> prepared_parts;
   double lower_levels = -1.0;  // seconds to assemble the lower levels (the report's lower_levels_s)
   double matrix_free = -1.0;   // seconds to build the matrix-free levels (matrix_free_s)
   auto run_one = [&](size_t k, Vector& x) {
@@ -447,7 +475,10 @@ void run(const Options& o) {
     double extra = 0.0;
     if (needs.lower_levels || needs.matrix_free) {
       const auto key = std::make_pair(needs.lower_levels, needs.matrix_free);
-      if (!prepared.count(key)) prepared[key] = sys.fem->prepare(needs);
+      if (!prepared.count(key)) {
+        prepared[key] = sys.fem->prepare(needs);
+        prepared_parts[key] = sys.fem->hierarchy().prepare_seconds();
+      }
       extra = prepared[key];
       if (needs.matrix_free) matrix_free = extra;
       else if (needs.lower_levels) lower_levels = extra;
@@ -456,7 +487,9 @@ void run(const Options& o) {
     // A matrix-free solver multiplies with the finest operator too.
     if (needs.matrix_free)
       if (auto* cg = dynamic_cast<Cg*>(&solver)) cg->set_multiplication_operator(&Afem);
-    return run_solver(configs[k].first, solver, needs.matrix_free ? Afem : entries, sys.b, x, extra);
+    const auto key = std::make_pair(needs.lower_levels, needs.matrix_free);
+    return run_solver(configs[k].first, solver, needs.matrix_free ? Afem : entries, sys.b, x, extra,
+                      prepared_parts.count(key) ? prepared_parts[key] : std::vector<std::pair<std::string, double>>{});
   };
   if (o.warm_up)
     std::cout << "warm-up: each solver runs once untimed before its timed run (the first solver in a "
@@ -517,6 +550,8 @@ void run(const Options& o) {
   for (const auto& out : outcomes)
     if (!out.settings.empty()) std::cout << "\n" << out.name << ": " << out.settings << "\n";
   for (const auto& out : outcomes)
+    if (!out.setup_breakdown.empty()) std::cout << "\n" << out.name << ": " << out.setup_breakdown << "\n";
+  for (const auto& out : outcomes)
     if (!out.breakdown.empty()) std::cout << "\n" << out.name << ": " << out.breakdown << "\n";
   if (sys.x_true.size()) std::cout << "\nrel. error: against the " << sys.error_reference << "\n";
   std::string history = o.history;
@@ -544,14 +579,16 @@ void run(const Options& o) {
                               {"rel_residual", num(out.rel_residual)},
                               {"rel_error", num(out.rel_error)},
                               {"settings", out.settings},
-                              {"breakdown", out.breakdown}});
+                              {"breakdown", out.breakdown},
+                              {"setup_breakdown", out.setup_breakdown}});
     }
     nlohmann::json report = {
         {"command", "pmg compare"},
         {"system", {{"description", sys.description},
                     {"unknowns", sys.unknowns()},
-                    {"nonzeros", sys.nonzeros()},
-                    {"blocks", sys.bcsr ? nlohmann::json(sys.bcsr->num_blocks()) : nlohmann::json(nullptr)}}},
+                    {"nonzeros", sys.nonzeros() >= 0 ? nlohmann::json(sys.nonzeros()) : nlohmann::json(nullptr)},
+                    {"blocks", sys.blocks() >= 0 ? nlohmann::json(sys.blocks()) : nlohmann::json(nullptr)},
+                    {"finest_assembled", !sys.fem || sys.fem->finest_assembled}}},
         {"format", o.format},
         {"load_s", load_time},
         {"convert_s", convert_time},

@@ -53,10 +53,25 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
   add_allow_option(sub, o.allow);
 }
 
+const Bcsr& FemSystem::matrix() const {
+  if (!finest_assembled) throw Error("internal: the finest matrix of the FEM system was not assembled");
+  return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1);
+}
+
+void FemSystem::assemble_finest() {
+  if (finest_assembled) return;
+  const auto t0 = Clock::now();
+  hierarchy().assemble_level(hierarchy().num_levels() - 1, nullptr, nullptr, mass_weight, stiffness_weight);
+  finest_assembly = seconds_since(t0);
+  finest_assembled = true;
+}
+
 double FemSystem::prepare(const SolverNeeds& needs) {
   const auto t0 = Clock::now();
-  // The finest matrix is assembled already; a matrix-free solver needs the finest operator too.
-  hierarchy().prepare(needs, nullptr, mass_weight, stiffness_weight, /*finest=*/needs.matrix_free);
+  // A matrix-free solver needs the finest operator; any other the finest matrix, assembled once.
+  const bool finest = needs.matrix_free || !finest_assembled;
+  hierarchy().prepare(needs, nullptr, mass_weight, stiffness_weight, finest);
+  if (finest && !needs.matrix_free) finest_assembled = true;
   return seconds_since(t0);
 }
 
@@ -83,7 +98,7 @@ sim::Scene scene_of(const SceneOptions& o) {
   return s;
 }
 
-FemSystem build_fem_system(const SceneOptions& o) {
+FemSystem build_fem_system(const SceneOptions& o, bool assemble_finest) {
   const sim::Scene scene = scene_of(o);
   FemSystem s;
   s.setup = sim::set_up(scene);
@@ -102,9 +117,7 @@ FemSystem build_fem_system(const SceneOptions& o) {
     f *= o.dt;
   }
   s.b = m.restrict_to_free(f);
-  const auto t0 = Clock::now();
-  s.hierarchy().assemble_level(o.degree - 1, nullptr, nullptr, s.mass_weight, s.stiffness_weight);
-  s.finest_assembly = seconds_since(t0);
+  if (assemble_finest) s.assemble_finest();
   s.description += ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
                    " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " + o.load +
                    (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");

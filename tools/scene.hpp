@@ -39,11 +39,16 @@ struct FemSystem {
   Vector b;                      ///< right-hand side over the free dofs of the finest level
   std::string description;
   double finest_assembly = 0.0;  ///< seconds to assemble the finest level
+  bool finest_assembled = false;  ///< whether matrix() holds the finest level's entries
   double mass_weight = 0.0, stiffness_weight = 1.0;
   fem::DegreeHierarchy& hierarchy() const { return *setup.hierarchy; }
-  const Bcsr& matrix() const { return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1); }
-  /// What a solver needs beyond the finest matrix (assembled by build_fem_system), prepared with
-  /// the system's weights (fem::DegreeHierarchy::prepare): lower levels, matrix-free operators.
+  /// The finest level's matrix; Error when it was not assembled (assemble_finest()).
+  const Bcsr& matrix() const;
+  /// Assembles the finest level's matrix with the system's weights (once; timed in finest_assembly).
+  void assemble_finest();
+  /// What a solver needs beyond the finest matrix, prepared with the system's weights
+  /// (fem::DegreeHierarchy::prepare): lower levels, matrix-free operators; the finest matrix too
+  /// when the solver multiplies with it and it was not assembled yet.
   /// Returns the seconds it took; the operator to set the solver up on is
   /// hierarchy().system_operator(needs).
   double prepare(const SolverNeeds& needs);
@@ -54,6 +59,8 @@ struct FemSystem {
 
 /// The sim::Scene these options describe (clamp, material, load); build_fem_system sets it up.
 sim::Scene scene_of(const SceneOptions& o);
-FemSystem build_fem_system(const SceneOptions& o);
+/// The system of these options; `assemble_finest` false leaves the finest matrix to
+/// assemble_finest() (a run whose solvers are all matrix-free never assembles it).
+FemSystem build_fem_system(const SceneOptions& o, bool assemble_finest = true);
 
 }  // namespace pmg::tools

@@ -1,5 +1,6 @@
 #include "pmg/fem/hierarchy.hpp"
 
+#include <chrono>
 #include <map>
 
 namespace pmg::fem {
@@ -213,11 +214,16 @@ void DegreeHierarchy::update_matrix_free(int l, const Rotations* R, double mass_
 const LinearOperator& DegreeHierarchy::prepare(const SolverNeeds& needs, const Rotations* R,
                                                double mass_weight, double stiffness_weight, bool finest) {
   const int L = num_levels();
+  prepare_seconds_.clear();
   for (int l = L - 1; l >= 0; --l) {
     if (l == L - 1 && !finest) continue;
     if (l < L - 1 && !needs.lower_levels) break;
-    if (needs.matrix_free && l > 0) update_matrix_free(l, R, mass_weight, stiffness_weight);
+    const auto t0 = std::chrono::steady_clock::now();
+    const bool operator_only = needs.matrix_free && l > 0;
+    if (operator_only) update_matrix_free(l, R, mass_weight, stiffness_weight);
     else assemble_level(l, R, nullptr, mass_weight, stiffness_weight);
+    prepare_seconds_.emplace_back((operator_only ? "matrix-free " : "assembly ") + level_name(l),
+                                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   return system_operator(needs);
 }

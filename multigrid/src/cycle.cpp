@@ -57,8 +57,15 @@ const LinearOperator& MultigridCycle::level_operator(int l) const {
   return level_matrix(l);
 }
 
+void MultigridCycle::timed_stage(const std::string& name, const std::function<void()>& stage) {
+  const auto t0 = Clock::now();
+  stage();
+  setup_timings_.parts.emplace_back(name, seconds_since(t0));
+}
+
 void MultigridCycle::setup_impl(const LinearOperator& A) {
   const int L = num_levels();
+  setup_timings_ = TimingBreakdown{{}, 1, "set-up"};
   if (params_.matrix_free) {
     if (params_.coarse_operator == CoarseOperator::galerkin)
       throw InputError("multigrid: matrix-free levels need geometric coarse operators, not Galerkin products");
@@ -77,6 +84,7 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
         throw InputError("multigrid: " + levels_.level_name(l) + " has no matrix of its own (only the "
                          "finest was given): use coarse_operator=galerkin");
   transfers_.clear();
+  const auto t_transfers = Clock::now();
   for (int l = 1; l < L; ++l) {
     if (params_.interpolating_restriction)
       transfers_.emplace_back(levels_.prolongation(l), levels_.interpolating_restriction(l));
@@ -97,6 +105,8 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     galerkin_.resize(L > 0 ? L - 1 : 0);
     for (int l = L - 2; l >= 0; --l) galerkin_[l] = GalerkinProduct(transfers_[l], level_matrix(l + 1));
   }
+  setup_timings_.parts.emplace_back(params_.coarse_operator == CoarseOperator::galerkin ? "transfers and Galerkin products" : "transfers",
+                                    seconds_since(t_transfers));
   // A set-up that fails on a level says which, and for a Galerkin product where to look.
   auto on_level = [&](int l, const std::function<void()>& set_up) {
     try {
@@ -111,8 +121,10 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
                            : ""));
     }
   };
-  for (int l = 1; l < L; ++l) on_level(l, [&] { smoothers_[l - 1]->setup(level_operator(l)); });
-  on_level(0, [&] { lowest_->setup(level_matrix(0)); });
+  for (int l = L - 1; l >= 1; --l)
+    timed_stage("smoother " + levels_.level_name(l),
+                [&] { on_level(l, [&] { smoothers_[l - 1]->setup(level_operator(l)); }); });
+  timed_stage("lowest level (" + lowest_->name() + ")", [&] { on_level(0, [&] { lowest_->setup(level_matrix(0)); }); });
   work_.assign(L, Work{});
   for (int l = 1; l < L; ++l) {
     work_[l].r.resize(level_operator(l).rows());
@@ -129,9 +141,11 @@ void MultigridCycle::refresh_galerkin() {
 }
 
 void MultigridCycle::update_impl() {
-  if (params_.coarse_operator == CoarseOperator::galerkin) refresh_galerkin();
-  for (auto& s : smoothers_) s->update();
-  lowest_->update();
+  setup_timings_ = TimingBreakdown{{}, 1, "update"};
+  if (params_.coarse_operator == CoarseOperator::galerkin) timed_stage("Galerkin products", [&] { refresh_galerkin(); });
+  for (int l = num_levels() - 1; l >= 1; --l)
+    timed_stage("smoother " + levels_.level_name(l), [&] { smoothers_[l - 1]->update(); });
+  timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
 }
 
 TimingBreakdown MultigridCycle::timings() const {

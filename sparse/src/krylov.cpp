@@ -71,7 +71,9 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
     if (M) M->apply(r, z);
     const double rho_new = ops::dot(r, z);
     if (!track.check_positive(rho_new, "r^T M^{-1} r", it)) break;
-    ops::xpby(z, rho_new / rho, p);  // p = z + beta p
+    // Standard: beta = rho_new / rho. Flexible: beta = -zᵀq / sigma (q = A p).
+    const double beta = params.flexible && M ? -ops::dot(z, q) / sigma : rho_new / rho;
+    ops::xpby(z, beta, p);  // p = z + beta p
     rho = rho_new;
   }
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
@@ -118,13 +120,18 @@ KrylovParams with_rhs_floor(KrylovParams params, const Vector& b) {
 
 Cg::Cg(const KrylovParams& params, std::unique_ptr<Solver> preconditioner)
     : params_(params), M_(std::move(preconditioner)) {
-  if (M_ && (!M_->is_linear() || !M_->is_symmetric()))
-    throw InputError("CG: the preconditioner '" + M_->name() + "' is not a fixed symmetric "
-                     "operator (a solve to a tolerance inside it, a restriction other than the "
-                     "transposed prolongation, or non-adjoint smoothing); CG needs one");
+  if (M_ && M_->is_linear() && !M_->is_symmetric())
+    throw InputError("CG: the preconditioner '" + M_->name() + "' is not symmetric (a restriction "
+                     "other than the transposed prolongation, or non-adjoint smoothing); CG needs "
+                     "a symmetric one");
+  // A preconditioner that varies between applications (a solve to a tolerance inside it): the
+  // flexible iteration.
+  if (M_ && !M_->is_linear()) params_.flexible = true;
 }
 
-std::string Cg::name() const { return M_ ? "cg(" + M_->name() + ")" : "cg"; }
+std::string Cg::name() const {
+  return M_ ? (params_.flexible ? "flexible cg(" : "cg(") + M_->name() + ")" : "cg";
+}
 
 void Cg::setup_impl(const LinearOperator& A) {
   if (M_) M_->setup(A);

@@ -16,15 +16,17 @@ std::string TimingBreakdown::to_string() const {
   const double n = static_cast<double>(count);
   double total = 0.0;
   for (const auto& p : parts) total += p.second;
-  auto ms = [n](double s) {
+  // Per repetition in milliseconds; a single one (a set-up) in seconds.
+  auto time = [n, this](double s) {
     char buf[32];
-    std::snprintf(buf, sizeof buf, "%.2f ms", 1e3 * s / n);
+    if (count == 1) std::snprintf(buf, sizeof buf, "%.3f s", s);
+    else std::snprintf(buf, sizeof buf, "%.2f ms", 1e3 * s / n);
     return std::string(buf);
   };
-  std::string out = "one " + unit + " " + ms(total) + ":";
+  std::string out = (count == 1 ? unit + " " : "one " + unit + " ") + time(total) + ":";
   for (size_t k = 0; k < parts.size(); ++k)
-    out += (k ? ", " : " ") + parts[k].first + " " + ms(parts[k].second);
-  return out + " (" + std::to_string(count) + " " + unit + "s)";
+    out += (k ? ", " : " ") + parts[k].first + " " + time(parts[k].second);
+  return count == 1 ? out : out + " (" + std::to_string(count) + " " + unit + "s)";
 }
 
 void DirectSolveParams::visit(ParamVisitor& v) {

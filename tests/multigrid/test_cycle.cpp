@@ -189,7 +189,10 @@ TEST_CASE("the factory names unknown keys, bad values and unknown methods", "[mu
   CHECK_THROWS_WITH(make({"method=cg", "tol=2"}), Catch::Contains("tol: must lie in"));
   CHECK_THROWS_WITH(make({"method=nope"}), Catch::Contains("unknown method 'nope'"));
   CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=pmg"}, "test")), Catch::Contains("levels"));
-  CHECK_THROWS_WITH(make({"method=mgpcg", "lowest_level=boomeramg-pcg"}), Catch::Contains("symmetric"));
+  // An inner iteration on the lowest level makes the cycle vary: MGPCG becomes flexible CG.
+  CHECK(make({"method=mgpcg", "lowest_level=cg"})->name() == "flexible cg(multigrid (V-cycle))");
+  // A restriction other than Pᵀ makes a fixed but nonsymmetric cycle: refused, naming why.
+  CHECK_THROWS_WITH(make({"method=mgpcg", "restriction=interpolating"}), Catch::Contains("symmetric"));
   CHECK_THROWS_WITH(Config::from_json("{\"tol\": 1, \"tol\": 2}", "j"), Catch::Contains("appears twice"));
   CHECK_THROWS_WITH(Config::from_pairs({"tol"}, "p"), Catch::Contains("key=value"));
   // JSON and key=value are the same tree; a string value of an object key is its method.

@@ -98,6 +98,8 @@ void BoomerAMGParams::visit(ParamVisitor& v) {
            "rigid: the rotations from node coordinates as interpolation vectors (needs nodal)");
   interp_vectors = vectors == "rigid" ? 3 : 0;
   v.integer("interp_vec_variant", interp_vec_variant, 1, 3, "1, 2: GM approaches, 3: LN approach");
+  v.integer("q_max", interp_vec_q_max, 0, 1000, "rigid: entries per row of each vector's interpolation (0: no limit)");
+  v.integer("smooth_interp_vectors", smooth_interp_vectors, 0, 1, "rigid: 1 smooths the vectors on each level");
 }
 
 std::string to_string(const BoomerAMGParams& p) {
@@ -253,6 +255,8 @@ void BoomerAMG::build(const Csr& A) {
     }
     HYPRE_BoomerAMGSetInterpVectors(s, 3, d.rigid_par.data());
     HYPRE_BoomerAMGSetInterpVecVariant(s, q.interp_vec_variant);
+    HYPRE_BoomerAMGSetInterpVecQMax(s, q.interp_vec_q_max);
+    HYPRE_BoomerAMGSetSmoothInterpVectors(s, q.smooth_interp_vectors);
   }
   const HYPRE_Int setup_error = HYPRE_BoomerAMGSetup(s, parA, parb, parx);
   if (setup_error && q.interp_vectors > 0 && q.interp_vec_variant > 1) {

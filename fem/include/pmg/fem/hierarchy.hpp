@@ -95,6 +95,9 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// The operator a solver with these needs is set up on and multiplies with: the finest level's
   /// matrix-free operator (needs.matrix_free) or its matrix.
   const LinearOperator& system_operator(const SolverNeeds& needs) const;
+  /// Where the last prepare() spent its time: ("matrix-free degree 2", s) or ("assembly degree 1",
+  /// s) per level it touched, finest first.
+  const std::vector<std::pair<std::string, double>>& prepare_seconds() const { return prepare_seconds_; }
 
   /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
   /// level, and on the finest level also the right-hand side correction (see
@@ -128,6 +131,7 @@ class DegreeHierarchy final : public mg::LevelProvider {
     double mass_weight = 0.0, stiffness_weight = 1.0;
   };
   std::vector<LevelState> state_;
+  std::vector<std::pair<std::string, double>> prepare_seconds_;
   Rotations rotations_;  ///< the last rotations given (the same on every level)
   mutable std::vector<std::unique_ptr<ElasticityOperator>> operators_;
   void record(int level, const Rotations* R, double mass_weight, double stiffness_weight);

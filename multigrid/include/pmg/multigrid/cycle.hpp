@@ -95,6 +95,9 @@ class MultigridCycle final : public Solver {
   /// Per cycle: smoothing on each level above the lowest (finest first), residuals, transfers and
   /// the lowest-level solve.
   TimingBreakdown timings() const override;
+  /// The last setup() or update(): transfers (and Galerkin products), each level's smoother
+  /// (diagonal blocks, eigenvalue estimates), the lowest-level solver.
+  TimingBreakdown setup_timings() const override { return setup_timings_; }
   void reset_timings() const override;
 
   /// Number of levels L (the provider's).
@@ -150,6 +153,9 @@ class MultigridCycle final : public Solver {
   mutable std::vector<Work> work_;  ///< [l]: level l >= 1
   mutable Vector solve_r_;
   mutable CycleTimings timings_;
+  TimingBreakdown setup_timings_;
+  /// Runs `stage` and adds its seconds to setup_timings_ under `name`.
+  void timed_stage(const std::string& name, const std::function<void()>& stage);
 };
 
 }  // namespace pmg::mg

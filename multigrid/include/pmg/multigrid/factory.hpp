@@ -5,8 +5,9 @@
 //   pmg::mg::register_solvers();   // or pmg::register_all_solvers() (<pmg/solvers.hpp>)
 //   auto solver = pmg::make_solver(pmg::Config::from_pairs({"method=mgpcg"}, "example"), {&levels});
 //
-// A cycle's lowest level defaults to CHOLMOD, so registering these also registers the CHOLMOD
-// adapter's method (pmg::cholmod::register_solvers()).
+// A cycle's lowest level is `auto` by default: CHOLMOD below kAmgLowestLevelUnknowns, BoomerAMG
+// (one V-cycle per cycle, elasticity settings) from there where the hypre adapter is registered;
+// registering these also registers the CHOLMOD adapter's method (pmg::cholmod::register_solvers()).
 #pragma once
 
 #include "pmg/sparse/factory.hpp"
@@ -15,5 +16,19 @@ namespace pmg::mg {
 
 /// Registers the multigrid methods and smoothers (idempotent; a name the user registered is kept).
 void register_solvers();
+
+/// The lowest level's size from which `lowest_level=auto` takes BoomerAMG instead of CHOLMOD:
+/// the measured break-even of a whole MGPCG solve (set-up included) on the quadratic cube
+/// (docs/scaling.md, with its command).
+inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
+
+/// What `lowest_level=auto` takes for a lowest level of this many unknowns: "boomeramg" from
+/// kAmgLowestLevelUnknowns where a method of that name is registered, "cholmod" otherwise.
+std::string choose_lowest_level(index_t unknowns);
+
+/// The BoomerAMG settings of a lowest level `lowest_level=boomeramg` (chosen or by auto), set as
+/// defaults under `lc` so the user's keys win: the measured fastest on the quadratic cube's linear
+/// level (docs/scaling.md), Chebyshev relaxation (relax_type=16).
+void set_amg_lowest_level_defaults(Config& lc);
 
 }  // namespace pmg::mg

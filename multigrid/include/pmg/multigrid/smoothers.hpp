@@ -156,6 +156,7 @@ class Richardson final : public Smoother {
   bool is_symmetric() const override { return M_->is_symmetric(); }
   SolverNeeds needs() const override { return M_->needs(); }
   TimingBreakdown timings() const override { return M_->timings(); }
+  TimingBreakdown setup_timings() const override { return M_->setup_timings(); }
   void reset_timings() const override { M_->reset_timings(); }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x); }

@@ -50,6 +50,12 @@ struct KrylovParams {
   /// A failed solve (breakdown, divergence, NaN/Inf, stagnation, iteration limit) throws
   /// SolveError; false: it only sets the status of the returned SolveResult.
   bool throw_on_failure = true;
+  /// pcg() only: flexible CG for a preconditioner that varies between applications (an inner
+  /// solve to a tolerance): beta = -zᵀ(A p) / pᵀ(A p), which A-orthogonalises each direction
+  /// against the previous one (Notay, "Flexible conjugate gradients", SIAM J. Sci. Comput. 2000,
+  /// truncated to one vector); equal to the standard beta in exact arithmetic when M is fixed. One
+  /// more dot product per iteration. Not a factory key: Cg sets it for a nonlinear preconditioner.
+  bool flexible = false;
   /// The keys tol, abs_tol, rhs_floor, max_iterations, fixed_iterations, divergence_limit,
   /// stagnation_window and throw_on_failure (check_every is the merged CG's alone:
   /// visit_check_every).
@@ -92,20 +98,22 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
                 KrylovWorkspace* work = nullptr);
 
 /// CG as a Solver, preconditioned by any Solver set up on the same matrix (none: plain CG). The
-/// preconditioner must be a fixed symmetric map (the constructor refuses one that is not, naming
-/// it).
+/// preconditioner must be symmetric where it is linear (the constructor refuses one that is not,
+/// naming it); a nonlinear one (a multigrid cycle whose lowest level is solved to a tolerance)
+/// makes the iteration flexible (KrylovParams::flexible).
 /// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditions no outer
 /// CG, but it can solve a multigrid cycle's lowest level. Work vectors live in the object.
 class Cg final : public Solver {
  public:
   /// Takes ownership of the preconditioner (nullptr: plain CG), which is set up and updated with
-  /// the Cg. Throws InputError when the preconditioner is not linear and symmetric.
+  /// the Cg. Throws InputError when the preconditioner is linear but not symmetric.
   explicit Cg(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr);
   std::string name() const override;
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
   SolverNeeds needs() const override { return M_ ? M_->needs() : SolverNeeds{}; }
   TimingBreakdown timings() const override { return M_ ? M_->timings() : TimingBreakdown{}; }
+  TimingBreakdown setup_timings() const override { return M_ ? M_->setup_timings() : TimingBreakdown{}; }
   void reset_timings() const override {
     if (M_) M_->reset_timings();
   }

@@ -49,6 +49,8 @@ struct BoomerAMGParams {
   int max_coarse_size = 9;      ///< coarsest level size at most
   int interp_vectors = 0;       ///< 0 none, 3 the rigid-body rotations (needs coordinates, nodal)
   int interp_vec_variant = 2;   ///< 1, 2: GM approaches, 3: LN approach
+  int interp_vec_q_max = 0;     ///< entries per row of each vector's interpolation block (0: no limit)
+  int smooth_interp_vectors = 0;  ///< 1: smooth the rigid-body vectors on each level before use
   int cycles = 1;               ///< V-cycles per apply
   /// Every field above as a factory key (p_max_elements is `p_max`, interp_vectors none | rigid).
   void visit(ParamVisitor& v);
