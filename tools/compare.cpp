@@ -593,6 +593,12 @@ void run(const Options& o) {
         {"load_s", load_time},
         {"convert_s", convert_time},
         {"threads", omp_get_max_threads()},
+        // Whether malloc asked for transparent huge pages (pmg's start-up; docs/scaling.md): the
+        // set-up times depend on it.
+        {"malloc_huge_pages", [] {
+           const char* t = std::getenv("GLIBC_TUNABLES");
+           return t && std::string(t).find("glibc.malloc.hugetlb=1") != std::string::npos;
+         }()},
         {"stop", params.fixed_iterations ? nlohmann::json({{"fixed_iterations", o.fixed_iterations}})
                                          : nlohmann::json({{"rel_tol", o.tol}})},
         {"warm_up", o.warm_up},
