@@ -12,6 +12,7 @@
 #include <new>
 #include <string>
 
+#include <sys/auxv.h>
 #include <unistd.h>
 
 namespace pmg::tools {
@@ -33,13 +34,24 @@ std::string find_data_file(const std::string& name) {
 /// (/sys/kernel/mm/transparent_hugepage/enabled is "madvise"): glibc's tunable
 /// glibc.malloc.hugetlb=1 makes malloc ask for them, so a large model's arrays (and those hypre
 /// and CHOLMOD allocate inside their set-ups) fault in 2 MiB pages instead of 4 KiB ones
-/// (docs/scaling.md: the set-up at 2.3M unknowns 8.2 s -> 4.0 s). Tunables are read when a process
-/// starts, so the tool re-executes itself once with the tunable added. Nothing happens when the
-/// user set glibc.malloc.hugetlb (either way), set PMG_HUGEPAGES=0, THP is "always" or "never",
-/// or the re-execution fails (the run then goes on as it is).
+/// (docs/scaling.md: the set-up at 2.3M unknowns about halved). Tunables are read when a process
+/// starts, so the tool re-executes itself once with the tunable added, marked by
+/// PMG_HUGEPAGES_REEXEC so that it never does so twice. Nothing happens when the user set
+/// glibc.malloc.hugetlb (either way), set PMG_HUGEPAGES=0, THP is "always" or "never", the process
+/// runs with elevated privileges (AT_SECURE: glibc ignores the tunable there), /proc/self/exe is
+/// the dynamic loader (started as `ld.so pmg ...`), or the re-execution fails (the run then goes
+/// on as it is).
 void use_transparent_huge_pages(char** argv) {
+  if (std::getenv("PMG_HUGEPAGES_REEXEC")) {  // this is the re-executed process
+    unsetenv("PMG_HUGEPAGES_REEXEC");
+    return;
+  }
   const char* opt_out = std::getenv("PMG_HUGEPAGES");
   if (opt_out && std::strcmp(opt_out, "0") == 0) return;
+  if (getauxval(AT_SECURE)) return;
+  std::error_code ec;
+  const std::string exe = std::filesystem::read_symlink("/proc/self/exe", ec).filename().string();
+  if (ec || exe.rfind("ld-", 0) == 0 || exe.rfind("ld.so", 0) == 0) return;
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   const std::string current = tunables ? tunables : "";
   if (current.find("glibc.malloc.hugetlb") != std::string::npos) return;
@@ -49,8 +61,10 @@ void use_transparent_huge_pages(char** argv) {
   if (mode.find("[madvise]") == std::string::npos) return;
   const std::string value = current.empty() ? "glibc.malloc.hugetlb=1" : current + ":glibc.malloc.hugetlb=1";
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  setenv("PMG_HUGEPAGES_REEXEC", "1", 1);
   execv("/proc/self/exe", argv);
   // Not re-executed: go on without, and leave the environment as it was for child processes.
+  unsetenv("PMG_HUGEPAGES_REEXEC");
   if (tunables) setenv("GLIBC_TUNABLES", current.c_str(), 1);
   else unsetenv("GLIBC_TUNABLES");
 }

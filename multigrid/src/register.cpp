@@ -66,9 +66,9 @@ struct CycleOptions {
     v.solver("smoother", "gauss-seidel",
              "one per level above the lowest (matrix-free route: chebyshev, kind opt-fourth, degree 3)");
     v.solver("lowest_level", "auto",
-             "the lowest level's solver; auto: CHOLMOD below kAmgLowestLevelUnknowns unknowns, BoomerAMG "
-             "(one V-cycle, elasticity settings) from there (cg and boomeramg-pcg: tol 0.1, "
-             "max_iterations 500, no throw, outer CG flexible)");
+             "the lowest level's solver; auto: for mgpcg CHOLMOD below 40000 unknowns, BoomerAMG (one "
+             "V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level keys are given "
+             "(cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)");
   }
 };
 
@@ -140,6 +140,11 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     if (p.matrix_free) Config(c).set("operator", "matrix-free");
   }
   p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free ? 2 : 1);
+  // CG needs a symmetric cycle; refused here, before an inner lowest-level solve would make the
+  // outer iteration flexible and hide it.
+  if (mgpcg && p.interpolating_restriction)
+    c.fail("restriction", "mgpcg needs restriction=transpose: CG needs a symmetric cycle, and the "
+                          "interpolating restriction is not the prolongation's transpose (use pmg)");
   if (p.matrix_free) {
     if (p.coarse_operator == CoarseOperator::galerkin)
       c.fail("operator", "matrix-free levels need coarse_operator=geometric (Galerkin products are matrices)");
@@ -161,10 +166,16 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
   // not the finest level's.
   const std::vector<double> lowest_xyz = ctx.levels->node_coordinates(0);
-  // auto: by the lowest level's size, from the measured break-even (docs/scaling.md); resolved
-  // here and written back, so the printed options say what ran.
+  // auto: for MGPCG by the lowest level's size, from the measured break-even (docs/scaling.md);
+  // CHOLMOD for stationary PMG (one inexact V-cycle slows a stationary cycle far more: 990
+  // cycles instead of 12 on the slender bar of docs/performance.md) and wherever lowest-level keys
+  // are given without a method (they were CHOLMOD's before auto). Resolved here and written back,
+  // so the printed options say what ran.
   if (lc.get_string("method", "auto") == "auto") {
-    const std::string chosen = choose_lowest_level(lowest_level_unknowns(*ctx.levels, lowest_xyz));
+    bool keys = false;
+    for (const auto& kv : lc.items()) keys = keys || kv.first != lc.full_key("method");
+    const std::string chosen =
+        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(*ctx.levels, lowest_xyz)) : "cholmod";
     lc.set("method", chosen);
   }
   if (lc.get_string("method", "") == "boomeramg") set_amg_lowest_level_defaults(lc);

@@ -43,8 +43,9 @@ Registry::Registry() {
   auto add = [&](SolverInfo info, SolverBuilder b) { entries.push_back({std::move(info), std::move(b)}); };
   ParamLister preconditioner;
   preconditioner.solver("preconditioner", "block-jacobi",
-                        "a fixed symmetric solver as preconditioner (none: plain CG)");
-  add({"cg", "conjugate gradients, optionally preconditioned by any fixed symmetric solver",
+                        "a symmetric solver as preconditioner (one that varies, such as an inner "
+                        "solve, makes CG flexible; none: plain CG)");
+  add({"cg", "conjugate gradients, optionally preconditioned by any symmetric solver (flexible CG where it varies)",
        krylov_keys() + preconditioner.keys()},
       [](const Config& c, const SolverContext& ctx) {
         std::unique_ptr<Solver> M;

@@ -16,17 +16,18 @@ std::string TimingBreakdown::to_string() const {
   const double n = static_cast<double>(count);
   double total = 0.0;
   for (const auto& p : parts) total += p.second;
-  // Per repetition in milliseconds; a single one (a set-up) in seconds.
-  auto time = [n, this](double s) {
+  // Per repetition in milliseconds; a set-up or update in seconds.
+  const bool once = unit == "set-up" || unit == "update";
+  auto time = [n, once](double s) {
     char buf[32];
-    if (count == 1) std::snprintf(buf, sizeof buf, "%.3f s", s);
+    if (once) std::snprintf(buf, sizeof buf, "%.3f s", s);
     else std::snprintf(buf, sizeof buf, "%.2f ms", 1e3 * s / n);
     return std::string(buf);
   };
-  std::string out = (count == 1 ? unit + " " : "one " + unit + " ") + time(total) + ":";
+  std::string out = (once ? unit + " " : "one " + unit + " ") + time(total) + ":";
   for (size_t k = 0; k < parts.size(); ++k)
     out += (k ? ", " : " ") + parts[k].first + " " + time(parts[k].second);
-  return count == 1 ? out : out + " (" + std::to_string(count) + " " + unit + "s)";
+  return once ? out : out + " (" + std::to_string(count) + " " + unit + "s)";
 }
 
 void DirectSolveParams::visit(ParamVisitor& v) {

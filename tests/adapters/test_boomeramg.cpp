@@ -162,6 +162,24 @@ TEST_CASE("lowest_level=auto: CHOLMOD below the break-even, BoomerAMG from it; t
   const Config u = Config::from_pairs({"method=mgpcg", "lowest_level=boomeramg", "lowest_level.relax_type=8"}, "test");
   make_solver(u, ctx);
   CHECK(u.to_string().find("lowest_level.relax_type=8") != std::string::npos);
+
+  // Above the break-even (the quadratic cube of 14^3 boxes: 44,937 linear-level unknowns, known
+  // from the hierarchy's coordinates without assembling anything): MGPCG takes BoomerAMG;
+  // stationary PMG, and lowest-level keys given without a method, keep CHOLMOD.
+  const TetMesh cube = box_mesh_24(14, 14, 14, 1.0, 1.0, 1.0);
+  const DegreeHierarchy big{cube, 2, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.z() < 1e-12; }};
+  REQUIRE(static_cast<index_t>(big.node_coordinates(0).size()) >= mg::kAmgLowestLevelUnknowns);
+  SolverContext bctx;
+  bctx.levels = &big;
+  auto chosen = [&](std::vector<std::string> o) {
+    const Config k = Config::from_pairs(o, "test");
+    make_solver(k, bctx);
+    return k.to_string();
+  };
+  CHECK(chosen({"method=mgpcg"}).find("lowest_level.method=boomeramg") != std::string::npos);
+  CHECK(chosen({"method=mgpcg", "lowest_level=auto"}).find("lowest_level.method=boomeramg") != std::string::npos);
+  CHECK(chosen({"method=pmg"}).find("lowest_level.method=cholmod") != std::string::npos);
+  CHECK(chosen({"method=mgpcg", "lowest_level.blas_threads=0"}).find("lowest_level.method=cholmod") != std::string::npos);
 }
 
 TEST_CASE("an AMG lowest level on the matrix-free route: the cube's solution as with CHOLMOD, iterations bounded, "

@@ -5,9 +5,10 @@
 //   pmg::mg::register_solvers();   // or pmg::register_all_solvers() (<pmg/solvers.hpp>)
 //   auto solver = pmg::make_solver(pmg::Config::from_pairs({"method=mgpcg"}, "example"), {&levels});
 //
-// A cycle's lowest level is `auto` by default: CHOLMOD below kAmgLowestLevelUnknowns, BoomerAMG
-// (one V-cycle per cycle, elasticity settings) from there where the hypre adapter is registered;
-// registering these also registers the CHOLMOD adapter's method (pmg::cholmod::register_solvers()).
+// A cycle's lowest level is `auto` by default: for mgpcg CHOLMOD below kAmgLowestLevelUnknowns,
+// BoomerAMG (one V-cycle per cycle, Chebyshev relaxation) from there where the hypre adapter is
+// registered; CHOLMOD for pmg and where lowest-level keys are given without a method. Registering
+// these also registers the CHOLMOD adapter's method (pmg::cholmod::register_solvers()).
 #pragma once
 
 #include "pmg/sparse/factory.hpp"
@@ -17,7 +18,8 @@ namespace pmg::mg {
 /// Registers the multigrid methods and smoothers (idempotent; a name the user registered is kept).
 void register_solvers();
 
-/// The lowest level's size from which `lowest_level=auto` takes BoomerAMG instead of CHOLMOD:
+/// The lowest level's size from which `lowest_level=auto` takes BoomerAMG instead of CHOLMOD for
+/// mgpcg (levels without node coordinates or a lowest matrix of their own count as 0):
 /// the measured break-even of a whole MGPCG solve (set-up included) on the quadratic cube
 /// (docs/scaling.md, with its command).
 inline constexpr index_t kAmgLowestLevelUnknowns = 40000;

@@ -101,8 +101,9 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
 /// preconditioner must be symmetric where it is linear (the constructor refuses one that is not,
 /// naming it); a nonlinear one (a multigrid cycle whose lowest level is solved to a tolerance)
 /// makes the iteration flexible (KrylovParams::flexible).
-/// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditions no outer
-/// CG, but it can solve a multigrid cycle's lowest level. Work vectors live in the object.
+/// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditioning an
+/// outer CG makes that one flexible; it can solve a multigrid cycle's lowest level. Work vectors
+/// live in the object.
 class Cg final : public Solver {
  public:
   /// Takes ownership of the preconditioner (nullptr: plain CG), which is set up and updated with

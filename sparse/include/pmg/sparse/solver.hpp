@@ -79,8 +79,8 @@ struct TimingBreakdown {
   std::string unit;
   /// True when there is nothing to report (no parts or no repetitions).
   bool empty() const { return parts.empty() || count == 0; }
-  /// "one cycle T ms: smoothing degree 3 T3 ms, ... (N cycles)" (times per unit); for a count of
-  /// 1, "set-up T s: transfers T1 s, ..." in seconds; empty when empty().
+  /// "one cycle T ms: smoothing degree 3 T3 ms, ... (N cycles)" (times per unit); for the units
+  /// "set-up" and "update", "set-up T s: transfers T1 s, ..." in seconds; empty when empty().
   std::string to_string() const;
 };
 
@@ -129,8 +129,8 @@ class Solver : public LinearOperator {
   /// Starts the breakdown afresh (before a timed solve).
   virtual void reset_timings() const {}
   /// Where the last setup() or update() spent its time, by stage (a multigrid cycle's transfers,
-  /// smoothers per level and lowest level), as one "set-up" of count 1; empty when the solver keeps
-  /// no breakdown. A Krylov method reports its preconditioner's.
+  /// smoothers per level and lowest level), with unit "set-up" or "update" and count 1; empty
+  /// when the solver keeps no breakdown. A Krylov method reports its preconditioner's.
   virtual TimingBreakdown setup_timings() const { return {}; }
   /// What set-up chose and found, for reports (settings, hierarchy, ordering, factor size); empty
   /// when there is nothing beyond the name. A Krylov method reports its preconditioner's.
