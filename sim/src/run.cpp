@@ -50,7 +50,7 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   const SolverNeeds needs = solver_->needs();
   if (needs.matrix_free)
     notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
-                    "rotations); the linear level assembled and factorised per step");
+                    "rotations); the linear level assembled and its solver set up per step");
   if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
     notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
   if (!scene.energy) notes.push_back("energies: not recorded (output.energy false)");
