@@ -307,11 +307,9 @@ Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator
   if (!stages.empty() || !extra_parts.empty()) {
     stages.count = 1, stages.unit = "set-up";
     stages.parts.insert(stages.parts.begin(), extra_parts.begin(), extra_parts.end());
-    stages.parts.emplace_back("other", std::max(0.0, out.setup - [&] {
-                                double sum = 0;
-                                for (const auto& p : stages.parts) sum += p.second;
-                                return sum;
-                              }()));
+    double staged = 0.0;
+    for (const auto& p : stages.parts) staged += p.second;
+    stages.parts.emplace_back("other", std::max(0.0, out.setup - staged));
     out.setup_breakdown = stages.to_string();
   }
   solver.reset_timings();
@@ -464,32 +462,34 @@ void run(const Options& o) {
   // FEM systems: what each solver needs beyond the finest matrix (lower levels, matrix-free
   // operators), prepared once per kind of need outside the solvers' clocks and charged to every
   // solver that needs it.
-  std::map<std::pair<bool, bool>, double> prepared;
-  std::map<std::pair<bool, bool>, std::vector<std::pair<std::string, double>>> prepared_parts;
+  struct Prepared {
+    double seconds = 0.0;
+    std::vector<std::pair<std::string, double>> parts;  // by level (DegreeHierarchy::prepare_seconds)
+  };
+  std::map<std::pair<bool, bool>, Prepared> prepared;
   double lower_levels = -1.0;  // seconds to assemble the lower levels (the report's lower_levels_s)
   double matrix_free = -1.0;   // seconds to build the matrix-free levels (matrix_free_s)
   auto run_one = [&](size_t k, Vector& x) {
     Solver& solver = *solvers[k];
     if (!sys.fem) return run_solver(configs[k].first, solver, entries, sys.b, x, 0.0);
     const SolverNeeds needs = solver.needs();
-    double extra = 0.0;
+    Prepared extra;
     if (needs.lower_levels || needs.matrix_free) {
       const auto key = std::make_pair(needs.lower_levels, needs.matrix_free);
       if (!prepared.count(key)) {
-        prepared[key] = sys.fem->prepare(needs);
-        prepared_parts[key] = sys.fem->hierarchy().prepare_seconds();
+        const double seconds = sys.fem->prepare(needs);
+        prepared[key] = {seconds, sys.fem->hierarchy().prepare_seconds()};
       }
       extra = prepared[key];
-      if (needs.matrix_free) matrix_free = extra;
-      else if (needs.lower_levels) lower_levels = extra;
+      if (needs.matrix_free) matrix_free = extra.seconds;
+      else if (needs.lower_levels) lower_levels = extra.seconds;
     }
     const LinearOperator& Afem = sys.fem->hierarchy().system_operator(needs);
     // A matrix-free solver multiplies with the finest operator too.
     if (needs.matrix_free)
       if (auto* cg = dynamic_cast<Cg*>(&solver)) cg->set_multiplication_operator(&Afem);
-    const auto key = std::make_pair(needs.lower_levels, needs.matrix_free);
-    return run_solver(configs[k].first, solver, needs.matrix_free ? Afem : entries, sys.b, x, extra,
-                      prepared_parts.count(key) ? prepared_parts[key] : std::vector<std::pair<std::string, double>>{});
+    return run_solver(configs[k].first, solver, needs.matrix_free ? Afem : entries, sys.b, x, extra.seconds,
+                      extra.parts);
   };
   if (o.warm_up)
     std::cout << "warm-up: each solver runs once untimed before its timed run (the first solver in a "

@@ -68,10 +68,9 @@ void FemSystem::assemble_finest() {
 
 double FemSystem::prepare(const SolverNeeds& needs) {
   const auto t0 = Clock::now();
-  // A matrix-free solver needs the finest operator; any other the finest matrix, assembled once.
-  const bool finest = needs.matrix_free || !finest_assembled;
-  hierarchy().prepare(needs, nullptr, mass_weight, stiffness_weight, finest);
-  if (finest && !needs.matrix_free) finest_assembled = true;
+  // A matrix-free solver needs the finest operator; any other reads the finest matrix, which
+  // assemble_finest() provides.
+  hierarchy().prepare(needs, nullptr, mass_weight, stiffness_weight, /*finest=*/needs.matrix_free);
   return seconds_since(t0);
 }
 

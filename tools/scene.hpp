@@ -46,9 +46,8 @@ struct FemSystem {
   const Bcsr& matrix() const;
   /// Assembles the finest level's matrix with the system's weights (once; timed in finest_assembly).
   void assemble_finest();
-  /// What a solver needs beyond the finest matrix, prepared with the system's weights
-  /// (fem::DegreeHierarchy::prepare): lower levels, matrix-free operators; the finest matrix too
-  /// when the solver multiplies with it and it was not assembled yet.
+  /// What a solver needs beyond the finest matrix (assemble_finest()), prepared with the system's
+  /// weights (fem::DegreeHierarchy::prepare): lower levels, matrix-free operators.
   /// Returns the seconds it took; the operator to set the solver up on is
   /// hierarchy().system_operator(needs).
   double prepare(const SolverNeeds& needs);

@@ -83,30 +83,30 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
       if (!levels_.has_matrix(l))
         throw InputError("multigrid: " + levels_.level_name(l) + " has no matrix of its own (only the "
                          "finest was given): use coarse_operator=galerkin");
-  transfers_.clear();
-  const auto t_transfers = Clock::now();
-  for (int l = 1; l < L; ++l) {
-    if (params_.interpolating_restriction)
-      transfers_.emplace_back(levels_.prolongation(l), levels_.interpolating_restriction(l));
-    else
-      transfers_.emplace_back(levels_.prolongation(l));
-    const BlockTransfer& T = transfers_.back();
-    // The provider's sizes (Galerkin products are formed below, from these transfers).
-    auto rows = [&](int k) {
-      return params_.matrix_free && k > 0 ? levels_.matrix_free_operator(k)->rows() : levels_.matrix(k).rows();
-    };
-    if (T.fine_size() != rows(l) ||
-        (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != rows(l - 1)))
-      throw InputError("multigrid: the prolongation of " + levels_.level_name(l) + " does not map " +
-                       levels_.level_name(l - 1) + " to it");
-  }
-  galerkin_.clear();
-  if (params_.coarse_operator == CoarseOperator::galerkin) {
-    galerkin_.resize(L > 0 ? L - 1 : 0);
-    for (int l = L - 2; l >= 0; --l) galerkin_[l] = GalerkinProduct(transfers_[l], level_matrix(l + 1));
-  }
-  setup_timings_.parts.emplace_back(params_.coarse_operator == CoarseOperator::galerkin ? "transfers and Galerkin products" : "transfers",
-                                    seconds_since(t_transfers));
+  const bool galerkin = params_.coarse_operator == CoarseOperator::galerkin;
+  timed_stage(galerkin ? "transfers and Galerkin products" : "transfers", [&] {
+    transfers_.clear();
+    for (int l = 1; l < L; ++l) {
+      if (params_.interpolating_restriction)
+        transfers_.emplace_back(levels_.prolongation(l), levels_.interpolating_restriction(l));
+      else
+        transfers_.emplace_back(levels_.prolongation(l));
+      const BlockTransfer& T = transfers_.back();
+      // The provider's sizes (Galerkin products are formed below, from these transfers).
+      auto rows = [&](int k) {
+        return params_.matrix_free && k > 0 ? levels_.matrix_free_operator(k)->rows() : levels_.matrix(k).rows();
+      };
+      if (T.fine_size() != rows(l) ||
+          (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != rows(l - 1)))
+        throw InputError("multigrid: the prolongation of " + levels_.level_name(l) + " does not map " +
+                         levels_.level_name(l - 1) + " to it");
+    }
+    galerkin_.clear();
+    if (galerkin) {
+      galerkin_.resize(L > 0 ? L - 1 : 0);
+      for (int l = L - 2; l >= 0; --l) galerkin_[l] = GalerkinProduct(transfers_[l], level_matrix(l + 1));
+    }
+  });
   // A set-up that fails on a level says which, and for a Galerkin product where to look.
   auto on_level = [&](int l, const std::function<void()>& set_up) {
     try {
