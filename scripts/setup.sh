@@ -9,6 +9,7 @@ packages=(
   libopenblas0-pthread     # BLAS for CHOLMOD's supernodes (about 3x the reference BLAS)
   libhypre-dev             # BoomerAMG baseline (brings OpenMPI's headers and libraries)
   libpetsc-real-dev        # PETSc's GAMG, MUMPS and CHOLMOD baselines (optional for the build; ~20 s)
+  libmetis-dev             # METIS: the element partition of the distributed p-multigrid
   openmpi-bin              # mpirun, for the 2-rank BoomerAMG test (a Recommends only)
   catch2                   # unit tests (v2)
   libbenchmark-dev         # Google Benchmark

@@ -7,6 +7,9 @@
 #ifdef PMG_HAVE_GPU
 #include "pmg/gpu/factory.hpp"
 #endif
+#ifdef PMG_HAVE_DISTRIBUTED
+#include "pmg/distributed/mgpcg.hpp"
+#endif
 
 #include <mutex>
 
@@ -19,6 +22,9 @@ void register_all_solvers() {
     cholmod::register_solvers();
     hypre::register_solvers();
     petsc::register_solvers();
+#ifdef PMG_HAVE_DISTRIBUTED
+    dist::register_solvers();
+#endif
 #ifdef PMG_HAVE_GPU
     gpu::register_solvers();
 #endif

@@ -2,6 +2,7 @@
 #include "pmg/petsc/petsc.hpp"
 
 #include "pmg/mpi/session.hpp"
+#include "common.hpp"
 
 #include <petscksp.h>
 
@@ -75,7 +76,15 @@ void petsc() {
   static PetscSession session;
 }
 
-/// "-pc_gamg_threshold 0.02 -mg_levels_ksp_max_it 3" with every option name given the prefix.
+}  // namespace
+}  // namespace pmg::mg
+
+namespace pmg::petsc::detail {
+
+void start() { mg::petsc(); }
+void check(PetscErrorCode err, const char* what) { mg::check(err, what); }
+void clear_error() { mg::last_error().clear(); }
+
 std::string prefixed(const std::string& options, const std::string& prefix) {
   std::istringstream in(options);
   std::ostringstream out;
@@ -88,7 +97,11 @@ std::string prefixed(const std::string& options, const std::string& prefix) {
   return out.str();
 }
 
-}  // namespace
+}  // namespace pmg::petsc::detail
+
+namespace pmg::mg {
+
+using petsc::detail::prefixed;
 
 bool petsc_available() { return true; }
 

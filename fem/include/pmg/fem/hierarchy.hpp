@@ -39,6 +39,9 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// (ElasticityModel::fix_vertices): all nodes of a clamped face, on every level alike.
   DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
                   const std::function<bool(const Vec3&)>& fixed);
+  /// The same with the clamped vertices given as one flag per mesh vertex (1: clamped), as
+  /// clamped_vertices() returns them: a rank's share of a mesh keeps its owner's clamp.
+  DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped);
 
   int num_levels() const override { return static_cast<int>(models_.size()); }
   std::string level_name(int level) const override { return "degree " + std::to_string(level + 1); }

@@ -1,0 +1,581 @@
+// CG + PCMG across MPI ranks (pmg/petsc/pcmg.hpp).
+#include "pmg/petsc/pcmg.hpp"
+
+#include "common.hpp"
+#include "pmg/mpi/session.hpp"
+
+#include <petscksp.h>
+
+#include <Eigen/Dense>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace pmg::petsc {
+
+using detail::check;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// A shell level: the rank's element operator between a scatter from the global vector and the
+/// reverse scatter back (see the file comment of pcmg.hpp).
+struct ShellLevel {
+  const LinearOperator* op = nullptr;
+  const DiagonalBlocksSource* blocks = nullptr;
+  index_t owned = 0;
+  VecScatter scatter = nullptr;        // global (owned unknowns) -> local unknowns
+  VecScatter block_scatter = nullptr;  // the same for 9 values per node (the diagonal blocks)
+  Vec xl = nullptr, yl = nullptr;      // local vectors over xd, yd's storage
+  Vec gl = nullptr, gg = nullptr;      // local and global 9-per-node vectors
+  mutable Vector xd, yd;
+  std::vector<double> local_blocks;
+  std::vector<double> inverse_blocks, diagonal;  // per owned node: 9, 3
+  std::string error;
+  void destroy() {
+    if (scatter) VecScatterDestroy(&scatter);
+    if (block_scatter) VecScatterDestroy(&block_scatter);
+    for (Vec* v : {&xl, &yl, &gl, &gg})
+      if (*v) VecDestroy(v);
+  }
+};
+
+PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
+  ShellLevel* s = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(MatShellGetContext(A, &s));
+  PetscCall(VecScatterBegin(s->scatter, x, s->xl, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(s->scatter, x, s->xl, INSERT_VALUES, SCATTER_FORWARD));
+  try {
+    s->op->apply(s->xd, s->yd);
+  } catch (const std::exception& e) {
+    s->error = e.what();
+    SETERRQ(PETSC_COMM_SELF, PETSC_ERR_LIB, "the rank's element operator failed: %s", e.what());
+  }
+  PetscCall(VecSet(y, 0.0));
+  PetscCall(VecScatterBegin(s->scatter, s->yl, y, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(s->scatter, s->yl, y, ADD_VALUES, SCATTER_REVERSE));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode shell_diagonal(Mat A, Vec d) {
+  ShellLevel* s = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(MatShellGetContext(A, &s));
+  PetscScalar* v = nullptr;
+  PetscCall(VecGetArray(d, &v));
+  for (size_t i = 0; i < s->diagonal.size(); ++i) v[i] = s->diagonal[i];
+  PetscCall(VecRestoreArray(d, &v));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode shell_invert_block_diagonal(Mat A, const PetscScalar** values) {
+  ShellLevel* s = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(MatShellGetContext(A, &s));
+  *values = s->inverse_blocks.data();
+  PetscFunctionReturn(0);
+}
+
+/// The rank's diagonal blocks summed over the ranks, then per owned node the 3 diagonal entries
+/// and the inverse block (symmetric blocks: row- and column-major alike).
+void refresh_diagonal(ShellLevel& s) {
+  s.blocks->diagonal_blocks(s.local_blocks);
+  Vec local = nullptr;
+  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 9, static_cast<PetscInt>(s.local_blocks.size()),
+                              s.local_blocks.data(), &local),
+        "VecCreateSeqWithArray");
+  check(VecSet(s.gg, 0.0), "VecSet");
+  check(VecScatterBegin(s.block_scatter, local, s.gg, ADD_VALUES, SCATTER_REVERSE), "VecScatterBegin");
+  check(VecScatterEnd(s.block_scatter, local, s.gg, ADD_VALUES, SCATTER_REVERSE), "VecScatterEnd");
+  VecDestroy(&local);
+  const PetscScalar* g = nullptr;
+  check(VecGetArrayRead(s.gg, &g), "VecGetArrayRead");
+  s.diagonal.resize(3 * static_cast<size_t>(s.owned));
+  s.inverse_blocks.resize(9 * static_cast<size_t>(s.owned));
+  bool singular = false;
+  for (index_t i = 0; i < s.owned; ++i) {
+    Eigen::Map<const Block3> B(g + 9 * static_cast<size_t>(i));
+    for (int c = 0; c < 3; ++c) s.diagonal[3 * i + c] = B(c, c);
+    Block3 inv = Block3::Zero();
+    bool invertible = false;
+    double det = 0;
+    B.computeInverseAndDetWithCheck(inv, det, invertible, 0.0);
+    singular = singular || !invertible || !std::isfinite(det);
+    Eigen::Map<Block3>(s.inverse_blocks.data() + 9 * static_cast<size_t>(i)) = inv;
+  }
+  VecRestoreArrayRead(s.gg, &g);
+  if (singular) throw Error("distributed p-multigrid: a singular 3x3 diagonal block (a node without stiffness)");
+}
+
+/// Global unknowns of a level from the owned counts.
+long sum_over(MPI_Comm comm, long owned) {
+  long total = 0;
+  MPI_Allreduce(&owned, &total, 1, MPI_LONG, MPI_SUM, comm);
+  return total;
+}
+
+/// One monitor call per CG iteration: ||r_i|| / ||r_0|| into the caller's SolveMonitor.
+struct MonitorContext {
+  SolveMonitor* monitor = nullptr;
+  double r0 = 0;
+};
+
+PetscErrorCode record_iteration(KSP, PetscInt it, PetscReal rnorm, void* ctx) {
+  auto* m = static_cast<MonitorContext*>(ctx);
+  if (it == 0) m->r0 = rnorm;
+  if (m->monitor) m->monitor->record(static_cast<int>(it), m->r0 > 0 ? rnorm / m->r0 : 0.0);
+  return 0;
+}
+
+}  // namespace
+
+struct PMultigridCg::Impl {
+  MPI_Comm comm = MPI_COMM_NULL;
+  std::string prefix;
+  std::vector<RankLevel> levels;
+  std::vector<std::unique_ptr<ShellLevel>> shells;  // [l]: level l >= 1
+  std::vector<Mat> ops;                             // [l]: the operator of level l
+  std::vector<Mat> prolongations;                   // [l]: from l-1 to l (l >= 1)
+  std::vector<long> global_sizes;
+  Mat coarse = nullptr;
+  Vec coordinates = nullptr;
+  MatNullSpace near_null = nullptr;
+  KSP ksp = nullptr;
+  mutable Vec b = nullptr, x = nullptr, r = nullptr;
+  std::vector<std::pair<std::string, double>> setup_seconds;
+  mutable MonitorContext monitor;
+
+  void destroy() {
+    if (ksp) KSPDestroy(&ksp);
+    for (Mat& m : prolongations)
+      if (m) MatDestroy(&m);
+    prolongations.clear();
+    for (size_t l = 1; l < ops.size(); ++l)
+      if (ops[l]) MatDestroy(&ops[l]);
+    ops.clear();
+    if (coarse) MatDestroy(&coarse);
+    if (near_null) MatNullSpaceDestroy(&near_null);
+    if (coordinates) VecDestroy(&coordinates);
+    for (Vec* v : {&b, &x, &r})
+      if (*v) VecDestroy(v);
+    for (auto& s : shells)
+      if (s) s->destroy();
+    shells.clear();
+  }
+  ~Impl() {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    int finalized = 0;
+    MPI_Finalized(&finalized);
+    PetscBool petsc_finalized = PETSC_FALSE;
+    PetscFinalized(&petsc_finalized);
+    if (!finalized && !petsc_finalized) destroy();
+  }
+
+  /// The level's lowest-level matrix values from the rank's element sum (COO: PETSc adds the
+  /// entries of ghost rows into their owners).
+  void set_coarse_values() {
+    const RankLevel& L = levels[0];
+    check(MatSetValuesCOO(coarse, L.matrix->values().data(), ADD_VALUES), "MatSetValuesCOO");
+  }
+};
+
+PMultigridCg::PMultigridCg(MPI_Comm comm, PcmgParams params) : impl_(std::make_unique<Impl>()), params_(std::move(params)) {
+  const std::string& m = params_.lowest_level;
+  if (m != "auto" && m != "mumps" && m != "gamg" && m != "hypre")
+    throw InputError("distributed p-multigrid: unknown lowest level '" + m + "' (auto, mumps, gamg, hypre)");
+  if (!(params_.rel_tol >= 0 && params_.rel_tol < 1))
+    throw InputError("distributed p-multigrid: tol must lie in [0, 1)");
+  if (params_.max_iterations < 1 || params_.smoothing_steps < 1)
+    throw InputError("distributed p-multigrid: max_iterations and smoothing steps must be at least 1");
+  impl_->comm = comm;
+  static std::atomic<long> count{0};
+  impl_->prefix = "pmgmg" + std::to_string(count++) + "_";
+}
+
+PMultigridCg::~PMultigridCg() = default;
+
+int PMultigridCg::num_levels() const { return static_cast<int>(impl_->levels.size()); }
+
+long PMultigridCg::global_size(int level) const { return impl_->global_sizes.at(level); }
+
+void PMultigridCg::setup(std::vector<RankLevel> levels) {
+  detail::start();
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  Impl& d = *impl_;
+  d.destroy();
+  d.setup_seconds.clear();
+  if (levels.size() < 2) throw InputError("distributed p-multigrid: needs at least two levels (degree >= 2)");
+  for (size_t l = 0; l < levels.size(); ++l) {
+    const RankLevel& L = levels[l];
+    const bool lowest = l == 0;
+    if ((lowest && !L.matrix) || (!lowest && (!L.op || !L.blocks || !L.prolongation)))
+      throw InputError("distributed p-multigrid: level " + std::to_string(l) + " lacks its " +
+                       (lowest ? "matrix" : "operator, diagonal blocks or prolongation"));
+    const index_t n_local = static_cast<index_t>(L.global.size());
+    if (L.owned < 0 || L.owned > n_local) throw InputError("distributed p-multigrid: owned count out of range");
+    if (!lowest && L.op->rows() != 3 * n_local)
+      throw InputError("distributed p-multigrid: level " + std::to_string(l) + "'s operator has " +
+                       std::to_string(L.op->rows()) + " rows for " + std::to_string(n_local) + " local nodes");
+    if (lowest && (L.matrix->block_rows() != n_local || L.coordinates.size() != 3 * L.global.size()))
+      throw InputError("distributed p-multigrid: the lowest level's matrix or coordinates do not match its nodes");
+  }
+  d.levels = std::move(levels);
+  const int nl = static_cast<int>(d.levels.size());
+  d.global_sizes.resize(nl);
+  for (int l = 0; l < nl; ++l) d.global_sizes[l] = 3 * sum_over(d.comm, d.levels[l].owned);
+  d.ops.assign(nl, nullptr);
+  d.shells.resize(nl);
+
+  // Shell levels.
+  auto t0 = Clock::now();
+  for (int l = 1; l < nl; ++l) {
+    const RankLevel& L = d.levels[l];
+    auto s = std::make_unique<ShellLevel>();
+    s->op = L.op;
+    s->blocks = L.blocks;
+    s->owned = L.owned;
+    const PetscInt n_local = static_cast<PetscInt>(L.global.size());
+    s->xd = Vector::Zero(3 * n_local);
+    s->yd = Vector::Zero(3 * n_local);
+    check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->xd.data(), &s->xl), "VecCreateSeqWithArray");
+    check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->yd.data(), &s->yl), "VecCreateSeqWithArray");
+    Mat A = nullptr;
+    check(MatCreateShell(d.comm, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE, s.get(), &A),
+          "MatCreateShell");
+    d.ops[l] = A;
+    check(MatSetBlockSizes(A, 3, 3), "MatSetBlockSizes");
+    check(MatShellSetOperation(A, MATOP_MULT, reinterpret_cast<void (*)(void)>(shell_mult)), "MatShellSetOperation");
+    check(MatShellSetOperation(A, MATOP_MULT_TRANSPOSE, reinterpret_cast<void (*)(void)>(shell_mult)),
+          "MatShellSetOperation");
+    check(MatShellSetOperation(A, MATOP_GET_DIAGONAL, reinterpret_cast<void (*)(void)>(shell_diagonal)),
+          "MatShellSetOperation");
+    check(MatShellSetOperation(A, MATOP_INVERT_BLOCK_DIAGONAL,
+                               reinterpret_cast<void (*)(void)>(shell_invert_block_diagonal)),
+          "MatShellSetOperation");
+    Vec global = nullptr;
+    check(MatCreateVecs(A, &global, nullptr), "MatCreateVecs");
+    IS is = nullptr;
+    check(ISCreateBlock(PETSC_COMM_SELF, 3, n_local, L.global.data(), PETSC_COPY_VALUES, &is), "ISCreateBlock");
+    check(VecScatterCreate(global, is, s->xl, nullptr, &s->scatter), "VecScatterCreate");
+    ISDestroy(&is);
+    VecDestroy(&global);
+    // The same numbering, 9 values per node, for the diagonal blocks.
+    check(VecCreateMPI(d.comm, 9 * L.owned, PETSC_DETERMINE, &s->gg), "VecCreateMPI");
+    check(VecSetBlockSize(s->gg, 9), "VecSetBlockSize");
+    check(VecCreateSeq(PETSC_COMM_SELF, 9 * n_local, &s->gl), "VecCreateSeq");
+    check(ISCreateBlock(PETSC_COMM_SELF, 9, n_local, L.global.data(), PETSC_COPY_VALUES, &is), "ISCreateBlock");
+    check(VecScatterCreate(s->gg, is, s->gl, nullptr, &s->block_scatter), "VecScatterCreate");
+    ISDestroy(&is);
+    refresh_diagonal(*s);
+    d.shells[l] = std::move(s);
+  }
+  d.setup_seconds.emplace_back("shell levels", since(t0));
+
+  // The lowest level: the rank's element sum as COO entries (ghost rows go to their owners).
+  t0 = Clock::now();
+  {
+    const RankLevel& L = d.levels[0];
+    const Bcsr& M = *L.matrix;
+    const CsrPattern& pat = M.pattern();
+    const offset_t blocks = M.num_blocks();
+    std::vector<PetscInt> ci(9 * static_cast<size_t>(blocks)), cj(9 * static_cast<size_t>(blocks));
+    for (index_t i = 0; i < pat.rows; ++i)
+      for (offset_t k = pat.row_ptr[i]; k < pat.row_ptr[i + 1]; ++k) {
+        const index_t gi = L.global[i], gj = L.global[pat.col_idx[k]];
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            ci[9 * k + 3 * a + b] = 3 * gi + a;
+            cj[9 * k + 3 * a + b] = 3 * gj + b;
+          }
+      }
+    check(MatCreate(d.comm, &d.coarse), "MatCreate");
+    check(MatSetSizes(d.coarse, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE), "MatSetSizes");
+    check(MatSetType(d.coarse, MATAIJ), "MatSetType");
+    check(MatSetBlockSize(d.coarse, 3), "MatSetBlockSize");
+    check(MatSetPreallocationCOO(d.coarse, static_cast<PetscCount>(ci.size()), ci.data(), cj.data()),
+          "MatSetPreallocationCOO");
+    d.set_coarse_values();
+    check(MatSetOption(d.coarse, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+    check(MatSetOption(d.coarse, MAT_SPD, PETSC_TRUE), "MatSetOption");
+    d.ops[0] = d.coarse;
+    // Rigid-body modes from the owned nodes' coordinates.
+    check(MatCreateVecs(d.coarse, &d.coordinates, nullptr), "MatCreateVecs");
+    check(VecSetBlockSize(d.coordinates, 3), "VecSetBlockSize");
+    PetscScalar* c = nullptr;
+    check(VecGetArray(d.coordinates, &c), "VecGetArray");
+    for (size_t i = 0; i < L.global.size(); ++i) {
+      const index_t g = L.global[i] - L.first;
+      if (g < 0 || g >= L.owned) continue;
+      for (int k = 0; k < 3; ++k) c[3 * g + k] = L.coordinates[3 * i + k];
+    }
+    VecRestoreArray(d.coordinates, &c);
+    check(MatNullSpaceCreateRigidBody(d.coordinates, &d.near_null), "MatNullSpaceCreateRigidBody");
+    check(MatSetNearNullSpace(d.coarse, d.near_null), "MatSetNearNullSpace");
+  }
+  d.setup_seconds.emplace_back("assembly " + d.levels[0].name, since(t0));
+
+  // Transfers: the owned rows of each prolongation, 3x3 identity blocks per scalar entry.
+  t0 = Clock::now();
+  d.prolongations.assign(nl, nullptr);
+  for (int l = 1; l < nl; ++l) {
+    const RankLevel& F = d.levels[l];
+    const RankLevel& C = d.levels[l - 1];
+    const Csr& P = *F.prolongation;
+    if (P.rows() != static_cast<index_t>(F.global.size()) || P.cols() != static_cast<index_t>(C.global.size()))
+      throw InputError("distributed p-multigrid: prolongation " + std::to_string(l) + " does not match the levels' nodes");
+    std::vector<PetscInt> ci, cj;
+    std::vector<PetscScalar> v;
+    const CsrPattern& pat = P.pattern();
+    for (index_t i = 0; i < P.rows(); ++i) {
+      const index_t gi = F.global[i];
+      if (gi < F.first || gi >= F.first + F.owned) continue;
+      for (offset_t k = pat.row_ptr[i]; k < pat.row_ptr[i + 1]; ++k)
+        for (int a = 0; a < 3; ++a) {
+          ci.push_back(3 * gi + a);
+          cj.push_back(3 * C.global[pat.col_idx[k]] + a);
+          v.push_back(P.values()[k]);
+        }
+    }
+    Mat Pm = nullptr;
+    check(MatCreate(d.comm, &Pm), "MatCreate");
+    d.prolongations[l] = Pm;
+    check(MatSetSizes(Pm, 3 * F.owned, 3 * C.owned, PETSC_DETERMINE, PETSC_DETERMINE), "MatSetSizes");
+    check(MatSetType(Pm, MATAIJ), "MatSetType");
+    check(MatSetBlockSizes(Pm, 3, 3), "MatSetBlockSizes");
+    check(MatSetPreallocationCOO(Pm, static_cast<PetscCount>(ci.size()), ci.data(), cj.data()), "MatSetPreallocationCOO");
+    check(MatSetValuesCOO(Pm, v.data(), INSERT_VALUES), "MatSetValuesCOO");
+  }
+  d.setup_seconds.emplace_back("transfers", since(t0));
+
+  // CG + PCMG.
+  t0 = Clock::now();
+  lowest_ = params_.lowest_level;
+  if (lowest_ == "auto") lowest_ = d.global_sizes[0] < params_.amg_threshold ? "mumps" : "hypre";
+  check(KSPCreate(d.comm, &d.ksp), "KSPCreate");
+  check(KSPSetOptionsPrefix(d.ksp, d.prefix.c_str()), "KSPSetOptionsPrefix");
+  check(KSPSetOperators(d.ksp, d.ops[nl - 1], d.ops[nl - 1]), "KSPSetOperators");
+  check(KSPSetType(d.ksp, KSPCG), "KSPSetType");
+  check(KSPSetNormType(d.ksp, KSP_NORM_UNPRECONDITIONED), "KSPSetNormType");
+  check(KSPSetTolerances(d.ksp, params_.rel_tol, 0.0, 1e6, params_.max_iterations), "KSPSetTolerances");
+  check(KSPConvergedDefaultSetUIRNorm(d.ksp), "KSPConvergedDefaultSetUIRNorm");
+  PC pc = nullptr;
+  check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
+  check(PCSetType(pc, PCMG), "PCSetType");
+  check(PCMGSetLevels(pc, nl, nullptr), "PCMGSetLevels");
+  check(PCMGSetType(pc, PC_MG_MULTIPLICATIVE), "PCMGSetType");
+  check(PCMGSetCycleType(pc, PC_MG_CYCLE_V), "PCMGSetCycleType");
+  check(PCMGSetGalerkin(pc, PC_MG_GALERKIN_NONE), "PCMGSetGalerkin");
+  for (int l = 1; l < nl; ++l) check(PCMGSetInterpolation(pc, l, d.prolongations[l]), "PCMGSetInterpolation");
+  for (int l = 0; l < nl; ++l) {
+    KSP s = nullptr;
+    check(PCMGGetSmoother(pc, l, &s), "PCMGGetSmoother");
+    check(KSPSetOperators(s, d.ops[l], d.ops[l]), "KSPSetOperators");
+    PC sp = nullptr;
+    check(KSPGetPC(s, &sp), "KSPGetPC");
+    if (l == 0) {
+      check(KSPSetType(s, KSPPREONLY), "KSPSetType");
+      if (lowest_ == "mumps") {
+        check(PCSetType(sp, PCCHOLESKY), "PCSetType");
+        check(PCFactorSetMatSolverType(sp, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+      } else if (lowest_ == "gamg") {
+        check(PCSetType(sp, PCGAMG), "PCSetType");
+      } else {
+        check(PCSetType(sp, PCHYPRE), "PCSetType");
+        check(PCHYPRESetType(sp, "boomeramg"), "PCHYPRESetType");
+      }
+    } else {
+      check(KSPSetType(s, KSPCHEBYSHEV), "KSPSetType");
+      check(KSPChebyshevEstEigSet(s, 0.0, 0.1, 0.0, 1.1), "KSPChebyshevEstEigSet");
+      check(KSPSetTolerances(s, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, params_.smoothing_steps), "KSPSetTolerances");
+      check(KSPSetNormType(s, KSP_NORM_NONE), "KSPSetNormType");
+      check(PCSetType(sp, PCPBJACOBI), "PCSetType");
+    }
+  }
+  // Defaults as options (so that the user's options, inserted after, override them).
+  std::string defaults = "-mg_levels_esteig_ksp_type cg -mg_levels_esteig_ksp_max_it 10 ";
+  if (lowest_ == "gamg")
+    defaults += "-mg_coarse_mg_levels_ksp_type chebyshev -mg_coarse_mg_levels_pc_type jacobi "
+                "-mg_coarse_mg_levels_esteig_ksp_type cg ";
+  if (lowest_ == "hypre") defaults += "-mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev ";
+  check(PetscOptionsInsertString(nullptr, detail::prefixed(defaults + params_.options, d.prefix).c_str()),
+        ("the options '" + params_.options + "'").c_str());
+  check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions");
+  check(KSPMonitorSet(d.ksp, record_iteration, &d.monitor, nullptr), "KSPMonitorSet");
+  check(KSPSetUp(d.ksp), "KSPSetUp");
+  check(MatCreateVecs(d.ops[nl - 1], &d.x, &d.b), "MatCreateVecs");
+  check(VecDuplicate(d.b, &d.r), "VecDuplicate");
+  d.setup_seconds.emplace_back("KSP set-up (lowest level " + lowest_ + ")", since(t0));
+}
+
+void PMultigridCg::refresh() {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  Impl& d = *impl_;
+  if (!d.ksp) throw InputError("distributed p-multigrid: refresh() before setup()");
+  for (size_t l = 1; l < d.shells.size(); ++l) refresh_diagonal(*d.shells[l]);
+  check(MatZeroEntries(d.coarse), "MatZeroEntries");
+  d.set_coarse_values();
+  // The operators' state changed: the smoothers re-estimate, the lowest level refactors.
+  for (size_t l = 1; l < d.ops.size(); ++l) {  // an assembly marks a shell's state as changed
+    check(MatAssemblyBegin(d.ops[l], MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(d.ops[l], MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  }
+  const int nl = static_cast<int>(d.ops.size());
+  check(KSPSetOperators(d.ksp, d.ops[nl - 1], d.ops[nl - 1]), "KSPSetOperators");
+  PC pc = nullptr;
+  check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
+  for (int l = 0; l < nl; ++l) {
+    KSP s = nullptr;
+    check(PCMGGetSmoother(pc, l, &s), "PCMGGetSmoother");
+    check(KSPSetOperators(s, d.ops[l], d.ops[l]), "KSPSetOperators");
+    if (l > 0) check(KSPChebyshevEstEigSet(s, 0.0, 0.1, 0.0, 1.1), "KSPChebyshevEstEigSet");
+  }
+  check(KSPSetUp(d.ksp), "KSPSetUp");
+}
+
+namespace {
+
+/// Copies an owned vector into a PETSc vector of the same layout.
+void copy_in(const Vector& from, Vec to) {
+  PetscScalar* v = nullptr;
+  check(VecGetArray(to, &v), "VecGetArray");
+  std::copy(from.data(), from.data() + from.size(), v);
+  VecRestoreArray(to, &v);
+}
+
+void copy_out(Vec from, Vector& to) {
+  PetscInt n = 0;
+  check(VecGetLocalSize(from, &n), "VecGetLocalSize");
+  to.resize(n);
+  const PetscScalar* v = nullptr;
+  check(VecGetArrayRead(from, &v), "VecGetArrayRead");
+  std::copy(v, v + n, to.data());
+  VecRestoreArrayRead(from, &v);
+}
+
+SolveStatus status_of(KSPConvergedReason reason) {
+  if (reason > 0) return SolveStatus::converged;
+  switch (reason) {
+    case KSP_DIVERGED_ITS: return SolveStatus::iteration_limit;
+    case KSP_DIVERGED_DTOL: return SolveStatus::diverged;
+    case KSP_DIVERGED_NANORINF: return SolveStatus::non_finite;
+    default: return SolveStatus::breakdown;
+  }
+}
+
+}  // namespace
+
+SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const Impl& d = *impl_;
+  if (!d.ksp) throw InputError("distributed p-multigrid: solve() before setup()");
+  PetscInt n = 0;
+  check(VecGetLocalSize(d.b, &n), "VecGetLocalSize");
+  if (b.size() != n || (x.size() != 0 && x.size() != n))
+    throw InputError("distributed p-multigrid: the rank's vectors have " + std::to_string(b.size()) +
+                     " entries, it owns " + std::to_string(n) + " unknowns");
+  if (x.size() == 0) x = Vector::Zero(n);
+  const auto t0 = Clock::now();
+  if (monitor) monitor->start();
+  d.monitor.monitor = monitor;
+  copy_in(b, d.b);
+  copy_in(x, d.x);
+  PetscBool nonzero = x.isZero(0.0) ? PETSC_FALSE : PETSC_TRUE;
+  int any = nonzero ? 1 : 0, all = 0;
+  MPI_Allreduce(&any, &all, 1, MPI_INT, MPI_MAX, d.comm);
+  check(KSPSetInitialGuessNonzero(d.ksp, all ? PETSC_TRUE : PETSC_FALSE), "KSPSetInitialGuessNonzero");
+  // The initial residual, the reference of both ratios.
+  SolveResult res;
+  check(MatMult(d.ops.back(), d.x, d.r), "MatMult");
+  check(VecAYPX(d.r, -1.0, d.b), "VecAYPX");
+  PetscReal r0 = 0;
+  check(VecNorm(d.r, NORM_2, &r0), "VecNorm");
+  res.initial_residual = r0;
+  const PetscErrorCode err = KSPSolve(d.ksp, d.b, d.x);
+  d.monitor.monitor = nullptr;
+  check(err, "KSPSolve");
+  KSPConvergedReason reason;
+  check(KSPGetConvergedReason(d.ksp, &reason), "KSPGetConvergedReason");
+  PetscInt its = 0;
+  check(KSPGetIterationNumber(d.ksp, &its), "KSPGetIterationNumber");
+  PetscReal rnorm = 0;
+  check(KSPGetResidualNorm(d.ksp, &rnorm), "KSPGetResidualNorm");
+  check(MatMult(d.ops.back(), d.x, d.r), "MatMult");
+  check(VecAYPX(d.r, -1.0, d.b), "VecAYPX");
+  PetscReal rtrue = 0;
+  check(VecNorm(d.r, NORM_2, &rtrue), "VecNorm");
+  copy_out(d.x, x);
+  res.iterations = static_cast<int>(its);
+  res.rel_residual = r0 > 0 ? rnorm / r0 : 0.0;
+  res.true_rel_residual = r0 > 0 ? rtrue / r0 : 0.0;
+  res.status = r0 == 0 ? SolveStatus::converged : status_of(reason);
+  if (res.status == SolveStatus::converged && !(res.true_rel_residual <= 2 * params_.rel_tol + 1e-15)) {
+    res.status = SolveStatus::stagnated;
+    res.message = "distributed p-multigrid: the recursive residual converged but the true residual is " +
+                  std::to_string(res.true_rel_residual);
+  } else if (!res.ok()) {
+    res.message = std::string("distributed p-multigrid: CG ended with ") + KSPConvergedReasons[reason] + " after " +
+                  std::to_string(its) + " iterations (relative residual " + std::to_string(res.rel_residual) + ")";
+  }
+  res.seconds = since(t0);
+  return res;
+}
+
+void PMultigridCg::multiply(int level, const Vector& x, Vector& y) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const Impl& d = *impl_;
+  if (level < 0 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no level " + std::to_string(level));
+  Vec xv = nullptr, yv = nullptr;
+  check(MatCreateVecs(d.ops[level], &xv, &yv), "MatCreateVecs");
+  copy_in(x, xv);
+  const PetscErrorCode err = MatMult(d.ops[level], xv, yv);
+  if (!err) copy_out(yv, y);
+  VecDestroy(&xv);
+  VecDestroy(&yv);
+  check(err, "MatMult");
+}
+
+void PMultigridCg::prolong(int level, const Vector& x, Vector& y) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const Impl& d = *impl_;
+  if (level < 1 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no transfer to level " + std::to_string(level));
+  Vec xv = nullptr, yv = nullptr;
+  check(MatCreateVecs(d.prolongations[level], &xv, &yv), "MatCreateVecs");
+  copy_in(x, xv);
+  const PetscErrorCode err = MatMult(d.prolongations[level], xv, yv);
+  if (!err) copy_out(yv, y);
+  VecDestroy(&xv);
+  VecDestroy(&yv);
+  check(err, "MatMult");
+}
+
+std::string PMultigridCg::describe() const {
+  const Impl& d = *impl_;
+  std::ostringstream s;
+  int size = 1;
+  MPI_Comm_size(d.comm, &size);
+  s << "CG + PCMG on PETSc over " << size << (size == 1 ? " rank" : " ranks") << ": ";
+  for (int l = static_cast<int>(d.levels.size()) - 1; l >= 0; --l) {
+    s << d.levels[l].name << " " << d.global_sizes[l] << " unknowns"
+      << (l > 0 ? " (shell)" : " (MPIAIJ)") << (l > 0 ? ", " : "");
+  }
+  s << "; smoother Chebyshev(" << params_.smoothing_steps << ") on point-block Jacobi; lowest level "
+    << lowest_;
+  if (!params_.options.empty()) s << "; options: " << params_.options;
+  return s.str();
+}
+
+TimingBreakdown PMultigridCg::setup_timings() const {
+  TimingBreakdown t;
+  t.parts = impl_->setup_seconds;
+  t.count = t.parts.empty() ? 0 : 1;
+  t.unit = "set-up";
+  return t;
+}
+
+}  // namespace pmg::petsc

@@ -1,0 +1,74 @@
+// pmg/distributed/mgpcg.hpp — the factory method petsc-mgpcg: pmgkit's p-multigrid preconditioned
+// CG across the MPI ranks of a job, on PETSc (KSP CG + PCMG; pmg/petsc/pcmg.hpp), set up from an
+// FEM scene's degree hierarchy (pmg/distributed/rank_hierarchy.hpp). Under `mpirun -np N pmg
+// compare ...` every rank builds the same scene, the solver partitions it and each rank solves its
+// part; the solution comes back whole on every rank, so the tools check and report it as any
+// other solver's (rank 0 prints). With one rank it is the same solver on one process.
+//
+// Its vectors at the Solver interface are the serial ones (every rank holds all of b and gets all
+// of x): the seam to the single-process tools. A code that keeps its own distributed vectors uses
+// RankHierarchy and pmg::petsc::PMultigridCg directly.
+#pragma once
+
+#include "pmg/distributed/rank_hierarchy.hpp"
+#include "pmg/sparse/solver.hpp"
+
+#include <memory>
+#include <string>
+
+namespace pmg::petsc {
+class PMultigridCg;
+}
+
+namespace pmg::dist {
+
+/// The options of petsc-mgpcg (solver keys: see visit()).
+struct DistributedMgpcgParams {
+  double tol = 1e-8;
+  int max_iterations = 10000;
+  bool throw_on_failure = true;
+  int smoothing_steps = 3;
+  std::string lowest_level = "auto";
+  std::string options;
+  /// The keys tol, max_iterations, throw_on_failure, smoothing_steps, lowest_level, options.
+  void visit(ParamVisitor& v);
+};
+
+/// petsc-mgpcg as a Solver over the serial vectors of a DegreeHierarchy (see the file comment).
+class DistributedMgpcg final : public Solver {
+ public:
+  /// Over the ranks of comm; `serial` (the scene's hierarchy, on every rank) must outlive it.
+  DistributedMgpcg(const fem::DegreeHierarchy& serial, DistributedMgpcgParams params = {},
+                   MPI_Comm comm = MPI_COMM_WORLD);
+  ~DistributedMgpcg() override;
+
+  std::string name() const override { return "petsc-mgpcg"; }
+  /// The finest level's matrix-free operator: the tools' residual checks multiply with it.
+  SolverNeeds needs() const override { return {false, true}; }
+  bool is_linear() const override { return false; }
+  bool is_symmetric() const override { return false; }
+  std::string describe() const override;
+  TimingBreakdown setup_timings() const override;
+  /// The rank's share (after set-up).
+  const RankHierarchy& ranks() const { return *ranks_; }
+  /// The PETSc solver (after set-up).
+  const petsc::PMultigridCg& petsc_solver() const { return *solver_; }
+
+ private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+  void apply_impl(const Vector& b, Vector& x) const override;
+
+  const fem::DegreeHierarchy* serial_;
+  DistributedMgpcgParams params_;
+  MPI_Comm comm_;
+  std::unique_ptr<RankHierarchy> ranks_;
+  std::unique_ptr<petsc::PMultigridCg> solver_;
+  std::vector<std::pair<std::string, double>> partition_seconds_;
+};
+
+/// Registers petsc-mgpcg (idempotent).
+void register_solvers();
+
+}  // namespace pmg::dist

@@ -1,0 +1,98 @@
+// pmg/distributed/rank_hierarchy.hpp — one MPI rank's share of a degree hierarchy: the element
+// partition, the ownership of every level's nodes, their global numbering, and the rank's own
+// hierarchy over its elements, whose matrix-free operators, lowest-level matrix and prolongations
+// become the levels of the PETSc p-multigrid (pmg/petsc/pcmg.hpp).
+//
+// Partition: METIS cuts the element graph (elements sharing a face are neighbours) on rank 0;
+// rank 0 broadcasts it. One partition for all degrees.
+// Ownership: a node (vertex, edge, face or interior control point) belongs to the lowest rank among
+// the ranks whose elements hold it (the rule of MFEM and deal.II); its 3 components go together.
+// Global numbering: contiguous per rank (rank 0's owned nodes first), within a rank in the serial
+// hierarchy's order of free nodes; fixed nodes are not numbered.
+// The rank's hierarchy: the sub-mesh of its elements (vertices renumbered in increasing global
+// order), the same degree, material, clamp and per-element stiffness scale; its levels' free nodes
+// are the rank's local nodes (owned and ghost).
+//
+// Every rank holds the whole serial hierarchy's mesh and numbering (replicated set-up): the first
+// step of the route to a cluster, where each rank reads its own part (docs/distributed.md).
+#pragma once
+
+#include "pmg/fem/hierarchy.hpp"
+
+#include <mpi.h>
+
+#include <memory>
+#include <vector>
+
+namespace pmg::petsc {
+struct RankLevel;
+}
+
+namespace pmg::dist {
+
+/// One rank's share of a DegreeHierarchy (see the file comment).
+class RankHierarchy {
+ public:
+  /// Partitions `serial`'s mesh over comm's ranks and builds this rank's share. Collective. Throws
+  /// InputError when there are fewer elements than ranks, or a rank would hold no element.
+  RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm);
+  ~RankHierarchy();
+
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  MPI_Comm comm() const { return comm_; }
+  int num_levels() const { return local_->num_levels(); }
+  /// The part (rank) of every element of the serial mesh.
+  const std::vector<int>& element_parts() const { return parts_; }
+  /// The serial element of each of the rank's elements, in the rank's order.
+  const std::vector<index_t>& elements() const { return elements_; }
+  /// The sub-mesh of the rank's elements.
+  const fem::TetMesh& mesh() const { return *mesh_; }
+  /// The rank's hierarchy over its elements.
+  fem::DegreeHierarchy& local() { return *local_; }
+  const fem::DegreeHierarchy& local() const { return *local_; }
+
+  /// Global number of the rank's first owned node on a level, and the count of owned nodes.
+  index_t first(int level) const { return levels_.at(level).first; }
+  index_t owned(int level) const { return levels_.at(level).owned; }
+  /// Nodes the rank's elements touch but another rank owns.
+  index_t ghosts(int level) const {
+    return static_cast<index_t>(levels_.at(level).global.size()) - owned(level);
+  }
+  /// Global nodes of a level (every rank's owned nodes).
+  index_t global_nodes(int level) const { return levels_.at(level).total; }
+  /// Global number of each of the rank's local (free) nodes on a level.
+  const std::vector<index_t>& global(int level) const { return levels_.at(level).global; }
+  /// The serial hierarchy's free node of each owned node, in global order.
+  const std::vector<index_t>& serial_of_owned(int level) const { return levels_.at(level).serial_of_owned; }
+  /// The owner of every free node of the serial hierarchy's level, by serial free index.
+  const std::vector<int>& owner_of_serial(int level) const { return levels_.at(level).owner; }
+
+  /// The owned unknowns (3 per owned node, global order) of a serial vector over the level's free
+  /// nodes.
+  Vector owned_part(int level, const Vector& serial) const;
+  /// The serial vector from every rank's owned unknowns (collective; every rank gets all of it).
+  Vector gather(int level, const Vector& owned) const;
+
+  /// The levels for pmg::petsc::PMultigridCg: the rank's matrix-free operators above the lowest
+  /// level, its lowest-level matrix (assembled here with R = I, stiffness only), coordinates and
+  /// prolongations.
+  std::vector<petsc::RankLevel> rank_levels();
+
+ private:
+  struct Level {
+    index_t first = 0, owned = 0, total = 0;
+    std::vector<index_t> global;           // per local free node
+    std::vector<index_t> serial_of_owned;  // per owned node
+    std::vector<int> owner;                // per serial free node
+  };
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  std::vector<int> parts_;
+  std::vector<index_t> elements_;
+  std::unique_ptr<fem::TetMesh> mesh_;
+  std::unique_ptr<fem::DegreeHierarchy> local_;
+  std::vector<Level> levels_;
+};
+
+}  // namespace pmg::dist

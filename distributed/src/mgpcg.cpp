@@ -1,0 +1,116 @@
+// petsc-mgpcg (pmg/distributed/mgpcg.hpp).
+#include "pmg/distributed/mgpcg.hpp"
+
+#include "pmg/petsc/pcmg.hpp"
+#include "pmg/petsc/petsc.hpp"
+#include "pmg/sparse/factory.hpp"
+#include "pmg/sparse/params.hpp"
+
+#include <chrono>
+#include <mutex>
+#include <sstream>
+
+namespace pmg::dist {
+
+void DistributedMgpcgParams::visit(ParamVisitor& v) {
+  v.real("tol", tol, 0.0, 1.0 - 1e-15, "relative residual ||r|| / ||r_0|| to reach");
+  v.integer("max_iterations", max_iterations, 1, 100000000, "CG iteration limit (a failure)");
+  v.boolean("throw_on_failure", throw_on_failure, "a failed solve throws (false: only its status says so)");
+  v.integer("smoothing_steps", smoothing_steps, 1, 100, "Chebyshev steps per pre- and post-smoothing");
+  v.choice("lowest_level", lowest_level, {"auto", "mumps", "gamg", "hypre"},
+           "auto: MUMPS below 40000 unknowns on the linear level, BoomerAMG (PCHYPRE, one V-cycle) from "
+           "there; gamg: one GAMG V-cycle with the rigid-body near-null space");
+  v.text("options", options, "further PETSc options (\"-name value ...\": -mg_levels_..., -mg_coarse_...), "
+                             "under this solver's own prefix");
+}
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+}  // namespace
+
+DistributedMgpcg::DistributedMgpcg(const fem::DegreeHierarchy& serial, DistributedMgpcgParams params, MPI_Comm comm)
+    : serial_(&serial), params_(std::move(params)), comm_(comm) {
+  if (serial.num_levels() < 2)
+    throw InputError("petsc-mgpcg: needs at least two levels (an FEM scene of degree >= 2)");
+}
+
+DistributedMgpcg::~DistributedMgpcg() = default;
+
+void DistributedMgpcg::setup_impl(const LinearOperator& A) {
+  const index_t n = 3 * serial_->finest().assembler().num_free();
+  if (A.rows() != n)
+    throw InputError("petsc-mgpcg: set up on an operator of " + std::to_string(A.rows()) +
+                     " rows; the scene's finest level has " + std::to_string(n) + " unknowns");
+  partition_seconds_.clear();
+  auto t0 = Clock::now();
+  ranks_ = std::make_unique<RankHierarchy>(*serial_, comm_);
+  partition_seconds_.emplace_back("partition and the rank's hierarchy", since(t0));
+  t0 = Clock::now();
+  std::vector<petsc::RankLevel> levels = ranks_->rank_levels();
+  partition_seconds_.emplace_back("the rank's operators", since(t0));
+  petsc::PcmgParams p;
+  p.rel_tol = params_.tol;
+  p.max_iterations = params_.max_iterations;
+  p.smoothing_steps = params_.smoothing_steps;
+  p.lowest_level = params_.lowest_level;
+  p.options = params_.options;
+  solver_ = std::make_unique<petsc::PMultigridCg>(comm_, p);
+  solver_->setup(std::move(levels));
+}
+
+void DistributedMgpcg::update_impl() {
+  throw InputError("petsc-mgpcg: new operator values (time steps) are not distributed yet; use it for "
+                   "static solves (pmg compare, static scenes)");
+}
+
+SolveResult DistributedMgpcg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  const int top = ranks_->num_levels() - 1;
+  const Vector b_owned = ranks_->owned_part(top, b);
+  Vector x_owned = ranks_->owned_part(top, x);
+  SolveResult res = solver_->solve(b_owned, x_owned, monitor);
+  x = ranks_->gather(top, x_owned);
+  if (!res.ok() && params_.throw_on_failure) throw SolveError(res);
+  return res;
+}
+
+void DistributedMgpcg::apply_impl(const Vector& b, Vector& x) const {
+  x = Vector::Zero(b.size());
+  solve_impl(b, x, nullptr);
+}
+
+std::string DistributedMgpcg::describe() const {
+  if (!solver_) return "petsc-mgpcg (not set up)";
+  std::ostringstream s;
+  s << solver_->describe() << "; ghosts/owned on rank " << ranks_->rank() << ": ";
+  for (int l = ranks_->num_levels() - 1; l >= 0; --l)
+    s << ranks_->local().level_name(l) << " " << ranks_->ghosts(l) << "/" << ranks_->owned(l) << (l ? ", " : "");
+  return s.str();
+}
+
+TimingBreakdown DistributedMgpcg::setup_timings() const {
+  TimingBreakdown t;
+  if (!solver_) return t;
+  t = solver_->setup_timings();
+  t.parts.insert(t.parts.begin(), partition_seconds_.begin(), partition_seconds_.end());
+  return t;
+}
+
+void register_solvers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    register_builtin_solver(
+        {"petsc-mgpcg",
+         "p-multigrid preconditioned CG across MPI ranks on PETSc (CG + PCMG; METIS partition, shell levels)",
+         list_params<DistributedMgpcgParams>(), true, false, "distributed", [] { mg::start_petsc(); }},
+        [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+          const auto* h = dynamic_cast<const fem::DegreeHierarchy*>(ctx.levels);
+          if (!h)
+            c.fail("method", "petsc-mgpcg needs an FEM scene (--box, --mesh or a scene file): it partitions "
+                             "the mesh, which a matrix file does not have");
+          return std::make_unique<DistributedMgpcg>(*h, read_params<DistributedMgpcgParams>(c));
+        });
+  });
+}
+
+}  // namespace pmg::dist

@@ -1,0 +1,164 @@
+// One rank's share of a degree hierarchy (pmg/distributed/rank_hierarchy.hpp).
+#include "pmg/distributed/rank_hierarchy.hpp"
+
+#include "pmg/metis/partition.hpp"
+#include "pmg/mpi/session.hpp"
+#include "pmg/petsc/pcmg.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <string>
+
+namespace pmg::dist {
+
+namespace {
+
+/// Rank 0's partition, broadcast; an error on rank 0 reaches every rank as the same InputError.
+std::vector<int> partition(const fem::TetMesh& mesh, MPI_Comm comm, int rank, int size) {
+  std::vector<int> parts(mesh.tets.size(), 0);
+  std::string error;
+  if (rank == 0) {
+    try {
+      parts = metis::partition_elements(mesh.tets, mesh.num_vertices(), size);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  int length = static_cast<int>(error.size());
+  MPI_Bcast(&length, 1, MPI_INT, 0, comm);
+  if (length > 0) {
+    error.resize(length);
+    MPI_Bcast(error.data(), length, MPI_CHAR, 0, comm);
+    throw InputError(error);
+  }
+  MPI_Bcast(parts.data(), static_cast<int>(parts.size()), MPI_INT, 0, comm);
+  return parts;
+}
+
+}  // namespace
+
+RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) : comm_(comm) {
+  mpi::start();
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+  const fem::TetMesh& full = serial.model(0).space().mesh();
+  parts_ = partition(full, comm, rank_, size_);
+
+  // The rank's sub-mesh: its elements, their vertices in increasing global order.
+  std::vector<index_t> local_vertex(full.vertices.size(), -1);
+  for (index_t e = 0; e < full.num_tets(); ++e)
+    if (parts_[e] == rank_) {
+      elements_.push_back(e);
+      for (index_t v : full.tets[e]) local_vertex[v] = 0;
+    }
+  mesh_ = std::make_unique<fem::TetMesh>();
+  std::vector<char> clamped;
+  for (size_t v = 0; v < full.vertices.size(); ++v)
+    if (local_vertex[v] == 0) {
+      local_vertex[v] = mesh_->num_vertices();
+      mesh_->vertices.push_back(full.vertices[v]);
+      clamped.push_back(serial.clamped_vertices()[v]);
+    }
+  for (index_t e : elements_) {
+    fem::Tet t;
+    for (int k = 0; k < 4; ++k) t[k] = local_vertex[full.tets[e][k]];
+    mesh_->tets.push_back(t);
+  }
+  local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, serial.num_levels(), serial.finest().material(),
+                                                  std::move(clamped));
+  const std::vector<double>& scale = serial.model(0).stiffness_scale();
+  if (!scale.empty()) {
+    std::vector<double> mine;
+    for (index_t e : elements_) mine.push_back(scale[e]);
+    local_->set_stiffness_scale(mine);
+  }
+
+  // Per level: owners, the global numbering and the map of the rank's nodes.
+  levels_.resize(serial.num_levels());
+  for (int l = 0; l < serial.num_levels(); ++l) {
+    const fem::BBSpace& S = serial.model(l).space();
+    const std::vector<index_t>& free = serial.model(l).assembler().free_index();
+    const index_t n_free = serial.model(l).assembler().num_free();
+    const int n = S.nodes_per_element();
+    Level& L = levels_[l];
+    L.owner.assign(n_free, INT_MAX);
+    for (index_t e = 0; e < full.num_tets(); ++e)
+      for (int a = 0; a < n; ++a) {
+        const index_t f = free[S.node(e, a)];
+        if (f >= 0) L.owner[f] = std::min(L.owner[f], parts_[e]);
+      }
+    std::vector<index_t> count(size_ + 1, 0);
+    for (int o : L.owner) ++count[o + 1];
+    for (int r = 0; r < size_; ++r) count[r + 1] += count[r];
+    L.first = count[rank_];
+    L.owned = count[rank_ + 1] - count[rank_];
+    L.total = count[size_];
+    std::vector<index_t> global_of_serial(n_free), next(count.begin(), count.end() - 1);
+    L.serial_of_owned.resize(L.owned);
+    for (index_t f = 0; f < n_free; ++f) {
+      global_of_serial[f] = next[L.owner[f]]++;
+      if (L.owner[f] == rank_) L.serial_of_owned[global_of_serial[f] - L.first] = f;
+    }
+    const fem::BBSpace& Sl = local_->model(l).space();
+    const std::vector<index_t>& free_l = local_->model(l).assembler().free_index();
+    L.global.assign(local_->model(l).assembler().num_free(), -1);
+    for (size_t el = 0; el < elements_.size(); ++el)
+      for (int a = 0; a < n; ++a) {
+        const index_t fl = free_l[Sl.node(static_cast<index_t>(el), a)];
+        const index_t f = free[S.node(elements_[el], a)];
+        if ((fl < 0) != (f < 0)) throw Error("rank hierarchy: a node free in one numbering is fixed in the other");
+        if (fl >= 0) L.global[fl] = global_of_serial[f];
+      }
+  }
+}
+
+RankHierarchy::~RankHierarchy() = default;
+
+Vector RankHierarchy::owned_part(int level, const Vector& serial) const {
+  const Level& L = levels_.at(level);
+  if (serial.size() != 3 * static_cast<Eigen::Index>(L.owner.size()))
+    throw InputError("rank hierarchy: a vector of " + std::to_string(serial.size()) + " entries for " +
+                     std::to_string(3 * L.owner.size()) + " unknowns");
+  Vector out(3 * static_cast<Eigen::Index>(L.owned));
+  for (index_t i = 0; i < L.owned; ++i)
+    for (int c = 0; c < 3; ++c) out[3 * i + c] = serial[3 * static_cast<Eigen::Index>(L.serial_of_owned[i]) + c];
+  return out;
+}
+
+Vector RankHierarchy::gather(int level, const Vector& owned) const {
+  const Level& L = levels_.at(level);
+  if (owned.size() != 3 * static_cast<Eigen::Index>(L.owned))
+    throw InputError("rank hierarchy: " + std::to_string(owned.size()) + " owned entries for " +
+                     std::to_string(3 * L.owned) + " owned unknowns");
+  Vector mine = Vector::Zero(3 * static_cast<Eigen::Index>(L.owner.size()));
+  for (index_t i = 0; i < L.owned; ++i)
+    for (int c = 0; c < 3; ++c) mine[3 * static_cast<Eigen::Index>(L.serial_of_owned[i]) + c] = owned[3 * i + c];
+  Vector all(mine.size());
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Allreduce(mine.data(), all.data(), static_cast<int>(mine.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  return all;
+}
+
+std::vector<petsc::RankLevel> RankHierarchy::rank_levels() {
+  std::vector<petsc::RankLevel> out(num_levels());
+  local_->assemble_level(0, nullptr);
+  for (int l = 0; l < num_levels(); ++l) {
+    petsc::RankLevel& R = out[l];
+    R.name = local_->level_name(l);
+    R.first = first(l);
+    R.owned = owned(l);
+    R.global = global(l);
+    if (l == 0) {
+      R.matrix = &local_->matrix(0);
+      R.coordinates = local_->node_coordinates(0);
+    } else {
+      const fem::ElasticityOperator& op = local_->matrix_free(l);
+      R.op = &op;
+      R.blocks = &op;
+      R.prolongation = &local_->prolongation(l);
+    }
+  }
+  return out;
+}
+
+}  // namespace pmg::dist

@@ -1,0 +1,182 @@
+// The p-multigrid across MPI ranks (pmg::distributed on PETSc) against the serial pmgkit: the
+// operator products, transfers and lowest-level matrix equal the serial ones, the solutions equal
+// the serial MGPCG's, the iteration counts equal the one-rank run's within one, and bad input is a
+// clear error on every rank. The same executable runs on 1 rank (ctest's plain run) and under
+// mpirun -np 2, 3 and 4 (oversubscribed on these 2-core machines).
+#include "pmg/distributed/mgpcg.hpp"
+#include "pmg/distributed/rank_hierarchy.hpp"
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/mesh_io.hpp"
+#include "pmg/petsc/pcmg.hpp"
+#include "pmg/sparse/factory.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <random>
+
+using namespace pmg;
+using namespace pmg::fem;
+
+namespace {
+
+int world_size() {
+  int s = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &s);
+  return s;
+}
+
+/// The same random vector on every rank.
+Vector random_vector(Eigen::Index n, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Vector x(n);
+  for (Eigen::Index i = 0; i < n; ++i) x[i] = u(gen);
+  return x;
+}
+
+double relative(const Vector& a, const Vector& b) { return (a - b).norm() / b.norm(); }
+
+/// A bar clamped at x = 0 under gravity, of degree p.
+struct Bar {
+  TetMesh mesh;
+  DegreeHierarchy h;
+  Vector b;
+  Bar(int p, index_t nx = 6, index_t ny = 2, index_t nz = 2)
+      : mesh(box_mesh_24(nx, ny, nz, 1.0, 0.3, 0.3)),
+        h(mesh, p, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; }) {
+    b = h.finest().restrict_to_free(h.finest().gravity(Vec3(0, 0, -9.81)));
+  }
+};
+
+/// pmgkit's serial MGPCG solution (matrix-free levels, CHOLMOD lowest level) to tol.
+Vector serial_solution(DegreeHierarchy& h, const Vector& b, const std::string& tol, int* iterations = nullptr) {
+  auto s = make_solver(Config::from_pairs({"method=mgpcg", "tol=" + tol, "lowest_level=cholmod"}, "test"),
+                       SolverContext{&h, nullptr});
+  const LinearOperator& A = h.prepare(s->needs(), nullptr);
+  s->setup(A);
+  Vector x = Vector::Zero(b.size());
+  const SolveResult r = s->solve(b, x);
+  if (iterations) *iterations = r.iterations;
+  return x;
+}
+
+}  // namespace
+
+TEST_CASE("every rank holds elements, every free node one owner, the numbering contiguous", "[distributed]") {
+  Bar bar(3);
+  dist::RankHierarchy rh(bar.h, MPI_COMM_WORLD);
+  CHECK(static_cast<int>(rh.element_parts().size()) == bar.mesh.num_tets());
+  CHECK(rh.mesh().num_tets() > 0);
+  for (int l = 0; l < rh.num_levels(); ++l) {
+    long owned = rh.owned(l), total = 0;
+    MPI_Allreduce(&owned, &total, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+    CHECK(total == bar.h.model(l).assembler().num_free());
+    CHECK(rh.global_nodes(l) == total);
+    // Owned nodes come first in no particular order, but all of them are among the local ones.
+    index_t found = 0;
+    for (index_t g : rh.global(l)) found += g >= rh.first(l) && g < rh.first(l) + rh.owned(l);
+    CHECK(found == rh.owned(l));
+    // The gather of the owned parts is the serial vector.
+    const Vector x = random_vector(3 * bar.h.model(l).assembler().num_free(), 7 + l);
+    CHECK(rh.gather(l, rh.owned_part(l, x)) == x);
+  }
+}
+
+TEST_CASE("operator products, transfers and the lowest-level matrix equal the serial ones", "[distributed]") {
+  for (int p : {2, 3}) {
+    Bar bar(p);
+    dist::RankHierarchy rh(bar.h, MPI_COMM_WORLD);
+    petsc::PMultigridCg mg(MPI_COMM_WORLD, {});
+    mg.setup(rh.rank_levels());
+    bar.h.assemble_level(0, nullptr);
+    for (int l = 0; l < p; ++l) {
+      const index_t n = 3 * bar.h.model(l).assembler().num_free();
+      const Vector x = random_vector(n, 11 + l);
+      Vector y_serial(n), y_owned;
+      if (l == 0)
+        bar.h.matrix(0).apply(x, y_serial);
+      else
+        bar.h.matrix_free(l).apply(x, y_serial);
+      mg.multiply(l, rh.owned_part(l, x), y_owned);
+      INFO("degree " << p << ", level " << l);
+      CHECK(relative(rh.gather(l, y_owned), y_serial) < 1e-12);
+      if (l == 0) continue;
+      // Prolongation: the scalar P on each component.
+      const Csr& P = bar.h.prolongation(l);
+      const Vector xc = random_vector(3 * P.cols(), 23 + l);
+      Vector yf = Vector::Zero(3 * P.rows());
+      for (index_t i = 0; i < P.rows(); ++i)
+        for (offset_t k = P.pattern().row_ptr[i]; k < P.pattern().row_ptr[i + 1]; ++k)
+          for (int c = 0; c < 3; ++c) yf[3 * i + c] += P.values()[k] * xc[3 * P.pattern().col_idx[k] + c];
+      Vector yp;
+      mg.prolong(l, rh.owned_part(l - 1, xc), yp);
+      CHECK(relative(rh.gather(l, yp), yf) < 1e-12);
+    }
+  }
+}
+
+TEST_CASE("the distributed solve equals the serial MGPCG, its iterations the one-rank run's", "[distributed]") {
+  for (int p : {2, 3}) {
+    Bar bar(p, 8, 2, 2);
+    int serial_iterations = 0;
+    const Vector x_serial = serial_solution(bar.h, bar.b, "1e-11", &serial_iterations);
+    for (const char* lowest : {"mumps", "gamg", "hypre"}) {
+      INFO("degree " << p << ", lowest level " << lowest);
+      dist::DistributedMgpcgParams params;
+      params.tol = 1e-11;
+      params.lowest_level = lowest;
+      dist::DistributedMgpcg world(bar.h, params, MPI_COMM_WORLD);
+      dist::DistributedMgpcg self(bar.h, params, MPI_COMM_SELF);
+      const LinearOperator& A = bar.h.prepare(world.needs(), nullptr);
+      world.setup(A);
+      self.setup(A);
+      Vector x_world, x_self;
+      const SolveResult rw = world.solve(bar.b, x_world);
+      const SolveResult rs = self.solve(bar.b, x_self);
+      CHECK(rw.ok());
+      CHECK(rw.true_rel_residual < 2e-11);
+      CHECK(relative(x_world, x_serial) < 1e-8);
+      CHECK(relative(x_self, x_serial) < 1e-8);
+      CHECK(std::abs(rw.iterations - rs.iterations) <= 1);
+      // The true residual with the serial operator.
+      Vector r;
+      A.residual(bar.b, x_world, r);
+      CHECK(r.norm() / bar.b.norm() < 2e-11);
+      if (std::string(lowest) == "mumps") CHECK(rw.iterations <= serial_iterations + 6);
+    }
+  }
+}
+
+TEST_CASE("bad input is one clear error on every rank", "[distributed]") {
+  Bar bar(2);
+  SECTION("an unknown lowest level") {
+    dist::DistributedMgpcgParams params;
+    params.lowest_level = "lu";
+    dist::DistributedMgpcg s(bar.h, params);
+    CHECK_THROWS_WITH(s.setup(bar.h.prepare(s.needs(), nullptr)), Catch::Contains("unknown lowest level 'lu'"));
+  }
+  SECTION("more ranks than elements") {
+    if (world_size() < 2) return;
+    TetMesh one;
+    one.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+    one.tets = {{0, 1, 2, 3}};
+    DegreeHierarchy h(one, 2, Material{}, [](const Vec3& X) { return X.z() < 1e-12; });
+    CHECK_THROWS_WITH(dist::RankHierarchy(h, MPI_COMM_WORLD), Catch::Contains("cannot fill"));
+  }
+  SECTION("a bad PETSc option names itself") {
+    dist::DistributedMgpcgParams params;
+    params.options = "-mg_levels_ksp_type no_such_ksp";
+    dist::DistributedMgpcg s(bar.h, params);
+    CHECK_THROWS_WITH(s.setup(bar.h.prepare(s.needs(), nullptr)), Catch::Contains("no_such_ksp"));
+  }
+  SECTION("a solve that cannot converge in its iterations fails on every rank") {
+    dist::DistributedMgpcgParams params;
+    params.max_iterations = 2;
+    params.tol = 1e-14;
+    dist::DistributedMgpcg s(bar.h, params);
+    s.setup(bar.h.prepare(s.needs(), nullptr));
+    Vector x;
+    CHECK_THROWS_AS(s.solve(bar.b, x), SolveError);
+  }
+}
