@@ -13,6 +13,7 @@
 #include "scene.hpp"
 #include "table.hpp"
 
+#include "pmg/mpi/session.hpp"
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/factory.hpp"
 
@@ -339,7 +340,8 @@ double time_to(const Outcome& o, double rel) {
   return kNaN;
 }
 
-void run(const Options& o) {
+void run(const Options& given) {
+  Options o = given;
   if (o.threads > 0) omp_set_num_threads(o.threads);
   // Output paths are checked before any work: a run must not fail at its end for a bad path.
   if (!o.history.empty()) check_output_file(o.history, "--history");
@@ -352,6 +354,9 @@ void run(const Options& o) {
   if (!o.export_petsc.empty()) {
     if (!o.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
     prepare_output_directory(o.export_petsc, "--export-petsc");
+  }
+  if (mpi::launched_rank() != 0) {  // under mpirun rank 0 alone writes (every rank checked the paths)
+    o.plot.clear(), o.json_report.clear(), o.history.clear(), o.export_levels.clear(), o.export_petsc.clear();
   }
   auto t0 = Clock::now();
   System sys = load_system(o);

@@ -1,9 +1,15 @@
 // pmg — the pmgkit command-line tool. Each subcommand lives in its own file (commands.hpp).
 #include "commands.hpp"
 
+#include "pmg/mpi/session.hpp"
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/monitor.hpp"
 
+#include <omp.h>
+#include <sched.h>
+
+#include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -11,6 +17,7 @@
 #include <iostream>
 #include <new>
 #include <string>
+#include <thread>
 
 #include <sys/auxv.h>
 #include <unistd.h>
@@ -69,10 +76,50 @@ void use_transparent_huge_pages(char** argv) {
   else unsetenv("GLIBC_TUNABLES");
 }
 
+/// Under mpirun with several ranks: MPI started at once (so that any rank's failure can end the
+/// job), rank 0 alone printing to standard output, and unless OMP_NUM_THREADS says otherwise each
+/// rank running cores / ranks-on-this-machine OpenMP threads (--threads still overrides), so that
+/// ranks x threads never exceed the cores the job was given.
+void start_ranks() {
+  if (mpi::launched_ranks() < 2) return;
+  mpi::start();
+  if (mpi::launched_rank() != 0 && !std::freopen("/dev/null", "w", stdout))
+    throw Error("cannot silence standard output on rank " + std::to_string(mpi::launched_rank()));
+  if (!std::getenv("OMP_NUM_THREADS")) {
+    cpu_set_t set;
+    const int cores = sched_getaffinity(0, sizeof(set), &set) == 0 ? CPU_COUNT(&set)
+                                                                   : static_cast<int>(std::thread::hardware_concurrency());
+    omp_set_num_threads(std::max(1, cores / mpi::launched_local_ranks()));
+  }
+}
+
+/// The one error line, and under mpirun the end of every rank: rank 0 prints and ends the job;
+/// another rank waits a moment first (when rank 0 fails too, its message is the only one), then
+/// prints naming itself and ends the job.
+int fail(int code, const std::string& line) {
+  if (mpi::launched_ranks() < 2) {
+    std::cerr << line;
+    return code;
+  }
+  const int rank = mpi::launched_rank();
+  if (rank != 0) {
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    std::cerr << "(rank " << rank << ") ";
+  }
+  std::cerr << line << std::flush;
+  mpi::abort(code);
+}
+
 }  // namespace pmg::tools
 
 int main(int argc, char** argv) {
   pmg::tools::use_transparent_huge_pages(argv);
+  using pmg::tools::fail;
+  try {
+    pmg::tools::start_ranks();
+  } catch (const std::exception& e) {
+    return fail(pmg::tools::kSolveFailed, std::string("pmg: error: ") + e.what() + "\n");
+  }
   CLI::App app{"pmgkit: block-sparse formats, Krylov and direct solvers, p-multigrid"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "pmgkit " PMG_VERSION);
@@ -92,29 +139,22 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    std::cerr << "pmg: error: " << e.what() << "\nRun with --help for more information.\n";
-    return e.get_exit_code();
+    return fail(e.get_exit_code(), std::string("pmg: error: ") + e.what() + "\nRun with --help for more information.\n");
   } catch (const pmg::tools::Exit& e) {
     return e.code;
   } catch (const pmg::InputError& e) {
-    std::cerr << "pmg: error: " << e.what() << "\n";
-    return pmg::tools::kBadInput;
+    return fail(pmg::tools::kBadInput, std::string("pmg: error: ") + e.what() + "\n");
   } catch (const pmg::Error& e) {
-    std::cerr << "pmg: error: " << e.what() << "\n";
-    return pmg::tools::kSolveFailed;
+    return fail(pmg::tools::kSolveFailed, std::string("pmg: error: ") + e.what() + "\n");
   } catch (const std::bad_alloc&) {
-    std::cerr << "pmg: error: " << command
-              << ": out of memory (the problem is larger than this machine can hold; try a smaller size)\n";
-    return pmg::tools::kSolveFailed;
+    return fail(pmg::tools::kSolveFailed, "pmg: error: " + command +
+                                              ": out of memory (the problem is larger than this machine can hold; try a smaller size)\n");
   } catch (const std::filesystem::filesystem_error& e) {
-    std::cerr << "pmg: error: " << command << ": " << e.what() << "\n";
-    return pmg::tools::kBadInput;
+    return fail(pmg::tools::kBadInput, "pmg: error: " + command + ": " + e.what() + "\n");
   } catch (const std::exception& e) {
-    std::cerr << "pmg: error: " << command << ": unexpected failure: " << e.what() << "\n";
-    return pmg::tools::kSolveFailed;
+    return fail(pmg::tools::kSolveFailed, "pmg: error: " + command + ": unexpected failure: " + e.what() + "\n");
   } catch (...) {
-    std::cerr << "pmg: error: " << command << ": unexpected failure of unknown type\n";
-    return pmg::tools::kSolveFailed;
+    return fail(pmg::tools::kSolveFailed, "pmg: error: " + command + ": unexpected failure of unknown type\n");
   }
   return pmg::tools::kOk;
 }

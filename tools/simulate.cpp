@@ -3,6 +3,8 @@
 // scene, its set-up and its run are pmg::sim's; this prints them (and --json writes them).
 #include "checks.hpp"
 #include "commands.hpp"
+
+#include "pmg/mpi/session.hpp"
 #include "table.hpp"
 
 #include "pmg/sim/run.hpp"
@@ -185,6 +187,7 @@ void run(const Cli& cli_in) {
   if (!cli.output.empty())
     prepare_output_directory(cli.output, output_from_cli ? "-o" : s.source + ": output.directory");
   if (!cli.json_report.empty()) check_output_file(cli.json_report, "--json");
+  if (mpi::launched_rank() != 0) cli.output.clear(), cli.json_report.clear();  // under mpirun rank 0 writes
   const auto t0 = Clock::now();
   sim::SceneSetup b = sim::set_up(s);
   for (const auto& w : b.warnings) std::cerr << "warning: " << w << "\n";

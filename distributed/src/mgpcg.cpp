@@ -47,6 +47,7 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   ranks_ = std::make_unique<RankHierarchy>(*serial_, comm_);
   partition_seconds_.emplace_back("partition and the rank's hierarchy", since(t0));
   t0 = Clock::now();
+  ranks_->bring_to(*serial_);
   std::vector<petsc::RankLevel> levels = ranks_->rank_levels();
   partition_seconds_.emplace_back("the rank's operators", since(t0));
   petsc::PcmgParams p;
@@ -57,11 +58,19 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   p.options = params_.options;
   solver_ = std::make_unique<petsc::PMultigridCg>(comm_, p);
   solver_->setup(std::move(levels));
+  ghosts_.clear();
+  for (int l = ranks_->num_levels() - 1; l >= 0; --l) {
+    const long mine[2] = {ranks_->ghosts(l), ranks_->owned(l)};
+    std::vector<long> all(2 * static_cast<size_t>(ranks_->size()));
+    MPI_Allgather(mine, 2, MPI_LONG, all.data(), 2, MPI_LONG, comm_);
+    ghosts_.emplace_back();
+    for (int r = 0; r < ranks_->size(); ++r) ghosts_.back().emplace_back(all[2 * r], all[2 * r + 1]);
+  }
 }
 
 void DistributedMgpcg::update_impl() {
-  throw InputError("petsc-mgpcg: new operator values (time steps) are not distributed yet; use it for "
-                   "static solves (pmg compare, static scenes)");
+  ranks_->bring_to(*serial_);
+  solver_->refresh();
 }
 
 SolveResult DistributedMgpcg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
@@ -82,9 +91,11 @@ void DistributedMgpcg::apply_impl(const Vector& b, Vector& x) const {
 std::string DistributedMgpcg::describe() const {
   if (!solver_) return "petsc-mgpcg (not set up)";
   std::ostringstream s;
-  s << solver_->describe() << "; ghosts/owned on rank " << ranks_->rank() << ": ";
-  for (int l = ranks_->num_levels() - 1; l >= 0; --l)
-    s << ranks_->local().level_name(l) << " " << ranks_->ghosts(l) << "/" << ranks_->owned(l) << (l ? ", " : "");
+  s << solver_->describe() << "; ghost/owned nodes per rank: ";
+  for (size_t k = 0; k < ghosts_.size(); ++k) {
+    s << (k ? "; " : "") << ranks_->local().level_name(ranks_->num_levels() - 1 - static_cast<int>(k));
+    for (const auto& [ghosts, owned] : ghosts_[k]) s << " " << ghosts << "/" << owned;
+  }
   return s.str();
 }
 

@@ -139,9 +139,21 @@ Vector RankHierarchy::gather(int level, const Vector& owned) const {
   return all;
 }
 
+void RankHierarchy::bring_to(const fem::DegreeHierarchy& serial) {
+  const int top = serial.num_levels() - 1;
+  const fem::Rotations* R = serial.last_rotations(top);
+  const auto [mass_weight, stiffness_weight] = serial.last_weights(top);
+  if (R) {
+    rotations_.resize(elements_.size());
+    for (size_t e = 0; e < elements_.size(); ++e) rotations_[e] = (*R)[elements_[e]];
+  }
+  const fem::Rotations* mine = R ? &rotations_ : nullptr;
+  for (int l = 1; l < num_levels(); ++l) local_->update_matrix_free(l, mine, mass_weight, stiffness_weight);
+  local_->assemble_level(0, mine, nullptr, mass_weight, stiffness_weight);
+}
+
 std::vector<petsc::RankLevel> RankHierarchy::rank_levels() {
   std::vector<petsc::RankLevel> out(num_levels());
-  local_->assemble_level(0, nullptr);
   for (int l = 0; l < num_levels(); ++l) {
     petsc::RankLevel& R = out[l];
     R.name = local_->level_name(l);

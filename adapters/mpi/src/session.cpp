@@ -2,7 +2,9 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <mutex>
 #include <vector>
 
@@ -66,6 +68,31 @@ int size() {
   int s = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &s);
   return s;
+}
+
+namespace {
+int env_int(const char* a, const char* b, int fallback) {
+  for (const char* name : {a, b})
+    if (name)
+      if (const char* v = std::getenv(name)) {
+        char* end = nullptr;
+        const long n = std::strtol(v, &end, 10);
+        if (end != v && *end == 0 && n >= 0 && n < (1 << 24)) return static_cast<int>(n);
+      }
+  return fallback;
+}
+}  // namespace
+
+int launched_ranks() { return std::max(1, env_int("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", 1)); }
+int launched_rank() { return env_int("OMPI_COMM_WORLD_RANK", "PMI_RANK", 0); }
+int launched_local_ranks() {
+  return std::max(1, env_int("OMPI_COMM_WORLD_LOCAL_SIZE", nullptr, launched_ranks()));
+}
+
+void abort(int code) {
+  start();
+  MPI_Abort(MPI_COMM_WORLD, code);
+  std::_Exit(code);
 }
 
 void at_finalize(std::function<void()> finalize) {

@@ -49,6 +49,8 @@ class DistributedMgpcg final : public Solver {
   bool is_symmetric() const override { return false; }
   std::string describe() const override;
   TimingBreakdown setup_timings() const override;
+  /// Per level (finest first) and rank: (ghost nodes, owned nodes), gathered at set-up.
+  const std::vector<std::vector<std::pair<long, long>>>& ghosts_per_rank() const { return ghosts_; }
   /// The rank's share (after set-up).
   const RankHierarchy& ranks() const { return *ranks_; }
   /// The PETSc solver (after set-up).
@@ -66,6 +68,8 @@ class DistributedMgpcg final : public Solver {
   std::unique_ptr<RankHierarchy> ranks_;
   std::unique_ptr<petsc::PMultigridCg> solver_;
   std::vector<std::pair<std::string, double>> partition_seconds_;
+  /// Per level (finest first), per rank: ghost and owned nodes (gathered at set-up).
+  std::vector<std::vector<std::pair<long, long>>> ghosts_;
 };
 
 /// Registers petsc-mgpcg (idempotent).

@@ -74,8 +74,12 @@ class RankHierarchy {
   /// The serial vector from every rank's owned unknowns (collective; every rank gets all of it).
   Vector gather(int level, const Vector& owned) const;
 
+  /// Brings the rank's levels to the serial finest level's last rotations and weights
+  /// (DegreeHierarchy::last_rotations(), last_weights()): the matrix-free operators above the
+  /// lowest level updated, the lowest level assembled. A time step's per-rank work.
+  void bring_to(const fem::DegreeHierarchy& serial);
   /// The levels for pmg::petsc::PMultigridCg: the rank's matrix-free operators above the lowest
-  /// level, its lowest-level matrix (assembled here with R = I, stiffness only), coordinates and
+  /// level, its lowest-level matrix (as the last bring_to() left it), coordinates and
   /// prolongations.
   std::vector<petsc::RankLevel> rank_levels();
 
@@ -93,6 +97,7 @@ class RankHierarchy {
   std::unique_ptr<fem::TetMesh> mesh_;
   std::unique_ptr<fem::DegreeHierarchy> local_;
   std::vector<Level> levels_;
+  fem::Rotations rotations_;  // the rank's elements' rotations (bring_to)
 };
 
 }  // namespace pmg::dist

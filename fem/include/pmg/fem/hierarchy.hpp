@@ -98,6 +98,13 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// The operator a solver with these needs is set up on and multiplies with: the finest level's
   /// matrix-free operator (needs.matrix_free) or its matrix.
   const LinearOperator& system_operator(const SolverNeeds& needs) const;
+  /// The rotations a level was last brought to (assemble_level(), update_matrix_free(),
+  /// prepare()), or nullptr for none (R = I). Every level is given the same rotations.
+  const Rotations* last_rotations(int level) const { return state_.at(level).rotated ? &rotations_ : nullptr; }
+  /// The weights (mass, stiffness) of a level's last assembly or update: (0, 1) until one.
+  std::pair<double, double> last_weights(int level) const {
+    return {state_.at(level).mass_weight, state_.at(level).stiffness_weight};
+  }
   /// Where the last prepare() spent its time: ("matrix-free degree 2", s) or ("assembly degree 1",
   /// s) per level it touched, finest first.
   const std::vector<std::pair<std::string, double>>& prepare_seconds() const { return prepare_seconds_; }

@@ -26,6 +26,16 @@ int size();
 /// it runs at exit too, possibly after the program's MPI_Finalize: a finaliser checks
 /// MPI_Finalized before it calls MPI.
 void at_finalize(std::function<void()> finalize);
+/// The ranks of the job this process was launched in, read from the launcher's environment
+/// (Open MPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE) without starting MPI: 1 outside mpirun.
+int launched_ranks();
+/// This process's rank in its launch (OMPI_COMM_WORLD_RANK or PMI_RANK), 0 outside mpirun.
+int launched_rank();
+/// Ranks of the launch on this machine (OMPI_COMM_WORLD_LOCAL_SIZE, else launched_ranks()).
+int launched_local_ranks();
+/// Ends every rank of the job with `code` (MPI_Abort; MPI started first if needed): the one way
+/// out of a collective that another rank will never reach.
+[[noreturn]] void abort(int code);
 /// The process-wide lock held around every call into MPI, PETSc and hypre (see the file comment).
 /// Recursive: an adapter's call may reach another that takes it.
 std::recursive_mutex& library_lock();
