@@ -15,6 +15,8 @@ namespace pmg::dist {
 void DistributedMgpcgParams::visit(ParamVisitor& v) {
   v.real("tol", tol, 0.0, 1.0 - 1e-15, "relative residual ||r|| / ||r_0|| to reach");
   v.integer("max_iterations", max_iterations, 1, 100000000, "CG iteration limit (a failure)");
+  v.real("rhs_floor", rhs_floor, 0.0, 1.0,
+         "also converged when ||r|| <= rhs_floor ||b||: the rounding floor of warm-started solves");
   v.boolean("throw_on_failure", throw_on_failure, "a failed solve throws (false: only its status says so)");
   v.integer("smoothing_steps", smoothing_steps, 1, 100, "Chebyshev steps per pre- and post-smoothing");
   v.choice("lowest_level", lowest_level, {"auto", "mumps", "gamg", "hypre"},
@@ -53,6 +55,7 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   petsc::PcmgParams p;
   p.rel_tol = params_.tol;
   p.max_iterations = params_.max_iterations;
+  p.rhs_floor = params_.rhs_floor;
   p.smoothing_steps = params_.smoothing_steps;
   p.lowest_level = params_.lowest_level;
   p.options = params_.options;

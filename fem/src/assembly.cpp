@@ -11,42 +11,6 @@ BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_i
   for (index_t f : free_index_) num_free_ = std::max(num_free_, f + 1);
   const index_t ne = space.mesh().num_tets();
 
-  // Calls fn(e, a, b, I, J) for every pair of free nodes (I, J) of every element e.
-  auto for_each_free_pair = [&](auto&& fn) {
-    for (index_t e = 0; e < ne; ++e) {
-      const index_t* nodes = space.element_nodes(e);
-      for (int a = 0; a < n_; ++a) {
-        const index_t I = free_index_[nodes[a]];
-        if (I < 0) continue;
-        for (int b = 0; b < n_; ++b) {
-          const index_t J = free_index_[nodes[b]];
-          if (J >= 0) fn(e, a, b, I, J);
-        }
-      }
-    }
-  };
-
-  // Pattern: block (I, J) for every pair of free nodes sharing an element.
-  std::vector<std::vector<index_t>> rows(num_free_);
-  for_each_free_pair([&](index_t, int, int, index_t I, index_t J) { rows[I].push_back(J); });
-  auto p = std::make_shared<BlockPattern>();
-  p->rows = p->cols = num_free_;
-  p->row_ptr.assign(num_free_ + 1, 0);
-  for (index_t I = 0; I < num_free_; ++I) {
-    auto& r = rows[I];
-    std::sort(r.begin(), r.end());
-    r.erase(std::unique(r.begin(), r.end()), r.end());
-    p->col_idx.insert(p->col_idx.end(), r.begin(), r.end());
-    p->row_ptr[I + 1] = static_cast<offset_t>(p->col_idx.size());
-    std::vector<index_t>().swap(r);
-  }
-  pattern_ = p;
-
-  slots_.assign(static_cast<size_t>(ne) * n_ * n_, -1);
-  for_each_free_pair([&](index_t e, int a, int b, index_t I, index_t J) {
-    slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b] = p->find(I, J);
-  });
-
   // Greedy colouring: the smallest colour not used by an element sharing a node.
   std::vector<std::vector<index_t>> node_elements(space.num_nodes());
   for (index_t e = 0; e < ne; ++e)
@@ -66,6 +30,50 @@ BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_i
     if (static_cast<size_t>(c) >= colors_.size()) colors_.resize(c + 1);
     colors_[c].push_back(e);
   }
+}
+
+
+void BlockAssembler::build_pattern() const {
+  std::call_once(pattern_once_, [&] {
+    const BBSpace& space = *space_;
+    const index_t ne = space.mesh().num_tets();
+
+    // Calls fn(e, a, b, I, J) for every pair of free nodes (I, J) of every element e.
+    auto for_each_free_pair = [&](auto&& fn) {
+      for (index_t e = 0; e < ne; ++e) {
+        const index_t* nodes = space.element_nodes(e);
+        for (int a = 0; a < n_; ++a) {
+          const index_t I = free_index_[nodes[a]];
+          if (I < 0) continue;
+          for (int b = 0; b < n_; ++b) {
+            const index_t J = free_index_[nodes[b]];
+            if (J >= 0) fn(e, a, b, I, J);
+          }
+        }
+      }
+    };
+
+    // Pattern: block (I, J) for every pair of free nodes sharing an element.
+    std::vector<std::vector<index_t>> rows(num_free_);
+    for_each_free_pair([&](index_t, int, int, index_t I, index_t J) { rows[I].push_back(J); });
+    auto p = std::make_shared<BlockPattern>();
+    p->rows = p->cols = num_free_;
+    p->row_ptr.assign(num_free_ + 1, 0);
+    for (index_t I = 0; I < num_free_; ++I) {
+      auto& r = rows[I];
+      std::sort(r.begin(), r.end());
+      r.erase(std::unique(r.begin(), r.end()), r.end());
+      p->col_idx.insert(p->col_idx.end(), r.begin(), r.end());
+      p->row_ptr[I + 1] = static_cast<offset_t>(p->col_idx.size());
+      std::vector<index_t>().swap(r);
+    }
+    pattern_ = p;
+
+    slots_.assign(static_cast<size_t>(ne) * n_ * n_, -1);
+    for_each_free_pair([&](index_t e, int a, int b, index_t I, index_t J) {
+      slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b] = p->find(I, J);
+    });
+  });
 }
 
 }  // namespace pmg::fem

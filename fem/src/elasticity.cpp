@@ -159,6 +159,7 @@ void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
 
 void ElasticityModel::evaluate(const ElementPass& pass) const {
   const BlockAssembler& as = assembler();
+  if (pass.stiffness) as.build_pattern();  // the slots (a matrix from make_matrix() has built them)
   if (pass.stiffness && (pass.stiffness->shared_pattern().get() == nullptr ||
                          pass.stiffness->block_rows() != as.num_free()))
     throw InputError("assemble: matrix does not have the assembler's pattern");
@@ -262,6 +263,7 @@ double ElasticityModel::elastic_energy(const Vector& u, const Rotations* R) cons
 
 void ElasticityModel::assemble_mass(Bcsr& M) const {
   const BlockAssembler& as = assembler();
+  as.build_pattern();
   if (M.block_rows() != as.num_free()) throw InputError("assemble_mass: matrix does not have the assembler's pattern");
   std::fill(M.values().begin(), M.values().end(), 0.0);
   const int n = space_.nodes_per_element();

@@ -88,6 +88,9 @@ Kind kind_of(const std::string& method) {
 
 bool testable(const SolverInfo& s) {
   if (s.component == "gpu") return false;  // tests/gpu, on a device
+  // petsc-mgpcg partitions a mesh, which these user levels lack: its contract cases (guesses,
+  // tolerances, a scaled system) are in tests/distributed, on 1 to 4 ranks.
+  if (s.component == "distributed") return false;
   return s.component != "petsc" || mg::petsc_available();
 }
 

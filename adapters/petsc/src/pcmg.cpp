@@ -8,6 +8,8 @@
 
 #include <Eigen/Dense>
 
+#include <dlfcn.h>
+
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -19,6 +21,36 @@ namespace pmg::petsc {
 using detail::check;
 
 namespace {
+
+/// OpenBLAS on one thread while PETSc runs: PETSc's vector operations are level-1 BLAS calls
+/// (dot products, axpy), and OpenBLAS's pthreads starting on 1e5-entry vectors beside OpenMP's
+/// spinning threads made each one about 80 times slower on 2 cores (Homer P3, -log_view: VecTDot
+/// 1.3 ms -> 17 us a call, MatMult halved). Found through dlsym, so any BLAS links; the caller's
+/// setting is restored on return.
+class SerialBlas {
+ public:
+  SerialBlas() {
+    using Get = int (*)();
+    set_ = reinterpret_cast<Set>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+    const auto get = reinterpret_cast<Get>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+    if (!set_ || !get) {
+      set_ = nullptr;
+      return;
+    }
+    saved_ = get();
+    if (saved_ > 1) set_(1);
+  }
+  ~SerialBlas() {
+    if (set_ && saved_ > 1) set_(saved_);
+  }
+  SerialBlas(const SerialBlas&) = delete;
+  SerialBlas& operator=(const SerialBlas&) = delete;
+
+ private:
+  using Set = void (*)(int);
+  Set set_ = nullptr;
+  int saved_ = 0;
+};
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -102,12 +134,17 @@ void refresh_diagonal(ShellLevel& s) {
   for (index_t i = 0; i < s.owned; ++i) {
     Eigen::Map<const Block3> B(g + 9 * static_cast<size_t>(i));
     for (int c = 0; c < 3; ++c) s.diagonal[3 * i + c] = B(c, c);
+    // Inverted at unit scale: the determinant of a block of entries 1e-200 underflows.
+    const double scale = B.cwiseAbs().maxCoeff();
     Block3 inv = Block3::Zero();
     bool invertible = false;
     double det = 0;
-    B.computeInverseAndDetWithCheck(inv, det, invertible, 0.0);
+    if (scale > 0 && std::isfinite(scale)) {
+      const Block3 unit = B / scale;
+      unit.computeInverseAndDetWithCheck(inv, det, invertible, 1e-14);
+    }
     singular = singular || !invertible || !std::isfinite(det);
-    Eigen::Map<Block3>(s.inverse_blocks.data() + 9 * static_cast<size_t>(i)) = inv;
+    Eigen::Map<Block3>(s.inverse_blocks.data() + 9 * static_cast<size_t>(i)) = inv / scale;
   }
   VecRestoreArrayRead(s.gg, &g);
   if (singular) throw Error("distributed p-multigrid: a singular 3x3 diagonal block (a node without stiffness)");
@@ -207,6 +244,7 @@ long PMultigridCg::global_size(int level) const { return impl_->global_sizes.at(
 void PMultigridCg::setup(std::vector<RankLevel> levels) {
   detail::start();
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const SerialBlas serial_blas;
   Impl& d = *impl_;
   d.destroy();
   d.setup_seconds.clear();
@@ -415,6 +453,7 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
 
 void PMultigridCg::refresh() {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const SerialBlas serial_blas;
   Impl& d = *impl_;
   if (!d.ksp) throw InputError("distributed p-multigrid: refresh() before setup()");
   for (size_t l = 1; l < d.shells.size(); ++l) refresh_diagonal(*d.shells[l]);
@@ -458,6 +497,29 @@ void copy_out(Vec from, Vector& to) {
   VecRestoreArrayRead(from, &v);
 }
 
+/// ||v||_2 over every rank without overflow or underflow (PETSc's VecNorm is BLAS's dnrm2, which
+/// gives 0 for a vector of entries 1e-200): the largest magnitude first, then the scaled sum.
+double safe_norm(Vec v, MPI_Comm comm) {
+  PetscInt n = 0;
+  check(VecGetLocalSize(v, &n), "VecGetLocalSize");
+  const PetscScalar* a = nullptr;
+  check(VecGetArrayRead(v, &a), "VecGetArrayRead");
+  double local_max = 0, global_max = 0;
+  for (PetscInt i = 0; i < n; ++i) local_max = std::max(local_max, std::abs(a[i]));
+  if (std::isnan(local_max) || std::isinf(local_max)) local_max = std::numeric_limits<double>::infinity();
+  MPI_Allreduce(&local_max, &global_max, 1, MPI_DOUBLE, MPI_MAX, comm);
+  double local_sum = 0, global_sum = 0;
+  if (global_max > 0 && std::isfinite(global_max))
+    for (PetscInt i = 0; i < n; ++i) {
+      const double t = a[i] / global_max;
+      local_sum += t * t;
+    }
+  VecRestoreArrayRead(v, &a);
+  MPI_Allreduce(&local_sum, &global_sum, 1, MPI_DOUBLE, MPI_SUM, comm);
+  if (!std::isfinite(global_max)) return global_max;
+  return global_max * std::sqrt(global_sum);
+}
+
 SolveStatus status_of(KSPConvergedReason reason) {
   if (reason > 0) return SolveStatus::converged;
   switch (reason) {
@@ -472,6 +534,7 @@ SolveStatus status_of(KSPConvergedReason reason) {
 
 SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const SerialBlas serial_blas;
   const Impl& d = *impl_;
   if (!d.ksp) throw InputError("distributed p-multigrid: solve() before setup()");
   PetscInt n = 0;
@@ -485,36 +548,57 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   d.monitor.monitor = monitor;
   copy_in(b, d.b);
   copy_in(x, d.x);
-  PetscBool nonzero = x.isZero(0.0) ? PETSC_FALSE : PETSC_TRUE;
-  int any = nonzero ? 1 : 0, all = 0;
-  MPI_Allreduce(&any, &all, 1, MPI_INT, MPI_MAX, d.comm);
-  check(KSPSetInitialGuessNonzero(d.ksp, all ? PETSC_TRUE : PETSC_FALSE), "KSPSetInitialGuessNonzero");
-  // The initial residual, the reference of both ratios.
+  // The initial residual, the reference of both ratios; PETSc then solves for the residual scaled
+  // to norm 1 (A (x - x0) / s = r0 / s), so that its own norms neither underflow nor overflow
+  // whatever the scale of the system.
   SolveResult res;
   check(MatMult(d.ops.back(), d.x, d.r), "MatMult");
   check(VecAYPX(d.r, -1.0, d.b), "VecAYPX");
-  PetscReal r0 = 0;
-  check(VecNorm(d.r, NORM_2, &r0), "VecNorm");
+  const double r0 = safe_norm(d.r, d.comm);
+  const double floor = params_.rhs_floor > 0 ? params_.rhs_floor * safe_norm(d.b, d.comm) : 0.0;
   res.initial_residual = r0;
-  const PetscErrorCode err = KSPSolve(d.ksp, d.b, d.x);
+  if (!std::isfinite(r0)) {
+    res.status = SolveStatus::non_finite;
+    res.message = "distributed p-multigrid: the initial residual is not finite (the operator, right-hand side or "
+                  "guess overflows)";
+    return res;
+  }
+  if (r0 == 0 || r0 <= floor) {  // x is the solution already (to the floor)
+    res.status = SolveStatus::converged;
+    res.rel_residual = res.true_rel_residual = r0 > 0 ? 1.0 : 0.0;
+    res.seconds = since(t0);
+    return res;
+  }
+  // The floor in the units of the scaled system.
+  check(KSPSetTolerances(d.ksp, params_.rel_tol, floor / r0, 1e6, params_.max_iterations), "KSPSetTolerances");
+  Vec x0 = nullptr;
+  check(VecDuplicate(d.x, &x0), "VecDuplicate");
+  check(VecCopy(d.x, x0), "VecCopy");
+  check(VecScale(d.r, 1.0 / r0), "VecScale");
+  check(VecSet(d.x, 0.0), "VecSet");
+  check(KSPSetInitialGuessNonzero(d.ksp, PETSC_FALSE), "KSPSetInitialGuessNonzero");
+  const PetscErrorCode err = KSPSolve(d.ksp, d.r, d.x);
+  if (!err) {
+    VecAYPX(d.x, r0, x0);  // x = x0 + r0 (the scaled correction)
+  }
+  VecDestroy(&x0);
   d.monitor.monitor = nullptr;
   check(err, "KSPSolve");
   KSPConvergedReason reason;
   check(KSPGetConvergedReason(d.ksp, &reason), "KSPGetConvergedReason");
   PetscInt its = 0;
   check(KSPGetIterationNumber(d.ksp, &its), "KSPGetIterationNumber");
-  PetscReal rnorm = 0;
+  PetscReal rnorm = 0;  // of the scaled system: relative already
   check(KSPGetResidualNorm(d.ksp, &rnorm), "KSPGetResidualNorm");
   check(MatMult(d.ops.back(), d.x, d.r), "MatMult");
   check(VecAYPX(d.r, -1.0, d.b), "VecAYPX");
-  PetscReal rtrue = 0;
-  check(VecNorm(d.r, NORM_2, &rtrue), "VecNorm");
+  const double rtrue = safe_norm(d.r, d.comm);
   copy_out(d.x, x);
   res.iterations = static_cast<int>(its);
-  res.rel_residual = r0 > 0 ? rnorm / r0 : 0.0;
-  res.true_rel_residual = r0 > 0 ? rtrue / r0 : 0.0;
-  res.status = r0 == 0 ? SolveStatus::converged : status_of(reason);
-  if (res.status == SolveStatus::converged && !(res.true_rel_residual <= 2 * params_.rel_tol + 1e-15)) {
+  res.rel_residual = rnorm;
+  res.true_rel_residual = rtrue / r0;
+  res.status = status_of(reason);
+  if (res.status == SolveStatus::converged && !(rtrue <= 2 * std::max(params_.rel_tol * r0, floor))) {
     res.status = SolveStatus::stagnated;
     res.message = "distributed p-multigrid: the recursive residual converged but the true residual is " +
                   std::to_string(res.true_rel_residual);
@@ -528,6 +612,7 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
 
 void PMultigridCg::multiply(int level, const Vector& x, Vector& y) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const SerialBlas serial_blas;
   const Impl& d = *impl_;
   if (level < 0 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no level " + std::to_string(level));
   Vec xv = nullptr, yv = nullptr;
@@ -542,6 +627,7 @@ void PMultigridCg::multiply(int level, const Vector& x, Vector& y) const {
 
 void PMultigridCg::prolong(int level, const Vector& x, Vector& y) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const SerialBlas serial_blas;
   const Impl& d = *impl_;
   if (level < 1 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no transfer to level " + std::to_string(level));
   Vec xv = nullptr, yv = nullptr;

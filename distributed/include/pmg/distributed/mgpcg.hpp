@@ -24,13 +24,15 @@ namespace pmg::dist {
 
 /// The options of petsc-mgpcg (solver keys: see visit()).
 struct DistributedMgpcgParams {
-  double tol = 1e-8;
-  int max_iterations = 10000;
-  bool throw_on_failure = true;
-  int smoothing_steps = 3;
-  std::string lowest_level = "auto";
-  std::string options;
-  /// The keys tol, max_iterations, throw_on_failure, smoothing_steps, lowest_level, options.
+  double tol = 1e-8;                  ///< converged when ||r|| <= tol ||r_0||
+  int max_iterations = 10000;         ///< CG iteration limit (a failure)
+  double rhs_floor = 0.0;             ///< also converged when ||r|| <= rhs_floor ||b|| (0: off)
+  bool throw_on_failure = true;       ///< a failed solve throws SolveError
+  int smoothing_steps = 3;            ///< Chebyshev steps per pre- and post-smoothing
+  std::string lowest_level = "auto";  ///< auto, mumps, gamg or hypre (pmg::petsc::PcmgParams)
+  std::string options;                ///< further PETSc options, under the solver's prefix
+  /// The keys tol, max_iterations, rhs_floor, throw_on_failure, smoothing_steps, lowest_level,
+  /// options.
   void visit(ParamVisitor& v);
 };
 

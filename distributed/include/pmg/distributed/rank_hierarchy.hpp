@@ -38,9 +38,13 @@ class RankHierarchy {
   RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm);
   ~RankHierarchy();
 
+  /// This rank in the communicator.
   int rank() const { return rank_; }
+  /// Ranks of the communicator.
   int size() const { return size_; }
+  /// The communicator.
   MPI_Comm comm() const { return comm_; }
+  /// Levels (degrees 1 to p).
   int num_levels() const { return local_->num_levels(); }
   /// The part (rank) of every element of the serial mesh.
   const std::vector<int>& element_parts() const { return parts_; }
@@ -50,10 +54,12 @@ class RankHierarchy {
   const fem::TetMesh& mesh() const { return *mesh_; }
   /// The rank's hierarchy over its elements.
   fem::DegreeHierarchy& local() { return *local_; }
+  /// The rank's hierarchy over its elements.
   const fem::DegreeHierarchy& local() const { return *local_; }
 
-  /// Global number of the rank's first owned node on a level, and the count of owned nodes.
+  /// Global number of the rank's first owned node on a level.
   index_t first(int level) const { return levels_.at(level).first; }
+  /// The rank's owned nodes on a level.
   index_t owned(int level) const { return levels_.at(level).owned; }
   /// Nodes the rank's elements touch but another rank owns.
   index_t ghosts(int level) const {
@@ -79,7 +85,7 @@ class RankHierarchy {
   /// lowest level updated, the lowest level assembled. A time step's per-rank work.
   void bring_to(const fem::DegreeHierarchy& serial);
   /// The levels for pmg::petsc::PMultigridCg: the rank's matrix-free operators above the lowest
-  /// level, its lowest-level matrix (as the last bring_to() left it), coordinates and
+  /// level, its lowest-level matrix (as the last bring_to() left it: call it first), coordinates and
   /// prolongations.
   std::vector<petsc::RankLevel> rank_levels();
 

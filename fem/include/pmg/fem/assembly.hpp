@@ -1,8 +1,10 @@
 // pmg/fem/assembly.hpp — race-free parallel assembly of 3x3-block element matrices into BCSR.
 //
-// Built once per mesh, degree and set of fixed nodes (the pattern never changes): the BCSR pattern
-// over the free nodes, a map from (element, local a, local b) to its block slot, and a greedy
-// colouring of the elements such that no two elements of one colour share a node. Assembly then
+// Built once per mesh, degree and set of fixed nodes (the pattern never changes): a greedy
+// colouring of the elements such that no two elements of one colour share a node, and on first
+// need (make_matrix(), build_pattern()) the BCSR pattern over the free nodes and a map from
+// (element, local a, local b) to its block slot — 8 n² bytes per element, which a level used only
+// matrix-free (its colouring for the diagonal and forces) never pays. Assembly then
 // runs colour by colour with the elements of a colour in parallel, writing blocks and right-hand
 // side entries in place without locks.
 #pragma once
@@ -10,6 +12,7 @@
 #include "pmg/fem/bb_space.hpp"
 #include "pmg/sparse/bcsr.hpp"
 
+#include <mutex>
 #include <vector>
 
 namespace pmg::fem {
@@ -26,9 +29,17 @@ class BlockAssembler {
   index_t num_free() const { return num_free_; }
   /// Per node: its index among the free nodes, or -1 for a fixed node.
   const std::vector<index_t>& free_index() const { return free_index_; }
-  /// A matrix on the pattern of the free nodes with all values zero.
-  Bcsr make_matrix() const { return Bcsr(pattern_, std::vector<double>(9 * pattern_->nnz(), 0.0)); }
-  /// Block slot of (local a, local b) of element e, or -1 if either node is fixed.
+  /// A matrix on the pattern of the free nodes with all values zero (builds the pattern on first
+  /// use).
+  Bcsr make_matrix() const {
+    build_pattern();
+    return Bcsr(pattern_, std::vector<double>(9 * pattern_->nnz(), 0.0));
+  }
+  /// Builds the pattern and the slot map once (thread-safe); make_matrix() calls it, and so does
+  /// every assembly before it reads slot().
+  void build_pattern() const;
+  /// Block slot of (local a, local b) of element e, or -1 if either node is fixed. Valid after
+  /// build_pattern() (unchecked: it is read in the assembly loops).
   offset_t slot(index_t e, int a, int b) const {
     return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
   }
@@ -40,8 +51,9 @@ class BlockAssembler {
   int n_;
   std::vector<index_t> free_index_;
   index_t num_free_ = 0;
-  std::shared_ptr<const BlockPattern> pattern_;
-  std::vector<offset_t> slots_;
+  mutable std::once_flag pattern_once_;
+  mutable std::shared_ptr<const BlockPattern> pattern_;
+  mutable std::vector<offset_t> slots_;
   std::vector<std::vector<index_t>> colors_;
 };
 

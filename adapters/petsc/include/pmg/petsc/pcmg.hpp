@@ -41,13 +41,16 @@ namespace pmg::petsc {
 struct RankLevel {
   /// "degree 2": for messages and breakdowns.
   std::string name;
-  /// Global number of the rank's first owned node, and how many it owns.
-  index_t first = 0, owned = 0;
+  /// Global number of the rank's first owned node.
+  index_t first = 0;
+  /// How many nodes the rank owns.
+  index_t owned = 0;
   /// Global number of each local node (owned and ghost).
   std::vector<index_t> global;
   /// Levels above the lowest: the sum of the rank's element operators on its local nodes
-  /// (3 unknowns per local node) and its 3x3 diagonal blocks. Must outlive the solver.
+  /// (3 unknowns per local node). Must outlive the solver.
   const LinearOperator* op = nullptr;
+  /// Levels above the lowest: the 3x3 diagonal blocks of op. Must outlive the solver.
   const DiagonalBlocksSource* blocks = nullptr;
   /// The lowest level: the sum of the rank's element matrices on its local nodes. Read at set-up
   /// and at refresh().
@@ -64,12 +67,16 @@ struct RankLevel {
 /// The options of PMultigridCg.
 struct PcmgParams {
   double rel_tol = 1e-8;       ///< converged when ||r|| <= rel_tol ||r_0||
+  /// Also converged when ||r|| <= rhs_floor ||b|| (0: off): the rounding floor of a start near the
+  /// solution (a warm-started time step), as KrylovParams::rhs_floor.
+  double rhs_floor = 0.0;
   int max_iterations = 10000;  ///< iteration limit (a failure)
   int smoothing_steps = 3;     ///< Chebyshev steps per pre- and post-smoothing
   /// "mumps" (Cholesky), "gamg" (one V-cycle, rigid-body near-null space), "hypre" (one
   /// BoomerAMG V-cycle, Chebyshev relaxation) or "auto": MUMPS below amg_threshold global
   /// unknowns on the lowest level, BoomerAMG from there.
   std::string lowest_level = "auto";
+  /// "auto" takes BoomerAMG from this many global unknowns on the lowest level.
   long amg_threshold = 40000;
   /// Further PETSc options, under this solver's prefix, applied after the defaults.
   std::string options;
