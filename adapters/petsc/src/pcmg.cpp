@@ -610,19 +610,28 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   return res;
 }
 
+namespace {
+
+/// y = M x for owned vectors (the layout of M's columns and rows).
+void apply_mat(Mat M, const Vector& x, Vector& y) {
+  Vec xv = nullptr, yv = nullptr;
+  check(MatCreateVecs(M, &xv, &yv), "MatCreateVecs");
+  copy_in(x, xv);
+  const PetscErrorCode err = MatMult(M, xv, yv);
+  if (!err) copy_out(yv, y);
+  VecDestroy(&xv);
+  VecDestroy(&yv);
+  check(err, "MatMult");
+}
+
+}  // namespace
+
 void PMultigridCg::multiply(int level, const Vector& x, Vector& y) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const SerialBlas serial_blas;
   const Impl& d = *impl_;
   if (level < 0 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no level " + std::to_string(level));
-  Vec xv = nullptr, yv = nullptr;
-  check(MatCreateVecs(d.ops[level], &xv, &yv), "MatCreateVecs");
-  copy_in(x, xv);
-  const PetscErrorCode err = MatMult(d.ops[level], xv, yv);
-  if (!err) copy_out(yv, y);
-  VecDestroy(&xv);
-  VecDestroy(&yv);
-  check(err, "MatMult");
+  apply_mat(d.ops[level], x, y);
 }
 
 void PMultigridCg::prolong(int level, const Vector& x, Vector& y) const {
@@ -630,14 +639,7 @@ void PMultigridCg::prolong(int level, const Vector& x, Vector& y) const {
   const SerialBlas serial_blas;
   const Impl& d = *impl_;
   if (level < 1 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no transfer to level " + std::to_string(level));
-  Vec xv = nullptr, yv = nullptr;
-  check(MatCreateVecs(d.prolongations[level], &xv, &yv), "MatCreateVecs");
-  copy_in(x, xv);
-  const PetscErrorCode err = MatMult(d.prolongations[level], xv, yv);
-  if (!err) copy_out(yv, y);
-  VecDestroy(&xv);
-  VecDestroy(&yv);
-  check(err, "MatMult");
+  apply_mat(d.prolongations[level], x, y);
 }
 
 std::string PMultigridCg::describe() const {
