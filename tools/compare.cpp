@@ -357,6 +357,7 @@ void run(const Options& given) {
   }
   if (mpi::launched_rank() != 0) {  // under mpirun rank 0 alone writes (every rank checked the paths)
     o.plot.clear(), o.json_report.clear(), o.history.clear(), o.export_levels.clear(), o.export_petsc.clear();
+    o.solution_out.clear();
   }
   auto t0 = Clock::now();
   System sys = load_system(o);

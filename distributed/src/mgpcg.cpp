@@ -1,6 +1,7 @@
 // petsc-mgpcg (pmg/distributed/mgpcg.hpp).
 #include "pmg/distributed/mgpcg.hpp"
 
+#include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/petsc/petsc.hpp"
 #include "pmg/sparse/factory.hpp"
@@ -65,7 +66,10 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   for (int l = ranks_->num_levels() - 1; l >= 0; --l) {
     const long mine[2] = {ranks_->ghosts(l), ranks_->owned(l)};
     std::vector<long> all(2 * static_cast<size_t>(ranks_->size()));
-    MPI_Allgather(mine, 2, MPI_LONG, all.data(), 2, MPI_LONG, comm_);
+    {
+      std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+      MPI_Allgather(mine, 2, MPI_LONG, all.data(), 2, MPI_LONG, comm_);
+    }
     ghosts_.emplace_back();
     for (int r = 0; r < ranks_->size(); ++r) ghosts_.back().emplace_back(all[2 * r], all[2 * r + 1]);
   }

@@ -39,10 +39,13 @@ std::vector<int> partition(const fem::TetMesh& mesh, MPI_Comm comm, int rank, in
 
 RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) : comm_(comm) {
   mpi::start();
-  MPI_Comm_rank(comm, &rank_);
-  MPI_Comm_size(comm, &size_);
   const fem::TetMesh& full = serial.model(0).space().mesh();
-  parts_ = partition(full, comm, rank_, size_);
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Comm_rank(comm, &rank_);
+    MPI_Comm_size(comm, &size_);
+    parts_ = partition(full, comm, rank_, size_);
+  }
 
   // The rank's sub-mesh: its elements, their vertices in increasing global order.
   std::vector<index_t> local_vertex(full.vertices.size(), -1);
@@ -88,7 +91,11 @@ RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) 
         if (f >= 0) L.owner[f] = std::min(L.owner[f], parts_[e]);
       }
     std::vector<index_t> count(size_ + 1, 0);
-    for (int o : L.owner) ++count[o + 1];
+    for (int o : L.owner) {
+      if (o == INT_MAX)  // the same on every rank: every rank walks the whole mesh
+        throw InputError("rank hierarchy: a free node no element holds (a vertex outside every element)");
+      ++count[o + 1];
+    }
     for (int r = 0; r < size_; ++r) count[r + 1] += count[r];
     L.first = count[rank_];
     L.owned = count[rank_ + 1] - count[rank_];

@@ -159,7 +159,7 @@ void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
 
 void ElasticityModel::evaluate(const ElementPass& pass) const {
   const BlockAssembler& as = assembler();
-  if (pass.stiffness) as.build_pattern();  // the slots (a matrix from make_matrix() has built them)
+  if (pass.stiffness || pass.rhs) as.build_pattern();  // the slots (make_matrix() has built them)
   if (pass.stiffness && (pass.stiffness->shared_pattern().get() == nullptr ||
                          pass.stiffness->block_rows() != as.num_free()))
     throw InputError("assemble: matrix does not have the assembler's pattern");

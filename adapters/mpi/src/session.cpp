@@ -83,8 +83,27 @@ int env_int(const char* a, const char* b, int fallback) {
 }
 }  // namespace
 
-int launched_ranks() { return std::max(1, env_int("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", 1)); }
-int launched_rank() { return env_int("OMPI_COMM_WORLD_RANK", "PMI_RANK", 0); }
+/// MPI_COMM_WORLD's rank or size once MPI runs (any launcher), else -1.
+int running(bool want_rank) {
+  int initialized = 0, finalized = 0;
+  MPI_Initialized(&initialized);
+  MPI_Finalized(&finalized);
+  if (!initialized || finalized) return -1;
+  std::lock_guard<std::recursive_mutex> lock(library_lock());
+  int v = -1;
+  if (want_rank) MPI_Comm_rank(MPI_COMM_WORLD, &v);
+  else MPI_Comm_size(MPI_COMM_WORLD, &v);
+  return v;
+}
+
+int launched_ranks() {
+  if (const int n = running(false); n > 0) return n;
+  return std::max({1, env_int("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", 1), env_int("SLURM_STEP_NUM_TASKS", nullptr, 1)});
+}
+int launched_rank() {
+  if (const int r = running(true); r >= 0) return r;
+  return std::max(env_int("OMPI_COMM_WORLD_RANK", "PMI_RANK", 0), env_int("PMIX_RANK", "SLURM_PROCID", 0));
+}
 int launched_local_ranks() {
   return std::max(1, env_int("OMPI_COMM_WORLD_LOCAL_SIZE", nullptr, launched_ranks()));
 }

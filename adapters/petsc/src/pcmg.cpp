@@ -55,6 +55,20 @@ class SerialBlas {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+/// Destroys a PETSc object at the end of a scope (an error path included).
+template <class T, PetscErrorCode (*Destroy)(T*)>
+struct Owned {
+  T object = nullptr;
+  Owned() = default;
+  Owned(const Owned&) = delete;
+  Owned& operator=(const Owned&) = delete;
+  ~Owned() {
+    if (object) Destroy(&object);
+  }
+};
+using OwnedVec = Owned<Vec, VecDestroy>;
+using OwnedIS = Owned<IS, ISDestroy>;
+
 /// A shell level: the rank's element operator between a scatter from the global vector and the
 /// reverse scatter back (see the file comment of pcmg.hpp).
 struct ShellLevel {
@@ -116,16 +130,15 @@ PetscErrorCode shell_invert_block_diagonal(Mat A, const PetscScalar** values) {
 
 /// The rank's diagonal blocks summed over the ranks, then per owned node the 3 diagonal entries
 /// and the inverse block (symmetric blocks: row- and column-major alike).
-void refresh_diagonal(ShellLevel& s) {
+void refresh_diagonal(ShellLevel& s, MPI_Comm comm) {
   s.blocks->diagonal_blocks(s.local_blocks);
-  Vec local = nullptr;
+  OwnedVec local;
   check(VecCreateSeqWithArray(PETSC_COMM_SELF, 9, static_cast<PetscInt>(s.local_blocks.size()),
-                              s.local_blocks.data(), &local),
+                              s.local_blocks.data(), &local.object),
         "VecCreateSeqWithArray");
   check(VecSet(s.gg, 0.0), "VecSet");
-  check(VecScatterBegin(s.block_scatter, local, s.gg, ADD_VALUES, SCATTER_REVERSE), "VecScatterBegin");
-  check(VecScatterEnd(s.block_scatter, local, s.gg, ADD_VALUES, SCATTER_REVERSE), "VecScatterEnd");
-  VecDestroy(&local);
+  check(VecScatterBegin(s.block_scatter, local.object, s.gg, ADD_VALUES, SCATTER_REVERSE), "VecScatterBegin");
+  check(VecScatterEnd(s.block_scatter, local.object, s.gg, ADD_VALUES, SCATTER_REVERSE), "VecScatterEnd");
   const PetscScalar* g = nullptr;
   check(VecGetArrayRead(s.gg, &g), "VecGetArrayRead");
   s.diagonal.resize(3 * static_cast<size_t>(s.owned));
@@ -143,11 +156,15 @@ void refresh_diagonal(ShellLevel& s) {
       const Block3 unit = B / scale;
       unit.computeInverseAndDetWithCheck(inv, det, invertible, 1e-14);
     }
-    singular = singular || !invertible || !std::isfinite(det);
-    Eigen::Map<Block3>(s.inverse_blocks.data() + 9 * static_cast<size_t>(i)) = inv / scale;
+    const Block3 scaled_back = inv / scale;
+    singular = singular || !invertible || !std::isfinite(det) || !scaled_back.allFinite();
+    Eigen::Map<Block3>(s.inverse_blocks.data() + 9 * static_cast<size_t>(i)) = scaled_back;
   }
   VecRestoreArrayRead(s.gg, &g);
-  if (singular) throw Error("distributed p-multigrid: a singular 3x3 diagonal block (a node without stiffness)");
+  // Only the owner sees a bad block: every rank learns of it before any of them throws.
+  int mine = singular ? 1 : 0, any = 0;
+  MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm);
+  if (any) throw Error("distributed p-multigrid: a singular or non-finite 3x3 diagonal block (a node without stiffness)");
 }
 
 /// Global unknowns of a level from the owned counts.
@@ -187,6 +204,7 @@ struct PMultigridCg::Impl {
   mutable Vec b = nullptr, x = nullptr, r = nullptr;
   std::vector<std::pair<std::string, double>> setup_seconds;
   mutable MonitorContext monitor;
+  bool ready = false;  // the last setup() completed
 
   void destroy() {
     if (ksp) KSPDestroy(&ksp);
@@ -246,6 +264,7 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const SerialBlas serial_blas;
   Impl& d = *impl_;
+  d.ready = false;
   d.destroy();
   d.setup_seconds.clear();
   if (levels.size() < 2) throw InputError("distributed p-multigrid: needs at least two levels (degree >= 2)");
@@ -274,7 +293,8 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
   auto t0 = Clock::now();
   for (int l = 1; l < nl; ++l) {
     const RankLevel& L = d.levels[l];
-    auto s = std::make_unique<ShellLevel>();
+    d.shells[l] = std::make_unique<ShellLevel>();  // owned by d at once: destroy() frees it on any error
+    ShellLevel* s = d.shells[l].get();
     s->op = L.op;
     s->blocks = L.blocks;
     s->owned = L.owned;
@@ -284,7 +304,7 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->xd.data(), &s->xl), "VecCreateSeqWithArray");
     check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->yd.data(), &s->yl), "VecCreateSeqWithArray");
     Mat A = nullptr;
-    check(MatCreateShell(d.comm, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE, s.get(), &A),
+    check(MatCreateShell(d.comm, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE, s, &A),
           "MatCreateShell");
     d.ops[l] = A;
     check(MatSetBlockSizes(A, 3, 3), "MatSetBlockSizes");
@@ -296,22 +316,23 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     check(MatShellSetOperation(A, MATOP_INVERT_BLOCK_DIAGONAL,
                                reinterpret_cast<void (*)(void)>(shell_invert_block_diagonal)),
           "MatShellSetOperation");
-    Vec global = nullptr;
-    check(MatCreateVecs(A, &global, nullptr), "MatCreateVecs");
-    IS is = nullptr;
-    check(ISCreateBlock(PETSC_COMM_SELF, 3, n_local, L.global.data(), PETSC_COPY_VALUES, &is), "ISCreateBlock");
-    check(VecScatterCreate(global, is, s->xl, nullptr, &s->scatter), "VecScatterCreate");
-    ISDestroy(&is);
-    VecDestroy(&global);
+    {
+      OwnedVec global;
+      check(MatCreateVecs(A, &global.object, nullptr), "MatCreateVecs");
+      OwnedIS is;
+      check(ISCreateBlock(PETSC_COMM_SELF, 3, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
+      check(VecScatterCreate(global.object, is.object, s->xl, nullptr, &s->scatter), "VecScatterCreate");
+    }
     // The same numbering, 9 values per node, for the diagonal blocks.
     check(VecCreateMPI(d.comm, 9 * L.owned, PETSC_DETERMINE, &s->gg), "VecCreateMPI");
     check(VecSetBlockSize(s->gg, 9), "VecSetBlockSize");
     check(VecCreateSeq(PETSC_COMM_SELF, 9 * n_local, &s->gl), "VecCreateSeq");
-    check(ISCreateBlock(PETSC_COMM_SELF, 9, n_local, L.global.data(), PETSC_COPY_VALUES, &is), "ISCreateBlock");
-    check(VecScatterCreate(s->gg, is, s->gl, nullptr, &s->block_scatter), "VecScatterCreate");
-    ISDestroy(&is);
-    refresh_diagonal(*s);
-    d.shells[l] = std::move(s);
+    {
+      OwnedIS is;
+      check(ISCreateBlock(PETSC_COMM_SELF, 9, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
+      check(VecScatterCreate(s->gg, is.object, s->gl, nullptr, &s->block_scatter), "VecScatterCreate");
+    }
+    refresh_diagonal(*s, d.comm);
   }
   d.setup_seconds.emplace_back("shell levels", since(t0));
 
@@ -449,14 +470,16 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
   check(MatCreateVecs(d.ops[nl - 1], &d.x, &d.b), "MatCreateVecs");
   check(VecDuplicate(d.b, &d.r), "VecDuplicate");
   d.setup_seconds.emplace_back("KSP set-up (lowest level " + lowest_ + ")", since(t0));
+  d.ready = true;
 }
 
 void PMultigridCg::refresh() {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const SerialBlas serial_blas;
   Impl& d = *impl_;
-  if (!d.ksp) throw InputError("distributed p-multigrid: refresh() before setup()");
-  for (size_t l = 1; l < d.shells.size(); ++l) refresh_diagonal(*d.shells[l]);
+  if (!d.ready) throw InputError("distributed p-multigrid: refresh() without a completed setup()");
+  d.ready = false;  // until this refresh completes
+  for (size_t l = 1; l < d.shells.size(); ++l) refresh_diagonal(*d.shells[l], d.comm);
   check(MatZeroEntries(d.coarse), "MatZeroEntries");
   d.set_coarse_values();
   // The operators' state changed: the smoothers re-estimate, the lowest level refactors.
@@ -475,6 +498,7 @@ void PMultigridCg::refresh() {
     if (l > 0) check(KSPChebyshevEstEigSet(s, 0.0, 0.1, 0.0, 1.1), "KSPChebyshevEstEigSet");
   }
   check(KSPSetUp(d.ksp), "KSPSetUp");
+  d.ready = true;
 }
 
 namespace {
@@ -536,7 +560,7 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const SerialBlas serial_blas;
   const Impl& d = *impl_;
-  if (!d.ksp) throw InputError("distributed p-multigrid: solve() before setup()");
+  if (!d.ready) throw InputError("distributed p-multigrid: solve() without a completed setup()");
   PetscInt n = 0;
   check(VecGetLocalSize(d.b, &n), "VecGetLocalSize");
   if (b.size() != n || (x.size() != 0 && x.size() != n))
@@ -545,7 +569,6 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   if (x.size() == 0) x = Vector::Zero(n);
   const auto t0 = Clock::now();
   if (monitor) monitor->start();
-  d.monitor.monitor = monitor;
   copy_in(b, d.b);
   copy_in(x, d.x);
   // The initial residual, the reference of both ratios; PETSc then solves for the residual scaled
@@ -571,19 +594,17 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   }
   // The floor in the units of the scaled system.
   check(KSPSetTolerances(d.ksp, params_.rel_tol, floor / r0, 1e6, params_.max_iterations), "KSPSetTolerances");
-  Vec x0 = nullptr;
-  check(VecDuplicate(d.x, &x0), "VecDuplicate");
-  check(VecCopy(d.x, x0), "VecCopy");
+  OwnedVec x0;
+  check(VecDuplicate(d.x, &x0.object), "VecDuplicate");
+  check(VecCopy(d.x, x0.object), "VecCopy");
   check(VecScale(d.r, 1.0 / r0), "VecScale");
   check(VecSet(d.x, 0.0), "VecSet");
   check(KSPSetInitialGuessNonzero(d.ksp, PETSC_FALSE), "KSPSetInitialGuessNonzero");
+  d.monitor.monitor = monitor;
   const PetscErrorCode err = KSPSolve(d.ksp, d.r, d.x);
-  if (!err) {
-    VecAYPX(d.x, r0, x0);  // x = x0 + r0 (the scaled correction)
-  }
-  VecDestroy(&x0);
   d.monitor.monitor = nullptr;
   check(err, "KSPSolve");
+  check(VecAYPX(d.x, r0, x0.object), "VecAYPX");  // x = x0 + r0 (the scaled correction)
   KSPConvergedReason reason;
   check(KSPGetConvergedReason(d.ksp, &reason), "KSPGetConvergedReason");
   PetscInt its = 0;
@@ -630,6 +651,7 @@ void PMultigridCg::multiply(int level, const Vector& x, Vector& y) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const SerialBlas serial_blas;
   const Impl& d = *impl_;
+  if (!d.ready) throw InputError("distributed p-multigrid: multiply() without a completed setup()");
   if (level < 0 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no level " + std::to_string(level));
   apply_mat(d.ops[level], x, y);
 }
@@ -638,11 +660,13 @@ void PMultigridCg::prolong(int level, const Vector& x, Vector& y) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const SerialBlas serial_blas;
   const Impl& d = *impl_;
+  if (!d.ready) throw InputError("distributed p-multigrid: prolong() without a completed setup()");
   if (level < 1 || level >= static_cast<int>(d.ops.size())) throw InputError("distributed p-multigrid: no transfer to level " + std::to_string(level));
   apply_mat(d.prolongations[level], x, y);
 }
 
 std::string PMultigridCg::describe() const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   const Impl& d = *impl_;
   std::ostringstream s;
   int size = 1;

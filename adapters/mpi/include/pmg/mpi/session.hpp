@@ -26,10 +26,12 @@ int size();
 /// it runs at exit too, possibly after the program's MPI_Finalize: a finaliser checks
 /// MPI_Finalized before it calls MPI.
 void at_finalize(std::function<void()> finalize);
-/// The ranks of the job this process was launched in, read from the launcher's environment
-/// (Open MPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE) without starting MPI: 1 outside mpirun.
+/// The ranks of the job this process was launched in: MPI_COMM_WORLD's size once MPI runs, else
+/// read from the launcher's environment without starting MPI (Open MPI's OMPI_COMM_WORLD_SIZE,
+/// PMI_SIZE or SLURM_STEP_NUM_TASKS); 1 outside a launcher.
 int launched_ranks();
-/// This process's rank in its launch (OMPI_COMM_WORLD_RANK or PMI_RANK), 0 outside mpirun.
+/// This process's rank in its launch: MPI_COMM_WORLD's once MPI runs, else from the environment
+/// (OMPI_COMM_WORLD_RANK, PMI_RANK, PMIX_RANK or SLURM_PROCID); 0 outside a launcher.
 int launched_rank();
 /// Ranks of the launch on this machine (OMPI_COMM_WORLD_LOCAL_SIZE, else launched_ranks()).
 int launched_local_ranks();
