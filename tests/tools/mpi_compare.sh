@@ -8,6 +8,7 @@ pmg=$1 data=$2
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 mpi=(mpirun --allow-run-as-root --oversubscribe --bind-to none -x OMP_NUM_THREADS=1)
+[ -n "${ASAN_OPTIONS:-}" ] && mpi+=(-x ASAN_OPTIONS)  # the sanitizer build: Open MPI's own leaks off
 fail() { echo "mpi_compare.sh: $*"; exit 1; }
 scene=(compare --box 6 2 2 --size 1 0.3 0.3 --degree 3 --solvers petsc-mgpcg --tol 1e-10)
 

@@ -19,7 +19,9 @@ s["solver"] = {"method": "petsc-mgpcg", "tol": 1e-11}
 json.dump(s, open(sys.argv[2] + "/distributed.json", "w"))
 PY
 OMP_NUM_THREADS=1 "$pmg" simulate "$work/serial.json" -o "$work/serial" -q || fail "the serial run failed"
-mpirun --allow-run-as-root --oversubscribe --bind-to none -x OMP_NUM_THREADS=1 -np 2 \
+mpi=(mpirun --allow-run-as-root --oversubscribe --bind-to none -x OMP_NUM_THREADS=1)
+[ -n "${ASAN_OPTIONS:-}" ] && mpi+=(-x ASAN_OPTIONS)  # the sanitizer build: Open MPI's own leaks off
+"${mpi[@]}" -np 2 \
   "$pmg" simulate "$work/distributed.json" -o "$work/distributed" -q > "$work/out.txt" 2>&1 || { cat "$work/out.txt"; fail "the 2-rank run failed"; }
 cat "$work/out.txt"
 [ "$(grep -c '^output:' "$work/out.txt")" = 1 ] || fail "expected one report (rank 0)"
