@@ -23,10 +23,9 @@ using detail::check;
 namespace {
 
 /// OpenBLAS on one thread while PETSc runs: PETSc's vector operations are level-1 BLAS calls
-/// (dot products, axpy), and OpenBLAS's pthreads starting on 1e5-entry vectors beside OpenMP's
-/// spinning threads made each one about 80 times slower on 2 cores (Homer P3, -log_view: VecTDot
-/// 1.3 ms -> 17 us a call, MatMult halved). Found through dlsym, so any BLAS links; the caller's
-/// setting is restored on return.
+/// (dot products, axpy), and OpenBLAS's own pthreads started beside OpenMP's spinning threads
+/// contend with them for the cores (docs/distributed.md measures it). Found through dlsym, so any
+/// BLAS links; the caller's setting is restored on return.
 class SerialBlas {
  public:
   SerialBlas() {
@@ -78,15 +77,14 @@ struct ShellLevel {
   VecScatter scatter = nullptr;        // global (owned unknowns) -> local unknowns
   VecScatter block_scatter = nullptr;  // the same for 9 values per node (the diagonal blocks)
   Vec xl = nullptr, yl = nullptr;      // local vectors over xd, yd's storage
-  Vec gl = nullptr, gg = nullptr;      // local and global 9-per-node vectors
+  Vec gg = nullptr;                    // the owned 9-per-node vector (summed diagonal blocks)
   mutable Vector xd, yd;
   std::vector<double> local_blocks;
   std::vector<double> inverse_blocks, diagonal;  // per owned node: 9, 3
-  std::string error;
   void destroy() {
     if (scatter) VecScatterDestroy(&scatter);
     if (block_scatter) VecScatterDestroy(&block_scatter);
-    for (Vec* v : {&xl, &yl, &gl, &gg})
+    for (Vec* v : {&xl, &yl, &gg})
       if (*v) VecDestroy(v);
   }
 };
@@ -100,7 +98,6 @@ PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
   try {
     s->op->apply(s->xd, s->yd);
   } catch (const std::exception& e) {
-    s->error = e.what();
     SETERRQ(PETSC_COMM_SELF, PETSC_ERR_LIB, "the rank's element operator failed: %s", e.what());
   }
   PetscCall(VecSet(y, 0.0));
@@ -326,11 +323,12 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     // The same numbering, 9 values per node, for the diagonal blocks.
     check(VecCreateMPI(d.comm, 9 * L.owned, PETSC_DETERMINE, &s->gg), "VecCreateMPI");
     check(VecSetBlockSize(s->gg, 9), "VecSetBlockSize");
-    check(VecCreateSeq(PETSC_COMM_SELF, 9 * n_local, &s->gl), "VecCreateSeq");
     {
+      OwnedVec layout;  // the local side's layout only: refresh_diagonal() scatters from the blocks
+      check(VecCreateSeq(PETSC_COMM_SELF, 9 * n_local, &layout.object), "VecCreateSeq");
       OwnedIS is;
       check(ISCreateBlock(PETSC_COMM_SELF, 9, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
-      check(VecScatterCreate(s->gg, is.object, s->gl, nullptr, &s->block_scatter), "VecScatterCreate");
+      check(VecScatterCreate(s->gg, is.object, layout.object, nullptr, &s->block_scatter), "VecScatterCreate");
     }
     refresh_diagonal(*s, d.comm);
   }
