@@ -187,7 +187,10 @@ void run(const Cli& cli_in) {
   if (!cli.output.empty())
     prepare_output_directory(cli.output, output_from_cli ? "-o" : s.source + ": output.directory");
   if (!cli.json_report.empty()) check_output_file(cli.json_report, "--json");
-  if (mpi::launched_rank() != 0) cli.output.clear(), cli.json_report.clear();  // under mpirun rank 0 writes
+  if (mpi::launched_rank() != 0) {  // under mpirun rank 0 writes; every rank its piece of a distributed frame
+    cli.json_report.clear();
+    if (!sim::runs_across_ranks(s)) cli.output.clear();
+  }
   const auto t0 = Clock::now();
   sim::SceneSetup b = sim::set_up(s);
   for (const auto& w : b.warnings) std::cerr << "warning: " << w << "\n";

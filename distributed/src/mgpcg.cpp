@@ -32,6 +32,17 @@ using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 }  // namespace
 
+petsc::PcmgParams to_pcmg(const DistributedMgpcgParams& params) {
+  petsc::PcmgParams p;
+  p.rel_tol = params.tol;
+  p.max_iterations = params.max_iterations;
+  p.rhs_floor = params.rhs_floor;
+  p.smoothing_steps = params.smoothing_steps;
+  p.lowest_level = params.lowest_level;
+  p.options = params.options;
+  return p;
+}
+
 DistributedMgpcg::DistributedMgpcg(const fem::DegreeHierarchy& serial, DistributedMgpcgParams params, MPI_Comm comm)
     : serial_(&serial), params_(std::move(params)), comm_(comm) {
   if (serial.num_levels() < 2)
@@ -53,14 +64,7 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   ranks_->bring_to(*serial_);
   std::vector<petsc::RankLevel> levels = ranks_->rank_levels();
   partition_seconds_.emplace_back("the rank's operators", since(t0));
-  petsc::PcmgParams p;
-  p.rel_tol = params_.tol;
-  p.max_iterations = params_.max_iterations;
-  p.rhs_floor = params_.rhs_floor;
-  p.smoothing_steps = params_.smoothing_steps;
-  p.lowest_level = params_.lowest_level;
-  p.options = params_.options;
-  solver_ = std::make_unique<petsc::PMultigridCg>(comm_, p);
+  solver_ = std::make_unique<petsc::PMultigridCg>(comm_, to_pcmg(params_));
   solver_->setup(std::move(levels));
   ghosts_.clear();
   for (int l = ranks_->num_levels() - 1; l >= 0; --l) {

@@ -146,6 +146,26 @@ Vector RankHierarchy::gather(int level, const Vector& owned) const {
   return all;
 }
 
+Vector RankHierarchy::local_part(const fem::DegreeHierarchy& serial, int level, const Vector& serial_full) const {
+  const fem::BBSpace& S = serial.model(level).space();
+  const fem::BBSpace& Sl = local_->model(level).space();
+  if (serial_full.size() != 3 * static_cast<Eigen::Index>(S.num_nodes()))
+    throw InputError("rank hierarchy: a full vector of " + std::to_string(serial_full.size()) + " entries for " +
+                     std::to_string(3 * static_cast<long>(S.num_nodes())) + " unknowns");
+  Vector out = Vector::Zero(3 * static_cast<Eigen::Index>(Sl.num_nodes()));
+  const int n = S.nodes_per_element();
+  for (size_t el = 0; el < elements_.size(); ++el)
+    for (int a = 0; a < n; ++a)
+      out.segment<3>(3 * static_cast<Eigen::Index>(Sl.node(static_cast<index_t>(el), a))) =
+          serial_full.segment<3>(3 * static_cast<Eigen::Index>(S.node(elements_[el], a)));
+  return out;
+}
+
+index_t RankHierarchy::local_element(index_t serial_element) const {
+  const auto it = std::lower_bound(elements_.begin(), elements_.end(), serial_element);
+  return it != elements_.end() && *it == serial_element ? static_cast<index_t>(it - elements_.begin()) : -1;
+}
+
 void RankHierarchy::bring_to(const fem::DegreeHierarchy& serial) {
   const int top = serial.num_levels() - 1;
   const fem::Rotations* R = serial.last_rotations(top);

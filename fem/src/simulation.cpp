@@ -28,45 +28,53 @@ const char* stage_name(int stage) {
   return names[stage];
 }
 
+void check_simulation(const ElasticityModel& m, const Vector& f_ext, const SimulationParams& p) {
+  if (f_ext.size() != m.num_dofs())
+    throw InputError("simulation: external force has " + std::to_string(f_ext.size()) +
+                     " entries for " + std::to_string(m.num_dofs()) + " unknowns");
+  if (!std::isfinite(p.dt) || !(p.dt > 0))
+    throw InputError("simulation: the time step must be positive, got " + std::to_string(p.dt));
+  if (!(p.rayleigh_alpha >= 0) || !(p.rayleigh_beta >= 0) || !std::isfinite(p.rayleigh_alpha) ||
+      !std::isfinite(p.rayleigh_beta))
+    throw InputError("simulation: Rayleigh damping coefficients must be >= 0");
+  const auto& scale = m.stiffness_scale();
+  const double young = m.material().young * (scale.empty() ? 1.0 : *std::max_element(scale.begin(), scale.end()));
+  if (const double max_dt = max_time_step(young, p.rayleigh_beta); p.dt > max_dt) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "simulation: the time step dt = %g s makes the step matrix M + dt^2 K overflow double "
+                  "precision; use a time step below %g s", p.dt, max_dt);
+    throw InputError(text);
+  }
+  if (m.num_fixed() == 0 && p.rayleigh_alpha == 0 && m.material().density == 0)
+    throw InputError("simulation: no mass and nothing clamped: the step system is singular");
+  if (m.material().density == 0) throw InputError("simulation: density must be > 0 for dynamics");
+}
+
 // ---- implicit Euler ------------------------------------------------------------------------------
 
 ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
                              const SimulationParams& p)
     : h_(h), solver_(solver), needs_(solver.needs()), f_ext_(f_ext), p_(p) {
   const ElasticityModel& m = h_.finest();
-  if (f_ext_.size() != m.num_dofs())
-    throw InputError("simulation: external force has " + std::to_string(f_ext_.size()) +
-                     " entries for " + std::to_string(m.num_dofs()) + " unknowns");
-  if (!std::isfinite(p_.dt) || !(p_.dt > 0))
-    throw InputError("simulation: the time step must be positive, got " + std::to_string(p_.dt));
-  if (!(p_.rayleigh_alpha >= 0) || !(p_.rayleigh_beta >= 0) || !std::isfinite(p_.rayleigh_alpha) ||
-      !std::isfinite(p_.rayleigh_beta))
-    throw InputError("simulation: Rayleigh damping coefficients must be >= 0");
-  const auto& scale = m.stiffness_scale();
-  const double young = m.material().young * (scale.empty() ? 1.0 : *std::max_element(scale.begin(), scale.end()));
-  if (const double max_dt = max_time_step(young, p_.rayleigh_beta); p_.dt > max_dt) {
-    char text[200];
-    std::snprintf(text, sizeof text,
-                  "simulation: the time step dt = %g s makes the step matrix M + dt^2 K overflow double "
-                  "precision; use a time step below %g s", p_.dt, max_dt);
-    throw InputError(text);
-  }
-  if (m.num_fixed() == 0 && p_.rayleigh_alpha == 0 && m.material().density == 0)
-    throw InputError("simulation: no mass and nothing clamped: the step system is singular");
-  if (m.material().density == 0) throw InputError("simulation: density must be > 0 for dynamics");
+  check_simulation(m, f_ext_, p_);
   u_ = Vector::Zero(m.num_dofs());
   v_ = Vector::Zero(m.num_dofs());
   v_free_ = Vector::Zero(m.num_free_dofs());
 }
 
-void ImplicitEuler::set_state(const Vector& u, const Vector& v) {
-  const ElasticityModel& m = h_.finest();
+void check_state(const ElasticityModel& m, const Vector& u, const Vector& v) {
   if (u.size() != m.num_dofs() || v.size() != m.num_dofs())
     throw InputError("simulation: state vectors must have " + std::to_string(m.num_dofs()) + " entries");
   if (!u.allFinite() || !v.allFinite()) throw InputError("simulation: the initial state is not finite");
   for (index_t i = 0; i < m.num_nodes(); ++i)
     if (m.is_fixed(i) && (u.segment<3>(3 * i).norm() > 0 || v.segment<3>(3 * i).norm() > 0))
       throw InputError("simulation: clamped node " + std::to_string(i) + " must start at rest");
+}
+
+void ImplicitEuler::set_state(const Vector& u, const Vector& v) {
+  const ElasticityModel& m = h_.finest();
+  check_state(m, u, v);
   u_ = u;
   v_ = v;
   state_.valid = false;

@@ -69,6 +69,23 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
   write_file_atomically(path, out.str());
 }
 
+void write_pvtu(const std::string& path, const std::vector<std::string>& pieces, bool with_displacement) {
+  if (pieces.empty()) throw InputError("VTK output: a .pvtu needs at least one piece");
+  std::ostringstream out;
+  out << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n";
+  if (with_displacement)
+    out << "<PPointData Vectors=\"displacement\">\n"
+        << "<PDataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\"/>\n</PPointData>\n";
+  out << "<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n"
+      << "<PCells>\n<PDataArray type=\"Int64\" Name=\"connectivity\"/>\n"
+      << "<PDataArray type=\"Int64\" Name=\"offsets\"/>\n<PDataArray type=\"UInt8\" Name=\"types\"/>\n</PCells>\n";
+  for (const std::string& piece : pieces) out << "<Piece Source=\"" << piece << "\"/>\n";
+  out << "</PUnstructuredGrid>\n</VTKFile>\n";
+  write_file_atomically(path, out.str());
+}
+
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames) {
   std::ostringstream out;
   out.precision(17);

@@ -1,8 +1,13 @@
 #include "pmg/sim/run.hpp"
 
 #include "pmg/fem/vtk_writer.hpp"
+#include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/timer.hpp"
+#ifdef PMG_HAVE_DISTRIBUTED
+#include "pmg/distributed/dynamics.hpp"
+#endif
 
 #include <sys/stat.h>
 
@@ -23,44 +28,173 @@ void make_dir(const std::string& dir) {
     throw InputError("output.directory: cannot create '" + dir + "'");
 }
 
-std::string frame_name(int step) {
+std::string frame_stem(int step) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "frame_%06d.vtu", step);
+  std::snprintf(buf, sizeof buf, "frame_%06d", step);
   return buf;
 }
 
 }  // namespace
 
+namespace detail {
+
+/// What the time loop needs of a stepper: fem::ImplicitEuler in this process, or
+/// dist::DistributedEuler across the ranks of the job.
+class Stepper {
+ public:
+  virtual ~Stepper() = default;
+  virtual fem::StepStats step() = 0;
+  virtual double time() const = 0;
+  virtual int steps() const = 0;
+  virtual double kinetic_energy() const = 0;
+  virtual double elastic_energy() const = 0;
+  virtual double external_work() const = 0;
+  /// The probe's displacement in the current state.
+  virtual fem::Vec3 probe() const = 0;
+  /// Writes the current state as `directory/stem` + an extension; returns the file the .pvd names.
+  virtual std::string write_frame(const std::string& directory, const std::string& stem) const = 0;
+  /// This process writes the run's own files (steps.csv, simulation.pvd).
+  virtual bool writes_run_files() const { return true; }
+  /// Whether the run stops, from this process's stop flag (every rank must decide alike).
+  virtual bool stop(bool requested_here) const { return requested_here; }
+};
+
+namespace {
+
+class SerialStepper final : public Stepper {
+ public:
+  SerialStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, const Vector& u0,
+                const Vector& v0, std::string& method, std::string& settings)
+      : setup_(setup) {
+    solver_ = make_step_solver(scene, *setup.hierarchy, method, settings, setup.notes);
+    sim_ = std::make_unique<fem::ImplicitEuler>(*setup.hierarchy, *solver_, setup.f_ext, sp);
+    sim_->set_state(u0, v0);
+  }
+  fem::StepStats step() override { return sim_->step(); }
+  double time() const override { return sim_->time(); }
+  int steps() const override { return sim_->steps(); }
+  double kinetic_energy() const override { return sim_->kinetic_energy(); }
+  double elastic_energy() const override { return sim_->elastic_energy(); }
+  double external_work() const override { return sim_->external_work(); }
+  fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
+  std::string write_frame(const std::string& directory, const std::string& stem) const override {
+    fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement());
+    return stem + ".vtu";
+  }
+  SolverNeeds needs() const { return solver_->needs(); }
+  std::string solver_name() const { return solver_->name(); }
+
+ private:
+  SceneSetup& setup_;
+  std::unique_ptr<Solver> solver_;
+  std::unique_ptr<fem::ImplicitEuler> sim_;
+};
+
+#ifdef PMG_HAVE_DISTRIBUTED
+class RankStepper final : public Stepper {
+ public:
+  RankStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, const Vector& u0,
+              const Vector& v0, std::string& settings) {
+    Config c = scene.solver.clone();
+    c.set_default("rhs_floor", "1e-12");  // warm-started steps end at once within rounding
+    const double start = start_libraries(c);
+    if (start >= 0) {
+      char text[64];
+      std::snprintf(text, sizeof text, "MPI (and PETSc) start-up: %.3f s", start);
+      setup.notes.push_back(text);
+    }
+    settings = c.to_string();
+    sim_ = std::make_unique<dist::DistributedEuler>(*setup.hierarchy, setup.f_ext, sp,
+                                                    read_params<dist::DistributedMgpcgParams>(c));
+    sim_->set_state(u0, v0);
+    // A vertex probe becomes a corner of an element holding it: the value there is the vertex's.
+    const Probe& p = setup.probe;
+    element_ = p.element, barycentric_ = p.barycentric;
+    if (p.vertex >= 0) {
+      const fem::TetMesh& mesh = *setup.mesh;
+      for (index_t e = 0; e < mesh.num_tets() && element_ < 0; ++e)
+        for (int k = 0; k < 4; ++k)
+          if (mesh.tets[e][k] == p.vertex) element_ = e, barycentric_ = Eigen::Vector4d::Unit(k);
+    }
+    const int ranks = sim_->ranks().size();
+    setup.notes.push_back("ranks: " + std::to_string(ranks) + "; each steps its own elements (rotations, forces, "
+                          "energies; degrees >= 2 matrix-free, the linear level assembled per step) and writes "
+                          "its own piece of each frame (.pvtu)");
+  }
+  fem::StepStats step() override { return sim_->step(); }
+  double time() const override { return sim_->time(); }
+  int steps() const override { return sim_->steps(); }
+  double kinetic_energy() const override { return sim_->kinetic_energy(); }
+  double elastic_energy() const override { return sim_->elastic_energy(); }
+  double external_work() const override { return sim_->external_work(); }
+  fem::Vec3 probe() const override { return sim_->displacement_at(element_, barycentric_); }
+  std::string write_frame(const std::string& directory, const std::string& stem) const override {
+    return sim_->write_frame(directory, stem);
+  }
+  bool writes_run_files() const override { return sim_->ranks().rank() == 0; }
+  bool stop(bool requested_here) const override { return sim_->any_rank(requested_here); }
+
+ private:
+  std::unique_ptr<dist::DistributedEuler> sim_;
+  index_t element_ = -1;
+  Eigen::Vector4d barycentric_ = Eigen::Vector4d::Zero();
+};
+#endif
+
+}  // namespace
+}  // namespace detail
+
+bool runs_across_ranks(const Scene& scene) {
+#ifdef PMG_HAVE_DISTRIBUTED
+  return scene.dynamic && scene.degree >= 2 && scene.solver.get_string("method", "pmg") == "petsc-mgpcg";
+#else
+  (void)scene;
+  return false;
+#endif
+}
+
 DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string& output_dir)
     : scene_(scene), setup_(setup), output_(output_dir) {
   if (!scene.dynamic) throw InputError("DynamicRun: the scene is static (time: \"static\")");
   const auto [u0, v0] = initial_state(scene, setup);
-  solver_ = make_step_solver(scene, *setup.hierarchy, method_, settings_, setup.notes);
   fem::SimulationParams sp;
   sp.dt = scene.dt;
   sp.rayleigh_alpha = scene.rayleigh_alpha;
   sp.rayleigh_beta = scene.rayleigh_beta;
   sp.corotational = scene.corotational;
-  sim_ = std::make_unique<fem::ImplicitEuler>(*setup.hierarchy, *solver_, setup.f_ext, sp);
-  sim_->set_state(u0, v0);
+  SolverNeeds needs{true, false};  // across ranks: the notes of RankStepper say what is built
+  std::string solver_name = "petsc-mgpcg";
+#ifdef PMG_HAVE_DISTRIBUTED
+  if (runs_across_ranks(scene)) {
+    method_ = "petsc-mgpcg";
+    stepper_ = std::make_unique<detail::RankStepper>(scene, setup, sp, u0, v0, settings_);
+  }
+#endif
+  if (!stepper_) {
+    auto serial = std::make_unique<detail::SerialStepper>(scene, setup, sp, u0, v0, method_, settings_);
+    needs = serial->needs();
+    solver_name = serial->solver_name();
+    stepper_ = std::move(serial);
+  }
   steps_ = static_cast<int>(std::llround(scene.duration / scene.dt));
   auto& notes = setup.notes;
   if (!scene.corotational)
     notes.push_back("rotations: skipped (linear material); matrices assembled and factorised once");
-  const SolverNeeds needs = solver_->needs();
   if (needs.matrix_free)
     notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
                     "rotations); the linear level assembled and its solver set up per step");
   if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
-    notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
+    notes.push_back("lower degrees: not assembled (" + solver_name + " needs only the finest level)");
   if (!scene.energy) notes.push_back("energies: not recorded (output.energy false)");
   if (output_.empty()) notes.push_back("output: nothing written (no output.directory)");
 }
 
+DynamicRun::~DynamicRun() = default;
+
 RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
-  fem::ImplicitEuler& sim = *sim_;
-  const fem::ElasticityModel& m = setup_.finest();
+  detail::Stepper& sim = *stepper_;
   const bool frames = !output_.empty() && scene_.frame_every > 0;
+  const bool run_files = !output_.empty() && sim.writes_run_files();
   if (!output_.empty()) make_dir(output_);
   RunSummary r;
   r.steps_planned = steps_;
@@ -75,12 +209,11 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   auto write_outputs = [&](bool frame) {
     const auto t0 = Clock::now();
     if (frame && frames) {
-      const std::string name = frame_name(sim.steps());
-      fem::write_vtu(output_ + "/" + name, m.space(), sim.displacement());  // complete once renamed
+      const std::string name = sim.write_frame(output_, frame_stem(sim.steps()));  // complete once renamed
       pvd.emplace_back(sim.time(), name);
-      fem::write_pvd(output_ + "/simulation.pvd", pvd);
+      if (run_files) fem::write_pvd(output_ + "/simulation.pvd", pvd);
     }
-    if (!output_.empty()) write_file_atomically(output_ + "/steps.csv", csv.str());
+    if (run_files) write_file_atomically(output_ + "/steps.csv", csv.str());
     r.output_s += seconds_since(t0);
   };
   // The elastic energy comes from the pass over the elements the next step reuses: free.
@@ -94,7 +227,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   energies(kin, el, r.energy_initial);
   double E_prev = r.energy_initial;
   r.energy_peak = r.energy_initial;
-  const fem::Vec3 d0 = setup_.probe.displacement(m, sim.displacement());
+  const fem::Vec3 d0 = sim.probe();
   r.probe_z_min = r.probe_z_max = d0.z();
   // Each state is kept as a record and written as its steps.csv line, from the same fields.
   auto record = [&](const StepRecord& rec) {
@@ -122,7 +255,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     r.iterations += st.iterations;
     r.max_iterations = std::max(r.max_iterations, st.iterations);
     r.max_residual = std::max(r.max_residual, st.residual);
-    const fem::Vec3 d = setup_.probe.displacement(m, sim.displacement());
+    const fem::Vec3 d = sim.probe();
     r.probe_z_min = std::min(r.probe_z_min, d.z()), r.probe_z_max = std::max(r.probe_z_max, d.z());
     double tot = std::nan("");
     kin = el = std::nan("");
@@ -135,7 +268,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     record({n, st.time, d, kin, el, tot, st.iterations, st.rel_residual, st.residual, st.seconds});
     if (frames && (n % scene_.frame_every == 0 || n == steps_)) write_outputs(true);
     if (progress) progress(n, st.time);
-    if (stop_ && *stop_ && n < steps_) {
+    if (sim.stop(stop_ && *stop_) && n < steps_) {
       r.interrupted = true;
       if (frames && n % scene_.frame_every != 0) write_outputs(true);  // the last finished step
       break;
@@ -145,9 +278,9 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   if (!output_.empty()) write_outputs(false);
   r.steps_done = sim.steps();
   r.energy_final = E_prev;
-  r.probe = setup_.probe.displacement(m, sim.displacement());
+  r.probe = sim.probe();
   r.frames = static_cast<int>(pvd.size());
-  if (!output_.empty()) {
+  if (run_files) {
     r.outputs.push_back(output_ + "/steps.csv");
     if (frames) r.outputs.push_back(output_ + "/simulation.pvd");
   }

@@ -1,13 +1,15 @@
 // The p-multigrid across MPI ranks (pmg::distributed on PETSc) against the serial pmgkit: the
 // operator products, transfers and lowest-level matrix equal the serial ones, the solutions equal
 // the serial MGPCG's, the iteration counts equal the one-rank run's within one, and bad input is a
-// clear error on every rank. The same executable runs on 1 rank (ctest's plain run) and under
+// clear error on every rank; the time step across ranks follows the serial implicit Euler. The same executable runs on 1 rank (ctest's plain run) and under
 // mpirun -np 2, 3 and 4 (oversubscribed on these 2-core machines).
+#include "pmg/distributed/dynamics.hpp"
 #include "pmg/distributed/mgpcg.hpp"
 #include "pmg/distributed/rank_hierarchy.hpp"
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/mesh_io.hpp"
+#include "pmg/fem/simulation.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/sparse/factory.hpp"
 
@@ -265,5 +267,73 @@ TEST_CASE("bad input is one clear error on every rank", "[distributed]") {
     s.setup(bar.h.prepare(s.needs(), nullptr));
     Vector x;
     CHECK_THROWS_AS(s.solve(bar.b, x), SolveError);
+  }
+}
+
+TEST_CASE("the time step across ranks follows the serial implicit Euler", "[distributed][simulation]") {
+  const bool corotational = GENERATE(true, false);
+  CAPTURE(corotational);
+  Bar bar(2);
+  const Vector f = bar.h.finest().gravity(Vec3(0, 0, -9.81));
+  SimulationParams sp;
+  sp.dt = 0.01;
+  sp.corotational = corotational;
+  sp.rayleigh_alpha = 0.5;
+  // A start away from rest: a bent state moving, so that rotations and both energies matter.
+  const ElasticityModel& m = bar.h.finest();
+  Vector u0 = m.interpolate([](const Vec3& X) { return Vec3(0.0, 0.05 * X.x() * X.x(), -0.1 * X.x() * X.x()); });
+  Vector v0 = m.interpolate([](const Vec3& X) { return Vec3(0.0, 0.0, 0.3 * X.x()); });
+  for (index_t i = 0; i < m.num_nodes(); ++i)
+    if (m.is_fixed(i)) u0.segment<3>(3 * i).setZero(), v0.segment<3>(3 * i).setZero();
+
+  DegreeHierarchy serial_h(bar.mesh, 2, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; });
+  auto solver = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-12", "rhs_floor=1e-14", "lowest_level=cholmod"}, "test"),
+                            SolverContext{&serial_h, nullptr});
+  ImplicitEuler serial(serial_h, *solver, f, sp);
+  serial.set_state(u0, v0);
+  dist::DistributedMgpcgParams params;
+  params.tol = 1e-12;
+  params.rhs_floor = 1e-14;
+  dist::DistributedEuler across(bar.h, f, sp, params);
+  across.set_state(u0, v0);
+  // The probe: the far corner's element at its centre.
+  const index_t probe_element = bar.mesh.num_tets() - 1;
+  const Eigen::Vector4d centre = Eigen::Vector4d::Constant(0.25);
+  for (int n = 1; n <= 6; ++n) {
+    CAPTURE(n);
+    const StepStats a = serial.step(), b = across.step();
+    CHECK(b.step == n);
+    CHECK(b.time == Approx(a.time));
+    CHECK(b.residual <= 2e-12);
+    const Vector u = across.gather_displacement();
+    REQUIRE(u.size() == serial.displacement().size());
+    CHECK(relative(u, serial.displacement()) <= 1e-8);
+    CHECK(across.kinetic_energy() == Approx(serial.kinetic_energy()).epsilon(1e-8));
+    CHECK(across.elastic_energy() == Approx(serial.elastic_energy()).epsilon(1e-8));
+    CHECK(across.external_work() == Approx(serial.external_work()).epsilon(1e-8));
+    const Vec3 p = across.displacement_at(probe_element, centre);
+    CHECK((p - m.displacement_at(serial.displacement(), probe_element, centre)).norm() <= 1e-8 * p.norm());
+  }
+  CHECK(across.steps() == 6);
+  CHECK_THROWS_AS(across.displacement_at(-1, centre), InputError);
+}
+
+TEST_CASE("the time step across ranks refuses what the serial one refuses, on every rank", "[distributed][simulation]") {
+  Bar bar(2);
+  const Vector f = bar.h.finest().gravity(Vec3(0, 0, -9.81));
+  SimulationParams bad_dt;
+  bad_dt.dt = -1.0;
+  CHECK_THROWS_WITH(dist::DistributedEuler(bar.h, f, bad_dt), Catch::Contains("time step must be positive"));
+  CHECK_THROWS_WITH(dist::DistributedEuler(bar.h, Vector::Ones(3), SimulationParams{}), Catch::Contains("external force"));
+  dist::DistributedEuler across(bar.h, f, SimulationParams{});
+  Vector u = Vector::Zero(bar.h.finest().num_dofs());
+  u[0] = std::nan("");
+  CHECK_THROWS_WITH(across.set_state(u, Vector::Zero(u.size())), Catch::Contains("not finite"));
+  SECTION("a step whose solve cannot converge fails on every rank, naming the step") {
+    dist::DistributedMgpcgParams params;
+    params.max_iterations = 1;
+    params.tol = 1e-14;
+    dist::DistributedEuler failing(bar.h, f, SimulationParams{}, params);
+    CHECK_THROWS_WITH(failing.step(), Catch::Contains("step 1") && Catch::Contains("petsc-mgpcg failed"));
   }
 }

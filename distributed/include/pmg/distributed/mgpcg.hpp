@@ -18,6 +18,7 @@
 
 namespace pmg::petsc {
 class PMultigridCg;
+struct PcmgParams;
 }
 
 namespace pmg::dist {
@@ -35,6 +36,9 @@ struct DistributedMgpcgParams {
   /// options.
   void visit(ParamVisitor& v);
 };
+
+/// The PETSc solver's options from petsc-mgpcg's (the keys map one to one).
+petsc::PcmgParams to_pcmg(const DistributedMgpcgParams& params);
 
 /// petsc-mgpcg as a Solver over the serial vectors of a DegreeHierarchy (see the file comment).
 class DistributedMgpcg final : public Solver {

@@ -80,6 +80,13 @@ class RankHierarchy {
   /// The serial vector from every rank's owned unknowns (collective; every rank gets all of it).
   Vector gather(int level, const Vector& owned) const;
 
+  /// The rank's full vector of a level (3 per node of the rank's sub-mesh space, fixed nodes
+  /// included) from the serial hierarchy's full vector of that level: the state every rank holds
+  /// at the start, put on the rank's elements.
+  Vector local_part(const fem::DegreeHierarchy& serial, int level, const Vector& serial_full) const;
+  /// The rank's index of a serial element, -1 when another rank holds it.
+  index_t local_element(index_t serial_element) const;
+
   /// Brings the rank's levels to the serial finest level's last rotations and weights
   /// (DegreeHierarchy::last_rotations(), last_weights()): the matrix-free operators above the
   /// lowest level updated, the lowest level assembled. A time step's per-rank work.

@@ -60,6 +60,13 @@ StepWeights step_weights(const SimulationParams& p);
 /// with (Δt β + Δt²) max(E, 1) = 1e300. Scenes and the ImplicitEuler constructor refuse larger ones.
 double max_time_step(double young, double rayleigh_beta = 0.0);
 
+/// The checks of a time-stepping set-up, for ImplicitEuler and any other stepper of the same
+/// equation: f_ext has the model's full size, Δt > 0 and below max_time_step(), damping >= 0 and
+/// finite, density > 0. Throws InputError naming what is wrong.
+void check_simulation(const ElasticityModel& m, const Vector& f_ext, const SimulationParams& p);
+/// The checks of an initial state: full vectors of the model's size, finite, clamped nodes at
+/// rest. Throws InputError naming what is wrong.
+void check_state(const ElasticityModel& m, const Vector& u, const Vector& v);
 /// The stages of a step, timed separately.
 enum Stage { kRotations, kAssembly, kHierarchy, kForces, kSolve, kNumStages };
 /// Display name of a Stage ("rotations", "finest matrix", ...); stage must be below kNumStages.

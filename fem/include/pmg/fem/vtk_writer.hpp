@@ -30,6 +30,10 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
 /// vtk_point i is local node vtk_to_local(p)[i].
 const std::vector<int>& vtk_to_local(int p);
 
+/// Writes a parallel unstructured grid (.pvtu, ParaView's convention for a mesh written in pieces,
+/// one per MPI rank) naming `pieces`: .vtu files from write_vtu(), relative to the .pvtu's folder.
+/// with_displacement: the pieces carry the displacement field.
+void write_pvtu(const std::string& path, const std::vector<std::string>& pieces, bool with_displacement);
 /// Writes a ParaView collection (.pvd) of (time, file) frames.
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
 

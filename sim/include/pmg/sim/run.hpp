@@ -1,7 +1,9 @@
 // pmg/sim/run.hpp — running a scene: the time loop of implicit Euler with the scene's outputs
 // (steps.csv, .vtu frames, simulation.pvd, each written to a temporary name and renamed), the
 // energies and the probe per step, and a summary of every figure `pmg simulate` reports; or the
-// static solve of a static scene.
+// static solve of a static scene. With the method petsc-mgpcg under mpirun the steps run across
+// the ranks (pmg/distributed/dynamics.hpp): each frame is a .pvtu with one .vtu piece per rank,
+// and rank 0 writes steps.csv and simulation.pvd.
 //
 //   pmg::sim::SceneSetup setup = pmg::sim::set_up(scene);
 //   pmg::sim::DynamicRun run(scene, setup, "out");
@@ -21,6 +23,16 @@
 #include <vector>
 
 namespace pmg::sim {
+
+namespace detail {
+class Stepper;
+}
+
+/// True when a dynamic scene's steps run across the MPI ranks of the job (method petsc-mgpcg, a
+/// degree >= 2, a build with the distributed library): every rank steps its own elements and
+/// writes its own piece of each frame, rank 0 the rest. Otherwise every rank that runs the scene
+/// runs all of it, and only one should be given an output directory.
+bool runs_across_ranks(const Scene& scene);
 
 /// One row of steps.csv: the state after a step (step 0: the initial state).
 struct StepRecord {
@@ -88,6 +100,7 @@ class DynamicRun {
   /// nothing is written. setup.notes gains what the run does once or skips. Throws InputError for
   /// a static scene.
   DynamicRun(const Scene& scene, SceneSetup& setup, const std::string& output_dir);
+  ~DynamicRun();
   /// The step solver's options as `key=value` pairs (Config::to_string()).
   const std::string& solver_settings() const { return settings_; }
   /// The solver's method ("pmg", "cg", …; "cholmod" for degree 1 with a multigrid method).
@@ -106,8 +119,7 @@ class DynamicRun {
   const Scene& scene_;
   SceneSetup& setup_;
   std::string output_, method_, settings_;
-  std::unique_ptr<Solver> solver_;
-  std::unique_ptr<fem::ImplicitEuler> sim_;
+  std::unique_ptr<detail::Stepper> stepper_;
   int steps_ = 0;
   const volatile std::sig_atomic_t* stop_ = nullptr;
 };

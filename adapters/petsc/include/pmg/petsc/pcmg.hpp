@@ -82,6 +82,34 @@ struct PcmgParams {
   std::string options;
 };
 
+/// The ghost exchange of one level's numbering (see the file comment): owned unknowns in global
+/// order on one side, the rank's local nodes (owned and ghost, 3 unknowns each) on the other. It is
+/// the scatter of the shell products, for a caller's own vectors: a state gathered onto the rank's
+/// elements, element forces summed into their owners. Every call is collective.
+class GhostExchange {
+ public:
+  /// Over the ranks of comm: the rank owns global nodes [first, first + owned) and sees the
+  /// global nodes `global` (its local nodes, in its order). Throws InputError when owned exceeds
+  /// the local nodes, Error with PETSc's message when PETSc fails.
+  GhostExchange(MPI_Comm comm, index_t first, index_t owned, const std::vector<index_t>& global);
+  ~GhostExchange();
+  GhostExchange(const GhostExchange&) = delete;
+  GhostExchange& operator=(const GhostExchange&) = delete;
+  /// local = the owners' values of the rank's local nodes (3 per local node).
+  void to_local(const Vector& owned, Vector& local) const;
+  /// owned = Σ over the ranks of their local values, each added into its node's owner.
+  void add_to_owners(const Vector& local, Vector& owned) const;
+  /// Owned unknowns (3 per owned node).
+  index_t owned_size() const { return 3 * owned_; }
+  /// Local unknowns (3 per local node).
+  index_t local_size() const { return 3 * local_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  index_t owned_ = 0, local_ = 0;
+};
+
 /// CG + PCMG over the levels of one rank's share of a distributed hierarchy (see the file
 /// comment).
 class PMultigridCg {

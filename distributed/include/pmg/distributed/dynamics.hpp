@@ -1,0 +1,112 @@
+// pmg/distributed/dynamics.hpp — the implicit-Euler time step of pmg/fem/simulation.hpp across MPI
+// ranks: each rank computes the rotations, elastic forces and energy of its own elements only,
+// keeps the velocity and displacement of its owned nodes, and solves the step system with the
+// p-multigrid on PETSc (pmg/petsc/pcmg.hpp). The step equation is fem::ImplicitEuler's:
+//
+//   (m M + s K_R) v⁺ = M v + Δt (f_ext + f_el(x)),   x⁺ = x + Δt v⁺,   f_el = Σ_ranks Gᵀ f_el,rank,
+//
+// where G gathers a rank's local nodes (owned and ghost) from their owners (a PETSc scatter,
+// petsc::GhostExchange) and Gᵀ adds the rank's element contributions back into the owners. Per
+// step: one gather of the velocity (which also advances the rank's copy of the state on its ghost
+// nodes), one reverse add of the force and one of M v, the solve's own exchanges, and a few
+// reductions (energies, norms, the probe).
+//
+// Sums over elements are sums over ranks of sums over the rank's elements, so the energies are
+// reductions of per-rank sums: ½ vᵀ M v = Σ_ranks ½ (G v)ᵀ M_rank (G v), the elastic energy the same.
+// A probe point belongs to the rank holding its element. Frames are ParaView's parallel
+// convention: one .vtu piece per rank (its elements, its local state) and one .pvtu naming them.
+//
+// The set-up is replicated (every rank holds the serial hierarchy, from which RankHierarchy takes
+// its share, and the initial state as serial vectors); from the first step on, each rank touches
+// only its own elements and nodes. Every member function is collective over the communicator.
+#pragma once
+
+#include "pmg/distributed/mgpcg.hpp"
+#include "pmg/distributed/rank_hierarchy.hpp"
+#include "pmg/fem/simulation.hpp"
+
+#include <array>
+#include <memory>
+#include <string>
+
+namespace pmg::petsc {
+class GhostExchange;
+class PMultigridCg;
+}  // namespace pmg::petsc
+
+namespace pmg::dist {
+
+/// Implicit Euler for (corotational) elasticity across MPI ranks (see the file comment).
+class DistributedEuler {
+ public:
+  /// Partitions `serial` over comm's ranks (RankHierarchy) and checks the parameters as
+  /// fem::ImplicitEuler does. f_ext: the serial full external force (constant in time). `serial`
+  /// must outlive the object. Throws InputError for parameters ImplicitEuler refuses.
+  DistributedEuler(const fem::DegreeHierarchy& serial, const Vector& f_ext, const fem::SimulationParams& p,
+                   DistributedMgpcgParams solver = {}, MPI_Comm comm = MPI_COMM_WORLD);
+  ~DistributedEuler();
+  DistributedEuler(const DistributedEuler&) = delete;
+  DistributedEuler& operator=(const DistributedEuler&) = delete;
+
+  /// The state from serial full vectors (every rank gives the same; clamped nodes at rest).
+  void set_state(const Vector& u, const Vector& v);
+  /// One step (see the file comment). Throws SolveError naming the step when the solve fails and
+  /// pmg::Error when the velocity turns non-finite on any rank (every rank throws).
+  fem::StepStats step();
+  /// Simulated time in seconds.
+  double time() const { return t_; }
+  /// Steps done.
+  int steps() const { return step_; }
+  /// ½ vᵀ M v over every rank.
+  double kinetic_energy() const;
+  /// The elastic energy of the state over every rank (from the pass the next step reuses).
+  double elastic_energy() const;
+  /// f_extᵀ u over every rank.
+  double external_work() const;
+  /// The displacement at a point of a serial element given by barycentric coordinates; every rank
+  /// gets it.
+  fem::Vec3 displacement_at(index_t serial_element, const Eigen::Vector4d& barycentric) const;
+  /// The serial full displacement (every rank gets all of it: for checks, not per step).
+  Vector gather_displacement() const;
+  /// Writes `directory/stem_<rank>.vtu` on every rank (the rank's elements and state), then on
+  /// rank 0 `directory/stem.pvtu` naming the pieces; each file atomically, the .pvtu after every
+  /// piece is complete. Returns "stem.pvtu".
+  std::string write_frame(const std::string& directory, const std::string& stem) const;
+  /// True on every rank when `mine` is true on any (a stop request every rank must follow).
+  bool any_rank(bool mine) const;
+  /// The rank's share of the hierarchy.
+  const RankHierarchy& ranks() const { return *ranks_; }
+  /// The PETSc solver (set up at the first step).
+  const petsc::PMultigridCg& solver() const { return *solver_; }
+  /// A description of the solver after the first step (levels, smoother, ghosts per rank).
+  std::string describe() const;
+
+ private:
+  void evaluate_state() const;
+  double sum(double mine) const;
+
+  const fem::DegreeHierarchy& serial_;
+  fem::SimulationParams p_;
+  MPI_Comm comm_;
+  std::unique_ptr<RankHierarchy> ranks_;
+  std::unique_ptr<petsc::GhostExchange> ghosts_;
+  std::unique_ptr<petsc::PMultigridCg> solver_;
+  std::unique_ptr<fem::ElasticityOperator> mass_;  // the rank's consistent mass (weights 1, 0)
+  bool set_up_ = false;
+  Vector f_ext_owned_;
+  Vector u_owned_, v_owned_;  // owned unknowns, global order
+  Vector u_local_;            // the rank's full vector (its sub-mesh's nodes, fixed ones zero)
+  Vector v_local_;            // the rank's free local unknowns
+  double t_ = 0.0;
+  int step_ = 0;
+  struct StateTerms {
+    bool valid = false;
+    fem::Rotations R;
+    Vector force_owned;
+    double energy = 0.0;
+    std::array<double, fem::kNumStages> seconds{};
+  };
+  mutable StateTerms state_;
+};
+
+}  // namespace pmg::dist

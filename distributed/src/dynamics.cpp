@@ -1,0 +1,224 @@
+// Implicit Euler across MPI ranks (pmg/distributed/dynamics.hpp).
+#include "pmg/distributed/dynamics.hpp"
+
+#include "pmg/fem/vtk_writer.hpp"
+#include "pmg/mpi/session.hpp"
+#include "pmg/petsc/pcmg.hpp"
+#include "pmg/sparse/timer.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+namespace pmg::dist {
+
+namespace {
+
+/// Every rank learns whether any rank failed; the ranks that did not fail throw the same kind of
+/// error naming the failed rank, so that no rank waits in a collective call for one that left.
+void agree(MPI_Comm comm, const std::string& error, const std::string& what) {
+  int rank = 0, failed = error.empty() ? -1 : 0, first = -1;
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Comm_rank(comm, &rank);
+    if (failed == 0) failed = rank;
+    int mine = failed < 0 ? INT32_MAX : failed, lowest = INT32_MAX;
+    MPI_Allreduce(&mine, &lowest, 1, MPI_INT, MPI_MIN, comm);
+    first = lowest == INT32_MAX ? -1 : lowest;
+  }
+  if (!error.empty()) throw Error(what + ": " + error);
+  if (first >= 0) throw Error(what + ": failed on rank " + std::to_string(first));
+}
+
+}  // namespace
+
+DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vector& f_ext,
+                                   const fem::SimulationParams& p, DistributedMgpcgParams solver, MPI_Comm comm)
+    : serial_(serial), p_(p), comm_(comm) {
+  const fem::ElasticityModel& m = serial.finest();
+  fem::check_simulation(m, f_ext, p);
+  if (serial.num_levels() < 2)
+    throw InputError("distributed time step: needs at least two levels (an FEM scene of degree >= 2)");
+  ranks_ = std::make_unique<RankHierarchy>(serial, comm);
+  const int top = ranks_->num_levels() - 1;
+  ghosts_ = std::make_unique<petsc::GhostExchange>(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
+  f_ext_owned_ = ranks_->owned_part(top, m.restrict_to_free(f_ext));
+  mass_ = std::make_unique<fem::ElasticityOperator>(ranks_->local().finest());
+  mass_->set_weights(1.0, 0.0);
+  solver_ = std::make_unique<petsc::PMultigridCg>(comm, to_pcmg(solver));
+  set_state(Vector::Zero(m.num_dofs()), Vector::Zero(m.num_dofs()));
+}
+
+DistributedEuler::~DistributedEuler() = default;
+
+double DistributedEuler::sum(double mine) const {
+  double all = 0.0;
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Allreduce(&mine, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  return all;
+}
+
+bool DistributedEuler::any_rank(bool mine) const {
+  int flag = mine ? 1 : 0, any = 0;
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Allreduce(&flag, &any, 1, MPI_INT, MPI_MAX, comm_);
+  return any != 0;
+}
+
+void DistributedEuler::set_state(const Vector& u, const Vector& v) {
+  const fem::ElasticityModel& m = serial_.finest();
+  fem::check_state(m, u, v);
+  const int top = ranks_->num_levels() - 1;
+  const fem::ElasticityModel& local = ranks_->local().finest();
+  u_local_ = ranks_->local_part(serial_, top, u);
+  v_local_ = local.restrict_to_free(ranks_->local_part(serial_, top, v));
+  u_owned_ = ranks_->owned_part(top, m.restrict_to_free(u));
+  v_owned_ = ranks_->owned_part(top, m.restrict_to_free(v));
+  state_.valid = false;
+}
+
+void DistributedEuler::evaluate_state() const {
+  if (state_.valid) return;
+  state_.seconds = {};
+  fem::DegreeHierarchy& local = ranks_->local();
+  const int top = local.num_levels() - 1;
+  const fem::StepWeights w = fem::step_weights(p_);
+  auto t0 = Clock::now();
+  if (p_.corotational) {
+    state_.R = local.finest().rotations(u_local_);
+    state_.seconds[fem::kRotations] = seconds_since(t0);
+  }
+  const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
+  t0 = Clock::now();
+  if (p_.corotational || !set_up_) {  // linear material: the operators are final after the first step
+    local.update_matrix_free(top, R, w.mass, w.stiffness);
+    state_.seconds[fem::kAssembly] = seconds_since(t0);
+  }
+  t0 = Clock::now();
+  Vector force;
+  double energy = 0.0;
+  local.matrix_free(top).element_force(u_local_, R, force, &energy);
+  ghosts_->add_to_owners(local.finest().restrict_to_free(force), state_.force_owned);
+  state_.energy = sum(energy);
+  state_.seconds[fem::kForces] = seconds_since(t0);
+  state_.valid = true;
+}
+
+fem::StepStats DistributedEuler::step() {
+  evaluate_state();
+  fem::StepStats st;
+  st.seconds = state_.seconds;
+  fem::DegreeHierarchy& local = ranks_->local();
+  const int top = local.num_levels() - 1;
+  const fem::StepWeights w = fem::step_weights(p_);
+  if (p_.corotational || !set_up_) {
+    // The lower degrees get the same rotations and weights; the lowest level is assembled.
+    const auto t0 = Clock::now();
+    const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
+    for (int l = 1; l < top; ++l) local.update_matrix_free(l, R, w.mass, w.stiffness);
+    local.assemble_level(0, R, nullptr, w.mass, w.stiffness);
+    if (set_up_) {
+      solver_->refresh();
+    } else {
+      solver_->setup(ranks_->rank_levels());
+      set_up_ = true;
+    }
+    st.seconds[fem::kHierarchy] = seconds_since(t0);
+  }
+  // b = M v + Δt (f_ext + f_el(x)) on the owned unknowns.
+  auto t0 = Clock::now();
+  Vector mv_local(mass_->rows()), b;
+  mass_->apply(v_local_, mv_local);
+  ghosts_->add_to_owners(mv_local, b);
+  b += p_.dt * (f_ext_owned_ + state_.force_owned);
+  st.seconds[fem::kForces] += seconds_since(t0);
+
+  // The warm start is kept only where it beats zero (fem::ImplicitEuler::step()).
+  t0 = Clock::now();
+  const double bn = std::sqrt(sum(b.squaredNorm()));
+  Vector av;
+  solver_->multiply(top, v_owned_, av);
+  if (std::sqrt(sum((b - av).squaredNorm())) > bn) v_owned_.setZero();
+  const SolveResult res = solver_->solve(b, v_owned_);
+  if (!res.ok()) {
+    SolveResult r = res;
+    r.message = "step " + std::to_string(step_ + 1) + " (t = " + std::to_string(t_ + p_.dt) +
+                " s): petsc-mgpcg failed: " + res.message;
+    throw SolveError(r);
+  }
+  st.seconds[fem::kSolve] = seconds_since(t0);
+  agree(comm_, v_owned_.allFinite() ? "" : "the velocity is not finite", "step " + std::to_string(step_ + 1));
+
+  ghosts_->to_local(v_owned_, v_local_);
+  u_local_ += p_.dt * local.finest().expand(v_local_, Vector());
+  u_owned_ += p_.dt * v_owned_;
+  state_.valid = false;
+  t_ += p_.dt;
+  ++step_;
+  st.step = step_;
+  st.time = t_;
+  st.iterations = res.iterations;
+  st.rel_residual = res.true_rel_residual;
+  const double rel = std::isfinite(res.true_rel_residual) ? res.true_rel_residual : res.rel_residual;
+  st.residual = bn > 0 ? rel * res.initial_residual / bn : 0.0;
+  return st;
+}
+
+double DistributedEuler::kinetic_energy() const {
+  Vector mv(mass_->rows());
+  mass_->apply(v_local_, mv);
+  return sum(0.5 * v_local_.dot(mv));
+}
+
+double DistributedEuler::elastic_energy() const {
+  evaluate_state();
+  return state_.energy;
+}
+
+double DistributedEuler::external_work() const { return sum(f_ext_owned_.dot(u_owned_)); }
+
+fem::Vec3 DistributedEuler::displacement_at(index_t serial_element, const Eigen::Vector4d& barycentric) const {
+  if (serial_element < 0 || serial_element >= serial_.finest().space().mesh().num_tets())
+    throw InputError("distributed time step: no element " + std::to_string(serial_element));
+  const index_t e = ranks_->local_element(serial_element);
+  fem::Vec3 mine = fem::Vec3::Zero(), all = fem::Vec3::Zero();
+  if (e >= 0) mine = ranks_->local().finest().displacement_at(u_local_, e, barycentric);
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Allreduce(mine.data(), all.data(), 3, MPI_DOUBLE, MPI_SUM, comm_);
+  return all;
+}
+
+Vector DistributedEuler::gather_displacement() const {
+  const int top = ranks_->num_levels() - 1;
+  return serial_.finest().expand(ranks_->gather(top, u_owned_), Vector());
+}
+
+std::string DistributedEuler::write_frame(const std::string& directory, const std::string& stem) const {
+  const int rank = ranks_->rank();
+  std::string error;
+  try {
+    fem::write_vtu(directory + "/" + stem + "_" + std::to_string(rank) + ".vtu", ranks_->local().finest().space(),
+                   u_local_);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  agree(comm_, error, "frame " + stem);  // the .pvtu names complete pieces only
+  if (rank == 0) {
+    try {
+      std::vector<std::string> pieces;
+      for (int r = 0; r < ranks_->size(); ++r) pieces.push_back(stem + "_" + std::to_string(r) + ".vtu");
+      fem::write_pvtu(directory + "/" + stem + ".pvtu", pieces, true);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  agree(comm_, error, "frame " + stem);
+  return stem + ".pvtu";
+}
+
+std::string DistributedEuler::describe() const {
+  return set_up_ ? solver_->describe() : "petsc-mgpcg (not set up: no step yet)";
+}
+
+}  // namespace pmg::dist
