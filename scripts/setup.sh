@@ -22,6 +22,7 @@ packages=(
   python3-dev pybind11-dev # the Python module pmgkit (python/)
   python3-numpy python3-scipy python3-pytest  # its arrays, SciPy matrices and its test suite
   python3-hypothesis       # property-based tests of the solver contract (tests/python/test_contract.py)
+  python3-mpi4py           # pmgkit on MPI communicators from Python (tests/python/mpi_ranks.py)
   doxygen                  # the API reference (target doc) and its check (every public API documented)
 )
 missing=()

@@ -130,7 +130,16 @@ void register_solvers() {
           if (!h)
             c.fail("method", "petsc-mgpcg needs an FEM scene (--box, --mesh or a scene file): it partitions "
                              "the mesh, which a matrix file does not have");
-          return std::make_unique<DistributedMgpcg>(*h, read_params<DistributedMgpcgParams>(c));
+          MPI_Comm comm = MPI_COMM_WORLD;
+          if (ctx.communicator >= 0) {
+            int initialized = 0;
+            MPI_Initialized(&initialized);
+            if (!initialized)
+              c.fail("method", "petsc-mgpcg: a communicator was given before MPI was started");
+            comm = MPI_Comm_f2c(static_cast<MPI_Fint>(ctx.communicator));
+            if (comm == MPI_COMM_NULL) c.fail("method", "petsc-mgpcg: the communicator is MPI_COMM_NULL");
+          }
+          return std::make_unique<DistributedMgpcg>(*h, read_params<DistributedMgpcgParams>(c), comm);
         });
   });
 }

@@ -295,8 +295,26 @@ def _hierarchy_prolongations(self):
     return [_to_scipy_csr(self.prolongation(l)) for l in range(1, self.num_levels)]
 
 
+def _hierarchy_solver(self, config=None, comm=None):
+    """A solver of the factory on this hierarchy's finest level (its free unknowns, as
+    restrict_to_free gives them), set up as `pmg compare` sets up an FEM scene: multigrid methods
+    take the hierarchy's degrees as their levels (default method mgpcg). With
+    {"method": "petsc-mgpcg"} the p-multigrid runs across the MPI ranks of `comm` (an mpi4py
+    communicator; None: MPI.COMM_WORLD): every rank of comm builds the same hierarchy, calls this
+    and solve() together, gives the same b and gets all of x."""
+    handle = -1
+    if comm is not None:
+        py2f = getattr(comm, "py2f", None)
+        if py2f is None:
+            raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
+        handle = int(py2f())
+    n = 3 * len(self.free_positions())
+    return Solver(_core.Solver(self, _config_text(config, "mgpcg"), handle), (n, n), keep=(self,))
+
+
 DegreeHierarchy.levels = _hierarchy_levels
 DegreeHierarchy.prolongations = _hierarchy_prolongations
+DegreeHierarchy.solver = _hierarchy_solver
 
 
 def simulate(scene, output_dir=""):

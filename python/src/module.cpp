@@ -116,6 +116,14 @@ py::array_t<T> view_vector(const std::vector<T>& v, py::handle base) {
 // ---- solvers -------------------------------------------------------------------------------------
 
 /// One solver from the factory on a user's matrix (or user levels), owning its operator.
+/// A degree hierarchy with the mesh it refers to; its solvers take `lock` while they build or
+/// solve (they share its operators).
+struct PyHierarchy {
+  std::shared_ptr<const fem::TetMesh> mesh;
+  std::unique_ptr<fem::DegreeHierarchy> h;
+  std::shared_ptr<std::mutex> lock = std::make_shared<std::mutex>();
+};
+
 class PySolver {
  public:
   /// A single matrix; format auto (BCSR when the size is a multiple of 3) | csr | bcsr | bin-bcsr.
@@ -175,6 +183,22 @@ class PySolver {
     build();
   }
 
+  /// A factory method on an FEM degree hierarchy (its finest level's free unknowns), as in
+  /// `pmg compare`: multigrid methods take the hierarchy's levels (matrix-free where they ask
+  /// for it); petsc-mgpcg runs across the ranks of `communicator` (a Fortran handle, -1: world).
+  PySolver(PyHierarchy& h, const std::string& config_json, long communicator)
+      : config_(Config::from_json(config_json, "config")) {
+    method_ = config_.get_string("method", "mgpcg");
+    config_.set_default("method", method_);
+    hierarchy_ = h.h.get();
+    hierarchy_lock_ = h.lock;
+    context_.levels = hierarchy_;
+    context_.communicator = communicator;
+    coordinates_ = hierarchy_->node_coordinates(hierarchy_->num_levels() - 1);
+    context_.coordinates = &coordinates_;
+    build();
+  }
+
   py::tuple solve(const DoubleArray& b_in, std::optional<DoubleArray> x0_in, std::optional<double> tol) {
     const Eigen::Index n = full_size();
     const Vector b_full = to_vector(b_in, n, "b");
@@ -187,6 +211,7 @@ class PySolver {
     {
       py::gil_scoped_release nogil;
       std::lock_guard<std::mutex> lock(mutex_);  // after the GIL is released: no lock-order cycle
+      const auto shared = lock_hierarchy();
       if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) {
         char text[32];
         std::snprintf(text, sizeof text, "%.17g", *tol);
@@ -232,6 +257,7 @@ class PySolver {
     {
       py::gil_scoped_release nogil;
       std::lock_guard<std::mutex> lock(mutex_);
+      const auto shared = lock_hierarchy();
       const Vector b = levels_ ? levels_->reduce(b_full) : b_full;
       Vector y(b.size());
       solver_->apply(b, y);
@@ -242,6 +268,7 @@ class PySolver {
 
   void update(py::tuple A) {
     if (levels_) throw InputError("update: these are multigrid levels: pass the list of level matrices");
+    if (hierarchy_) throw InputError("update: this solver is built on a DegreeHierarchy, which has no matrix to replace; build a new solver");
     ArrayCsr a = array_csr(A, "matrix");
     if (!view_of(csr_).same_pattern(a.view))
       throw InputError("update: the new matrix must have the pattern of the one the solver was set up "
@@ -313,15 +340,25 @@ class PySolver {
   /// A new solver from `config`, set up on op_, replacing solver_ only when its set-up succeeded;
   /// the GIL released and mutex_ held (or constructing).
   void build_locked(const Config& config) {
-    auto solver = make_solver(config, context_, levels_ ? "mgpcg" : "cg");
+    const auto shared = lock_hierarchy();
+    auto solver = make_solver(config, context_, levels_ || hierarchy_ ? "mgpcg" : "cg");
+    start_libraries(config);  // MPI and PETSc where the method needs them, outside its set-up time
+    if (hierarchy_) op_ = &hierarchy_->prepare(solver->needs(), nullptr);
     const auto t0 = Clock::now();
     solver->setup(*op_);
     setup_seconds_ = seconds_since(t0);
     solver_ = std::move(solver);
   }
 
+  /// The hierarchy's lock, held (after mutex_) while this solver builds, solves or applies.
+  std::unique_lock<std::mutex> lock_hierarchy() const {
+    return hierarchy_lock_ ? std::unique_lock<std::mutex>(*hierarchy_lock_) : std::unique_lock<std::mutex>();
+  }
+
   Config config_;
   std::string method_;
+  fem::DegreeHierarchy* hierarchy_ = nullptr;
+  std::shared_ptr<std::mutex> hierarchy_lock_;
   Csr csr_;
   std::unique_ptr<Bcsr> bcsr_;
   std::unique_ptr<BinBcsr> bin_;
@@ -435,11 +472,6 @@ py::object csr_copy(const Csr& A) {
   return csr_arrays(*owner, c);
 }
 
-struct PyHierarchy {
-  std::shared_ptr<const fem::TetMesh> mesh;
-  std::unique_ptr<fem::DegreeHierarchy> h;
-};
-
 std::vector<char> clamp_mask(const fem::TetMesh& mesh, py::object clamp) {
   std::vector<char> mask(mesh.num_vertices(), 0);
   if (clamp.is_none()) return mask;
@@ -512,6 +544,8 @@ PYBIND11_MODULE(_core, m) {
            py::arg("A"), py::arg("config"), py::arg("format"), py::arg("coordinates") = py::none())
       .def(py::init<py::list, py::list, const std::string&, const std::string&, bool>(), py::arg("levels"),
            py::arg("prolongations"), py::arg("config"), py::arg("layout"), py::arg("galerkin_only"))
+      .def(py::init<PyHierarchy&, const std::string&, long>(), py::arg("hierarchy"), py::arg("config"),
+           py::arg("communicator"))
       .def("solve", &PySolver::solve, py::arg("b"), py::arg("x0") = py::none(), py::arg("tol") = py::none())
       .def("apply", &PySolver::apply, py::arg("b"))
       .def("update", &PySolver::update, py::arg("A"))

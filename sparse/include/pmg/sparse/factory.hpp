@@ -43,6 +43,10 @@ struct SolverContext {
   /// scenes): rigid-body modes for BoomerAMG's interpolation vectors and PETSc GAMG's near-null
   /// space. Must outlive the solvers built with it.
   const std::vector<double>* coordinates = nullptr;
+  /// Methods that run across MPI ranks (petsc-mgpcg): their communicator as MPI's Fortran handle
+  /// (MPI_Comm_c2f(), mpi4py's Comm.py2f()), which keeps this header free of mpi.h; -1: the
+  /// world communicator. Other methods ignore it.
+  long communicator = -1;
 };
 
 /// Builds the solver the config's "method" names (`fallback_method` when it names none) and
