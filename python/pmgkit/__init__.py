@@ -308,8 +308,8 @@ def _hierarchy_solver(self, config=None, comm=None):
         if py2f is None:
             raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
         handle = int(py2f())
-    n = 3 * len(self.free_positions())
-    return Solver(_core.Solver(self, _config_text(config, "mgpcg"), handle), (n, n), keep=(self,))
+    core = _core.Solver(self, _config_text(config, "mgpcg"), handle)
+    return Solver(core, (core.size, core.size), keep=(self,))
 
 
 DegreeHierarchy.levels = _hierarchy_levels

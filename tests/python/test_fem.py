@@ -102,3 +102,25 @@ def test_simulate_matches_pmg_simulate(pmg_bin, tmp_path):
         assert float(row["elastic"]) == pytest.approx(rec["elastic"][k], rel=1e-9)
     with pytest.raises(pmgkit.InputError):
         pmgkit.simulate({"degree": 7})
+
+
+def test_a_hierarchy_builds_any_factory_solver_on_its_levels(cubic_box):
+    _, h = cubic_box
+    K = h.levels()[-1]
+    b = h.restrict_to_free(h.gravity([0.0, 0.0, -9.81]))
+    exact = spla.spsolve(K.tocsc(), b)
+    for config in ({"method": "mgpcg", "tol": 1e-10}, {"method": "mgpcg", "operator": "matrix-free", "tol": 1e-10},
+                   {"method": "pmg", "tol": 1e-10}, {"method": "cholmod"}, {"method": "petsc-mgpcg", "tol": 1e-10}):
+        s = h.solver(config)
+        assert s.shape == (len(b), len(b))
+        x, info = s.solve(b)
+        assert info["status"] == "converged", (config, info)
+        assert np.linalg.norm(x - exact) <= 1e-8 * np.linalg.norm(exact), config
+    mg = h.solver()  # mgpcg by default
+    assert "multigrid" in mg.name
+    with pytest.raises(pmgkit.InputError, match="DegreeHierarchy"):
+        mg.update(K)
+    with pytest.raises(pmgkit.InputError, match="mpi4py communicator"):
+        h.solver({"method": "petsc-mgpcg"}, comm=7)
+    with pytest.raises(pmgkit.InputError, match="no_such_key"):
+        h.solver({"method": "mgpcg", "no_such_key": 1})
