@@ -158,10 +158,7 @@ fem::StepStats DistributedEuler::step() {
   ++step_;
   st.step = step_;
   st.time = t_;
-  st.iterations = res.iterations;
-  st.rel_residual = res.true_rel_residual;
-  const double rel = std::isfinite(res.true_rel_residual) ? res.true_rel_residual : res.rel_residual;
-  st.residual = bn > 0 ? rel * res.initial_residual / bn : 0.0;
+  fem::record_solve(st, res, bn);
   return st;
 }
 

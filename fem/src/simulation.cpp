@@ -51,6 +51,14 @@ void check_simulation(const ElasticityModel& m, const Vector& f_ext, const Simul
   if (m.material().density == 0) throw InputError("simulation: density must be > 0 for dynamics");
 }
 
+void record_solve(StepStats& st, const SolveResult& res, double b_norm) {
+  st.iterations = res.iterations;
+  st.rel_residual = res.true_rel_residual;
+  // Fixed-iteration runs have no true residual: the last recursive one stands in.
+  const double rel = std::isfinite(res.true_rel_residual) ? res.true_rel_residual : res.rel_residual;
+  st.residual = b_norm > 0 ? rel * res.initial_residual / b_norm : 0.0;
+}
+
 // ---- implicit Euler ------------------------------------------------------------------------------
 
 ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
@@ -170,11 +178,7 @@ StepStats ImplicitEuler::step() {
   ++step_;
   st.step = step_;
   st.time = t_;
-  st.iterations = res.iterations;
-  st.rel_residual = res.true_rel_residual;
-  // Fixed-iteration runs have no true residual: the last recursive one stands in.
-  const double rel = std::isfinite(res.true_rel_residual) ? res.true_rel_residual : res.rel_residual;
-  st.residual = bn > 0 ? rel * res.initial_residual / bn : 0.0;
+  record_solve(st, res, bn);
   return st;
 }
 

@@ -61,7 +61,21 @@ class Stepper {
 
 namespace {
 
-class SerialStepper final : public Stepper {
+/// The members both steppers forward to their time stepper T.
+template <class T>
+class SteppingWith : public Stepper {
+ public:
+  fem::StepStats step() override { return sim_->step(); }
+  double time() const override { return sim_->time(); }
+  int steps() const override { return sim_->steps(); }
+  double kinetic_energy() const override { return sim_->kinetic_energy(); }
+  double elastic_energy() const override { return sim_->elastic_energy(); }
+  double external_work() const override { return sim_->external_work(); }
+ protected:
+  std::unique_ptr<T> sim_;
+};
+
+class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
  public:
   SerialStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, const Vector& u0,
                 const Vector& v0, std::string& method, std::string& settings)
@@ -70,12 +84,6 @@ class SerialStepper final : public Stepper {
     sim_ = std::make_unique<fem::ImplicitEuler>(*setup.hierarchy, *solver_, setup.f_ext, sp);
     sim_->set_state(u0, v0);
   }
-  fem::StepStats step() override { return sim_->step(); }
-  double time() const override { return sim_->time(); }
-  int steps() const override { return sim_->steps(); }
-  double kinetic_energy() const override { return sim_->kinetic_energy(); }
-  double elastic_energy() const override { return sim_->elastic_energy(); }
-  double external_work() const override { return sim_->external_work(); }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
     fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement());
@@ -87,11 +95,10 @@ class SerialStepper final : public Stepper {
  private:
   SceneSetup& setup_;
   std::unique_ptr<Solver> solver_;
-  std::unique_ptr<fem::ImplicitEuler> sim_;
 };
 
 #ifdef PMG_HAVE_DISTRIBUTED
-class RankStepper final : public Stepper {
+class RankStepper final : public SteppingWith<dist::DistributedEuler> {
  public:
   RankStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, const Vector& u0,
               const Vector& v0, std::string& settings) {
@@ -121,12 +128,6 @@ class RankStepper final : public Stepper {
                           "energies; degrees >= 2 matrix-free, the linear level assembled per step) and writes "
                           "its own piece of each frame (.pvtu)");
   }
-  fem::StepStats step() override { return sim_->step(); }
-  double time() const override { return sim_->time(); }
-  int steps() const override { return sim_->steps(); }
-  double kinetic_energy() const override { return sim_->kinetic_energy(); }
-  double elastic_energy() const override { return sim_->elastic_energy(); }
-  double external_work() const override { return sim_->external_work(); }
   fem::Vec3 probe() const override { return sim_->displacement_at(element_, barycentric_); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
     return sim_->write_frame(directory, stem);
@@ -135,7 +136,6 @@ class RankStepper final : public Stepper {
   bool stop(bool requested_here) const override { return sim_->any_rank(requested_here); }
 
  private:
-  std::unique_ptr<dist::DistributedEuler> sim_;
   index_t element_ = -1;
   Eigen::Vector4d barycentric_ = Eigen::Vector4d::Zero();
 };

@@ -54,6 +54,15 @@ class SerialBlas {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+/// MPI and PETSc are both still running (objects held past PetscFinalize() are left alone).
+bool libraries_running() {
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  PetscBool petsc_finalized = PETSC_FALSE;
+  PetscFinalized(&petsc_finalized);
+  return !finalized && !petsc_finalized;
+}
+
 /// Destroys a PETSc object at the end of a scope (an error path included).
 template <class T, PetscErrorCode (*Destroy)(T*)>
 struct Owned {
@@ -222,11 +231,7 @@ struct PMultigridCg::Impl {
   }
   ~Impl() {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-    int finalized = 0;
-    MPI_Finalized(&finalized);
-    PetscBool petsc_finalized = PETSC_FALSE;
-    PetscFinalized(&petsc_finalized);
-    if (!finalized && !petsc_finalized) destroy();
+    if (libraries_running()) destroy();
   }
 
   /// The level's lowest-level matrix values from the rank's element sum (COO: PETSc adds the
@@ -700,11 +705,7 @@ struct GhostExchange::Impl {
   }
   ~Impl() {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-    int finalized = 0;
-    MPI_Finalized(&finalized);
-    PetscBool petsc_finalized = PETSC_FALSE;
-    PetscFinalized(&petsc_finalized);
-    if (!finalized && !petsc_finalized) destroy();
+    if (libraries_running()) destroy();
   }
 };
 

@@ -82,6 +82,9 @@ struct StepStats {
   double residual = 0.0;      ///< true residual ||b - A v|| / ||b|| (<= 2 tol: see step())
 };
 
+/// A step's solve into its StepStats: iterations, rel_residual and residual = ‖b − A v‖ / ‖b‖ (from
+/// the true residual relative to the initial one; the recursive one for fixed-iteration runs).
+void record_solve(StepStats& st, const SolveResult& res, double b_norm);
 /// Linearised implicit Euler time stepping of (corotational) elasticity on a degree hierarchy
 /// (see the file comment). Holds references to the hierarchy and the solver, which must outlive it.
 class ImplicitEuler {
