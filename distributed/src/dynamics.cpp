@@ -17,7 +17,7 @@ namespace {
 
 /// Every rank learns whether any rank failed; the ranks that did not fail throw the same kind of
 /// error naming the failed rank, so that no rank waits in a collective call for one that left.
-void agree(MPI_Comm comm, const std::string& error, const std::string& what) {
+void agree_on(MPI_Comm comm, const std::string& error, const std::string& what) {
   int rank = 0, failed = error.empty() ? -1 : 0, first = -1;
   {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
@@ -59,6 +59,22 @@ double DistributedEuler::sum(double mine) const {
   return all;
 }
 
+void DistributedEuler::agree(const std::string& error, const std::string& what) const {
+  agree_on(comm_, error, what);
+}
+
+bool DistributedEuler::same_on_every_rank(const std::string& text) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  int length = static_cast<int>(text.size());
+  MPI_Bcast(&length, 1, MPI_INT, 0, comm_);
+  std::string first(static_cast<size_t>(length), '\0');
+  if (ranks_->rank() == 0) first = text;
+  MPI_Bcast(first.data(), length, MPI_CHAR, 0, comm_);
+  int same = first == text ? 1 : 0, all = 0;
+  MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
+  return all == 1;
+}
+
 bool DistributedEuler::any_rank(bool mine) const {
   int flag = mine ? 1 : 0, any = 0;
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
@@ -84,21 +100,27 @@ void DistributedEuler::evaluate_state() const {
   fem::DegreeHierarchy& local = ranks_->local();
   const int top = local.num_levels() - 1;
   const fem::StepWeights w = fem::step_weights(p_);
-  auto t0 = Clock::now();
-  if (p_.corotational) {
-    state_.R = local.finest().rotations(u_local_);
-    state_.seconds[fem::kRotations] = seconds_since(t0);
-  }
   const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
-  t0 = Clock::now();
-  if (p_.corotational || !set_up_) {  // linear material: the operators are final after the first step
-    local.update_matrix_free(top, R, w.mass, w.stiffness);
-    state_.seconds[fem::kAssembly] = seconds_since(t0);
-  }
-  t0 = Clock::now();
   Vector force;
   double energy = 0.0;
-  local.matrix_free(top).element_force(u_local_, R, force, &energy);
+  auto t0 = Clock::now();
+  std::string error;  // the rank's own elements first; any rank's failure is every rank's
+  try {
+    if (p_.corotational) {
+      state_.R = local.finest().rotations(u_local_);
+      state_.seconds[fem::kRotations] = seconds_since(t0);
+    }
+    t0 = Clock::now();
+    if (p_.corotational || !set_up_) {  // linear material: the operators are final after the first step
+      local.update_matrix_free(top, R, w.mass, w.stiffness);
+      state_.seconds[fem::kAssembly] = seconds_since(t0);
+    }
+    t0 = Clock::now();
+    local.matrix_free(top).element_force(u_local_, R, force, &energy);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  agree_on(comm_, error, "step " + std::to_string(step_ + 1));
   ghosts_->add_to_owners(local.finest().restrict_to_free(force), state_.force_owned);
   state_.energy = sum(energy);
   state_.seconds[fem::kForces] = seconds_since(t0);
@@ -116,8 +138,14 @@ fem::StepStats DistributedEuler::step() {
     // The lower degrees get the same rotations and weights; the lowest level is assembled.
     const auto t0 = Clock::now();
     const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
-    for (int l = 1; l < top; ++l) local.update_matrix_free(l, R, w.mass, w.stiffness);
-    local.assemble_level(0, R, nullptr, w.mass, w.stiffness);
+    std::string error;
+    try {
+      for (int l = 1; l < top; ++l) local.update_matrix_free(l, R, w.mass, w.stiffness);
+      local.assemble_level(0, R, nullptr, w.mass, w.stiffness);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    agree_on(comm_, error, "step " + std::to_string(step_ + 1));
     if (set_up_) {
       solver_->refresh();
     } else {
@@ -148,7 +176,7 @@ fem::StepStats DistributedEuler::step() {
     throw SolveError(r);
   }
   st.seconds[fem::kSolve] = seconds_since(t0);
-  agree(comm_, v_owned_.allFinite() ? "" : "the velocity is not finite", "step " + std::to_string(step_ + 1));
+  agree_on(comm_, v_owned_.allFinite() ? "" : "the velocity is not finite", "step " + std::to_string(step_ + 1));
 
   ghosts_->to_local(v_owned_, v_local_);
   u_local_ += p_.dt * local.finest().expand(v_local_, Vector());
@@ -200,7 +228,7 @@ std::string DistributedEuler::write_frame(const std::string& directory, const st
   } catch (const std::exception& e) {
     error = e.what();
   }
-  agree(comm_, error, "frame " + stem);  // the .pvtu names complete pieces only
+  agree_on(comm_, error, "frame " + stem);  // the .pvtu names complete pieces only
   if (rank == 0) {
     try {
       std::vector<std::string> pieces;
@@ -210,7 +238,7 @@ std::string DistributedEuler::write_frame(const std::string& directory, const st
       error = e.what();
     }
   }
-  agree(comm_, error, "frame " + stem);
+  agree_on(comm_, error, "frame " + stem);
   return stem + ".pvtu";
 }
 

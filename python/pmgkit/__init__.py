@@ -301,7 +301,8 @@ def _hierarchy_solver(self, config=None, comm=None):
     take the hierarchy's degrees as their levels (default method mgpcg). With
     {"method": "petsc-mgpcg"} the p-multigrid runs across the MPI ranks of `comm` (an mpi4py
     communicator; None: MPI.COMM_WORLD): every rank of comm builds the same hierarchy, calls this
-    and solve() together, gives the same b and gets all of x."""
+    and solve() together, gives the same b and gets all of x. The solver keeps a reference to
+    comm; do not Free() it while the solver lives."""
     handle = -1
     if comm is not None:
         py2f = getattr(comm, "py2f", None)
@@ -309,7 +310,7 @@ def _hierarchy_solver(self, config=None, comm=None):
             raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
         handle = int(py2f())
     core = _core.Solver(self, _config_text(config, "mgpcg"), handle)
-    return Solver(core, (core.size, core.size), keep=(self,))
+    return Solver(core, (core.size, core.size), keep=(self, comm))
 
 
 DegreeHierarchy.levels = _hierarchy_levels
@@ -321,7 +322,9 @@ def simulate(scene, output_dir=""):
     """Runs a dynamic scene (a dict in the scene-file schema, a JSON string, or a path to a scene
     file) and returns its summary with per-step records as NumPy arrays (records: step, time,
     probe (n x 3), kinetic, elastic, total_energy, iterations, rel_residual, residual and the
-    seconds of each stage). output_dir: also write steps.csv and the .vtu frames there.
+    seconds of each stage). output_dir: also write steps.csv and the .vtu frames there. A scene
+    with petsc-mgpcg run under mpirun steps across the ranks: every rank calls simulate with the
+    same output_dir (each writes its piece of every .pvtu frame; rank 0 steps.csv).
 
     A step that fails (its solve diverges, stagnates or misses the scene's tolerance) raises
     SolveError "simulation failed at step N: ...", as `pmg simulate` exits 1; the summary of the

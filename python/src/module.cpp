@@ -335,12 +335,12 @@ class PySolver {
   /// At construction (no other thread can hold the object yet).
   void build() {
     py::gil_scoped_release nogil;
+    const auto shared = lock_hierarchy();
     build_locked(config_);
   }
   /// A new solver from `config`, set up on op_, replacing solver_ only when its set-up succeeded;
-  /// the GIL released and mutex_ held (or constructing).
+  /// the GIL released and mutex_ and the hierarchy's lock held (or constructing).
   void build_locked(const Config& config) {
-    const auto shared = lock_hierarchy();
     auto solver = make_solver(config, context_, levels_ || hierarchy_ ? "mgpcg" : "cg");
     start_libraries(config);  // MPI and PETSc where the method needs them, outside its set-up time
     if (hierarchy_) op_ = &hierarchy_->prepare(solver->needs(), nullptr);
@@ -545,7 +545,7 @@ PYBIND11_MODULE(_core, m) {
       .def(py::init<py::list, py::list, const std::string&, const std::string&, bool>(), py::arg("levels"),
            py::arg("prolongations"), py::arg("config"), py::arg("layout"), py::arg("galerkin_only"))
       .def(py::init<PyHierarchy&, const std::string&, long>(), py::arg("hierarchy"), py::arg("config"),
-           py::arg("communicator"))
+           py::arg("communicator"), py::keep_alive<1, 2>())
       .def("solve", &PySolver::solve, py::arg("b"), py::arg("x0") = py::none(), py::arg("tol") = py::none())
       .def("apply", &PySolver::apply, py::arg("b"))
       .def("update", &PySolver::update, py::arg("A"))

@@ -57,6 +57,11 @@ class Stepper {
   virtual bool writes_run_files() const { return true; }
   /// Whether the run stops, from this process's stop flag (every rank must decide alike).
   virtual bool stop(bool requested_here) const { return requested_here; }
+  /// Runs f, this process's own work (writing a file): across ranks, a failure on any rank is
+  /// thrown on every rank, so that none goes on stepping alone.
+  virtual void together(const std::function<void()>& f) const { f(); }
+  /// Refuses an output directory the ranks do not share (a no-op in one process).
+  virtual void check_output(const std::string& directory) const { (void)directory; }
 };
 
 namespace {
@@ -124,9 +129,12 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
           if (mesh.tets[e][k] == p.vertex) element_ = e, barycentric_ = Eigen::Vector4d::Unit(k);
     }
     const int ranks = sim_->ranks().size();
-    setup.notes.push_back("ranks: " + std::to_string(ranks) + "; each steps its own elements (rotations, forces, "
-                          "energies; degrees >= 2 matrix-free, the linear level assembled per step) and writes "
-                          "its own piece of each frame (.pvtu)");
+    setup.notes.push_back("ranks: " + std::to_string(ranks) + "; each steps its own elements (" +
+                          (scene.corotational ? "rotations, forces, energies; degrees >= 2 matrix-free, the "
+                                                "linear level assembled per step"
+                                              : "forces, energies; degrees >= 2 matrix-free, the linear level "
+                                                "assembled once") +
+                          ") and writes its own piece of each frame (.pvtu)");
   }
   fem::Vec3 probe() const override { return sim_->displacement_at(element_, barycentric_); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
@@ -134,6 +142,20 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
   }
   bool writes_run_files() const override { return sim_->ranks().rank() == 0; }
   bool stop(bool requested_here) const override { return sim_->any_rank(requested_here); }
+  void together(const std::function<void()>& f) const override {
+    std::string error;
+    try {
+      f();
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    sim_->agree(error, "output");
+  }
+  void check_output(const std::string& directory) const override {
+    if (!sim_->same_on_every_rank(directory))
+      throw InputError("output directory: every rank must write its frame pieces to the same directory "
+                       "(the one rank 0 was given)");
+  }
 
  private:
   index_t element_ = -1;
@@ -162,7 +184,11 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   sp.rayleigh_alpha = scene.rayleigh_alpha;
   sp.rayleigh_beta = scene.rayleigh_beta;
   sp.corotational = scene.corotational;
-  SolverNeeds needs{true, false};  // across ranks: the notes of RankStepper say what is built
+  // Across ranks the serial hierarchy's levels are never prepared; RankStepper's note says what
+  // each rank builds, so neither note below applies.
+  SolverNeeds needs;
+  needs.lower_levels = true;
+  needs.matrix_free = false;
   std::string solver_name = "petsc-mgpcg";
 #ifdef PMG_HAVE_DISTRIBUTED
   if (runs_across_ranks(scene)) {
@@ -195,7 +221,8 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   detail::Stepper& sim = *stepper_;
   const bool frames = !output_.empty() && scene_.frame_every > 0;
   const bool run_files = !output_.empty() && sim.writes_run_files();
-  if (!output_.empty()) make_dir(output_);
+  sim.check_output(output_);
+  if (!output_.empty()) sim.together([&] { make_dir(output_); });
   RunSummary r;
   r.steps_planned = steps_;
   r.energy = scene_.energy;
@@ -208,12 +235,14 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   std::vector<std::pair<double, std::string>> pvd;
   auto write_outputs = [&](bool frame) {
     const auto t0 = Clock::now();
-    if (frame && frames) {
-      const std::string name = sim.write_frame(output_, frame_stem(sim.steps()));  // complete once renamed
-      pvd.emplace_back(sim.time(), name);
-      if (run_files) fem::write_pvd(output_ + "/simulation.pvd", pvd);
-    }
-    if (run_files) write_file_atomically(output_ + "/steps.csv", csv.str());
+    sim.together([&] {
+      if (frame && frames) {
+        const std::string name = sim.write_frame(output_, frame_stem(sim.steps()));  // complete once renamed
+        pvd.emplace_back(sim.time(), name);
+        if (run_files) fem::write_pvd(output_ + "/simulation.pvd", pvd);
+      }
+      if (run_files) write_file_atomically(output_ + "/steps.csv", csv.str());
+    });
     r.output_s += seconds_since(t0);
   };
   // The elastic energy comes from the pass over the elements the next step reuses: free.

@@ -5,7 +5,8 @@
   communicator's (a split of the world) within one.
 - pmgkit.simulate of a petsc-mgpcg scene steps across the ranks: its probe and energies equal the
   serial run's to 1e-8 over 10 corotational steps; rank 0 writes steps.csv, every rank its piece.
-- What is not a communicator is a clear InputError on every rank.
+- What is not a communicator, and ranks given different output directories, are a clear
+  InputError on every rank.
 """
 import os
 import sys
@@ -40,6 +41,10 @@ check(err <= 1e-8, "petsc-mgpcg equals the serial MGPCG: %.2e" % err)
 check(info["residual"] <= 2e-10, "true residual %.2e" % info["residual"])
 spread = max(np.abs(y - x).max() for y in comm.allgather(x))
 check(spread == 0.0, "every rank holds the same x (spread %.2e)" % spread)
+# A new tolerance rebuilds the solver on the same hierarchy (and communicator).
+x8, info8 = across.solve(b, tol=1e-6)
+check(info8["status"] == "converged" and info8["iterations"] < info["iterations"],
+      "a new tol: %d iterations against %d" % (info8["iterations"], info["iterations"]))
 # Each rank alone, on a communicator of one (a split of the world): the one-rank iterations.
 alone = comm.Split(color=rank, key=0)
 x1, info1 = h.solver({"method": "petsc-mgpcg", "tol": 1e-10}, comm=alone).solve(b)
@@ -86,6 +91,13 @@ if rank == 0:
               "frame %d: one piece per rank and the .pvtu" % step)
     print("simulate: %d steps across %d ranks, probe and energies equal the serial run's (largest %.2e)"
           % (dist["steps_done"], size, rel), flush=True)
+
+# Ranks given different output directories: refused on every rank, nobody hangs.
+try:
+    pmgkit.simulate(scene, out_dir if rank == 0 else "")
+    check(size == 1, "different output directories refused")
+except pmgkit.InputError as e:
+    check("same directory" in str(e), "the message says why: %s" % e)
 
 all_failures = comm.allreduce(len(failures), op=MPI.SUM)
 if rank == 0:

@@ -118,6 +118,8 @@ def test_a_hierarchy_builds_any_factory_solver_on_its_levels(cubic_box):
         assert np.linalg.norm(x - exact) <= 1e-8 * np.linalg.norm(exact), config
     mg = h.solver()  # mgpcg by default
     assert "multigrid" in mg.name
+    x6, info6 = mg.solve(b, tol=1e-6)  # a new tolerance rebuilds the solver on the hierarchy
+    assert info6["status"] == "converged" and info6["residual"] <= 2e-6
     with pytest.raises(pmgkit.InputError, match="DegreeHierarchy"):
         mg.update(K)
     with pytest.raises(pmgkit.InputError, match="mpi4py communicator"):

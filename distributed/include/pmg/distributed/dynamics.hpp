@@ -8,8 +8,10 @@
 // where G gathers a rank's local nodes (owned and ghost) from their owners (a PETSc scatter,
 // petsc::GhostExchange) and Gᵀ adds the rank's element contributions back into the owners. Per
 // step: one gather of the velocity (which also advances the rank's copy of the state on its ghost
-// nodes), one reverse add of the force and one of M v, the solve's own exchanges, and a few
-// reductions (energies, norms, the probe).
+// nodes), one reverse add of the force and one of M v, one operator product for the warm-start
+// test, the solve's own exchanges, and a few reductions (energies, norms, the probe). A failure in
+// a rank's own work (its rotations, operators, lowest-level assembly) is agreed on before the next
+// collective call, so every rank throws it.
 //
 // Sums over elements are sums over ranks of sums over the rank's elements, so the energies are
 // reductions of per-rank sums: ½ vᵀ M v = Σ_ranks ½ (G v)ᵀ M_rank (G v), the elastic energy the same.
@@ -36,7 +38,8 @@ class PMultigridCg;
 
 namespace pmg::dist {
 
-/// Implicit Euler for (corotational) elasticity across MPI ranks (see the file comment).
+/// Implicit Euler for (corotational) elasticity across MPI ranks (see the file comment). The
+/// communicator must outlive the object.
 class DistributedEuler {
  public:
   /// Partitions `serial` over comm's ranks (RankHierarchy) and checks the parameters as
@@ -74,6 +77,12 @@ class DistributedEuler {
   std::string write_frame(const std::string& directory, const std::string& stem) const;
   /// True on every rank when `mine` is true on any (a stop request every rank must follow).
   bool any_rank(bool mine) const;
+  /// Throws pmg::Error on every rank when `error` is not empty on any (`what`: this rank's error,
+  /// or the lowest failed rank named): a caller's own per-rank work (writing a file) made
+  /// collective, so that no rank goes on into a step another has left.
+  void agree(const std::string& error, const std::string& what) const;
+  /// True on every rank when every rank gives rank 0's text (an output directory, say).
+  bool same_on_every_rank(const std::string& text) const;
   /// The rank's share of the hierarchy.
   const RankHierarchy& ranks() const { return *ranks_; }
   /// The PETSc solver (set up at the first step).
