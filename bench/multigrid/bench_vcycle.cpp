@@ -20,6 +20,7 @@
 #include "pmg/cholmod/cholmod_solver.hpp"
 
 #include "../bandwidth.hpp"
+#include "cube.hpp"
 
 #include <benchmark/benchmark.h>
 #include <omp.h>
@@ -38,8 +39,8 @@ using namespace pmg::bench;
 int g_boxes = 8, g_degree = 3, g_sweeps = 5;
 
 struct Scene {
-  fem::TetMesh mesh;
-  std::unique_ptr<fem::DegreeHierarchy> h;
+  std::unique_ptr<ClampedCube> cube;
+  fem::DegreeHierarchy* h = nullptr;  // the cube's
   std::unique_ptr<Solver> pmg;  ///< one V-cycle per apply
   Vector b, x;
   double bytes = 0.0;
@@ -50,12 +51,10 @@ Scene& scene() {
   static std::unique_ptr<Scene> s;
   if (s) return *s;
   s = std::make_unique<Scene>();
-  s->mesh = fem::box_mesh_24(g_boxes, g_boxes, g_boxes, 1.0, 1.0, 1.0);
-  s->h = std::make_unique<fem::DegreeHierarchy>(s->mesh, g_degree, fem::Material{1e6, 0.3, 1000.0},
-                                                [](const fem::Vec3& X) { return X.z() < 1e-12; });
-  s->h->assemble(nullptr);
+  s->cube = std::make_unique<ClampedCube>(g_boxes, g_degree);
+  s->h = s->cube->h.get();
   SolverContext ctx;
-  ctx.levels = s->h.get();
+  ctx.levels = s->h;
   mg::register_solvers();
   s->pmg = make_solver(
       Config::from_pairs({"method=pmg", "smoother.sweeps=" + std::to_string(g_sweeps)}, "bench"), ctx);

@@ -176,6 +176,10 @@ class PmgSolver final : public DeviceSolver {
   void upload_system(const Bcsr& A) override {
     const int L = levels_.num_levels();
     if (L < 2) throw InputError("gpu-pmg: needs at least two levels (a degree >= 2 hierarchy)");
+    for (int l = 0; l < L; ++l)
+      if (levels_.constrained_dofs(l))
+        throw InputError("gpu-pmg: " + levels_.level_name(l) + " has components constrained on their own "
+                         "(symmetry planes, rollers), which the device cycle's transfers do not mask; use mgpcg");
     if (levels_.matrix(L - 1).rows() != A.rows())
       throw InputError("gpu-pmg: the system is not the finest level of the hierarchy (" +
                        std::to_string(A.rows()) + " vs " + std::to_string(levels_.matrix(L - 1).rows()) +

@@ -31,6 +31,34 @@ std::string MultigridCycle::name() const {
   return params_.gamma == 1 ? "multigrid (V-cycle)" : "multigrid (W-cycle)";
 }
 
+std::string MultigridCycle::describe() const {
+  const int L = num_levels();
+  auto unknowns = [&](int l) -> index_t {  // known once set up
+    if (transfers_.empty()) return 0;
+    return l >= 1 ? transfers_[l - 1].fine_size() : transfers_[0].coarse_size();
+  };
+  std::string s = std::to_string(L) + " levels (";
+  for (int l = L - 1; l >= 0; --l) {
+    s += levels_.level_name(l);
+    if (const index_t n = unknowns(l); n > 0) s += " " + std::to_string(n);
+    if (l > 0) s += ", ";
+  }
+  s += unknowns(L - 1) > 0 ? " unknowns); " : "); ";
+  s += params_.coarse_operator == CoarseOperator::galerkin ? "Galerkin coarse operators" : "geometric coarse operators";
+  if (params_.matrix_free) s += ", matrix-free above the lowest level";
+  if (params_.interpolating_restriction) s += ", interpolating restriction";
+  s += "; smoothing";
+  for (int l = L - 1; l >= 1; --l) s += (l == L - 1 ? " " : ", ") + smoothers_[l - 1]->name();
+  const std::string lowest = lowest_->describe();
+  s += "; lowest level " + lowest_->name() + (lowest.empty() ? "" : " (" + lowest + ")");
+  s += "; " + std::to_string(params_.cycles) + (params_.cycles == 1 ? " cycle" : " cycles") + " per application";
+  long constrained = 0;
+  if (!transfers_.empty())
+    for (char c : transfers_.back().fine_constraints()) constrained += c;
+  if (constrained > 0) s += "; " + std::to_string(constrained) + " components constrained on their own (finest level)";
+  return s;
+}
+
 bool MultigridCycle::is_linear() const {
   for (const auto& s : smoothers_)
     if (!s->is_linear()) return false;
@@ -77,7 +105,9 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
   if (A.rows() != level_operator(L - 1).rows())
     throw InputError("multigrid: the operator has " + std::to_string(A.rows()) + " rows, the finest " +
                      "level (" + levels_.level_name(L - 1) + ") " +
-                     std::to_string(level_operator(L - 1).rows()));
+                     std::to_string(level_operator(L - 1).rows()) +
+                     ": set the solver up on the finest level's own matrix (levels.matrix(num_levels() - 1)); "
+                     "user levels remove the rows of clamped nodes, so the matrix as given is larger");
   if (params_.coarse_operator == CoarseOperator::geometric)
     for (int l = 0; l < L - 1; ++l)
       if (!levels_.has_matrix(l))
@@ -100,6 +130,27 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
           (params_.coarse_operator == CoarseOperator::geometric && T.coarse_size() != rows(l - 1)))
         throw InputError("multigrid: the prolongation of " + levels_.level_name(l) + " does not map " +
                          levels_.level_name(l - 1) + " to it");
+    }
+    // Components constrained on their own, finest first: a Galerkin level's are the coarse
+    // components no free fine component takes anything from.
+    auto rows_of = [&](int l) -> index_t {
+      if (l >= 1) return transfers_[l - 1].fine_size();
+      return transfers_.empty() ? levels_.matrix(0).rows() : transfers_[0].coarse_size();
+    };
+    auto provided = [&](int l) {
+      const std::vector<char>* m = levels_.constrained_dofs(l);
+      if (m && static_cast<index_t>(m->size()) != rows_of(l))
+        throw InputError("multigrid: " + levels_.level_name(l) + " lists " + std::to_string(m->size()) +
+                         " constrained-component flags for " + std::to_string(rows_of(l)) + " unknowns");
+      return m ? *m : std::vector<char>{};
+    };
+    std::vector<char> fine_mask = provided(L - 1);
+    for (int l = L - 1; l >= 1; --l) {
+      BlockTransfer& T = transfers_[l - 1];
+      std::vector<char> coarse_mask = galerkin ? (fine_mask.empty() ? std::vector<char>{} : T.unreachable_coarse(fine_mask))
+                                               : provided(l - 1);
+      if (!fine_mask.empty() || !coarse_mask.empty()) T.constrain(fine_mask, coarse_mask);
+      fine_mask = std::move(coarse_mask);
     }
     galerkin_.clear();
     if (galerkin) {

@@ -10,25 +10,42 @@ Csr transpose(const Csr& A) {
   return Csr::from_eigen(T);
 }
 
-/// y[3i+c] (+)= Σ_j M_ij x[3j+c]
+/// y[3i+c] (+)= Σ_j M_ij x[3j+c]; with masks (1 per unknown, empty: none) x's masked entries
+/// read as 0 and y's masked entries are set to 0 (not added to).
 template <bool Add>
-void block_multiply(const Csr& M, const Vector& x, Vector& y) {
+void block_multiply(const Csr& M, const Vector& x, Vector& y, const std::vector<char>& x_mask = {},
+                    const std::vector<char>& y_mask = {}) {
   const CsrPattern& p = M.pattern();
   const double* v = M.values().data();
+  const char* xm = x_mask.empty() ? nullptr : x_mask.data();
+  const char* ym = y_mask.empty() ? nullptr : y_mask.data();
 #pragma omp parallel for schedule(static)
   for (index_t i = 0; i < p.rows; ++i) {
-    double s0 = 0, s1 = 0, s2 = 0;
-    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) {
-      const double w = v[k];
-      const Eigen::Index j = 3 * static_cast<Eigen::Index>(p.col_idx[k]);
-      s0 += w * x[j];
-      s1 += w * x[j + 1];
-      s2 += w * x[j + 2];
-    }
-    if (Add) {
-      y[3 * i] += s0, y[3 * i + 1] += s1, y[3 * i + 2] += s2;
+    double s[3] = {0, 0, 0};
+    if (xm) {
+      for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) {
+        const double w = v[k];
+        const Eigen::Index j = 3 * static_cast<Eigen::Index>(p.col_idx[k]);
+        for (int c = 0; c < 3; ++c) s[c] += xm[j + c] ? 0.0 : w * x[j + c];
+      }
     } else {
-      y[3 * i] = s0, y[3 * i + 1] = s1, y[3 * i + 2] = s2;
+      for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) {
+        const double w = v[k];
+        const Eigen::Index j = 3 * static_cast<Eigen::Index>(p.col_idx[k]);
+        s[0] += w * x[j];
+        s[1] += w * x[j + 1];
+        s[2] += w * x[j + 2];
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Index r = 3 * static_cast<Eigen::Index>(i) + c;
+      if (ym && ym[r]) {
+        if (!Add) y[r] = 0.0;
+      } else if (Add) {
+        y[r] += s[c];
+      } else {
+        y[r] = s[c];
+      }
     }
   }
 }
@@ -54,26 +71,53 @@ BlockTransfer::BlockTransfer(Csr P, Csr R) : P_(std::move(P)), R_(std::move(R)),
                      " x " + std::to_string(P_.rows()) + ")");
 }
 
+void BlockTransfer::constrain(std::vector<char> fine, std::vector<char> coarse) {
+  if ((!fine.empty() && static_cast<index_t>(fine.size()) != fine_size()) ||
+      (!coarse.empty() && static_cast<index_t>(coarse.size()) != coarse_size()))
+    throw InputError("transfer: constrained components need one flag per unknown (" + std::to_string(fine_size()) +
+                     " fine, " + std::to_string(coarse_size()) + " coarse), got " + std::to_string(fine.size()) +
+                     " and " + std::to_string(coarse.size()));
+  fine_mask_ = std::move(fine);
+  coarse_mask_ = std::move(coarse);
+}
+
+std::vector<char> BlockTransfer::unreachable_coarse(const std::vector<char>& fine) const {
+  if (!fine.empty() && static_cast<index_t>(fine.size()) != fine_size())
+    throw InputError("transfer: a fine mask of " + std::to_string(fine.size()) + " flags for " +
+                     std::to_string(fine_size()) + " unknowns");
+  std::vector<char> reached(coarse_size(), 0);
+  const CsrPattern& p = P_.pattern();
+  for (index_t i = 0; i < p.rows; ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+      if (P_.values()[k] != 0.0)
+        for (int c = 0; c < 3; ++c)
+          if (fine.empty() || !fine[3 * i + c]) reached[3 * p.col_idx[k] + c] = 1;
+  for (char& r : reached) r = !r;
+  return reached;
+}
+
 void BlockTransfer::prolongate(const Vector& xc, Vector& xf) const {
   if (xc.size() != coarse_size()) throw InputError("prolongate: coarse vector has the wrong size");
   xf.resize(fine_size());
-  block_multiply<false>(P_, xc, xf);
+  block_multiply<false>(P_, xc, xf, coarse_mask_, fine_mask_);
 }
 
 void BlockTransfer::prolongate_add(const Vector& xc, Vector& xf) const {
   if (xc.size() != coarse_size() || xf.size() != fine_size())
     throw InputError("prolongate_add: vector sizes do not match the transfer");
-  block_multiply<true>(P_, xc, xf);
+  block_multiply<true>(P_, xc, xf, coarse_mask_, fine_mask_);
 }
 
 void BlockTransfer::restrict_to_coarse(const Vector& rf, Vector& rc) const {
   if (rf.size() != fine_size()) throw InputError("restrict: fine vector has the wrong size");
   rc.resize(coarse_size());
-  block_multiply<false>(R_, rf, rc);
+  block_multiply<false>(R_, rf, rc, fine_mask_, coarse_mask_);
 }
 
 Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A) {
   if (A.rows() != T.fine_size()) throw InputError("Galerkin product: matrix size does not match the transfer");
+  if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
+    throw InputError("Galerkin product: the reference product takes no constrained components (use GalerkinProduct)");
   const auto P = kron_i3(T.prolongation());
   const auto R = kron_i3(T.restriction());
   Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> AP = A.to_csr().to_eigen() * P;
@@ -81,7 +125,8 @@ Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A) {
   return Bcsr::from_csr(Csr::from_eigen(RAP));
 }
 
-GalerkinProduct::GalerkinProduct(const BlockTransfer& T, const Bcsr& A) : fine_pattern_(A.shared_pattern()) {
+GalerkinProduct::GalerkinProduct(const BlockTransfer& T, const Bcsr& A)
+    : fine_pattern_(A.shared_pattern()), fine_mask_(T.fine_constraints()), coarse_mask_(T.coarse_constraints()) {
   if (A.rows() != T.fine_size()) throw InputError("Galerkin product: matrix size does not match the transfer");
   const CsrPattern& R = T.restriction().pattern();
   const CsrPattern& P = T.prolongation().pattern();
@@ -130,12 +175,45 @@ void GalerkinProduct::update(const Bcsr& A) {
     throw InputError("Galerkin product: the fine matrix's pattern changed (build a new product)");
   const index_t nc = C_.block_rows();
   const offset_t* row_ptr = C_.pattern().row_ptr.data();
+  // With constrained fine components, M_f A M_f: their rows and columns (diagonal included) zeroed.
+  Bcsr masked;
+  if (!fine_mask_.empty()) {
+    masked = A;
+    const BlockPattern& a = A.pattern();
+#pragma omp parallel for schedule(static)
+    for (index_t i = 0; i < a.rows; ++i)
+      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
+        const index_t j = a.col_idx[s];
+        auto b = masked.block(s);
+        for (int r = 0; r < 3; ++r)
+          for (int q = 0; q < 3; ++q)
+            if (fine_mask_[3 * i + r] || fine_mask_[3 * j + q]) b(r, q) = 0.0;
+      }
+  }
+  const Bcsr& F = fine_mask_.empty() ? A : masked;
 #pragma omp parallel for schedule(dynamic, 64)
   for (index_t I = 0; I < nc; ++I)
     for (offset_t c = row_ptr[I]; c < row_ptr[I + 1]; ++c) {
       Block3 sum = Block3::Zero();
-      for (offset_t t = start_[c]; t < start_[c + 1]; ++t) sum += weight_[t] * A.block(fine_slot_[t]);
+      for (offset_t t = start_[c]; t < start_[c + 1]; ++t) sum += weight_[t] * F.block(fine_slot_[t]);
       C_.block(c) = sum;
+    }
+  if (coarse_mask_.empty()) return;
+  // Constrained coarse components: rows and columns zeroed, the diagonal the largest of the
+  // node's free diagonal entries (1 when none), so that the row scales like its neighbours.
+  const BlockPattern& p = C_.pattern();
+#pragma omp parallel for schedule(static)
+  for (index_t I = 0; I < nc; ++I)
+    for (offset_t c = p.row_ptr[I]; c < p.row_ptr[I + 1]; ++c) {
+      const index_t J = p.col_idx[c];
+      auto b = C_.block(c);
+      double scale = 0.0;
+      if (J == I)
+        for (int r = 0; r < 3; ++r)
+          if (!coarse_mask_[3 * I + r]) scale = std::max(scale, b(r, r));
+      for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q)
+          if (coarse_mask_[3 * I + r] || coarse_mask_[3 * J + q]) b(r, q) = (J == I && r == q) ? (scale > 0 ? scale : 1.0) : 0.0;
     }
 }
 

@@ -77,9 +77,20 @@ Csr node_prolongation_of_dofs(const CsrView& P, index_t nf, index_t nc, DofLayou
 
 }  // namespace
 
-UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<CsrView>& prolongations,
+UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<CsrView>& given_prolongations,
                        const UserLevelOptions& options)
     : options_(options) {
+  // Prolongations in any column order, with duplicates: a canonical copy (they are read once).
+  std::vector<Csr> canonical;
+  canonical.reserve(given_prolongations.size());  // views into it stay valid
+  std::vector<CsrView> prolongations = given_prolongations;
+  for (size_t l = 0; l < prolongations.size(); ++l) {
+    prolongations[l].validate("prolongation " + std::to_string(l + 1), false);
+    if (!prolongations[l].is_canonical()) {
+      canonical.push_back(to_csr(prolongations[l], "prolongation " + std::to_string(l + 1)));
+      prolongations[l] = view_of(canonical.back());
+    }
+  }
   const int L = static_cast<int>(prolongations.size()) + 1;
   if (matrices.empty()) throw InputError("multigrid levels: no level matrices");
   if (options.galerkin_only && matrices.size() != 1)
@@ -91,12 +102,11 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
                      std::to_string(prolongations.size()));
   for (size_t l = 0; l < matrices.size(); ++l) {
     const std::string who = options.galerkin_only ? "finest matrix" : "level matrix " + std::to_string(l);
-    matrices[l].validate(who);
+    matrices[l].validate(who, false);  // any column order, duplicates summed
     if (matrices[l].rows != matrices[l].cols || matrices[l].rows % B != 0 || matrices[l].rows == 0)
       throw InputError(who + " is " + std::to_string(matrices[l].rows) + "x" + std::to_string(matrices[l].cols) +
                        ": a level matrix must be square with 3 unknowns per node");
   }
-  for (size_t l = 0; l < prolongations.size(); ++l) prolongations[l].validate("prolongation " + std::to_string(l + 1));
 
   levels_.resize(L);
   auto given_matrix = [&](int l) -> const CsrView* {
@@ -128,7 +138,9 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     levels_[l - 1].given_nodes = node_P[l - 1].cols();
   }
 
-  // Level matrices: identity rows (clamped nodes) found and removed, blocks built.
+  // Level matrices: identity rows found; whole clamped nodes removed, nodes with some components
+  // constrained (symmetry planes, rollers) kept with those components flagged.
+  std::vector<std::vector<char>> identity_of(L);
   for (int l = 0; l < L; ++l) {
     Level& lv = levels_[l];
     const CsrView* A = given_matrix(l);
@@ -140,24 +152,22 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     const std::string who = level_label(l);
     std::vector<char> identity(B * n, 0);
     for (index_t i = 0; i < A->rows; ++i) {
-      bool diag = false, off = false;
+      double d = 0.0;
+      bool off = false;
       for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
-        if (A->col(k) == i) diag = A->values[k] > 0;
+        if (A->col(k) == i) d += A->values[k];
         else if (A->values[k] != 0.0) off = true;
       }
+      const bool diag = d > 0.0;
       if (!diag && !off)
         throw InputError(who + ": row " + std::to_string(i) + " is zero: the matrix is singular");
       if (diag && !off) identity[map(i)] = 1;
     }
     for (index_t I = 0; I < n; ++I) {
       const int c = identity[B * I] + identity[B * I + 1] + identity[B * I + 2];
-      if (c != 0 && c != B)
-        throw InputError(who + ": node " + std::to_string(I) + " has " + std::to_string(c) +
-                         " of its 3 rows as identity rows (a Dirichlet condition on some components "
-                         "only); the multigrid transfers whole nodes: eliminate those rows and columns "
-                         "from the levels and the prolongations before handing them over");
       lv.node_of[I] = c == B ? -1 : 0;
     }
+    identity_of[l] = std::move(identity);
   }
   // Kept nodes, finest first: a Galerkin level keeps the coarse nodes some kept fine node takes from.
   for (int l = L - 1; l >= 0; --l) {
@@ -240,6 +250,15 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     lv.given_nnz = A->nnz;
     for (index_t i = 0; i < A->rows; ++i)
       if (lv.node_of[map(i) / B] < 0) lv.clamped_rows.push_back(i);
+    // The constrained components of kept nodes, in the cycle's numbering.
+    const std::vector<char>& identity = identity_of[l];
+    for (index_t i = 0; i < A->rows; ++i) {
+      const index_t ri = map(i), R = lv.node_of[ri / B];
+      if (R < 0 || !identity[ri]) continue;
+      if (lv.constrained.empty()) lv.constrained.assign(B * nk, 0);
+      lv.constrained[B * R + ri % B] = 1;
+      lv.clamped_rows.push_back(i);  // stays an identity row: checked at every refresh
+    }
     // Layout check: elasticity couples all three components of every pair of coupled nodes, so
     // under the right layout the 3x3 blocks are (nearly) full.
     if (lv.A.num_blocks() > 0 && stored < 0.5 * Bcsr::kBlockSize * lv.A.num_blocks())
@@ -346,7 +365,7 @@ void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
             const index_t cj = map(A.col(k)), C = lv.node_of[cj / B];
             const double v = A.values[k];
             if (C >= 0) {
-              val[Bcsr::kBlockSize * pos[C] + B * a + cj % B] = v;
+              val[Bcsr::kBlockSize * pos[C] + B * a + cj % B] += v;  // duplicates summed
             } else if (v != 0.0) {
 #pragma omp critical(pmg_user_levels_error)
               error = level_label(l) + ": row " + std::to_string(i) + " couples to column " +
@@ -363,7 +382,10 @@ void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
       for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k)
         if (A.values[k] != 0.0 && A.col(k) != i)
           throw InputError(level_label(l) + ": row " + std::to_string(i) + " was an identity row (a " +
-                           "clamped node) and now has off-diagonal entries; build new levels");
+                           "constrained component) and now has off-diagonal entries; build new levels");
+    for (size_t r = 0; r < lv.constrained.size(); ++r)
+      if (lv.constrained[r] && !(val[Bcsr::kBlockSize * lv.A.find_block(static_cast<index_t>(r / B), static_cast<index_t>(r / B)) + (r % B) * (B + 1)] > 0.0))
+        throw InputError(level_label(l) + ": a constrained component's identity row has a diagonal <= 0");
     for (double v : val)
       if (!std::isfinite(v)) throw InputError(level_label(l) + ": non-finite values");
     check_symmetric(l);
@@ -374,7 +396,7 @@ void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
     const index_t i = fixed_dof_[k];
     double d = 0.0;
     for (offset_t q = F.row_begin(i); q < F.row_end(i); ++q)
-      if (F.col(q) == i) d = F.values[q];
+      if (F.col(q) == i) d += F.values[q];
     if (!(d > 0.0)) throw InputError("finest matrix: identity row " + std::to_string(i) + " has diagonal " + std::to_string(d));
     fixed_diag_[k] = d;
   }

@@ -44,9 +44,10 @@ def _scipy_sparse():
     return scipy.sparse
 
 
-def _csr_arrays(A, name="matrix"):
-    """(indptr, indices, data, shape) of a SciPy sparse matrix in canonical CSR form, without a
-    copy when A already is one (float64 values, int32 or int64 indices, sorted, no duplicates)."""
+def _csr_arrays(A, name="matrix", canonical=True):
+    """(indptr, indices, data, shape) of a SciPy sparse matrix in CSR form, without a copy when A
+    already is one (float64 values, int32 or int64 indices; with canonical, sorted rows without
+    duplicates — multigrid levels take rows in any order and sum duplicates themselves)."""
     sp = _scipy_sparse()
     if not sp.issparse(A):
         raise InputError(f"{name}: expected a scipy.sparse matrix, got {type(A).__name__}")
@@ -56,7 +57,7 @@ def _csr_arrays(A, name="matrix"):
         if np.iscomplexobj(A.data):
             raise InputError(f"{name}: complex values are not supported")
         A = A.astype(np.float64)
-    if not A.has_canonical_format:
+    if canonical and not A.has_canonical_format:
         A = A.copy()
         A.sum_duplicates()
     return (A.indptr, A.indices, A.data, A.shape)
@@ -133,7 +134,7 @@ class Solver:
 
     def update(self, A):
         if isinstance(A, (list, tuple)):
-            arrays = [_csr_arrays(M, f"level matrix {i}") for i, M in enumerate(A)]
+            arrays = [_csr_arrays(M, f"level matrix {i}", canonical=False) for i, M in enumerate(A)]
             self._core.update_levels(arrays)
         else:
             self._core.update(_csr_arrays(A))
@@ -193,8 +194,8 @@ def multigrid(levels=None, prolongations=(), config=None, layout="interleaved", 
     if (levels is None) == (finest is None):
         raise InputError("multigrid: give either levels=[...] (coarsest first) or finest=A")
     mats = [finest] if finest is not None else list(levels)
-    arrays = [_csr_arrays(M, f"level matrix {i}") for i, M in enumerate(mats)]
-    parrays = [_csr_arrays(P, f"prolongation {i + 1}") for i, P in enumerate(prolongations)]
+    arrays = [_csr_arrays(M, f"level matrix {i}", canonical=False) for i, M in enumerate(mats)]
+    parrays = [_csr_arrays(P, f"prolongation {i + 1}", canonical=False) for i, P in enumerate(prolongations)]
     core = _core.Solver(arrays, parrays, _config_text(config, "mgpcg"), layout, finest is not None)
     return Solver(core, mats[-1].shape)
 

@@ -6,7 +6,7 @@
 
 namespace pmg {
 
-void CsrView::validate(const std::string& who) const {
+void CsrView::validate(const std::string& who, bool sorted) const {
   if (rows < 0 || cols < 0 || nnz < 0) throw InputError(who + ": negative size");
   if ((row_ptr_bytes != 4 && row_ptr_bytes != 8) || (col_idx_bytes != 4 && col_idx_bytes != 8))
     throw InputError(who + ": index arrays must be 32- or 64-bit integers");
@@ -23,13 +23,20 @@ void CsrView::validate(const std::string& who) const {
       if (j < 0 || j >= cols)
         throw InputError(who + ": column index " + std::to_string(j) + " out of range in row " +
                          std::to_string(i));
-      if (k > b && j <= col(k - 1))
+      if (sorted && k > b && j <= col(k - 1))
         throw InputError(who + ": column indices of row " + std::to_string(i) +
                          " are not sorted and unique (sort and sum duplicates first)");
       if (!std::isfinite(values[k]))
         throw InputError(who + ": non-finite value in row " + std::to_string(i));
     }
   }
+}
+
+bool CsrView::is_canonical() const {
+  for (index_t i = 0; i < rows; ++i)
+    for (offset_t k = row_begin(i) + 1; k < row_end(i); ++k)
+      if (col(k) <= col(k - 1)) return false;
+  return true;
 }
 
 bool CsrView::same_pattern(const CsrView& o) const {
@@ -55,7 +62,14 @@ CsrView view_of(const Csr& A) {
 }
 
 Csr to_csr(const CsrView& A, const std::string& who) {
-  A.validate(who);
+  A.validate(who, false);
+  if (!A.is_canonical()) {  // each row sorted, duplicates summed
+    std::vector<Triplet> t;
+    t.reserve(static_cast<size_t>(A.nnz));
+    for (index_t i = 0; i < A.rows; ++i)
+      for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k) t.emplace_back(i, A.col(k), A.values[k]);
+    return Csr::from_triplets(A.rows, A.cols, t);
+  }
   auto p = std::make_shared<CsrPattern>();
   p->rows = A.rows;
   p->cols = A.cols;

@@ -145,7 +145,7 @@ TEST_CASE("any solver composes with BoomerAMG: MGPCG on a BoomerAMG lowest level
   CHECK((x - x_ref).norm() <= 1e-6 * x_ref.norm());
 }
 
-TEST_CASE("lowest_level=auto: CHOLMOD below the break-even, BoomerAMG from it; the choice is written into "
+TEST_CASE("lowest_level=auto: CHOLMOD below the break-even, BoomerAMG from it, the choice written into "
           "the options", "[multigrid][boomeramg][auto]") {
   CHECK(mg::choose_lowest_level(mg::kAmgLowestLevelUnknowns - 1) == "cholmod");
   CHECK(mg::choose_lowest_level(mg::kAmgLowestLevelUnknowns) == "boomeramg");

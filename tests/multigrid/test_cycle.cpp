@@ -53,7 +53,7 @@ std::string tol(double t) {
 }
 }  // namespace
 
-TEST_CASE("PMG V-cycles solve the cubic cantilever; MGPCG needs fewer iterations", "[multigrid][cycle]") {
+TEST_CASE("PMG V-cycles solve the cubic cantilever and MGPCG needs fewer iterations", "[multigrid][cycle]") {
   Cantilever c(2, 3);
   const Vector x_ref = c.direct();
   const auto pmg = build(c.h, {"method=pmg", tol(1e-10)});
@@ -95,7 +95,10 @@ TEST_CASE("W-cycles, Galerkin coarse operators and Chebyshev smoothing converge"
   }
 }
 
-TEST_CASE("the seed's interpolating restriction converges more slowly than Pᵀ; Galerkin recovers part",
+// (Named without a semicolon: ctest's names are CMake lists, and a name cut at one matched no
+// test case, so this one never ran; its old claim that Galerkin levels with the interpolating
+// restriction stay slower than Pᵀ was false: 14 against 20 cycles.)
+TEST_CASE("the seed's interpolating restriction converges more slowly than Pᵀ, and Galerkin levels recover it",
           "[multigrid][cycle]") {
   Cantilever c(1, 3);
   const std::vector<std::vector<std::string>> variants = {
@@ -112,8 +115,9 @@ TEST_CASE("the seed's interpolating restriction converges more slowly than Pᵀ;
   }
   std::printf("cycles to 1e-3: R = P^T %d, interpolating R %d, interpolating R + Galerkin %d\n",
               cycles[0], cycles[1], cycles[2]);
-  CHECK(cycles[0] < cycles[2]);
-  CHECK(cycles[2] < cycles[1]);
+  CHECK(cycles[0] < cycles[1]);      // the interpolating restriction alone: several times slower
+  CHECK(cycles[2] < cycles[1]);      // Galerkin coarse operators with it: faster again
+  CHECK(cycles[2] <= cycles[0] + 2);  // and as fast as R = Pᵀ (14 against 20 when measured)
   CHECK_THROWS_WITH(build(c.h, {"method=mgpcg", "restriction=interpolating"}), Catch::Contains("symmetric"));
 }
 

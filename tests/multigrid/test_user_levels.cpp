@@ -1,6 +1,8 @@
 // mg::UserLevels: levels as FEM codes hand them over (CSR arrays, either layout, node or dof
 // prolongations, Dirichlet identity rows, the finest matrix alone) give the cycle the same levels
-// as pmgkit's own hierarchy; and what cannot work is refused with a message saying what to do.
+// as pmgkit's own hierarchy; components constrained on their own (symmetry planes, rollers) solve
+// as a direct solve of the constrained system does; and what cannot work is refused with a
+// message saying what to do.
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/locator.hpp"
@@ -141,7 +143,7 @@ TEST_CASE("component-major levels and dof prolongations", "[user-levels]") {
   CHECK_THROWS_WITH(mg::parse_layout("rows"), Catch::Contains("interleaved"));
 }
 
-TEST_CASE("Dirichlet identity rows: whole nodes removed, partial ones and kept columns refused", "[user-levels]") {
+TEST_CASE("Dirichlet identity rows: whole nodes removed, kept columns refused", "[user-levels]") {
   Levels s;
   // The finest level with 2 extra clamped nodes in front, as identity rows of diagonal 4; the
   // finest prolongation interpolates into them as well.
@@ -173,20 +175,158 @@ TEST_CASE("Dirichlet identity rows: whole nodes removed, partial ones and kept c
   mgpcg(s.h, s.b, x_ref, "operator=assembled");
   CHECK((xf.tail(3 * n) - x_ref).norm() == 0.0);
 
-  // one component of a node constrained only
-  std::vector<Triplet> tpart;
-  for (index_t i = 0; i < A.rows(); ++i)
-    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
-      if ((i != 0 && p.col_idx[k] != 0) || i == p.col_idx[k]) tpart.emplace_back(i, p.col_idx[k], i == 0 ? 1.0 : A.values()[k]);
-  const Csr part = Csr::from_triplets(A.rows(), A.cols(), tpart);
-  CHECK_THROWS_WITH(mg::UserLevels({view_of(s.A[0]), view_of(s.A[1]), view_of(part)}, views(s.P), {}),
-                    Catch::Contains("some components only"));
   // identity rows whose columns were kept
   std::vector<Triplet> tk = t;
   tk.emplace_back(3 * extra, 0, 1.0);  // a free row coupling to a clamped column
   const Csr kept = Csr::from_triplets(F.rows(), F.cols(), tk);
   CHECK_THROWS_WITH(mg::UserLevels({view_of(s.A[0]), view_of(s.A[1]), view_of(kept)}, {view_of(s.P[0]), view_of(PF)}, {}),
                     Catch::Contains("columns of identity rows must be zero"));
+}
+
+namespace {
+
+/// A copy of A with the rows and columns of the flagged unknowns zeroed but for the diagonal: the
+/// symmetric elimination of a homogeneous constraint on those components.
+Csr constrained_copy(const Csr& A, const std::vector<char>& fixed) {
+  std::vector<Triplet> t;
+  const auto& p = A.pattern();
+  for (index_t i = 0; i < A.rows(); ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) {
+      const index_t j = p.col_idx[k];
+      if ((fixed[i] || fixed[j]) && i != j) continue;
+      t.emplace_back(i, j, A.values()[k]);
+    }
+  return Csr::from_triplets(A.rows(), A.cols(), t);
+}
+
+/// Per unknown of a level of h: 1 where `plane(axis)` holds, for the components in `planes`
+/// (axis a constrains component a on the plane X_a = 0).
+std::vector<char> on_planes(const DegreeHierarchy& h, int level, const std::vector<int>& axes) {
+  const std::vector<double> X = h.node_coordinates(level);
+  std::vector<char> fixed(X.size(), 0);
+  for (size_t n = 0; n < X.size() / 3; ++n)
+    for (int a : axes)
+      if (std::abs(X[3 * n + a]) < 1e-12) fixed[3 * n + a] = 1;
+  return fixed;
+}
+
+}  // namespace
+
+TEST_CASE("symmetry planes and rollers through the multigrid equal a direct solve", "[user-levels][constraints]") {
+  // A cantilever clamped at x = 0, with y = 0 a symmetry plane (u_y = 0: a half model), or y = 0
+  // and z = 0 both (a quarter model); the load pushes into both planes' normals and along them.
+  const TetMesh mesh = box_mesh_24(6, 2, 2, 3.0, 1.0, 1.0);
+  DegreeHierarchy h(mesh, 3, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; });
+  h.assemble(nullptr);
+  std::vector<Csr> P;
+  for (int l = 1; l < h.num_levels(); ++l) P.push_back(h.prolongation(l));
+  const Vector g = h.finest().restrict_to_free(h.finest().gravity(Vec3(0.0, -9.81, -9.81)));
+  auto solve_count = [&](const mg::LevelProvider& levels, const Vector& b, Vector& x, const std::string& extra) {
+    const SolveResult r = mgpcg(levels, b, x, extra);
+    REQUIRE(r.ok());
+    return r.iterations;
+  };
+  std::vector<Csr> plain;
+  for (int l = 0; l < h.num_levels(); ++l) plain.push_back(h.matrix(l).to_csr());
+  Vector x_plain;
+  const int clamped_only = solve_count(mg::UserLevels(views(plain), views(P), {}), g, x_plain, "");
+
+  const std::vector<int> axes = GENERATE(std::vector<int>{1}, std::vector<int>{1, 2});
+  const bool galerkin = GENERATE(false, true);
+  CAPTURE(axes, galerkin);
+  std::vector<Csr> A;
+  for (int l = 0; l < h.num_levels(); ++l) A.push_back(constrained_copy(plain[l], on_planes(h, l, axes)));
+  const std::vector<char> fixed = on_planes(h, h.num_levels() - 1, axes);
+  Vector b = g;
+  for (Eigen::Index i = 0; i < b.size(); ++i)
+    if (fixed[i]) b[i] = 0.0;
+  mg::UserLevelOptions o;
+  o.galerkin_only = galerkin;
+  const mg::UserLevels u(galerkin ? std::vector<CsrView>{view_of(A.back())} : views(A), views(P), o);
+  REQUIRE(u.constrained_dofs(h.num_levels() - 1));
+  CHECK(*u.constrained_dofs(h.num_levels() - 1) == fixed);
+  CHECK((galerkin ? u.constrained_dofs(0) == nullptr : u.constrained_dofs(0) != nullptr));
+  Vector x;
+  const int its = solve_count(u, u.reduce(b), x, galerkin ? "coarse_operator=galerkin" : "");
+  const Vector xf = u.expand(x, b);
+  // The direct solve of the constrained system.
+  auto direct = make_solver(Config::from_pairs({"method=cholmod"}, "test"), {});
+  direct->setup(A.back());
+  Vector x_ref = Vector::Zero(b.size());
+  direct->solve(b, x_ref);
+  CHECK((xf - x_ref).norm() <= 1e-8 * x_ref.norm());
+  double on_plane = 0.0;
+  for (Eigen::Index i = 0; i < xf.size(); ++i)
+    if (fixed[i]) on_plane = std::max(on_plane, std::abs(xf[i]));
+  CHECK(on_plane == 0.0);
+  CHECK((xf - x_plain).norm() > 1e-3 * x_plain.norm());  // the constraint changed the answer
+  INFO("iterations: " << its << " constrained, " << clamped_only << " clamped only");
+  CHECK(its <= 1.2 * clamped_only);
+}
+
+namespace {
+
+/// A's entries as a FEM code may hand them over: each row's diagonal first, the rest in reverse
+/// order, every off-diagonal entry split into two halves (duplicates); 64-bit row pointers.
+struct Scrambled {
+  std::vector<std::int64_t> row_ptr{0};
+  std::vector<std::int32_t> cols;
+  std::vector<double> values;
+  CsrView view;
+  explicit Scrambled(const Csr& A) {
+    const auto& p = A.pattern();
+    for (index_t i = 0; i < A.rows(); ++i) {
+      for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+        if (p.col_idx[k] == i) cols.push_back(i), values.push_back(A.values()[k]);
+      for (offset_t k = p.row_ptr[i + 1] - 1; k >= p.row_ptr[i]; --k)
+        if (p.col_idx[k] != i)
+          for (int half = 0; half < 2; ++half) cols.push_back(p.col_idx[k]), values.push_back(0.5 * A.values()[k]);
+      row_ptr.push_back(static_cast<std::int64_t>(cols.size()));
+    }
+    view.rows = A.rows(), view.cols = A.cols(), view.nnz = static_cast<offset_t>(cols.size());
+    view.row_ptr = row_ptr.data(), view.row_ptr_bytes = 8;
+    view.col_idx = cols.data(), view.col_idx_bytes = 4;
+    view.values = values.data();
+  }
+};
+
+}  // namespace
+
+TEST_CASE("rows in any column order and duplicate entries are read as given, without a sorting copy",
+          "[user-levels][unsorted]") {
+  Levels s;
+  std::vector<Scrambled> A, P;
+  for (const Csr& m : s.A) A.emplace_back(m);
+  for (const Csr& m : s.P) P.emplace_back(m);
+  std::vector<CsrView> av, pv;
+  for (const auto& m : A) av.push_back(m.view);
+  for (const auto& m : P) pv.push_back(m.view);
+  CHECK_FALSE(av.back().is_canonical());
+  CHECK_THROWS_WITH(av.back().validate("m"), Catch::Contains("not sorted and unique"));
+  av.back().validate("m", false);
+  mg::UserLevels u(av, pv, {});
+  const mg::UserLevels sorted(views(s.A), views(s.P), {});
+  for (int l = 0; l < u.num_levels(); ++l) {
+    const Bcsr& a = u.matrix(l);
+    const Bcsr& b = sorted.matrix(l);
+    REQUIRE(a.pattern().col_idx == b.pattern().col_idx);
+    double diff = 0.0, scale = 0.0;
+    for (size_t k = 0; k < a.values().size(); ++k)
+      diff = std::max(diff, std::abs(a.values()[k] - b.values()[k])), scale = std::max(scale, std::abs(b.values()[k]));
+    CHECK(diff <= 1e-14 * scale);  // halves summed: rounding at most
+  }
+  Vector x, y;
+  const SolveResult r = mgpcg(u, s.b, x), q = mgpcg(sorted, s.b, y);
+  CHECK(r.iterations == q.iterations);
+  CHECK((x - y).norm() <= 1e-12 * y.norm());
+  // New values on the same (scrambled) pattern, through set_values: the same walk, duplicates summed.
+  for (auto& m : A)
+    for (double& v : m.values) v *= 2.0;
+  u.set_values(av);
+  CHECK(u.matrix(u.num_levels() - 1).values()[0] == Approx(2.0 * sorted.matrix(u.num_levels() - 1).values()[0]));
+  // to_csr sorts and sums.
+  const Csr c = to_csr(P.back().view, "P");
+  CHECK(c.pattern().col_idx == s.P.back().pattern().col_idx);
 }
 
 TEST_CASE("user level errors name the level or prolongation", "[user-levels]") {
@@ -205,9 +345,10 @@ TEST_CASE("user level errors name the level or prolongation", "[user-levels]") {
   CHECK_THROWS_WITH(mg::UserLevels(views(s.A), {view_of(s.P[0]), view_of(mixed)}, {}), Catch::Contains("different displacement components"));
   CsrView bad = view_of(s.A[0]);
   std::vector<std::int32_t> cols(static_cast<const std::int32_t*>(bad.col_idx), static_cast<const std::int32_t*>(bad.col_idx) + bad.nnz);
-  std::swap(cols[0], cols[1]);
+  std::swap(cols[0], cols[1]);  // two column indices swapped, their values not: another matrix
   bad.col_idx = cols.data();
-  CHECK_THROWS_WITH(mg::UserLevels({bad, view_of(s.A[1]), view_of(s.A[2])}, views(s.P), {}), Catch::Contains("sorted"));
+  CHECK_THROWS_WITH(mg::UserLevels({bad, view_of(s.A[1]), view_of(s.A[2])}, views(s.P), {}),
+                    Catch::Contains("level 0: the matrix is not symmetric"));
 }
 
 TEST_CASE("the point locator finds what the scan finds", "[user-levels][locator]") {

@@ -132,14 +132,33 @@ def test_dirichlet_identity_rows_are_removed(levels, rhs):
     kept_cols[dofs[0], fixed[0]] = kept_cols[fixed[0], fixed[0]]
     with pytest.raises(pmgkit.InputError, match="columns of identity rows must be zero"):
         pmgkit.multigrid(levels=full[:-1] + [kept_cols.tocsr()], prolongations=Pf)
-    # identity rows on some components of a node only: refused with what to do
-    part = full[-1].tolil()
-    k = dofs[0]
-    part[k, :] = 0
-    part[:, k] = 0
-    part[k, k] = 1.0
-    with pytest.raises(pmgkit.InputError, match="some components"):
-        pmgkit.multigrid(levels=full[:-1] + [part.tocsr()], prolongations=Pf)
+
+
+def test_symmetry_planes_through_the_multigrid(cubic_box, levels):
+    """A quarter model: the clamped cantilever with u_y = 0 on y = 0 and u_z = 0 on z = 0 (identity
+    rows on those components only): MGPCG equals SciPy's direct solve of the constrained system."""
+    import scipy.sparse.linalg as spla
+    _, h = cubic_box
+    As, Ps = levels
+    A = As[-1].tocsr()
+    X = h.free_positions().reshape(-1, 3)
+    fixed = np.zeros(A.shape[0], dtype=bool)
+    fixed[3 * np.flatnonzero(np.abs(X[:, 1]) < 1e-9) + 1] = True
+    fixed[3 * np.flatnonzero(np.abs(X[:, 2]) < 1e-9) + 2] = True
+    free = sp.diags((~fixed).astype(float))
+    Ac = (free @ A @ free + sp.diags(np.where(fixed, A.diagonal(), 0.0))).tocsr()
+    Ac.eliminate_zeros()
+    b = h.restrict_to_free(h.gravity([0.0, -9.81, -9.81]))
+    b[fixed] = 0.0
+    x_ref = spla.spsolve(Ac.tocsc(), b)
+    for config in ({"tol": 1e-10}, {"tol": 1e-10, "smoother": "chebyshev"}):
+        x, info = pmgkit.multigrid(finest=Ac, prolongations=Ps, config=config).solve(b)
+        assert info["status"] == "converged"
+        assert np.linalg.norm(x - x_ref) <= 1e-8 * np.linalg.norm(x_ref), config
+        assert np.all(x[fixed] == 0.0)
+        _, plain = pmgkit.multigrid(finest=A, prolongations=Ps, config=config).solve(b)
+        print(config, "iterations:", info["iterations"], "constrained,", plain["iterations"], "clamped only")
+        assert info["iterations"] <= 1.2 * plain["iterations"] + 1, config
 
 
 def test_every_cycle_option_reaches_the_cycle(levels, rhs):
@@ -197,3 +216,32 @@ def test_multigrid_as_scipy_preconditioner(levels, rhs):
     x, ok = spla.cg(A, rhs, M=M, tol=1e-10, atol=0, callback=lambda _: it.__setitem__(0, it[0] + 1))
     assert ok == 0 and it[0] < 30
     assert np.linalg.norm(rhs - A @ x) / np.linalg.norm(rhs) < 1.01e-10
+
+
+def test_unsorted_rows_and_duplicates_are_read_in_place(levels, rhs):
+    """Rows in any column order with duplicate entries (as deal.II and PETSc hand them over): the
+    multigrid reads the arrays as given (no canonicalising copy) and solves as on sorted input."""
+    As, Ps = levels
+    b = rhs
+
+    def scrambled(M):
+        M = M.tocsr()
+        indptr, cols, vals = [0], [], []
+        for i in range(M.shape[0]):
+            c, v = M.indices[M.indptr[i]:M.indptr[i + 1]], M.data[M.indptr[i]:M.indptr[i + 1]]
+            for j, x in zip(c[::-1], v[::-1]):  # reversed, every entry split in two halves
+                cols += [j, j]
+                vals += [0.5 * x, 0.5 * x]
+            indptr.append(len(cols))
+        S = sp.csr_matrix((np.array(vals), np.array(cols, dtype=np.int32), np.array(indptr, dtype=np.int64)),
+                          shape=M.shape)
+        assert not S.has_canonical_format
+        return S
+
+    S = [scrambled(A) for A in As]
+    x_ref, info_ref = pmgkit.multigrid(levels=As, prolongations=Ps, config={"tol": 1e-10}).solve(b)
+    x, info = pmgkit.multigrid(levels=S, prolongations=[scrambled(P) for P in Ps], config={"tol": 1e-10}).solve(b)
+    assert info["iterations"] == info_ref["iterations"]
+    assert np.linalg.norm(x - x_ref) <= 1e-12 * np.linalg.norm(x_ref)
+    indptr, indices, data, _ = pmgkit._csr_arrays(S[-1], canonical=False)
+    assert indices is S[-1].indices and data is S[-1].data  # the caller's arrays, not a copy

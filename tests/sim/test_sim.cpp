@@ -61,7 +61,7 @@ TEST_CASE("a scene runs through the library: steps, outputs, energy, probe", "[s
   std::system(("rm -rf " + dir).c_str());
 }
 
-TEST_CASE("a failing step ends the run with the step named; bad scenes name their key", "[sim]") {
+TEST_CASE("a failing step ends the run with the step named, and bad scenes name their key", "[sim]") {
   const sim::Scene scene = sim::parse_scene(R"({
       "mesh": {"box": [2, 1, 1], "size": [2, 1, 1]}, "degree": 2,
       "initial": {"state": "compressed", "strain": 0.1}, "time": {"dt": 0.01, "duration": 0.1},

@@ -255,7 +255,7 @@ TEST_CASE("a preconditioner used as a solver reports its one correction as compl
   CHECK_THROWS_WITH(none.setup(empty), Catch::Contains("0x0: there is nothing to solve"));
 }
 
-TEST_CASE("flexible CG: a preconditioner that varies between applications still converges; with a fixed one it is "
+TEST_CASE("flexible CG: a preconditioner that varies between applications still converges, and with a fixed one it is "
           "standard PCG", "[sparse][krylov][flexible]") {
   const LatticeSystem s;
   // The varying preconditioner: an inner CG to a loose tolerance (a different map for each input).

@@ -121,6 +121,10 @@ class MultigridCycle final : public Solver {
   const BlockTransfer& transfer(int level) const { return transfers_.at(level - 1); }
   /// The smoother of level `level` (1 <= level <= L-1; std::out_of_range otherwise).
   const Smoother& smoother(int level) const { return *smoothers_.at(level - 1); }
+  /// The levels (finest first, with their unknowns), the coarse operators, the smoothers, the
+  /// lowest level's solver and what it found, the cycles per application and any components
+  /// constrained on their own: what set-up chose, in words.
+  std::string describe() const override;
   /// The lowest-level solver (level 0).
   const Solver& lowest_level() const { return *lowest_; }
 

@@ -5,6 +5,12 @@
 // so it can precondition CG), or any other scalar R (coarse x fine) given explicitly, such as the
 // seed's interpolating restriction. Both are stored as CSR so that both directions run in parallel
 // over rows.
+//
+// Components constrained on their own (symmetry planes, rollers; LevelProvider::constrained_dofs)
+// make the transfer M_f (P ⊗ I₃) M_c with M the diagonal 0/1 masks of the free components: a
+// prolongation writes nothing into a constrained fine component and reads nothing from a
+// constrained coarse one, a restriction the same in reverse, so the V-cycle stays symmetric and
+// every coarse correction satisfies the constraints.
 #pragma once
 
 #include "pmg/sparse/bcsr.hpp"
@@ -32,6 +38,18 @@ class BlockTransfer {
   /// The scalar restriction R (coarse nodes x fine nodes), Pᵀ unless given.
   const Csr& restriction() const { return R_; }
 
+  /// Constrained components (1 per unknown; see the file comment) of the fine and the coarse
+  /// level; either may be empty (none constrained). InputError for a mask of the wrong size.
+  void constrain(std::vector<char> fine, std::vector<char> coarse);
+  /// The fine level's constrained components (empty: none).
+  const std::vector<char>& fine_constraints() const { return fine_mask_; }
+  /// The coarse level's constrained components (empty: none).
+  const std::vector<char>& coarse_constraints() const { return coarse_mask_; }
+  /// The coarse unknowns no free fine unknown takes anything from under the fine mask `fine` (a
+  /// coarse component whose every fine neighbour is constrained in that component): the
+  /// constrained components of a Galerkin coarse level, whose rows would otherwise be zero.
+  std::vector<char> unreachable_coarse(const std::vector<char>& fine) const;
+
   /// xf = (P ⊗ I₃) xc
   void prolongate(const Vector& xc, Vector& xf) const;
   /// xf += (P ⊗ I₃) xc
@@ -42,12 +60,15 @@ class BlockTransfer {
  private:
   Csr P_, R_;
   bool transpose_ = true;
+  std::vector<char> fine_mask_, coarse_mask_;
 };
 
 /// Galerkin coarse operator (R ⊗ I₃) A (P ⊗ I₃) as BCSR (two sparse products): the reference.
 Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A);
 
-/// The Galerkin coarse operator C = (R ⊗ I₃) A (P ⊗ I₃) kept across value updates: the pattern
+/// The Galerkin coarse operator C = (R ⊗ I₃) A (P ⊗ I₃) kept across value updates (with the
+/// transfer's masks, C = M_c Rᵀ M_f A M_f P M_c, its constrained rows then identity-like, their
+/// diagonal the largest of the node's other diagonal entries, or 1): the pattern
 /// of C and a plan — for every block of C the blocks of A and weights R_Ii P_jJ that sum into it —
 /// are built once; update() then refreshes C's values only, C_IJ = Σ R_Ii P_jJ A_ij, in parallel
 /// over the block rows of C without locks or allocation.
@@ -68,6 +89,7 @@ class GalerkinProduct {
   std::vector<offset_t> start_;      ///< per block of C: its terms [start_[c], start_[c+1])
   std::vector<offset_t> fine_slot_;  ///< the block of A of each term
   std::vector<double> weight_;       ///< R_Ii P_jJ of each term
+  std::vector<char> fine_mask_, coarse_mask_;  ///< the transfer's constrained components
 };
 
 }  // namespace pmg::mg

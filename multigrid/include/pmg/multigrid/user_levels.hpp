@@ -14,13 +14,16 @@
 //     column zeroed as well: a symmetric elimination): whole clamped nodes are removed from the
 //     levels and from the prolongations (rows of the fine and columns of the coarse level), so
 //     the cycle works on the free dofs only, as on pmgkit's own hierarchies. A node with some but
-//     not all of its components constrained is refused with a message (the cycle transfers whole
-//     nodes); a non-symmetric matrix (rows replaced but columns kept) is refused too;
+//     not all of its components constrained (a symmetry plane, a roller) stays, with those
+//     components listed (constrained_dofs()): the cycle's transfers keep them out of every coarse
+//     correction and restricted residual. A non-symmetric matrix (rows replaced but columns
+//     kept) is refused;
 //   - only the finest matrix (galerkin_only): the lower levels are then the Galerkin products the
 //     cycle forms (coarse_operator=galerkin), with the coarse nodes that no free fine node
 //     interpolates from dropped.
-// The caller's arrays are read in place (32- or 64-bit indices) and not kept: set_values() takes
-// new values on the same patterns (a Newton or corotational step) without symbolic work.
+// The caller's arrays are read in place (32- or 64-bit indices, rows in any column order, duplicate
+// entries summed: deal.II's diagonal-first rows need no sorting copy) and not kept: set_values()
+// takes new values on the same patterns (a Newton or corotational step) without symbolic work.
 //
 //   mg::UserLevels levels({A1, A2, A3}, {P1, P2}, {});  // CsrViews, coarsest first
 //   auto solver = make_solver(config, {&levels});
@@ -65,6 +68,12 @@ class UserLevels final : public LevelProvider {
   const Bcsr& matrix(int level) const override { return levels_.at(level).A; }
   const Csr& prolongation(int level) const override { return prolongations_.at(level - 1); }
   bool has_matrix(int level) const override;
+  /// The components of kept nodes given as identity rows on a level (nullptr: none; Galerkin
+  /// levels derive theirs in the cycle).
+  const std::vector<char>* constrained_dofs(int level) const override {
+    const auto& c = levels_.at(level).constrained;
+    return c.empty() ? nullptr : &c;
+  }
 
   /// New values, same patterns as at construction (each matrix as given, coarsest first).
   void set_values(const std::vector<CsrView>& matrices);
@@ -86,7 +95,8 @@ class UserLevels final : public LevelProvider {
     index_t given_nodes = 0;          ///< nodes of the matrix as given
     std::vector<index_t> node_of;     ///< given node -> kept node, or -1 (clamped)
     std::vector<index_t> row_of;      ///< given row of each kept dof (3 per kept node)
-    std::vector<index_t> clamped_rows;  ///< given rows of the clamped nodes
+    std::vector<index_t> clamped_rows;  ///< given identity rows: clamped nodes and constrained components
+    std::vector<char> constrained;      ///< per kept dof: 1 for a constrained component (or empty)
     offset_t given_nnz = 0;
     bool has_matrix = true;
   };

@@ -1,7 +1,9 @@
 // pmg/sparse/csr_view.hpp — a CSR matrix held in someone else's arrays (SciPy, PETSc, a FEM code),
 // read in place: 32- or 64-bit row pointers and column indices, double values. pmgkit builds its
 // own formats from a view (Csr, BCSR, multigrid levels) without first widening the caller's index
-// arrays, and refreshes values from a view of the same pattern without symbolic work.
+// arrays, and refreshes values from a view of the same pattern without symbolic work. Rows may be
+// in any column order and hold duplicates (deal.II's diagonal first, PETSc's unassembled
+// triplets, a FEM code's element sums): duplicates are summed where pmgkit builds its own format.
 #pragma once
 
 #include "pmg/sparse/csr.hpp"
@@ -33,10 +35,12 @@ struct CsrView {
                               : static_cast<index_t>(static_cast<const std::int64_t*>(col_idx)[k]);
   }
 
-  /// Throws InputError naming `who` unless the arrays form a canonical CSR matrix: monotone row
-  /// pointers from 0 to nnz, column indices in range, sorted and unique within each row, finite
-  /// values. O(nnz), no allocation.
-  void validate(const std::string& who) const;
+  /// Throws InputError naming `who` unless the arrays form a CSR matrix: monotone row pointers
+  /// from 0 to nnz, column indices in range, finite values, and with `sorted` (the default)
+  /// column indices sorted and unique within each row. O(nnz), no allocation.
+  void validate(const std::string& who, bool sorted = true) const;
+  /// Whether every row's column indices are sorted and unique (canonical CSR). O(nnz).
+  bool is_canonical() const;
   /// Whether the pattern (not the values) equals another view's.
   bool same_pattern(const CsrView& other) const;
 
@@ -49,7 +53,8 @@ struct CsrView {
 
 /// A view of a Csr's own arrays.
 CsrView view_of(const Csr& A);
-/// pmgkit's CSR (64-bit row pointers, 32-bit columns) copied from a view (validated).
+/// pmgkit's CSR (64-bit row pointers, 32-bit columns) copied from a view (validated), each row's
+/// columns sorted and duplicates summed when the view's are not.
 Csr to_csr(const CsrView& A, const std::string& who);
 
 }  // namespace pmg

@@ -124,7 +124,12 @@ class Cg final : public Solver {
   const KrylovParams& params() const { return params_; }
   /// The preconditioner, owned by the Cg (nullptr for plain CG).
   Solver* preconditioner() const { return M_.get(); }
-  std::string describe() const override { return M_ ? M_->describe() : ""; }
+  /// The preconditioner's description (its name when it has none), or "no preconditioner".
+  std::string describe() const override {
+    if (!M_) return "no preconditioner";
+    const std::string d = M_->describe();
+    return d.empty() ? "preconditioner " + M_->name() : d;
+  }
   /// Multiply with `op` instead of the set-up matrix (the same matrix in another format, e.g.
   /// BIN-BCSR, while the preconditioner reads the BCSR entries). nullptr: the set-up matrix.
   void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }

@@ -60,6 +60,14 @@ class LevelProvider {
   /// (empty otherwise, the default): the rigid-body modes of a BoomerAMG lowest level
   /// (`lowest_level.interp_vectors=rigid`).
   virtual std::vector<double> node_coordinates(int /*level*/) const { return {}; }
+  /// Components constrained on their own (a symmetry plane, a roller: one or two of a node's three
+  /// components fixed), or nullptr when the level has none (the default): one flag per unknown of
+  /// the level (3 per node, interleaved), 1 where the component is constrained. Such a
+  /// component's row and column in the level's matrix are zero but for a positive diagonal (an
+  /// identity-like row); the cycle's transfers keep it out of every coarse correction and out of
+  /// every restricted residual (MFEM's and deal.II's essential dofs per component). Whole clamped
+  /// nodes are not listed: they are not unknowns of the level at all.
+  virtual const std::vector<char>* constrained_dofs(int /*level*/) const { return nullptr; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };
