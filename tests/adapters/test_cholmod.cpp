@@ -194,6 +194,35 @@ TEST_CASE("CHOLMOD reports a matrix that is not positive definite", "[sparse][ch
   CHECK_THROWS_WITH(chol.apply(Vector::Ones(A.rows()), x), Catch::Contains("before a successful"));
 }
 
+TEST_CASE("CHOLMOD on a matrix that is not symmetric: the failure says so, or the solve's check holds",
+          "[sparse][cholmod][errors]") {
+  // [[1, 3], [0, 1]] and its transpose: one triangle read as a symmetric matrix is indefinite (the
+  // failure names the asymmetry), the other is the identity, whose solve the refinement against the
+  // given matrix corrects; no answer passes unless it solves the given matrix.
+  for (const bool upper : {true, false}) {
+    CAPTURE(upper);
+    const Csr A = Csr::from_triplets(2, 2, {{0, 0, 1.0}, {1, 1, 1.0}, upper ? Triplet(0, 1, 3.0) : Triplet(1, 0, 3.0)});
+    CholmodSolver chol;
+    bool refused = false;
+    try {
+      chol.setup(A);
+    } catch (const Error& e) {
+      refused = true;
+      CHECK_THAT(e.what(), Catch::Contains("not positive definite") && Catch::Contains("not symmetric either"));
+    }
+    if (!refused) {
+      Vector x = Vector::Zero(2), r;
+      try {
+        chol.solve(Vector::Ones(2), x);
+        A.residual(Vector::Ones(2), x, r);
+        CHECK(r.norm() <= 1e-6 * std::sqrt(2.0));
+      } catch (const SolveError&) {
+        SUCCEED("the solve's check refused the answer");
+      }
+    }
+  }
+}
+
 TEST_CASE("CHOLMOD refuses a pattern other than the analysed one", "[sparse][cholmod][errors]") {
   CholmodSolver chol;
   CHECK_THROWS_WITH(chol.factorize(spring_lattice(3).to_csr()), Catch::Contains("before analyze"));

@@ -248,9 +248,16 @@ void CholmodSolver::factorize(const Csr& A) {
   if (blas_threads_ == 1 && threads != 1 && BlasThreadControl::instance().shutdown)
     BlasThreadControl::instance().shutdown();
   d.factorize_seconds = seconds_since(t0);
-  if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n)
+  if (d.common.status == CHOLMOD_NOT_POSDEF || d.factor->minor < d.factor->n) {
+    // CHOLMOD reads one triangle: a matrix that is not symmetric (Dirichlet rows replaced by
+    // identity rows, their columns kept) fails here, and says so only when checked (on failure).
+    const bool symmetric = A.is_symmetric(1e-12);
     throw Error("CHOLMOD: matrix is not positive definite (factorisation fails at column " +
-                std::to_string(d.factor->minor) + " of " + std::to_string(d.factor->n) + ")");
+                std::to_string(d.factor->minor) + " of " + std::to_string(d.factor->n) + ")" +
+                (symmetric ? ""
+                           : "; it is not symmetric either: CHOLMOD reads one triangle only; if Dirichlet rows "
+                             "were replaced by identity rows, zero their columns too (a symmetric elimination)"));
+  }
   if (d.common.status < CHOLMOD_OK)
     throw Error("CHOLMOD: numeric factorisation failed (status " + std::to_string(d.common.status) +
                 ")");
