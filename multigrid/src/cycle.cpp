@@ -1,5 +1,7 @@
 #include "pmg/multigrid/cycle.hpp"
 
+#include <algorithm>
+
 #include "pmg/sparse/convergence.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 #include "pmg/sparse/timer.hpp"
@@ -147,8 +149,8 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     std::vector<char> fine_mask = provided(L - 1);
     for (int l = L - 1; l >= 1; --l) {
       BlockTransfer& T = transfers_[l - 1];
-      std::vector<char> coarse_mask = galerkin ? (fine_mask.empty() ? std::vector<char>{} : T.unreachable_coarse(fine_mask))
-                                               : provided(l - 1);
+      std::vector<char> coarse_mask = galerkin ? T.unreachable_coarse(fine_mask) : provided(l - 1);
+      if (std::find(coarse_mask.begin(), coarse_mask.end(), 1) == coarse_mask.end()) coarse_mask.clear();
       if (!fine_mask.empty() || !coarse_mask.empty()) T.constrain(fine_mask, coarse_mask);
       fine_mask = std::move(coarse_mask);
     }

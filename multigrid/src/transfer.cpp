@@ -72,6 +72,9 @@ BlockTransfer::BlockTransfer(Csr P, Csr R) : P_(std::move(P)), R_(std::move(R)),
 }
 
 void BlockTransfer::constrain(std::vector<char> fine, std::vector<char> coarse) {
+  if (!transpose_ && (!fine.empty() || !coarse.empty()))
+    throw InputError("transfer: constrained components need the restriction Pᵀ, not an explicit one "
+                     "(an interpolating restriction would not keep the cycle symmetric under the masks)");
   if ((!fine.empty() && static_cast<index_t>(fine.size()) != fine_size()) ||
       (!coarse.empty() && static_cast<index_t>(coarse.size()) != coarse_size()))
     throw InputError("transfer: constrained components need one flag per unknown (" + std::to_string(fine_size()) +
@@ -166,6 +169,11 @@ GalerkinProduct::GalerkinProduct(const BlockTransfer& T, const Bcsr& A)
     pattern->row_ptr[I + 1] = static_cast<offset_t>(pattern->col_idx.size());
   }
   C_ = Bcsr(pattern, std::vector<double>(9 * pattern->col_idx.size(), 0.0));
+  if (!fine_mask_.empty()) {  // the block row of each fine block, for the masks
+    fine_row_.resize(a.col_idx.size());
+    for (index_t i = 0; i < a.rows; ++i)
+      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) fine_row_[s] = i;
+  }
   update(A);
 }
 
@@ -175,27 +183,24 @@ void GalerkinProduct::update(const Bcsr& A) {
     throw InputError("Galerkin product: the fine matrix's pattern changed (build a new product)");
   const index_t nc = C_.block_rows();
   const offset_t* row_ptr = C_.pattern().row_ptr.data();
-  // With constrained fine components, M_f A M_f: their rows and columns (diagonal included) zeroed.
-  Bcsr masked;
-  if (!fine_mask_.empty()) {
-    masked = A;
-    const BlockPattern& a = A.pattern();
-#pragma omp parallel for schedule(static)
-    for (index_t i = 0; i < a.rows; ++i)
-      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
-        const index_t j = a.col_idx[s];
-        auto b = masked.block(s);
-        for (int r = 0; r < 3; ++r)
-          for (int q = 0; q < 3; ++q)
-            if (fine_mask_[3 * i + r] || fine_mask_[3 * j + q]) b(r, q) = 0.0;
-      }
-  }
-  const Bcsr& F = fine_mask_.empty() ? A : masked;
+  const index_t* fine_col = A.pattern().col_idx.data();
 #pragma omp parallel for schedule(dynamic, 64)
   for (index_t I = 0; I < nc; ++I)
     for (offset_t c = row_ptr[I]; c < row_ptr[I + 1]; ++c) {
       Block3 sum = Block3::Zero();
-      for (offset_t t = start_[c]; t < start_[c + 1]; ++t) sum += weight_[t] * F.block(fine_slot_[t]);
+      if (fine_mask_.empty()) {
+        for (offset_t t = start_[c]; t < start_[c + 1]; ++t) sum += weight_[t] * A.block(fine_slot_[t]);
+      } else {  // M_f A M_f: constrained fine rows and columns (diagonal included) left out
+        for (offset_t t = start_[c]; t < start_[c + 1]; ++t) {
+          const offset_t s = fine_slot_[t];
+          const index_t i = fine_row_[s], j = fine_col[s];
+          Block3 a = A.block(s);
+          for (int r = 0; r < 3; ++r)
+            for (int q = 0; q < 3; ++q)
+              if (fine_mask_[3 * i + r] || fine_mask_[3 * j + q]) a(r, q) = 0.0;
+          sum += weight_[t] * a;
+        }
+      }
       C_.block(c) = sum;
     }
   if (coarse_mask_.empty()) return;

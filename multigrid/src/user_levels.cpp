@@ -27,16 +27,6 @@ struct DofMap {
   }
 };
 
-std::uint64_t pattern_hash(const CsrView& v) {
-  std::uint64_t h = 1469598103934665603ull;
-  auto mix = [&](std::uint64_t x) { h = (h ^ x) * 1099511628211ull; };
-  mix(static_cast<std::uint64_t>(v.rows));
-  mix(static_cast<std::uint64_t>(v.nnz));
-  for (index_t i = 0; i < v.rows; ++i)
-    for (offset_t k = v.row_begin(i); k < v.row_end(i); ++k) mix(static_cast<std::uint64_t>(v.col(k)) + (std::uint64_t(i) << 32));
-  return h;
-}
-
 std::string level_label(int l) { return "level " + std::to_string(l); }
 
 /// A dof prolongation (fine dofs x coarse dofs) that is P ⊗ I₃ under the layout, as P per node.
@@ -228,16 +218,18 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     pat->rows = pat->cols = nk;
     pat->row_ptr.assign(nk + 1, 0);
     pat->col_idx.reserve(static_cast<size_t>(A->nnz / (B * B)) + nk);
-    std::vector<index_t> mark(nk, -1), row_cols;
-    offset_t stored = 0;
+    std::vector<index_t> mark(nk, -1), row_cols, seen(B * nk, -1);
+    const std::vector<char>& is_identity = identity_of[l];
+    offset_t stored = 0;  // distinct entries between free components (for the layout check)
     for (index_t R = 0; R < nk; ++R) {
       row_cols.clear();
       for (int a = 0; a < B; ++a) {
         const index_t i = row_of[B * R + a];
         for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
-          const index_t C = lv.node_of[map(A->col(k)) / B];
+          const index_t cj = map(A->col(k)), C = lv.node_of[cj / B];
           if (C < 0) continue;
-          ++stored;
+          if (!is_identity[map(i)] && !is_identity[cj] && seen[B * C + cj % B] != B * R + a)
+            seen[B * C + cj % B] = B * R + a, ++stored;
           if (mark[C] != R) mark[C] = R, row_cols.push_back(C);
         }
       }
@@ -247,7 +239,6 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     }
     lv.A = Bcsr(pat, std::vector<double>(Bcsr::kBlockSize * pat->nnz(), 0.0));
     lv.row_of = std::move(row_of);
-    lv.given_nnz = A->nnz;
     for (index_t i = 0; i < A->rows; ++i)
       if (lv.node_of[map(i) / B] < 0) lv.clamped_rows.push_back(i);
     // The constrained components of kept nodes, in the cycle's numbering.
@@ -261,9 +252,16 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     }
     // Layout check: elasticity couples all three components of every pair of coupled nodes, so
     // under the right layout the 3x3 blocks are (nearly) full.
-    if (lv.A.num_blocks() > 0 && stored < 0.5 * Bcsr::kBlockSize * lv.A.num_blocks())
+    // Entries the blocks can hold between free components (constrained ones have zero couplings).
+    std::vector<int> free_of(nk, B);
+    for (index_t i = 0; i < A->rows; ++i)
+      if (lv.node_of[map(i) / B] >= 0 && is_identity[map(i)]) --free_of[lv.node_of[map(i) / B]];
+    double capacity = 0.0;
+    for (index_t R = 0; R < nk; ++R)
+      for (offset_t q = pat->row_ptr[R]; q < pat->row_ptr[R + 1]; ++q) capacity += free_of[R] * free_of[pat->col_idx[q]];
+    if (capacity > 0 && stored < 0.5 * capacity)
       throw InputError(level_label(l) + ": only " +
-                       std::to_string(static_cast<int>(100.0 * stored / (Bcsr::kBlockSize * lv.A.num_blocks()))) +
+                       std::to_string(static_cast<int>(100.0 * stored / capacity)) +
                        "% of the entries of its 3x3 blocks are stored under the " +
                        (options.layout == DofLayout::interleaved
                             ? "interleaved layout (x0 y0 z0 x1 ...): is it component-major (x0 x1 ... y0 ...)? "
@@ -284,8 +282,7 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
       else fixed_dof_.push_back(fmap.given(I, a));
     }
   fixed_diag_.resize(fixed_dof_.size());
-  hashes_.clear();
-  for (const auto& m : matrices) hashes_.push_back(pattern_hash(m));
+  given_matrices_ = matrices.size();
   refresh_values(matrices);
 }
 
@@ -325,17 +322,17 @@ void UserLevels::check_symmetric(int l) const {
 bool UserLevels::has_matrix(int level) const { return levels_.at(level).has_matrix; }
 
 void UserLevels::set_values(const std::vector<CsrView>& matrices) {
-  if (matrices.size() != hashes_.size())
+  if (matrices.size() != given_matrices_)
     throw InputError("multigrid levels: new values for " + std::to_string(matrices.size()) +
-                     " matrices, the levels have " + std::to_string(hashes_.size()));
+                     " matrices, the levels have " + std::to_string(given_matrices_));
   const int L = num_levels();
   for (size_t m = 0; m < matrices.size(); ++m) {
     const int l = options_.galerkin_only ? L - 1 : static_cast<int>(m);
     const CsrView& A = matrices[m];
-    if (A.rows != B * levels_[l].given_nodes || A.nnz != levels_[l].given_nnz ||
-        pattern_hash(A) != hashes_[m])
+    if (A.rows != B * levels_[l].given_nodes || A.cols != A.rows)
       throw InputError(level_label(l) + ": new values must come on the pattern the levels were built "
                        "on (same rows, columns and stored entries); build new levels for a new pattern");
+    A.validate(level_label(l), false);  // entries in any order: the walk checks each against the pattern
   }
   refresh_values(matrices);
 }
@@ -354,18 +351,23 @@ void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
     std::string error;
 #pragma omp parallel
     {
-      std::vector<index_t> pos(p.rows, -1);
+      std::vector<index_t> pos(p.rows, -1), stamp(p.rows, -1);  // stamp: the row pos was set for
 #pragma omp for schedule(static)
       for (index_t R = 0; R < p.rows; ++R) {
-        for (offset_t q = p.row_ptr[R]; q < p.row_ptr[R + 1]; ++q) pos[p.col_idx[q]] = static_cast<index_t>(q);
+        for (offset_t q = p.row_ptr[R]; q < p.row_ptr[R + 1]; ++q)
+          pos[p.col_idx[q]] = static_cast<index_t>(q), stamp[p.col_idx[q]] = R;
         std::fill(val.begin() + Bcsr::kBlockSize * p.row_ptr[R], val.begin() + Bcsr::kBlockSize * p.row_ptr[R + 1], 0.0);
         for (int a = 0; a < B; ++a) {
           const index_t i = lv.row_of[B * R + a];
           for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k) {
             const index_t cj = map(A.col(k)), C = lv.node_of[cj / B];
             const double v = A.values[k];
-            if (C >= 0) {
+            if (C >= 0 && stamp[C] == R) {
               val[Bcsr::kBlockSize * pos[C] + B * a + cj % B] += v;  // duplicates summed
+            } else if (C >= 0) {
+#pragma omp critical(pmg_user_levels_error)
+              error = level_label(l) + ": entry (" + std::to_string(i) + ", " + std::to_string(A.col(k)) +
+                      ") lies outside the pattern the levels were built on; build new levels for a new pattern";
             } else if (v != 0.0) {
 #pragma omp critical(pmg_user_levels_error)
               error = level_label(l) + ": row " + std::to_string(i) + " couples to column " +
@@ -382,7 +384,7 @@ void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
       for (offset_t k = A.row_begin(i); k < A.row_end(i); ++k)
         if (A.values[k] != 0.0 && A.col(k) != i)
           throw InputError(level_label(l) + ": row " + std::to_string(i) + " was an identity row (a " +
-                           "constrained component) and now has off-diagonal entries; build new levels");
+                           "clamped node or a constrained component) and now has off-diagonal entries; build new levels");
     for (size_t r = 0; r < lv.constrained.size(); ++r)
       if (lv.constrained[r] && !(val[Bcsr::kBlockSize * lv.A.find_block(static_cast<index_t>(r / B), static_cast<index_t>(r / B)) + (r % B) * (B + 1)] > 0.0))
         throw InputError(level_label(l) + ": a constrained component's identity row has a diagonal <= 0");

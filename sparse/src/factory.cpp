@@ -1,6 +1,8 @@
 // The solver registry and the methods of the core: Krylov solvers and point/block Jacobi.
 #include "pmg/sparse/factory.hpp"
 
+#include "pmg/sparse/layout.hpp"
+
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/preconditioners.hpp"
 #include "pmg/sparse/timer.hpp"
@@ -122,8 +124,16 @@ std::unique_ptr<Solver> build_solver(const Config& config, const SolverContext& 
 
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context,
                                     const std::string& fallback_method) {
+  // layout=component: any method on a component-major matrix (pmg/sparse/layout.hpp).
+  const std::string layout = config.get_choice("layout", "interleaved", {"interleaved", "component"});
+  if (layout == "component" && context.levels)
+    config.fail("layout", "multigrid levels take their layout where they are built (mg::UserLevels with "
+                          "DofLayout::component, Python multigrid(layout=\"component\")); the levels "
+                          "the solver reads are interleaved");
   auto s = build_solver(config, context, fallback_method);
   config.check_all_used();
+  if (layout == "component")
+    return std::make_unique<ComponentLayout>(std::move(s), method_needs_blocks(config.get_string("method", fallback_method)));
   return s;
 }
 

@@ -191,8 +191,23 @@ def test_update_levels(levels, rhs):
     s.update([2.0 * A for A in As])
     x2, _ = s.solve(rhs)
     assert np.linalg.norm(2 * x2 - x1) / np.linalg.norm(x1) < 1e-8
-    with pytest.raises(pmgkit.InputError, match="pattern"):
-        s.update(list(As[:-1]) + [sp.identity(As[-1].shape[0], format="csr")])
+    # an entry outside the pattern (the first and the last node do not touch) is refused
+    n = As[-1].shape[0]
+    outside = As[-1].tolil()
+    outside[0, n - 1] = outside[n - 1, 0] = 1.0
+    with pytest.raises(pmgkit.InputError, match="outside the pattern"):
+        s.update(list(As[:-1]) + [outside.tocsr()])
+    # the same entries, each row reversed, are on the pattern
+    def reversed_rows(A):
+        R = A.tocsr().copy()
+        for i in range(R.shape[0]):
+            a, b = R.indptr[i], R.indptr[i + 1]
+            R.indices[a:b], R.data[a:b] = R.indices[a:b][::-1].copy(), R.data[a:b][::-1].copy()
+        R.has_sorted_indices = False
+        return R
+    s.update([reversed_rows(A) for A in As])
+    x3, _ = s.solve(rhs)
+    assert np.linalg.norm(x3 - x1) / np.linalg.norm(x1) < 1e-8
 
 
 def test_level_errors(levels):
@@ -245,3 +260,20 @@ def test_unsorted_rows_and_duplicates_are_read_in_place(levels, rhs):
     assert np.linalg.norm(x - x_ref) <= 1e-12 * np.linalg.norm(x_ref)
     indptr, indices, data, _ = pmgkit._csr_arrays(S[-1], canonical=False)
     assert indices is S[-1].indices and data is S[-1].data  # the caller's arrays, not a copy
+
+
+def test_layout_component_for_any_method(levels, rhs):
+    """make_solver(..., {"layout": "component"}) on a component-major matrix: the interleaved
+    solve's answer, permuted."""
+    As, _ = levels
+    A = As[-1].tocsr()
+    n = A.shape[0] // 3
+    perm = component_major(n)
+    Ac = A[perm][:, perm].tocsr()
+    for method in ("block-jacobi-pcg", "cholmod"):
+        x, info = pmgkit.make_solver(A, {"method": method}).solve(rhs)
+        xc, infoc = pmgkit.make_solver(Ac, {"method": method, "layout": "component"}).solve(rhs[perm])
+        assert infoc["iterations"] == info["iterations"], method
+        assert np.linalg.norm(xc - x[perm]) <= 1e-10 * np.linalg.norm(x), method
+    with pytest.raises(pmgkit.InputError, match="layout"):
+        pmgkit.make_solver(A, {"method": "cg", "layout": "rows"})

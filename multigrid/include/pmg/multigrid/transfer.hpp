@@ -39,7 +39,8 @@ class BlockTransfer {
   const Csr& restriction() const { return R_; }
 
   /// Constrained components (1 per unknown; see the file comment) of the fine and the coarse
-  /// level; either may be empty (none constrained). InputError for a mask of the wrong size.
+  /// level; either may be empty (none constrained). InputError for a mask of the wrong size, or
+  /// masks with an explicit restriction.
   void constrain(std::vector<char> fine, std::vector<char> coarse);
   /// The fine level's constrained components (empty: none).
   const std::vector<char>& fine_constraints() const { return fine_mask_; }
@@ -67,7 +68,7 @@ class BlockTransfer {
 Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A);
 
 /// The Galerkin coarse operator C = (R ⊗ I₃) A (P ⊗ I₃) kept across value updates (with the
-/// transfer's masks, C = M_c Rᵀ M_f A M_f P M_c, its constrained rows then identity-like, their
+/// transfer's masks, C = M_c R M_f A M_f P M_c, its constrained rows then identity-like, their
 /// diagonal the largest of the node's other diagonal entries, or 1): the pattern
 /// of C and a plan — for every block of C the blocks of A and weights R_Ii P_jJ that sum into it —
 /// are built once; update() then refreshes C's values only, C_IJ = Σ R_Ii P_jJ A_ij, in parallel
@@ -90,6 +91,7 @@ class GalerkinProduct {
   std::vector<offset_t> fine_slot_;  ///< the block of A of each term
   std::vector<double> weight_;       ///< R_Ii P_jJ of each term
   std::vector<char> fine_mask_, coarse_mask_;  ///< the transfer's constrained components
+  std::vector<index_t> fine_row_;  ///< with a fine mask: the block row of each block of A
 };
 
 }  // namespace pmg::mg

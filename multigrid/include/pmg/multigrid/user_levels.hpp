@@ -75,7 +75,9 @@ class UserLevels final : public LevelProvider {
     return c.empty() ? nullptr : &c;
   }
 
-  /// New values, same patterns as at construction (each matrix as given, coarsest first).
+  /// New values on the patterns of construction (each matrix as given, coarsest first; its entries
+  /// in any order, duplicates summed). InputError for an entry outside the pattern, or a clamped
+  /// node's or constrained component's row that is no longer an identity row.
   void set_values(const std::vector<CsrView>& matrices);
 
   /// Unknowns of the finest matrix as given, and after the clamped nodes are removed.
@@ -97,7 +99,6 @@ class UserLevels final : public LevelProvider {
     std::vector<index_t> row_of;      ///< given row of each kept dof (3 per kept node)
     std::vector<index_t> clamped_rows;  ///< given identity rows: clamped nodes and constrained components
     std::vector<char> constrained;      ///< per kept dof: 1 for a constrained component (or empty)
-    offset_t given_nnz = 0;
     bool has_matrix = true;
   };
   /// Values of matrices known to be on the levels' patterns into the BCSR levels.
@@ -112,7 +113,7 @@ class UserLevels final : public LevelProvider {
   std::vector<index_t> free_dof_;     ///< reduced dof -> given dof (finest)
   std::vector<index_t> fixed_dof_;    ///< given dofs of identity rows (finest)
   std::vector<double> fixed_diag_;
-  std::vector<std::uint64_t> hashes_;  ///< of each given matrix's pattern
+  size_t given_matrices_ = 0;         ///< matrices given at construction
 };
 
 }  // namespace pmg::mg

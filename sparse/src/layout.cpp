@@ -1,0 +1,122 @@
+// Any solver on a component-major system (pmg/sparse/layout.hpp).
+#include "pmg/sparse/layout.hpp"
+
+#include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/csr.hpp"
+
+#include <algorithm>
+
+namespace pmg {
+
+struct ComponentLayout::Copy {
+  Csr csr;                      // the interleaved matrix
+  std::unique_ptr<Bcsr> bcsr;   // its blocks, for block methods
+  std::vector<offset_t> slot;   // given entry k -> entry of csr
+};
+
+ComponentLayout::ComponentLayout(std::unique_ptr<Solver> inner, bool blocks)
+    : inner_(std::move(inner)), blocks_(blocks) {
+  if (!inner_) throw InputError("layout=component: no solver to wrap");
+}
+
+ComponentLayout::~ComponentLayout() = default;
+
+namespace {
+/// The scalar CSR of a Csr or Bcsr (a copy for a Bcsr).
+const Csr& scalar_of(const LinearOperator& A, Csr& scratch) {
+  if (const auto* c = dynamic_cast<const Csr*>(&A)) return *c;
+  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return scratch = b->to_csr();
+  throw InputError("layout=component: the matrix must be CSR or BCSR (its entries are permuted)");
+}
+}  // namespace
+
+void ComponentLayout::setup_impl(const LinearOperator& A) {
+  Csr scratch;
+  const Csr& given = scalar_of(A, scratch);
+  const index_t n = given.rows();
+  if (n % 3 != 0)
+    throw InputError("layout=component: " + std::to_string(n) + " unknowns are not 3 per node");
+  nodes_ = n / 3;
+  auto interleaved = [&](index_t i) { return 3 * (i % nodes_) + i / nodes_; };
+  const CsrPattern& p = given.pattern();
+  std::vector<Triplet> t;
+  t.reserve(static_cast<size_t>(given.nnz()));
+  for (index_t i = 0; i < n; ++i)
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) t.emplace_back(interleaved(i), interleaved(p.col_idx[k]), 0.0);
+  auto copy = std::make_unique<Copy>();
+  copy->csr = Csr::from_triplets(n, n, t);
+  // The slot of each given entry in the copy (rows sorted: a binary search per entry, once).
+  const CsrPattern& q = copy->csr.pattern();
+  copy->slot.resize(static_cast<size_t>(given.nnz()));
+  for (index_t i = 0; i < n; ++i) {
+    const index_t r = interleaved(i);
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) {
+      const index_t c = interleaved(p.col_idx[k]);
+      const auto begin = q.col_idx.begin() + q.row_ptr[r], end = q.col_idx.begin() + q.row_ptr[r + 1];
+      copy->slot[k] = static_cast<offset_t>(std::lower_bound(begin, end, c) - q.col_idx.begin());
+    }
+  }
+  copy_ = std::move(copy);
+  refresh(A);
+  if (blocks_) {
+    copy_->bcsr = std::make_unique<Bcsr>(Bcsr::from_csr(copy_->csr));
+    inner_->setup(*copy_->bcsr);
+  } else {
+    inner_->setup(copy_->csr);
+  }
+}
+
+void ComponentLayout::refresh(const LinearOperator& A) {
+  Csr scratch;
+  const Csr& given = scalar_of(A, scratch);
+  if (given.nnz() != static_cast<offset_t>(copy_->slot.size()))
+    throw InputError("layout=component: the matrix's pattern changed (set the solver up again)");
+  std::vector<double>& v = copy_->csr.values();
+  std::fill(v.begin(), v.end(), 0.0);
+  for (size_t k = 0; k < copy_->slot.size(); ++k) v[copy_->slot[k]] += given.values()[k];
+  if (copy_->bcsr) copy_->bcsr->set_values(copy_->csr);
+}
+
+void ComponentLayout::update_impl() {
+  refresh(system());
+  inner_->update();
+}
+
+void ComponentLayout::to_interleaved(const Vector& in, Vector& out) const {
+  out.resize(in.size());
+  for (index_t i = 0; i < in.size(); ++i) out[3 * (i % nodes_) + i / nodes_] = in[i];
+}
+
+void ComponentLayout::to_component(const Vector& in, Vector& out) const {
+  out.resize(in.size());
+  for (index_t i = 0; i < in.size(); ++i) out[i] = in[3 * (i % nodes_) + i / nodes_];
+}
+
+SolveResult ComponentLayout::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  Vector bi, xi;
+  to_interleaved(b, bi);
+  to_interleaved(x, xi);
+  SolveResult r;
+  try {
+    r = inner_->solve(bi, xi, monitor);
+  } catch (...) {
+    to_component(xi, x);  // the state the inner solver left, in the caller's order
+    throw;
+  }
+  to_component(xi, x);
+  return r;
+}
+
+void ComponentLayout::apply_impl(const Vector& b, Vector& x) const {
+  Vector bi, xi;
+  to_interleaved(b, bi);
+  inner_->apply(bi, xi);
+  to_component(xi, x);
+}
+
+std::string ComponentLayout::describe() const {
+  const std::string d = inner_->describe();
+  return "component-major input, permuted to interleaved" + (d.empty() ? std::string() : "; " + d);
+}
+
+}  // namespace pmg
