@@ -88,14 +88,18 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
     solver_ = make_step_solver(scene, *setup.hierarchy, method, settings, setup.notes);
     sim_ = std::make_unique<fem::ImplicitEuler>(*setup.hierarchy, *solver_, setup.f_ext, sp);
     sim_->set_state(u0, v0);
+    const SolverNeeds needs = solver_->needs();
+    if (needs.matrix_free)
+      setup.notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
+                            "rotations); the linear level assembled and its solver set up per step");
+    if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
+      setup.notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
   }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
     fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement());
     return stem + ".vtu";
   }
-  SolverNeeds needs() const { return solver_->needs(); }
-  std::string solver_name() const { return solver_->name(); }
 
  private:
   SceneSetup& setup_;
@@ -184,33 +188,17 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   sp.rayleigh_alpha = scene.rayleigh_alpha;
   sp.rayleigh_beta = scene.rayleigh_beta;
   sp.corotational = scene.corotational;
-  // Across ranks the serial hierarchy's levels are never prepared; RankStepper's note says what
-  // each rank builds, so neither note below applies.
-  SolverNeeds needs;
-  needs.lower_levels = true;
-  needs.matrix_free = false;
-  std::string solver_name = "petsc-mgpcg";
 #ifdef PMG_HAVE_DISTRIBUTED
   if (runs_across_ranks(scene)) {
     method_ = "petsc-mgpcg";
     stepper_ = std::make_unique<detail::RankStepper>(scene, setup, sp, u0, v0, settings_);
   }
 #endif
-  if (!stepper_) {
-    auto serial = std::make_unique<detail::SerialStepper>(scene, setup, sp, u0, v0, method_, settings_);
-    needs = serial->needs();
-    solver_name = serial->solver_name();
-    stepper_ = std::move(serial);
-  }
+  if (!stepper_) stepper_ = std::make_unique<detail::SerialStepper>(scene, setup, sp, u0, v0, method_, settings_);
   steps_ = static_cast<int>(std::llround(scene.duration / scene.dt));
   auto& notes = setup.notes;
   if (!scene.corotational)
     notes.push_back("rotations: skipped (linear material); matrices assembled and factorised once");
-  if (needs.matrix_free)
-    notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
-                    "rotations); the linear level assembled and its solver set up per step");
-  if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
-    notes.push_back("lower degrees: not assembled (" + solver_name + " needs only the finest level)");
   if (!scene.energy) notes.push_back("energies: not recorded (output.energy false)");
   if (output_.empty()) notes.push_back("output: nothing written (no output.directory)");
 }

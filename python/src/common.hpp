@@ -1,0 +1,55 @@
+// What the two halves of pmgkit._core share (module.cpp: solvers, formats, PETSc files; fem.cpp:
+// meshes, models, hierarchies, scenes): array conversions and the degree hierarchy's holder.
+#pragma once
+
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/mesh.hpp"
+#include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/csr.hpp"
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace pmg::python {
+
+namespace py = pybind11;
+
+/// A float64 NumPy array, converted only when not already contiguous float64.
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// A's n entries as pmgkit's vector (one copy); InputError naming `who` for another shape.
+Vector to_vector(const DoubleArray& a, Eigen::Index n, const std::string& who);
+/// A NumPy array owning `v`'s buffer (moved, not copied).
+py::array_t<double> to_numpy(Vector&& v);
+/// CSR arrays (indptr, indices, data, shape) of a Csr, viewing its storage (kept alive by `self`).
+py::tuple csr_arrays(const Csr& A, py::handle self);
+/// BSR arrays (indptr, indices, data as blocks x 3 x 3, shape) of a Bcsr, viewing its storage.
+py::tuple bsr_arrays(const Bcsr& A, py::handle self);
+/// BSR arrays owning a copy of A (for matrices that change later).
+py::object bsr_copy(const Bcsr& A);
+/// CSR arrays owning a copy of A.
+py::object csr_copy(const Csr& A);
+
+/// A NumPy array viewing a std::vector held by `base` (no copy; base is kept alive by the array).
+template <typename T>
+py::array_t<T> view_vector(const std::vector<T>& v, py::handle base) {
+  return py::array_t<T>({static_cast<py::ssize_t>(v.size())}, {sizeof(T)}, v.data(), base);
+}
+
+/// A degree hierarchy with the mesh it refers to; its solvers take `lock` while they build or
+/// solve (they share its operators).
+struct PyHierarchy {
+  std::shared_ptr<const fem::TetMesh> mesh;
+  std::unique_ptr<fem::DegreeHierarchy> h;
+  std::shared_ptr<std::mutex> lock = std::make_shared<std::mutex>();
+};
+
+/// Registers Material, Mesh, ElasticModel, DegreeHierarchy and simulate (fem.cpp).
+void register_fem(py::module_& m);
+
+}  // namespace pmg::python

@@ -1,0 +1,307 @@
+// pmgkit._core, its FEM half: meshes, elasticity models, degree hierarchies and scenes (the
+// solvers, formats and PETSc files are module.cpp). Arrays and errors are converted as there; the
+// GIL is released during assembly, static solves and simulations.
+#include "common.hpp"
+
+#include "pmg/fem/elasticity.hpp"
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/locator.hpp"
+#include "pmg/fem/mesh_io.hpp"
+#include "pmg/fem/static_solve.hpp"
+#include "pmg/sim/run.hpp"
+#include "pmg/sim/scene.hpp"
+#include "pmg/sim/setup.hpp"
+
+#include <pybind11/functional.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <set>
+
+namespace pmg::python {
+
+namespace {
+
+// ---- FEM -----------------------------------------------------------------------------------------
+
+std::vector<fem::Vec3> points_of(const DoubleArray& a, const std::string& who) {
+  if (a.ndim() != 2 || a.shape(1) != 3) throw InputError(who + ": expected an (n, 3) array");
+  std::vector<fem::Vec3> p(a.shape(0));
+  for (py::ssize_t i = 0; i < a.shape(0); ++i) p[i] = fem::Vec3(a.at(i, 0), a.at(i, 1), a.at(i, 2));
+  return p;
+}
+
+fem::Vec3 vec3(const std::vector<double>& v, const std::string& who) {
+  if (v.size() != 3) throw InputError(who + ": expected 3 numbers");
+  return fem::Vec3(v[0], v[1], v[2]);
+}
+
+py::array_t<double> points_array(const std::vector<fem::Vec3>& p) {
+  py::array_t<double> a({static_cast<py::ssize_t>(p.size()), py::ssize_t(3)});
+  auto m = a.mutable_unchecked<2>();
+  for (size_t i = 0; i < p.size(); ++i)
+    for (int d = 0; d < 3; ++d) m(i, d) = p[i][d];
+  return a;
+}
+
+/// A mesh with the options it was checked under (inverted elements refused unless fixed, ...).
+fem::TetMesh checked_mesh(fem::TetMesh m, bool fix_orientation) {
+  fem::MeshCheckOptions o;
+  o.fix_orientation = fix_orientation;
+  fem::check_mesh(m, o);
+  return m;
+}
+
+/// The elasticity model of one degree with its own Dirichlet set and matrices.
+class PyModel {
+ public:
+  PyModel(std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material)
+      : mesh_(std::move(mesh)) {
+    if (degree < 1 || degree > 3) throw InputError("degree must be 1, 2 or 3, got " + std::to_string(degree));
+    material.check();
+    model_ = std::make_unique<fem::ElasticityModel>(*mesh_, degree, material);
+  }
+  fem::ElasticityModel& m() { return *model_; }
+  const fem::PointLocator& locator() {
+    if (!locator_) locator_ = std::make_unique<fem::PointLocator>(*model_);
+    return *locator_;
+  }
+
+ private:
+  std::shared_ptr<const fem::TetMesh> mesh_;
+  std::unique_ptr<fem::ElasticityModel> model_;
+  std::unique_ptr<fem::PointLocator> locator_;
+};
+
+py::array_t<double> node_positions(const fem::ElasticityModel& m) {
+  return points_array(m.space().positions());
+}
+
+std::vector<char> clamp_mask(const fem::TetMesh& mesh, py::object clamp) {
+  std::vector<char> mask(mesh.num_vertices(), 0);
+  if (clamp.is_none()) return mask;
+  if (PyCallable_Check(clamp.ptr())) {
+    for (index_t v = 0; v < mesh.num_vertices(); ++v)
+      mask[v] = clamp(points_array({mesh.vertices[v]})[py::make_tuple(0)]).cast<bool>();
+    return mask;
+  }
+  const auto a = clamp.cast<py::array_t<bool, py::array::c_style | py::array::forcecast>>();
+  if (a.ndim() != 1 || a.shape(0) != mesh.num_vertices())
+    throw InputError("clamp: expected one boolean per mesh vertex (" + std::to_string(mesh.num_vertices()) + ") or a function of a position");
+  for (index_t v = 0; v < mesh.num_vertices(); ++v) mask[v] = a.at(v);
+  return mask;
+}
+
+py::dict run_records(const sim::RunSummary& r) {
+  const size_t n = r.records.size();
+  auto column = [&](auto get) {
+    py::array_t<double> a(n);
+    auto m = a.mutable_unchecked<1>();
+    for (size_t i = 0; i < n; ++i) m(i) = get(r.records[i]);
+    return a;
+  };
+  py::dict d;
+  d["step"] = column([](const sim::StepRecord& s) { return double(s.step); });
+  d["time"] = column([](const sim::StepRecord& s) { return s.time; });
+  py::array_t<double> probe({static_cast<py::ssize_t>(n), py::ssize_t(3)});
+  auto pm = probe.mutable_unchecked<2>();
+  for (size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) pm(i, k) = r.records[i].probe[k];
+  d["probe"] = probe;
+  d["kinetic"] = column([](const sim::StepRecord& s) { return s.kinetic; });
+  d["elastic"] = column([](const sim::StepRecord& s) { return s.elastic; });
+  d["total_energy"] = column([](const sim::StepRecord& s) { return s.total_energy; });
+  d["iterations"] = column([](const sim::StepRecord& s) { return double(s.iterations); });
+  d["rel_residual"] = column([](const sim::StepRecord& s) { return s.rel_residual; });
+  d["residual"] = column([](const sim::StepRecord& s) { return s.residual; });
+  for (int k = 0; k < fem::kNumStages; ++k)
+    d[(std::string(fem::stage_name(k)) + "_s").c_str()] = column([k](const sim::StepRecord& s) { return s.stage_s[k]; });
+  return d;
+}
+
+}  // namespace
+
+void register_fem(py::module_& m) {
+  // ---- FEM ----
+  py::class_<fem::Material>(m, "Material")
+      .def(py::init([](double young, double poisson, double density) {
+             fem::Material mat{young, poisson, density};
+             mat.check();
+             return mat;
+           }),
+           py::arg("young") = 500e3, py::arg("poisson") = 0.3, py::arg("density") = 1e3)
+      .def_readonly("young", &fem::Material::young)
+      .def_readonly("poisson", &fem::Material::poisson)
+      .def_readonly("density", &fem::Material::density);
+
+  py::class_<fem::TetMesh, std::shared_ptr<fem::TetMesh>>(m, "Mesh")
+      .def(py::init([](const DoubleArray& vertices, py::array_t<long long, py::array::c_style | py::array::forcecast> tets,
+                       bool fix_orientation) {
+             fem::TetMesh mesh;
+             mesh.vertices = points_of(vertices, "vertices");
+             if (tets.ndim() != 2 || tets.shape(1) != 4) throw InputError("tets: expected an (m, 4) integer array");
+             for (py::ssize_t e = 0; e < tets.shape(0); ++e) {
+               fem::Tet t;
+               for (int k = 0; k < 4; ++k) {
+                 const long long v = tets.at(e, k);
+                 if (v < 0 || v >= static_cast<long long>(mesh.vertices.size()))
+                   throw InputError("tets: element " + std::to_string(e) + " names vertex " + std::to_string(v) +
+                                    ", the mesh has " + std::to_string(mesh.vertices.size()));
+                 t[k] = static_cast<index_t>(v);
+               }
+               mesh.tets.push_back(t);
+             }
+             return std::make_shared<fem::TetMesh>(checked_mesh(std::move(mesh), fix_orientation));
+           }),
+           py::arg("vertices"), py::arg("tets"), py::arg("fix_orientation") = false)
+      .def_static("read", [](const std::string& path) {
+        return std::make_shared<fem::TetMesh>(checked_mesh(fem::read_mesh(path), false));
+      }, py::arg("path"))
+      .def_static("box", [](int nx, int ny, int nz, double lx, double ly, double lz) {
+        return std::make_shared<fem::TetMesh>(fem::box_mesh_24(nx, ny, nz, lx, ly, lz));
+      }, py::arg("nx"), py::arg("ny"), py::arg("nz"), py::arg("lx") = 1.0, py::arg("ly") = 1.0, py::arg("lz") = 1.0)
+      .def_property_readonly("vertices", [](const fem::TetMesh& mesh) { return points_array(mesh.vertices); })
+      .def_property_readonly("tets", [](const fem::TetMesh& mesh) {
+        py::array_t<index_t> a({static_cast<py::ssize_t>(mesh.num_tets()), py::ssize_t(4)});
+        auto w = a.mutable_unchecked<2>();
+        for (index_t e = 0; e < mesh.num_tets(); ++e)
+          for (int k = 0; k < 4; ++k) w(e, k) = mesh.tets[e][k];
+        return a;
+      })
+      .def_property_readonly("num_vertices", &fem::TetMesh::num_vertices)
+      .def_property_readonly("num_tets", &fem::TetMesh::num_tets);
+
+  py::class_<PyModel>(m, "ElasticModel")
+      .def(py::init<std::shared_ptr<const fem::TetMesh>, int, const fem::Material&>(), py::arg("mesh"),
+           py::arg("degree"), py::arg("material") = fem::Material{})
+      .def_property_readonly("num_nodes", [](PyModel& s) { return s.m().num_nodes(); })
+      .def_property_readonly("num_dofs", [](PyModel& s) { return s.m().num_dofs(); })
+      .def_property_readonly("num_free_dofs", [](PyModel& s) { return s.m().num_free_dofs(); })
+      .def_property_readonly("degree", [](PyModel& s) { return s.m().space().degree(); })
+      .def("node_positions", [](PyModel& s) { return node_positions(s.m()); })
+      .def("fix_nodes", [](PyModel& s, std::vector<index_t> nodes) {
+        for (index_t a : nodes)
+          if (a < 0 || a >= s.m().num_nodes()) throw InputError("fix_nodes: node " + std::to_string(a) + " out of range");
+        s.m().fix_nodes(nodes);
+      })
+      .def("fix_vertices", [](PyModel& s, py::object clamp) { s.m().fix_vertices(clamp_mask(s.m().space().mesh(), clamp)); })
+      .def_property_readonly("num_fixed", [](PyModel& s) { return s.m().num_fixed(); })
+      .def("stiffness", [](PyModel& s) {
+        Bcsr K = s.m().assembler().make_matrix();
+        {
+          py::gil_scoped_release nogil;
+          s.m().assemble(nullptr, Vector(), K, nullptr);
+        }
+        return bsr_copy(K);
+      })
+      .def("mass", [](PyModel& s) {
+        Bcsr M = s.m().assembler().make_matrix();
+        {
+          py::gil_scoped_release nogil;
+          s.m().assemble_mass(M);
+        }
+        return bsr_copy(M);
+      })
+      .def("gravity", [](PyModel& s, std::vector<double> g) { return to_numpy(s.m().gravity(vec3(g, "gravity"))); })
+      .def("point_force", [](PyModel& s, std::vector<double> x, std::vector<double> F) {
+        Vector f = Vector::Zero(s.m().num_dofs());
+        s.m().add_point_force(f, vec3(x, "point"), vec3(F, "force"));
+        return to_numpy(std::move(f));
+      })
+      .def("traction", [](PyModel& s, std::function<bool(py::array_t<double>)> on_face, std::vector<double> t) {
+        Vector f = Vector::Zero(s.m().num_dofs());
+        const double area = s.m().add_traction(f, [&](const fem::Vec3& X) {
+          return on_face(points_array({X})[py::make_tuple(0)].cast<py::array_t<double>>());
+        }, vec3(t, "traction"));
+        return py::make_tuple(to_numpy(std::move(f)), area);
+      })
+      .def("restrict_to_free", [](PyModel& s, const DoubleArray& u) {
+        return to_numpy(s.m().restrict_to_free(to_vector(u, s.m().num_dofs(), "full vector")));
+      })
+      .def("expand", [](PyModel& s, const DoubleArray& u) {
+        return to_numpy(s.m().expand(to_vector(u, s.m().num_free_dofs(), "free vector"), Vector()));
+      })
+      .def("free_positions", [](PyModel& s) { return to_numpy(s.m().free_positions()); })
+      .def("displacement_at", [](PyModel& s, const DoubleArray& u, const DoubleArray& points) {
+        if (points.ndim() != 2 || points.shape(1) != 3) throw InputError("points: expected an (n, 3) array");
+        const Vector uu = to_vector(u, s.m().num_dofs(), "u (full vector)");
+        py::array_t<double> out({points.shape(0), py::ssize_t(3)});
+        const double* p = points.data();
+        double* o = out.mutable_data();
+        const fem::PointLocator& loc = s.locator();
+        py::gil_scoped_release nogil;
+        loc.displacements(uu, p, static_cast<index_t>(points.shape(0)), o);
+        return out;
+      }, py::arg("u"), py::arg("points"))
+      .def("solve_static", [](PyModel& s, const DoubleArray& f, bool corotational) {
+        const Vector ff = to_vector(f, s.m().num_dofs(), "force (full vector)");
+        fem::StaticResult r;
+        {
+          py::gil_scoped_release nogil;
+          r = fem::solve_static(s.m(), ff, corotational);
+        }
+        return py::make_tuple(to_numpy(std::move(r.u)), r.iterations);
+      }, py::arg("f"), py::arg("corotational") = false);
+
+  py::class_<PyHierarchy>(m, "DegreeHierarchy")
+      .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material, py::object clamp) {
+             if (degree < 1 || degree > 3) throw InputError("degree must be 1, 2 or 3, got " + std::to_string(degree));
+             material.check();
+             const std::vector<char> mask = clamp_mask(*mesh, clamp);
+             // The hierarchy asks by rest position: the clamped vertices' positions, looked up.
+             std::set<std::array<double, 3>> clamped;
+             for (index_t v = 0; v < mesh->num_vertices(); ++v)
+               if (mask[v]) clamped.insert({mesh->vertices[v].x(), mesh->vertices[v].y(), mesh->vertices[v].z()});
+             auto h = std::make_unique<fem::DegreeHierarchy>(*mesh, degree, material, [&](const fem::Vec3& X) {
+               return clamped.count({X.x(), X.y(), X.z()}) > 0;
+             });
+             PyHierarchy out{mesh, std::move(h)};
+             py::gil_scoped_release nogil;
+             out.h->assemble(nullptr);
+             return out;
+           }),
+           py::arg("mesh"), py::arg("degree"), py::arg("material") = fem::Material{}, py::arg("clamp") = py::none())
+      .def_property_readonly("num_levels", [](const PyHierarchy& s) { return s.h->num_levels(); })
+      .def("matrix", [](const PyHierarchy& s, int l) { return bsr_copy(s.h->matrix(l)); })
+      .def("prolongation", [](const PyHierarchy& s, int l) { return csr_copy(s.h->prolongation(l)); })
+      .def("free_positions", [](const PyHierarchy& s) { return to_numpy(s.h->finest().free_positions()); })
+      .def("restrict_to_free", [](const PyHierarchy& s, const DoubleArray& u) {
+        return to_numpy(s.h->finest().restrict_to_free(to_vector(u, s.h->finest().num_dofs(), "full vector")));
+      })
+      .def("expand", [](const PyHierarchy& s, const DoubleArray& u) {
+        return to_numpy(s.h->finest().expand(to_vector(u, s.h->finest().num_free_dofs(), "free vector"), Vector()));
+      })
+      .def("gravity", [](const PyHierarchy& s, std::vector<double> g) { return to_numpy(s.h->finest().gravity(vec3(g, "gravity"))); });
+
+  // ---- simulation ----
+  m.def("simulate", [](const std::string& scene_json, const std::string& origin, const std::string& output_dir) {
+    const sim::Scene scene = sim::parse_scene(scene_json, origin);
+    py::dict out;
+    sim::RunSummary r;
+    std::string method, settings;
+    std::vector<std::string> notes;
+    {
+      py::gil_scoped_release nogil;
+      sim::SceneSetup setup = sim::set_up(scene);
+      sim::DynamicRun run(scene, setup, output_dir);
+      method = run.method();
+      settings = run.solver_settings();
+      r = run.run();
+      notes = setup.notes;
+    }
+    out["records"] = run_records(r);
+    out["steps_done"] = r.steps_done;
+    out["wall_seconds"] = r.wall_s;
+    out["iterations"] = r.iterations;
+    out["max_residual"] = r.max_residual;
+    out["method"] = method;
+    out["solver_settings"] = settings;
+    out["outputs"] = r.outputs;
+    out["notes"] = notes;
+    out["failed_step"] = r.failed_step;
+    out["failure"] = r.failure;
+    return out;
+  }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "");
+}
+
+}  // namespace pmg::python
