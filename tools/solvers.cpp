@@ -63,16 +63,22 @@ void print_markdown(std::ostream& out, const std::vector<SolverInfo>& solvers) {
     out << "| [`" << s.name << "`](#" << s.name << ") | " << s.component << " | " << escape(s.description) << flags
         << " |\n";
   }
+  auto key_table = [&](const std::vector<KeyInfo>& keys) {
+    out << "| key | type | default | range | meaning |\n|---|---|---|---|---|\n";
+    for (const KeyInfo& k : keys)
+      out << "| `" << k.key << "` | " << k.type << " | " << (k.default_value.empty() ? "" : "`" + k.default_value + "`")
+          << " | " << escape(k.range) << " | " << escape(k.description) << " |\n";
+  };
+  out << "\n## Keys of every method\n\n"
+         "`make_solver` itself reads these at the top of the tree, whatever the method.\n\n";
+  key_table(factory_keys());
   for (const auto& s : solvers) {
     out << "\n## " << s.name << "\n\n" << escape(s.description) << ".\n\n";
     if (s.keys.empty()) {
       out << "No keys.\n";
       continue;
     }
-    out << "| key | type | default | range | meaning |\n|---|---|---|---|---|\n";
-    for (const KeyInfo& k : s.keys)
-      out << "| `" << k.key << "` | " << k.type << " | " << (k.default_value.empty() ? "" : "`" + k.default_value + "`")
-          << " | " << escape(k.range) << " | " << escape(k.description) << " |\n";
+    key_table(s.keys);
   }
 }
 
@@ -93,6 +99,8 @@ void register_solvers(CLI::App& app) {
       print_markdown(std::cout, solvers);
       return;
     }
+    if (method->empty())
+      print_text(std::cout, SolverInfo("(every method)", "keys make_solver reads whatever the method", factory_keys()));
     for (const auto& s : solvers) print_text(std::cout, s);
   });
 }

@@ -1,5 +1,6 @@
 #include "pmg/multigrid/chebyshev.hpp"
 
+#include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
 #include <cmath>
@@ -33,6 +34,7 @@ Chebyshev::Chebyshev(const ChebyshevParams& params) : params_(params) {
 }
 
 void Chebyshev::setup_impl(const LinearOperator& A) {
+  check_interleaved(A, "Chebyshev");
   A_ = &A;
   const Eigen::Index n = A.rows();
   r_.resize(n), d_.resize(n), z_.resize(n);

@@ -2,6 +2,7 @@
 
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/preconditioners.hpp"
+#include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
 #include <cmath>
@@ -39,6 +40,7 @@ std::vector<double> l1_diagonal_blocks(const LinearOperator& A) {
 }  // namespace
 
 void BlockJacobi::setup_impl(const LinearOperator& A) {
+  check_interleaved(A, name());
   r_.resize(A.rows());
   invert_diagonal(A);
 }

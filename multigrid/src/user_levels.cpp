@@ -404,21 +404,37 @@ void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
   }
 }
 
-Vector UserLevels::reduce(const Vector& full) const {
+void UserLevels::reduce(Eigen::Ref<const Vector> full, Eigen::Ref<Vector> reduced) const {
   if (full.size() != full_size_)
-    throw InputError("right-hand side has " + std::to_string(full.size()) + " entries, the finest matrix " +
-                     std::to_string(full_size_) + " rows");
+    throw InputError("multigrid levels: reduce: the right-hand side has " + std::to_string(full.size()) +
+                     " entries, the finest matrix as given " + std::to_string(full_size_) + " rows");
+  if (reduced.size() != static_cast<Eigen::Index>(free_dof_.size()))
+    throw InputError("multigrid levels: reduce: the output has " + std::to_string(reduced.size()) +
+                     " entries, the reduced system " + std::to_string(free_dof_.size()) + " (reduced_size())");
+  for (size_t k = 0; k < free_dof_.size(); ++k) reduced[static_cast<Eigen::Index>(k)] = full[free_dof_[k]];
+}
+
+Vector UserLevels::reduce(const Vector& full) const {
   Vector r(free_dof_.size());
-  for (size_t k = 0; k < free_dof_.size(); ++k) r[k] = full[free_dof_[k]];
+  reduce(full, r);
   return r;
 }
 
+void UserLevels::expand(Eigen::Ref<const Vector> reduced, Eigen::Ref<const Vector> full_rhs,
+                        Eigen::Ref<Vector> full) const {
+  if (reduced.size() != static_cast<Eigen::Index>(free_dof_.size()) || full_rhs.size() != full_size_ ||
+      full.size() != full_size_)
+    throw InputError("multigrid levels: expand: sizes " + std::to_string(reduced.size()) + ", " +
+                     std::to_string(full_rhs.size()) + ", " + std::to_string(full.size()) + " given, " +
+                     std::to_string(free_dof_.size()) + " (reduced), " + std::to_string(full_size_) + " and " +
+                     std::to_string(full_size_) + " (as given) expected");
+  for (size_t k = 0; k < free_dof_.size(); ++k) full[free_dof_[k]] = reduced[static_cast<Eigen::Index>(k)];
+  for (size_t k = 0; k < fixed_dof_.size(); ++k) full[fixed_dof_[k]] = full_rhs[fixed_dof_[k]] / fixed_diag_[k];
+}
+
 Vector UserLevels::expand(const Vector& reduced, const Vector& full_rhs) const {
-  if (reduced.size() != static_cast<Eigen::Index>(free_dof_.size()) || full_rhs.size() != full_size_)
-    throw InputError("multigrid levels: expand: sizes do not match the levels");
   Vector x(full_size_);
-  for (size_t k = 0; k < free_dof_.size(); ++k) x[free_dof_[k]] = reduced[k];
-  for (size_t k = 0; k < fixed_dof_.size(); ++k) x[fixed_dof_[k]] = full_rhs[fixed_dof_[k]] / fixed_diag_[k];
+  expand(reduced, full_rhs, x);
   return x;
 }
 

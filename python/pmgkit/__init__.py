@@ -107,10 +107,15 @@ def _config_text(config, default_method):
 class Solver:
     """A solver from pmgkit's factory, set up on its matrix (or multigrid levels).
 
-    solve(b, x0=None, tol=None) -> (x, info): info holds status, iterations, residual
+    solve(b, x0=None, tol=None, out=None) -> (x, info): info holds status, iterations, residual
         (true ||b - A x|| / ||b||), rel_residual (relative to the initial residual), history
         (relative residual per iteration), history_seconds, setup_seconds, solve_seconds, method.
-        A tol other than the config's rebuilds the solver with it (a new set-up).
+        A tol other than the config's rebuilds the solver with it (a new set-up). b and x0 are
+        read in place when they are contiguous float64 (any buffer NumPy can view); out, a
+        contiguous writeable float64 array of the system's size, receives the solution in place
+        and is returned as x (with user levels: one gather of b, one scatter into out).
+    unused_keys: the config's keys the solver did not read (with "unused_keys": "known" or
+        "ignore" in the config; an error otherwise).
     update(A_new): new values on the same pattern; numeric set-up only.
     aspreconditioner(): a scipy.sparse.linalg.LinearOperator applying the solver (M= of cg/gmres).
 
@@ -124,9 +129,9 @@ class Solver:
         self.shape = shape
         self._keep = keep  # arrays the solver was built from (read in place at set-up)
 
-    def solve(self, b, x0=None, tol=None):
+    def solve(self, b, x0=None, tol=None, out=None):
         return self._core.solve(np.asarray(b, dtype=np.float64), None if x0 is None else
-                                np.asarray(x0, dtype=np.float64), tol)
+                                np.asarray(x0, dtype=np.float64), tol, out)
 
     def __call__(self, b):
         """x = M b (the solver applied once from x = 0)."""
@@ -153,6 +158,11 @@ class Solver:
 
     def describe(self):
         return self._core.describe()
+
+    @property
+    def unused_keys(self):
+        """Keys of the config no part of the solver read (see the class comment)."""
+        return list(self._core.unused_keys)
 
     @property
     def removed_nodes(self):

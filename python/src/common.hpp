@@ -24,6 +24,11 @@ using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecas
 
 /// A's n entries as pmgkit's vector (one copy); InputError naming `who` for another shape.
 Vector to_vector(const DoubleArray& a, Eigen::Index n, const std::string& who);
+/// A's n entries viewed in place (no copy); InputError naming `who` for another shape.
+Eigen::Map<const Vector> view_of(const DoubleArray& a, Eigen::Index n, const std::string& who);
+/// A caller's float64, contiguous, writeable array of n entries viewed for writing; InputError
+/// naming `who` otherwise (never a converted copy that the caller would not see).
+Eigen::Map<Vector> writable_view(py::array& a, Eigen::Index n, const std::string& who);
 /// A NumPy array owning `v`'s buffer (moved, not copied).
 py::array_t<double> to_numpy(Vector&& v);
 /// CSR arrays (indptr, indices, data, shape) of a Csr, viewing its storage (kept alive by `self`).

@@ -43,10 +43,25 @@ using namespace pmg::python;
 namespace pmg::python {
 
 Vector to_vector(const DoubleArray& a, Eigen::Index n, const std::string& who) {
+  return view_of(a, n, who);
+}
+
+Eigen::Map<const Vector> view_of(const DoubleArray& a, Eigen::Index n, const std::string& who) {
   if (a.ndim() != 1 || a.shape(0) != n)
     throw InputError(who + " has shape " + std::string(py::str(a.attr("shape"))) + ", expected (" +
                      std::to_string(n) + ",)");
   return Eigen::Map<const Vector>(a.data(), n);
+}
+
+Eigen::Map<Vector> writable_view(py::array& a, Eigen::Index n, const std::string& who) {
+  if (!py::isinstance<py::array_t<double>>(a) || !a.dtype().is(py::dtype::of<double>()))
+    throw InputError(who + " must be a float64 array (it is written in place), not " + std::string(py::str(a.dtype())));
+  if (a.ndim() != 1 || a.shape(0) != n)
+    throw InputError(who + " has shape " + std::string(py::str(a.attr("shape"))) + ", expected (" +
+                     std::to_string(n) + ",)");
+  if (!(a.flags() & py::array::c_style) || !a.writeable())
+    throw InputError(who + " must be contiguous and writeable (it is written in place)");
+  return Eigen::Map<Vector>(static_cast<double*>(a.mutable_data()), n);
 }
 
 /// A NumPy array owning `v`'s buffer (moved, not copied).
@@ -208,10 +223,24 @@ class PySolver {
     build();
   }
 
-  py::tuple solve(const DoubleArray& b_in, std::optional<DoubleArray> x0_in, std::optional<double> tol) {
+  /// The solution is written into `out` when given (a float64 contiguous writeable array, returned
+  /// as is); b and x0 are read in place where they are float64 and contiguous. With user levels the
+  /// vectors are gathered to the reduced system and the solution scattered back once each; a plain
+  /// matrix's solve reads and writes pmgkit vectors (one copy of b in and of x out).
+  py::tuple solve(const DoubleArray& b_in, std::optional<DoubleArray> x0_in, std::optional<double> tol,
+                  std::optional<py::array> out) {
     const Eigen::Index n = full_size();
-    const Vector b_full = to_vector(b_in, n, "b");
-    Vector x = x0_in ? to_vector(*x0_in, n, "x0") : Vector::Zero(n);
+    const Eigen::Map<const Vector> b_full = view_of(b_in, n, "b");
+    std::optional<Eigen::Map<Vector>> x_out;
+    if (out) x_out.emplace(writable_view(*out, n, "out"));
+    Vector x;
+    if (levels_) {
+      x.resize(levels_->reduced_size());
+      if (x0_in) levels_->reduce(view_of(*x0_in, n, "x0"), x);
+      else x.setZero();
+    } else {
+      x = x0_in ? Vector(view_of(*x0_in, n, "x0")) : Vector::Zero(n);
+    }
     SolveMonitor monitor;
     SolveResult r;
     double seconds = 0, true_res = 0, setup_seconds = 0;
@@ -229,8 +258,9 @@ class PySolver {
         build_locked(with_tol);
         config_ = std::move(with_tol);
       }
-      const Vector b = levels_ ? levels_->reduce(b_full) : b_full;
-      if (levels_) x = levels_->reduce(x);
+      Vector b(x.size());
+      if (levels_) levels_->reduce(b_full, b);
+      else b = b_full;
       const auto t0 = Clock::now();
       r = solver_->solve(b, x, &monitor);
       seconds = seconds_since(t0);
@@ -238,7 +268,12 @@ class PySolver {
       op_->residual(b, x, res);
       const double bn = b_full.norm();
       true_res = bn > 0 ? res.norm() / bn : res.norm();
-      x_full = levels_ ? levels_->expand(x, b_full) : std::move(x);
+      if (x_out) {
+        if (levels_) levels_->expand(x, b_full, *x_out);
+        else *x_out = x;
+      } else {
+        x_full = levels_ ? levels_->expand(x, b_full) : std::move(x);
+      }
       setup_seconds = setup_seconds_;
       method = solver_->name();
     }
@@ -256,6 +291,7 @@ class PySolver {
     info["solve_seconds"] = seconds;
     info["method"] = method;
     info["message"] = r.message;
+    if (out) return py::make_tuple(*out, info);
     return py::make_tuple(to_numpy(std::move(x_full)), info);
   }
 
@@ -319,6 +355,10 @@ class PySolver {
   std::string describe() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return solver_->describe();
+  }
+  std::vector<std::string> unused_keys() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return config_.unused_keys();
   }
   double setup_seconds() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -433,7 +473,8 @@ PYBIND11_MODULE(_core, m) {
            py::arg("prolongations"), py::arg("config"), py::arg("layout"), py::arg("galerkin_only"))
       .def(py::init<PyHierarchy&, const std::string&, long>(), py::arg("hierarchy"), py::arg("config"),
            py::arg("communicator"), py::keep_alive<1, 2>())
-      .def("solve", &PySolver::solve, py::arg("b"), py::arg("x0") = py::none(), py::arg("tol") = py::none())
+      .def("solve", &PySolver::solve, py::arg("b"), py::arg("x0") = py::none(), py::arg("tol") = py::none(),
+           py::arg("out") = py::none())
       .def("apply", &PySolver::apply, py::arg("b"))
       .def("update", &PySolver::update, py::arg("A"))
       .def("update_levels", &PySolver::update_levels, py::arg("levels"))
@@ -441,6 +482,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("name", &PySolver::name)
       .def_property_readonly("setup_seconds", &PySolver::setup_seconds)
       .def("describe", &PySolver::describe)
+      .def_property_readonly("unused_keys", [](const PySolver& s) { return s.unused_keys(); })
       .def_property_readonly("removed_nodes", [](const PySolver& s) {
         if (!s.has_levels()) return std::vector<index_t>{};
         return s.with_levels("removed_nodes", [](const mg::UserLevels& lv) { return lv.removed_nodes(); });

@@ -217,6 +217,13 @@ void Config::check_all_used(const std::set<std::string>& except) const {
                      unknown + " (for the solver chosen; see docs/solvers.md)");
 }
 
+std::vector<std::string> Config::unused_keys() const {
+  std::vector<std::string> out;
+  for (const auto& kv : items())
+    if (!tree_->used.count(kv.first)) out.push_back(kv.first);
+  return out;
+}
+
 std::vector<std::pair<std::string, std::string>> Config::items() const {
   std::vector<std::pair<std::string, std::string>> out;
   for (auto it = tree_->values.lower_bound(prefix_); it != tree_->values.end(); ++it) {

@@ -80,7 +80,28 @@ std::vector<std::string> named_methods(const Config& c) {
   return out;
 }
 
+/// Whether some registered method reads `key` (relative to the method's own tree): listed as one
+/// of its keys, or inside one of its sub-solvers ("smoother.*" covers smoother.anything).
+bool is_known_key(const std::string& key) {
+  Registry& r = registry();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  const std::string head = key.substr(0, key.find('.'));
+  for (const auto& e : r.entries)
+    for (const auto& k : e.info.keys)
+      if (k.key == key || (key.size() > head.size() && k.key == head + ".*")) return true;
+  return false;
+}
+
 }  // namespace
+
+std::vector<KeyInfo> factory_keys() {
+  return {{"layout", "choice", "interleaved", "interleaved | component",
+           "order of the unknowns: component-major (x0 x1 ... y0 ...) is permuted to interleaved once "
+           "(multigrid levels take theirs where they are built)"},
+          {"unused_keys", "choice", "error", "error | known | ignore",
+           "a key no builder read: an error; allowed when some method reads it (one option set for "
+           "several methods); or ignored"}};
+}
 
 KrylovParams read_krylov(const Config& c, KrylovParams p) { return read_params(c, p); }
 
@@ -130,8 +151,13 @@ std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& c
     config.fail("layout", "multigrid levels take their layout where they are built (mg::UserLevels with "
                           "DofLayout::component, Python multigrid(layout=\"component\")); the levels "
                           "the solver reads are interleaved");
+  const std::string unused = config.get_choice("unused_keys", "error", {"error", "known", "ignore"});
   auto s = build_solver(config, context, fallback_method);
-  config.check_all_used();
+  std::set<std::string> allowed;
+  if (unused != "error")
+    for (const std::string& k : config.unused_keys())
+      if (unused == "ignore" || is_known_key(k.substr(config.full_key("").size()))) allowed.insert(k);
+  config.check_all_used(allowed);
   if (layout == "component")
     return std::make_unique<ComponentLayout>(std::move(s), method_needs_blocks(config.get_string("method", fallback_method)));
   return s;

@@ -5,6 +5,7 @@
 #include "pmg/sparse/csr.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 namespace pmg {
 
@@ -112,6 +113,68 @@ void ComponentLayout::apply_impl(const Vector& b, Vector& x) const {
   to_interleaved(b, bi);
   inner_->apply(bi, xi);
   to_component(xi, x);
+}
+
+namespace {
+/// Whether row i of A stores an entry in each of columns c0, c0 + step, c0 + 2 step.
+bool row_covers(const Csr& A, index_t i, index_t c0, index_t step) {
+  const CsrPattern& p = A.pattern();
+  const auto begin = p.col_idx.begin() + p.row_ptr[i], end = p.col_idx.begin() + p.row_ptr[i + 1];
+  for (int c = 0; c < 3; ++c)
+    if (!std::binary_search(begin, end, c0 + c * step)) return false;
+  return true;
+}
+bool row_covers(const Bcsr& A, index_t i, index_t c0, index_t step) {
+  for (int c = 0; c < 3; ++c)
+    if (A.find_block(i / 3, (c0 + c * step) / 3) < 0) return false;
+  return true;
+}
+/// Whether row i stores more than its diagonal (identity rows are not counted).
+bool row_couples(const Csr& A, index_t i) { return A.pattern().row_ptr[i + 1] - A.pattern().row_ptr[i] > 1; }
+bool row_couples(const Bcsr& A, index_t i) {
+  const BlockPattern& p = A.pattern();
+  const index_t I = i / 3;
+  for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k)
+    for (int c = 0; c < 3; ++c)
+      if (3 * p.col_idx[k] + c != i && A.values()[static_cast<size_t>(9 * k + 3 * (i % 3) + c)] != 0.0) return true;
+  return false;
+}
+template <typename M>
+LayoutFit fit_of(const M& A, double stored) {
+  LayoutFit f;
+  const index_t n = A.rows(), m = n / 3;
+  index_t inter = 0, comp = 0;
+  for (index_t i = 0; i < n; ++i) {
+    if (!row_couples(A, i)) continue;
+    ++f.rows;
+    inter += row_covers(A, i, 3 * (i / 3), 1);
+    comp += row_covers(A, i, i % m, m);
+  }
+  if (f.rows > 0) f.interleaved = double(inter) / double(f.rows), f.component = double(comp) / double(f.rows);
+  f.density = stored;
+  return f;
+}
+}  // namespace
+
+LayoutFit layout_fit(const LinearOperator& A) {
+  if (A.rows() % 3 != 0 || A.rows() != A.cols() || A.rows() == 0) return {};
+  const double n = static_cast<double>(A.rows());
+  if (const auto* c = dynamic_cast<const Csr*>(&A)) return fit_of(*c, static_cast<double>(c->nnz()) / (n * n));
+  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return fit_of(*b, 81.0 * static_cast<double>(b->num_blocks()) / (n * n));
+  return {};
+}
+
+void check_interleaved(const LinearOperator& A, const std::string& who) {
+  const LayoutFit f = layout_fit(A);
+  const bool blocks = dynamic_cast<const Bcsr*>(&A) != nullptr;  // its interleaved reading is always full
+  if (f.component >= 0.9 && (blocks || f.interleaved < 0.9) && f.density <= 0.5) {
+    char text[200];
+    std::snprintf(text, sizeof text, "%.0f%% of the rows couple the three components of node i mod n/3, %.0f%% those of their interleaved node 3*floor(i/3)",
+                  100 * f.component, 100 * f.interleaved);
+    throw InputError(who + ": the matrix reads as component-major (x0 x1 ... y0 y1 ... z0 ...): " + text +
+                     "; this method reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...): give the key "
+                     "layout=component (the matrix is permuted once), or renumber the unknowns");
+  }
 }
 
 std::string ComponentLayout::describe() const {

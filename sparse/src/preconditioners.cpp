@@ -1,5 +1,6 @@
 #include "pmg/sparse/preconditioners.hpp"
 
+#include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
 #include <cmath>
@@ -43,7 +44,12 @@ std::vector<double> invert_diagonal_blocks(const std::vector<double>& diagonal_b
 }
 
 void BlockJacobiPreconditioner::setup_impl(const LinearOperator& A) {
+  check_interleaved(A, "block Jacobi");
   inv_blocks_ = invert_diagonal_blocks(diagonal_blocks_of(A, "block Jacobi"), "block Jacobi");
+}
+
+void BlockJacobiPreconditioner::update_impl() {
+  inv_blocks_ = invert_diagonal_blocks(diagonal_blocks_of(system(), "block Jacobi"), "block Jacobi");
 }
 
 void BlockJacobiPreconditioner::apply_impl(const Vector& r, Vector& z) const {

@@ -8,6 +8,7 @@
 #include "pmg/fem/locator.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/user_levels.hpp"
+#include "pmg/sparse/layout.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -251,7 +252,7 @@ TEST_CASE("symmetry planes and rollers through the multigrid equal a direct solv
     if (fixed[i]) b[i] = 0.0;
   mg::UserLevelOptions o;
   o.galerkin_only = galerkin;
-  const mg::UserLevels u(galerkin ? std::vector<CsrView>{view_of(A.back())} : views(A), views(P), o);
+  mg::UserLevels u(galerkin ? std::vector<CsrView>{view_of(A.back())} : views(A), views(P), o);
   REQUIRE(u.constrained_dofs(h.num_levels() - 1));
   CHECK(*u.constrained_dofs(h.num_levels() - 1) == fixed);
   CHECK((galerkin ? u.constrained_dofs(0) == nullptr : u.constrained_dofs(0) != nullptr));
@@ -271,6 +272,44 @@ TEST_CASE("symmetry planes and rollers through the multigrid equal a direct solv
   CHECK((xf - x_plain).norm() > 1e-3 * x_plain.norm());  // the constraint changed the answer
   INFO("iterations: " << its << " constrained, " << clamped_only << " clamped only");
   CHECK(its <= 1.2 * clamped_only);
+
+  // New values on the same patterns (a time step's M + K): update() re-forms the levels (the
+  // Galerkin products with their masks) and the answer is again the direct solve's.
+  h.assemble(nullptr, nullptr, 1e5, 1.0);
+  std::vector<Csr> A2;
+  for (int l = 0; l < h.num_levels(); ++l) A2.push_back(constrained_copy(h.matrix(l).to_csr(), on_planes(h, l, axes)));
+  u.set_values(galerkin ? std::vector<CsrView>{view_of(A2.back())} : views(A2));
+  std::vector<std::string> keys{"method=mgpcg", "tol=1e-10"};
+  if (galerkin) keys.push_back("coarse_operator=galerkin");
+  auto solver = make_solver(Config::from_pairs(keys, "test"), {&u});
+  solver->setup(u.matrix(h.num_levels() - 1));
+  u.set_values(galerkin ? std::vector<CsrView>{view_of(A.back())} : views(A));  // back, then forward by update()
+  solver->update();
+  u.set_values(galerkin ? std::vector<CsrView>{view_of(A2.back())} : views(A2));
+  solver->update();
+  Vector x2 = Vector::Zero(u.reduced_size());
+  REQUIRE(solver->solve(u.reduce(b), x2).ok());
+  direct->setup(A2.back());
+  Vector x2_ref = Vector::Zero(b.size());
+  direct->solve(b, x2_ref);
+  const Vector x2f = u.expand(x2, b);
+  CHECK((x2f - x2_ref).norm() <= 1e-8 * x2_ref.norm());
+  CHECK((x2f - x_ref).norm() > 1e-3 * x_ref.norm());
+  on_plane = 0.0;
+  for (Eigen::Index i = 0; i < x2f.size(); ++i)
+    if (fixed[i]) on_plane = std::max(on_plane, std::abs(x2f[i]));
+  CHECK(on_plane == 0.0);
+
+  // The same reduction into the caller's storage: views of plain arrays, nothing allocated.
+  std::vector<double> b_raw(b.data(), b.data() + b.size()), x_raw(b.size(), -1.0);
+  Vector rb(u.reduced_size());
+  u.reduce(Eigen::Map<const Vector>(b_raw.data(), b.size()), rb);
+  CHECK(rb == u.reduce(b));
+  u.expand(x2, Eigen::Map<const Vector>(b_raw.data(), b.size()), Eigen::Map<Vector>(x_raw.data(), b.size()));
+  CHECK(Eigen::Map<const Vector>(x_raw.data(), b.size()) == x2f);
+  Vector short_out(u.reduced_size() - 1);
+  CHECK_THROWS_WITH(u.reduce(b, short_out), Catch::Contains("reduced_size()"));
+  CHECK_THROWS_WITH(u.expand(x2, b, short_out), Catch::Contains("expected"));
 }
 
 namespace {
@@ -376,6 +415,56 @@ TEST_CASE("layout=component: any method on a component-major matrix solves as on
   CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=mgpcg", "layout=component"}, "test"), {&s.h}),
                     Catch::Contains("multigrid levels take their layout where they are built"));
   CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=cg", "layout=rows"}, "test"), {}), Catch::Contains("layout"));
+}
+
+TEST_CASE("a component-major matrix handed to a block method without the layout key is refused, naming it",
+          "[user-levels][layout][errors]") {
+  // A quadratic box of 6 x 3 x 3 cubes clamped at one end (a sparse matrix: 10% of entries stored).
+  const TetMesh mesh = box_mesh_24(6, 3, 3, 1.0, 0.5, 0.5);
+  ElasticityModel model(mesh, 2, Material{});
+  model.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
+  Bcsr K = model.assembler().make_matrix();
+  model.assemble(nullptr, Vector(), K, nullptr);
+  const Csr A = K.to_csr();
+  const Csr Ac = permuted(A, to_component(A.rows() / 3), to_component(A.rows() / 3));
+  const LayoutFit right = layout_fit(A), wrong = layout_fit(Ac), blocks = layout_fit(Bcsr::from_csr(Ac));
+  CAPTURE(right.interleaved, right.component, wrong.interleaved, wrong.component, wrong.density, blocks.density);
+  CHECK(right.interleaved == 1.0);
+  CHECK(right.component < 0.1);
+  CHECK(wrong.component == 1.0);
+  CHECK(wrong.interleaved < 0.9);
+  CHECK(wrong.density < 0.5);
+  CHECK(blocks.interleaved == 1.0);  // BCSR stores whole blocks: read by its component coupling
+  CHECK(blocks.component == wrong.component);
+  CHECK(right.rows == A.rows());
+  for (const std::string method : {"block-jacobi-pcg", "mcg", "block-jacobi", "gauss-seidel", "chebyshev", "damped-jacobi"}) {
+    CAPTURE(method);
+    auto solver = make_solver(Config::from_pairs({"method=" + method}, "test"), {});
+    const Bcsr Ab = Bcsr::from_csr(Ac);
+    CHECK_THROWS_WITH(solver->setup(Ab), Catch::Contains("reads as component-major") && Catch::Contains("layout=component"));
+    CHECK_FALSE(solver->is_set_up());
+    auto fine = make_solver(Config::from_pairs({"method=" + method}, "test"), {});
+    CHECK_NOTHROW(fine->setup(Bcsr::from_csr(A)));
+  }
+  // Block Jacobi on the scalar CSR reads the same blocks: refused too.
+  auto bj = make_solver(Config::from_pairs({"method=block-jacobi-pcg"}, "test"), {});
+  CHECK_THROWS_WITH(bj->setup(Ac), Catch::Contains("layout=component"));
+  // Matrices that are not 3 unknowns per node are left alone: a scalar Laplacian of size 3k and a
+  // dense SPD matrix (both readings fill every block).
+  std::vector<Triplet> t;
+  const index_t n = 30;
+  for (index_t i = 0; i < n; ++i) {
+    t.emplace_back(i, i, 2.0);
+    if (i > 0) t.emplace_back(i, i - 1, -1.0), t.emplace_back(i - 1, i, -1.0);
+  }
+  const LayoutFit lap = layout_fit(Csr::from_triplets(n, n, t));
+  CHECK(lap.component < 0.9);
+  t.clear();
+  for (index_t i = 0; i < 6; ++i)
+    for (index_t j = 0; j < 6; ++j) t.emplace_back(i, j, i == j ? 10.0 : 1.0);
+  const Csr dense = Csr::from_triplets(6, 6, t);
+  CHECK(layout_fit(dense).interleaved == 1.0);
+  CHECK_NOTHROW(make_solver(Config::from_pairs({"method=block-jacobi-pcg"}, "test"), {})->setup(dense));
 }
 
 TEST_CASE("user level errors name the level or prolongation", "[user-levels]") {

@@ -277,3 +277,64 @@ def test_layout_component_for_any_method(levels, rhs):
         assert np.linalg.norm(xc - x[perm]) <= 1e-10 * np.linalg.norm(x), method
     with pytest.raises(pmgkit.InputError, match="layout"):
         pmgkit.make_solver(A, {"method": "cg", "layout": "rows"})
+
+
+def test_component_major_matrix_refused_by_block_methods_without_the_key(levels, rhs):
+    """A component-major matrix handed to a block method without "layout" is an InputError naming
+    the key (it would otherwise read mostly empty 3x3 blocks); methods that do not read blocks
+    take it as it is."""
+    As, _ = levels
+    A = As[-1].tocsr()
+    perm = component_major(A.shape[0] // 3)
+    Ac = A[perm][:, perm].tocsr()
+    density = Ac.nnz / Ac.shape[0] ** 2
+    if density > 0.5:
+        pytest.skip(f"fixture too small to be sparse ({density:.2f} of entries stored)")
+    for method in ("block-jacobi-pcg", "mcg"):
+        with pytest.raises(pmgkit.InputError, match="component-major.*layout=component"):
+            pmgkit.make_solver(Ac, {"method": method})
+    x, info = pmgkit.make_solver(Ac, {"method": "cholmod"}).solve(rhs[perm])
+    assert info["residual"] < 1e-8
+
+
+def test_unused_keys_for_a_shared_option_set(levels, rhs):
+    """One option set for a loop over methods: "unused_keys": "known" lets a key some other method
+    reads go unused (max_iterations for cholmod) and lists it; a key no method reads is still an
+    error."""
+    A = levels[0][-1].tocsr()
+    shared = {"tol": 1e-9, "max_iterations": 5000, "unused_keys": "known"}
+    for method, unused in (("block-jacobi-pcg", []), ("cholmod", ["max_iterations"])):
+        s = pmgkit.make_solver(A, {"method": method, **shared})
+        assert s.unused_keys == unused, method
+        _, info = s.solve(rhs)
+        assert info["residual"] < 1e-8
+    with pytest.raises(pmgkit.InputError, match="unused key tolerance"):
+        pmgkit.make_solver(A, {"method": "cholmod", "tolerance": 1e-9, "unused_keys": "known"})
+    with pytest.raises(pmgkit.InputError, match="unused key max_iterations"):
+        pmgkit.make_solver(A, {"method": "cholmod", "max_iterations": 5})
+
+
+def test_solve_into_the_callers_array(levels, rhs):
+    """out= receives the solution in place (the same object is returned); with user levels the
+    reduced system is gathered from b and scattered into out; a wrong buffer is refused, never
+    silently copied."""
+    As, Ps = levels
+    for s in (pmgkit.multigrid(levels=As, prolongations=Ps, config={"tol": 1e-10}),
+              pmgkit.make_solver(As[-1].tocsr(), {"method": "block-jacobi-pcg", "tol": 1e-10})):
+        x_new, _ = s.solve(rhs)
+        out = np.full(rhs.size, np.nan)
+        x_out, info = s.solve(rhs, out=out)
+        assert x_out is out
+        assert np.array_equal(out, x_new)
+        out[:] = 0.0  # the start read from the array the answer goes to
+        s.solve(rhs, x0=out, out=out)
+        assert np.array_equal(out, x_new)
+        for bad, match in ((np.zeros(rhs.size, dtype=np.float32), "float64"),
+                           (np.zeros(rhs.size + 1), "shape"),
+                           (np.zeros(2 * rhs.size)[::2], "contiguous")):
+            with pytest.raises(pmgkit.InputError, match=match):
+                s.solve(rhs, out=bad)
+        frozen = np.zeros(rhs.size)
+        frozen.flags.writeable = False
+        with pytest.raises(pmgkit.InputError, match="writeable"):
+            s.solve(rhs, out=frozen)

@@ -109,3 +109,34 @@ TEST_CASE("a registered method's start-up hook runs once per process, before the
   CHECK(start_libraries(c) < 0);  // started already: no time to charge
   CHECK(started == 1);
 }
+
+TEST_CASE("unused_keys: error by default, known keys allowed for a shared option set, or ignored",
+          "[sparse][factory][errors]") {
+  const Bcsr A = spring_lattice(4);
+  // block-jacobi reads no key: tol, which the Krylov methods read, is left unused.
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=block-jacobi", "tol=1e-8"}, "loop")),
+                    Catch::Contains("unused key tol"));
+  const Config known = Config::from_pairs({"method=block-jacobi", "tol=1e-8", "unused_keys=known"}, "loop");
+  auto s = make_solver(known);
+  s->setup(A);
+  CHECK(known.unused_keys() == std::vector<std::string>{"tol"});
+  // A key no method reads is still an error under `known` (a misspelt tol)...
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=block-jacobi", "tpl=1e-8", "unused_keys=known"}, "loop")),
+                    Catch::Contains("unused key tpl"));
+  // ... as are keys of a sub-solver no method has, while one some method has passes.
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=jacobi", "colour.x=1", "unused_keys=known"}, "loop")),
+                    Catch::Contains("colour.x"));
+  const Config nested = Config::from_pairs({"method=jacobi", "preconditioner.method=jacobi", "unused_keys=known"}, "loop");
+  make_solver(nested);
+  CHECK(nested.unused_keys() == std::vector<std::string>{"preconditioner.method"});
+  // ignore: anything goes, still listed.
+  const Config ignore = Config::from_pairs({"method=block-jacobi", "tpl=1", "unused_keys=ignore"}, "loop");
+  make_solver(ignore);
+  CHECK(ignore.unused_keys() == std::vector<std::string>{"tpl"});
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=cg", "unused_keys=warn"}, "loop")),
+                    Catch::Contains("unused_keys"));
+  // The factory's own keys are listed like a method's.
+  std::set<std::string> names;
+  for (const KeyInfo& k : factory_keys()) names.insert(k.key);
+  CHECK(names == std::set<std::string>{"layout", "unused_keys"});
+}

@@ -28,7 +28,10 @@
 //   mg::UserLevels levels({A1, A2, A3}, {P1, P2}, {});  // CsrViews, coarsest first
 //   auto solver = make_solver(config, {&levels});
 //   solver->setup(levels.matrix(levels.num_levels() - 1));
-//   Vector x = levels.expand(solver_solution_of(levels.reduce(b)), b);
+//   Vector rb(levels.reduced_size()), rx = Vector::Zero(levels.reduced_size());  // kept across solves
+//   levels.reduce(Eigen::Map<const Vector>(b, n), rb);    // the caller's b, read in place
+//   solver->solve(rb, rx);
+//   levels.expand(rx, Eigen::Map<const Vector>(b, n), Eigen::Map<Vector>(x, n));  // into the caller's x
 #pragma once
 
 #include "pmg/multigrid/levels.hpp"
@@ -88,8 +91,16 @@ class UserLevels final : public LevelProvider {
   const std::vector<index_t>& removed_nodes() const { return removed_; }
   /// b (finest, as given) restricted to the free dofs, in the cycle's interleaved order.
   Vector reduce(const Vector& full) const;
+  /// The same into the caller's storage, allocating nothing: `full` (full_size() entries) gathered
+  /// into `reduced` (reduced_size() entries). Either may view the caller's memory
+  /// (Eigen::Map<const Vector>(dealii_vector.data(), n)): the one pass a reduction needs.
+  /// InputError naming the sizes when they do not match.
+  void reduce(Eigen::Ref<const Vector> full, Eigen::Ref<Vector> reduced) const;
   /// The full solution: x on the free dofs, b / diagonal on the identity rows.
   Vector expand(const Vector& reduced, const Vector& full_rhs) const;
+  /// The same into `full` (full_size() entries, e.g. a Map of the caller's solution vector),
+  /// allocating nothing. InputError naming the sizes when they do not match.
+  void expand(Eigen::Ref<const Vector> reduced, Eigen::Ref<const Vector> full_rhs, Eigen::Ref<Vector> full) const;
 
  private:
   struct Level {

@@ -72,6 +72,9 @@ class Config {
   /// Throws InputError naming every key of this view that no reader used (keys in `except`, full
   /// names, are not checked).
   void check_all_used(const std::set<std::string>& except = {}) const;
+  /// The keys of this view that no reader used (full names), in order: after make_solver() with
+  /// unused_keys=known or ignore, what the solver left unused (PETSc's -options_left).
+  std::vector<std::string> unused_keys() const;
   /// Whether a reader used the key.
   bool was_used(const std::string& key) const { return tree_->used.count(full_key(key)) > 0; }
   /// Every key and value of this view, in order (full names).

@@ -51,8 +51,17 @@ struct SolverContext {
 
 /// Builds the solver the config's "method" names (`fallback_method` when it names none) and
 /// throws InputError naming any key that was not used. Not set up: call setup(A).
+///
+/// Two keys belong to make_solver itself (factory_keys()): `layout` (interleaved | component:
+/// ComponentLayout, pmg/sparse/layout.hpp) and `unused_keys` — `error` (the default: a key no
+/// builder read is an InputError), `known` (a key that some registered method reads, such as tol
+/// given to cholmod, may go unused: one option set for a loop over methods; any other key is still
+/// an error) or `ignore`. Config::unused_keys() then lists what was left unused.
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context = {},
                                     const std::string& fallback_method = "cg");
+
+/// The keys make_solver reads for every method (layout, unused_keys), as SolverInfo lists keys.
+std::vector<KeyInfo> factory_keys();
 
 /// Builds a sub-solver (a preconditioner, smoother or lowest level) from a view of a config,
 /// without the unused-key check (the caller's make_solver does it once for the whole tree).

@@ -6,6 +6,12 @@
 // wraps the method in ComponentLayout: the matrix is permuted to interleaved once at set-up (its
 // values refreshed through the same map at update()), the right-hand side and solution at each
 // solve. Multigrid levels take their layout where they are built (mg::UserLevels).
+//
+// Without the key, the block methods check what they are given (check_interleaved()): a matrix
+// whose rows couple the three components of the node i mod n/3 (component-major reading) but
+// leave most of the 3x3 blocks of interleaved nodes empty is refused with a message naming
+// layout=component. Elasticity couples every component of a node with every other, so the right
+// reading fills (nearly) every node's diagonal block and the wrong one (nearly) none.
 #pragma once
 
 #include "pmg/sparse/solver.hpp"
@@ -15,6 +21,27 @@
 #include <vector>
 
 namespace pmg {
+
+/// How a matrix's pattern reads under each layout: the fraction of its rows (identity rows left out)
+/// that store an entry in each of the three components of their own node — node 3⌊i/3⌋ read
+/// interleaved, node i mod (n/3) read component-major — and the fraction of entries stored.
+/// Structural: stored entries count whatever their value (an interleaved elasticity matrix on a
+/// symmetric mesh has exact zeros inside its diagonal blocks). A BCSR matrix stores whole blocks,
+/// so it reads as interleaved wherever its diagonal blocks are stored.
+struct LayoutFit {
+  double interleaved = 1.0;  ///< rows storing their interleaved node's three columns
+  double component = 0.0;    ///< rows storing their component-major node's three columns
+  double density = 1.0;      ///< stored entries / n² (BCSR: 9 per block)
+  index_t rows = 0;          ///< rows counted (more than their diagonal stored)
+};
+/// The fit of a Csr or Bcsr (a size divisible by 3); {1, 0, 1, 0} for any other operator or size.
+/// Cost: up to three binary searches per row and reading.
+LayoutFit layout_fit(const LinearOperator& A);
+/// Throws InputError naming `who`, both fractions and the key layout=component when A reads as
+/// component-major: component >= 0.9, interleaved < 0.9 (not asked of a BCSR matrix) and density
+/// <= 0.5 (a dense matrix fits both readings). An interleaved sparse matrix has component near 0:
+/// it would need node a coupled to the nodes near a + N/3 and a + 2N/3 in nine rows of ten. Block methods call it at set-up (not at update(): the pattern is the same).
+void check_interleaved(const LinearOperator& A, const std::string& who);
 
 /// A solver of interleaved systems applied to a component-major one (see the file comment).
 class ComponentLayout final : public Solver {

@@ -40,8 +40,9 @@ class BlockJacobiPreconditioner final : public Solver {
   const std::vector<double>& inverse_blocks() const { return inv_blocks_; }
 
  private:
+  /// Checks the layout (check_interleaved()) and inverts the blocks.
   void setup_impl(const LinearOperator& A) override;
-  void update_impl() override { setup_impl(system()); }
+  void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
   std::vector<double> inv_blocks_;
 };
