@@ -48,6 +48,10 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
   sub->add_option("--load", o.load, "traction: 10 N (-z) on the opposite face; gravity: 9.81 m/s^2 (-z)")
       ->check(CLI::IsMember({"traction", "gravity"}))
       ->capture_default_str();
+  sub->add_option("--symmetry", o.symmetry,
+                  "symmetry planes: AXIS (its minimum face) or AXIS:max, each holding the normal "
+                  "component of its nodes at zero (a half or quarter model)")
+      ->check(CLI::IsMember({"x", "y", "z", "x:min", "y:min", "z:min", "x:max", "y:max", "z:max"}));
   sub->add_option("--dt", o.dt, "> 0: the implicit-Euler system M + dt^2 K of one time step")
       ->check(FiniteNonNegative());
   add_allow_option(sub, o.allow);
@@ -78,6 +82,12 @@ std::vector<double> FemSystem::free_coordinates() const {
   return hierarchy().node_coordinates(hierarchy().num_levels() - 1);
 }
 
+index_t held_components(const fem::ElasticityModel& m) {
+  index_t n = 0;
+  for (char c : m.constrained_free_dofs()) n += c;
+  return n;
+}
+
 sim::Scene scene_of(const SceneOptions& o) {
   sim::Scene s = sim::table_bar();  // its end load unless gravity is asked for
   s.source = "pmg compare options";
@@ -92,6 +102,13 @@ sim::Scene scene_of(const SceneOptions& o) {
     s.end_force = fem::Vec3::Zero();
   }
   for (const auto& a : o.allow) fem::allow_mesh_defect(s.mesh_checks, a);
+  for (const auto& plane : o.symmetry) {
+    sim::Scene::Support sup;
+    sup.axis = plane[0] - 'x';
+    sup.at_max = plane.size() > 2 && plane.substr(2) == "max";
+    sup.components = 1 << sup.axis;
+    s.supports.push_back(sup);
+  }
   s.dynamic = o.dt > 0;
   if (o.dt > 0) s.dt = o.dt;
   return s;
@@ -118,7 +135,8 @@ FemSystem build_fem_system(const SceneOptions& o, bool assemble_finest) {
   s.b = m.restrict_to_free(f);
   if (assemble_finest) s.assemble_finest();
   s.description += ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
-                   " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " + o.load +
+                   " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " +
+                   (o.symmetry.empty() ? "" : std::to_string(held_components(m)) + " components held by symmetry planes, ") + o.load +
                    (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");
   return s;
 }

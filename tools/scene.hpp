@@ -27,7 +27,12 @@ struct SceneOptions {
   std::string load = "traction";    ///< traction (10 N on the max face of `fix`'s axis, -z) | gravity
   double dt = 0.0;                  ///< > 0: implicit-Euler system M + dt² K, b = dt f
   std::vector<std::string> allow;   ///< mesh defects accepted on purpose: tangled, cracked
+  /// Symmetry planes: "y" (the minimum face of y) or "y:max", each holding its normal component.
+  std::vector<std::string> symmetry;
 };
+
+/// Free components held at zero by supports and symmetry planes (constrain_components).
+index_t held_components(const fem::ElasticityModel& m);
 
 /// Registers the scene options on a subcommand.
 void add_scene_options(CLI::App* sub, SceneOptions& o);

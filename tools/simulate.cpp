@@ -3,6 +3,7 @@
 // scene, its set-up and its run are pmg::sim's; this prints them (and --json writes them).
 #include "checks.hpp"
 #include "commands.hpp"
+#include "scene.hpp"
 
 #include "pmg/mpi/session.hpp"
 #include "table.hpp"
@@ -199,7 +200,9 @@ void run(const Cli& cli_in) {
             << "mesh:    " << (s.mesh_file.empty() ? "box bar " + std::to_string(s.box[0]) + "x" + std::to_string(s.box[1]) + "x" + std::to_string(s.box[2]) + " boxes" : s.mesh_file)
             << (s.refine > 0 ? " refined " + std::to_string(s.refine) + "x" : "")
             << ", " << b.mesh->num_tets() << " tets, degree " << s.degree << ", " << m.num_free_dofs() << " unknowns, "
-            << m.num_fixed() << " clamped nodes\n"
+            << m.num_fixed() << " clamped nodes"
+            << (s.supports.empty() ? std::string() : ", " + std::to_string(held_components(m)) + " components held by supports")
+            << "\n"
             << "model:   " << (s.corotational ? "corotational" : "linear") << ", E = " << s.young << " Pa, nu = " << s.poisson
             << ", rho = " << s.density << " kg/m^3; initial state " << s.initial << "\n"
             << "set-up:  " << fmt("%.3f", seconds_since(t0)) << " s, " << omp_get_max_threads() << " threads\n";

@@ -37,6 +37,12 @@ std::vector<int> partition(const fem::TetMesh& mesh, MPI_Comm comm, int rank, in
 
 }  // namespace
 
+bool holds_components(const fem::DegreeHierarchy& serial) {
+  for (int l = 0; l < serial.num_levels(); ++l)
+    if (serial.constrained_dofs(l)) return true;
+  return false;
+}
+
 RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) : comm_(comm) {
   mpi::start();
   const fem::TetMesh& full = serial.model(0).space().mesh();

@@ -72,6 +72,55 @@ void ElasticityModel::fix_vertices(const std::vector<char>& clamped) {
   }
 }
 
+void ElasticityModel::constrain_components(const std::vector<char>& masks) {
+  if (assembler_) throw Error("constrain_components after the first assembly: the pattern is already built");
+  if (masks.size() != mesh_.vertices.size())
+    throw InputError("constrain_components: " + std::to_string(masks.size()) + " masks for " +
+                     std::to_string(mesh_.vertices.size()) + " vertices");
+  for (size_t v = 0; v < masks.size(); ++v)
+    if (masks[v] < 0 || masks[v] > 7)
+      throw InputError("constrain_components: vertex " + std::to_string(v) + " has mask " +
+                       std::to_string(int(masks[v])) + " (bits 1, 2, 4 for x, y, z)");
+  if (components_.empty()) components_.assign(space_.num_nodes(), 0);
+  const auto& alpha = multi_indices(space_.degree());
+  for (index_t e = 0; e < mesh_.num_tets(); ++e) {
+    const Tet& t = mesh_.tets[e];
+    for (int a = 0; a < space_.nodes_per_element(); ++a) {
+      int bits = 7;
+      for (int i = 0; i < 4; ++i)
+        if (alpha[a][i] != 0) bits &= masks[t[i]];
+      const index_t node = space_.node(e, a);
+      components_[node] = static_cast<char>(components_[node] | bits);
+      if (components_[node] == 7) fixed_[node] = 1;
+    }
+  }
+}
+
+const std::vector<char>& ElasticityModel::constrained_free_dofs() const {
+  assembler();  // builds the list with the free numbering
+  return constrained_free_;
+}
+
+void ElasticityModel::constrain(Bcsr& A) const {
+  const std::vector<char>& c = constrained_free_dofs();
+  if (c.empty()) return;
+  const BlockPattern& p = A.pattern();
+  for (index_t I = 0; I < p.rows; ++I)
+    for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
+      const index_t J = p.col_idx[k];
+      auto blk = A.block(k);
+      for (int r = 0; r < 3; ++r)
+        for (int s = 0; s < 3; ++s)
+          if (c[3 * I + r] || c[3 * J + s]) blk(r, s) = (I == J && r == s) ? 1.0 : 0.0;
+    }
+}
+
+void ElasticityModel::constrain(Vector& reduced) const {
+  const std::vector<char>& c = constrained_free_dofs();
+  for (size_t i = 0; i < c.size(); ++i)
+    if (c[i]) reduced[static_cast<Eigen::Index>(i)] = 0.0;
+}
+
 int clamped_dimension(const TetMesh& mesh, const std::vector<char>& clamped) {
   std::vector<Vec3> X;
   for (size_t v = 0; v < clamped.size() && v < mesh.vertices.size(); ++v)
@@ -102,6 +151,16 @@ const BlockAssembler& ElasticityModel::assembler() const {
     index_t next = 0;
     for (index_t i = 0; i < space_.num_nodes(); ++i)
       if (!fixed_[i]) free_index[i] = next++;
+    constrained_free_.clear();
+    bool any = false;
+    for (index_t i = 0; i < space_.num_nodes() && !components_.empty(); ++i)
+      any = any || (free_index[i] >= 0 && components_[i] != 0);
+    if (any) {
+      constrained_free_.assign(3 * static_cast<size_t>(next), 0);
+      for (index_t i = 0; i < space_.num_nodes(); ++i)
+        if (free_index[i] >= 0)
+          for (int c = 0; c < 3; ++c) constrained_free_[3 * free_index[i] + c] = (components_[i] >> c) & 1;
+    }
     assembler_ = std::make_unique<BlockAssembler>(space_, std::move(free_index));
   }
   return *assembler_;
@@ -112,6 +171,7 @@ Vector ElasticityModel::restrict_to_free(const Vector& full) const {
   Vector r(num_free_dofs());
   for (index_t i = 0; i < space_.num_nodes(); ++i)
     if (fi[i] >= 0) r.segment<3>(3 * fi[i]) = full.segment<3>(3 * i);
+  constrain(r);
   return r;
 }
 
@@ -228,6 +288,8 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
     }
   }
   if (pass.energy) *pass.energy = energy;
+  if (pass.stiffness) constrain(*pass.stiffness);
+  if (pass.rhs) constrain(*pass.rhs);
 }
 
 void ElasticityModel::assemble(const Rotations* R, const Vector& prescribed, Bcsr& K,
@@ -284,6 +346,7 @@ void ElasticityModel::assemble_mass(Bcsr& M) const {
         }
     }
   }
+  constrain(M);
 }
 
 Vector ElasticityModel::lumped_mass() const {

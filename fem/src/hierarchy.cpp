@@ -87,22 +87,23 @@ Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& f
 }
 
 DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
-                                 const std::function<bool(const Vec3&)>& fixed)
+                                 const std::function<bool(const Vec3&)>& fixed, std::vector<char> components)
     : DegreeHierarchy(mesh, degree, material, [&] {
         std::vector<char> clamped(mesh.vertices.size());
         for (size_t v = 0; v < mesh.vertices.size(); ++v) clamped[v] = fixed(mesh.vertices[v]) ? 1 : 0;
         return clamped;
-      }()) {}
+      }(), std::move(components)) {}
 
 DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
-                                 std::vector<char> clamped)
-    : clamped_(std::move(clamped)) {
+                                 std::vector<char> clamped, std::vector<char> components)
+    : clamped_(std::move(clamped)), components_(std::move(components)) {
   if (clamped_.size() != mesh.vertices.size())
     throw InputError("hierarchy: " + std::to_string(clamped_.size()) + " clamp flags for " +
                      std::to_string(mesh.vertices.size()) + " vertices");
   for (int p = 1; p <= degree; ++p) {
     models_.push_back(std::make_unique<ElasticityModel>(mesh, p, material));
     models_.back()->fix_vertices(clamped_);
+    if (!components_.empty()) models_.back()->constrain_components(components_);
     matrices_.emplace_back();
   }
   state_.resize(models_.size());

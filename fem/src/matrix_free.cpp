@@ -310,20 +310,40 @@ void ElasticityOperator::update(const Rotations* R) {
 }
 
 void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
-  switch (impl_->p) {
-    case 1: impl_->apply<1>(x, y, nullptr); break;
-    case 2: impl_->apply<2>(x, y, nullptr); break;
-    default: impl_->apply<3>(x, y, nullptr); break;
+  // Components held by ElasticityModel::constrain_components(): identity rows and zero columns,
+  // as the assembled matrices: y = A (x masked), then y_c = x_c.
+  const std::vector<char>& held = model_->constrained_free_dofs();
+  Vector masked;
+  if (!held.empty()) {
+    masked = x;
+    model_->constrain(masked);
   }
+  const Vector& in = held.empty() ? x : masked;
+  switch (impl_->p) {
+    case 1: impl_->apply<1>(in, y, nullptr); break;
+    case 2: impl_->apply<2>(in, y, nullptr); break;
+    default: impl_->apply<3>(in, y, nullptr); break;
+  }
+  for (size_t i = 0; i < held.size(); ++i)
+    if (held[i]) y[static_cast<Eigen::Index>(i)] = x[static_cast<Eigen::Index>(i)];
 }
 
 void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector& r) const {
   r.resize(rows());
-  switch (impl_->p) {
-    case 1: impl_->apply<1>(x, r, &b); break;
-    case 2: impl_->apply<2>(x, r, &b); break;
-    default: impl_->apply<3>(x, r, &b); break;
+  const std::vector<char>& held = model_->constrained_free_dofs();
+  Vector masked;
+  if (!held.empty()) {
+    masked = x;
+    model_->constrain(masked);
   }
+  const Vector& in = held.empty() ? x : masked;
+  switch (impl_->p) {
+    case 1: impl_->apply<1>(in, r, &b); break;
+    case 2: impl_->apply<2>(in, r, &b); break;
+    default: impl_->apply<3>(in, r, &b); break;
+  }
+  for (size_t i = 0; i < held.size(); ++i)
+    if (held[i]) r[static_cast<Eigen::Index>(i)] = b[static_cast<Eigen::Index>(i)] - x[static_cast<Eigen::Index>(i)];
 }
 
 void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
@@ -352,6 +372,14 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
           for (int j = 0; j < 3; ++j) out[3 * i + j] += B(i, j);
       }
     }
+  }
+  const std::vector<char>& held = model_->constrained_free_dofs();  // identity rows, as apply()
+  for (size_t i = 0; i < held.size(); ++i) {
+    if (!held[i]) continue;
+    double* out = blocks.data() + 9 * (i / 3);
+    const size_t r = i % 3;
+    for (size_t j = 0; j < 3; ++j) out[3 * r + j] = out[3 * j + r] = 0.0;
+    out[4 * r] = 1.0;
   }
 }
 

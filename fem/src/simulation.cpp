@@ -78,6 +78,15 @@ void check_state(const ElasticityModel& m, const Vector& u, const Vector& v) {
   for (index_t i = 0; i < m.num_nodes(); ++i)
     if (m.is_fixed(i) && (u.segment<3>(3 * i).norm() > 0 || v.segment<3>(3 * i).norm() > 0))
       throw InputError("simulation: clamped node " + std::to_string(i) + " must start at rest");
+  const std::vector<char>& held = m.constrained_free_dofs();
+  if (!held.empty()) {
+    const auto& fi = m.assembler().free_index();
+    for (index_t i = 0; i < m.num_nodes(); ++i)
+      for (int c = 0; c < 3 && fi[i] >= 0; ++c)
+        if (held[3 * fi[i] + c] && (u[3 * i + c] != 0.0 || v[3 * i + c] != 0.0))
+          throw InputError("simulation: node " + std::to_string(i) + " holds its " + std::string(1, char('x' + c)) +
+                           " component at zero (a support or symmetry plane) but starts with it moved");
+  }
 }
 
 void ImplicitEuler::set_state(const Vector& u, const Vector& v) {

@@ -3,6 +3,8 @@
 #include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <string>
 
@@ -28,6 +30,9 @@ Chebyshev::Chebyshev(const ChebyshevParams& params) : params_(params) {
   if (!(params.lower_fraction > 0 && params.lower_fraction < 1))
     throw InputError("Chebyshev: lower_fraction must lie in (0, 1)");
   if (params.power_iterations < 1) throw InputError("Chebyshev: power_iterations must be >= 1");
+  if (params.lanczos && params.update_iterations > 0)
+    throw InputError("Chebyshev: estimate=lanczos re-estimates at every update; update_iterations (warm-started "
+                     "power steps) applies to estimate=power only");
   if (params.kind == ChebyshevKind::optimal_fourth && params.degree > kMaxOptimalDegree)
     throw InputError("Chebyshev: the optimised fourth kind is tabulated for degree <= " +
                      std::to_string(kMaxOptimalDegree));
@@ -52,7 +57,53 @@ void Chebyshev::update_impl() {
   else estimate(params_.power_iterations, false);
 }
 
+namespace {
+/// λmax of D⁻¹A from `steps` steps of CG on A x = r0 with the block-diagonal preconditioner D:
+/// the largest eigenvalue of the Lanczos tridiagonal matrix (Saad, "Iterative Methods for Sparse
+/// Linear Systems", 6.7.3) built from CG's α_k and β_k.
+template <typename ApplyInverseDiagonal>
+double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& apply_inverse_diagonal, Vector r,
+                          int steps) {
+  Vector z(r.size()), p(r.size()), w(r.size());
+  apply_inverse_diagonal(r, z);
+  p = z;
+  double rz = r.dot(z);
+  std::vector<double> alpha, beta;
+  for (int k = 0; k < steps && rz > 0 && std::isfinite(rz); ++k) {
+    A.apply(p, w);
+    const double pAp = p.dot(w);
+    if (!(pAp > 0) || !std::isfinite(pAp)) break;
+    alpha.push_back(rz / pAp);
+    r -= alpha.back() * w;
+    apply_inverse_diagonal(r, z);
+    const double rz_new = r.dot(z);
+    beta.push_back(rz_new / rz);
+    p = z + beta.back() * p;
+    rz = rz_new;
+  }
+  const int m = static_cast<int>(alpha.size());
+  if (m == 0) return 0.0;
+  Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m, m);
+  for (int k = 0; k < m; ++k) {
+    T(k, k) = 1.0 / alpha[k] + (k > 0 ? beta[k - 1] / alpha[k - 1] : 0.0);
+    if (k + 1 < m) T(k, k + 1) = T(k + 1, k) = std::sqrt(std::max(beta[k], 0.0)) / alpha[k];
+  }
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(T, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+}
+}  // namespace
+
 void Chebyshev::estimate(int iterations, bool warm) {
+  if (params_.lanczos) {  // set-up and every update alike (no vector to warm-start from)
+    Vector start(z_.size());
+    for (Eigen::Index i = 0; i < start.size(); ++i) start[i] = 1.0 + 0.5 * std::sin(0.7 * i);
+    const double lambda = lanczos_lambda_max(
+        *A_, [this](const Vector& r, Vector& z) { apply_inverse_diagonal(r, z); }, std::move(start),
+        params_.power_iterations);
+    if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
+    lambda_max_ = 1.1 * lambda;
+    steps_ = chebyshev_steps(params_, lambda_max_);
+    return;
+  }
   // Power iteration on D⁻¹A from a fixed, non-smooth start vector or the last estimate's (in
   // work vectors kept from set-up: an update per time step allocates nothing).
   Vector &v = eigenvector_, &w = r_, &z = z_;

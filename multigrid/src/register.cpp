@@ -36,6 +36,10 @@ void ChebyshevParams::visit(ParamVisitor& v) {
            "degree <= 6): on [0, lmax], no lower bound");
   v.real("lower_fraction", lower_fraction, 1e-6, 1 - 1e-6, "first kind: the lower end of the damped interval");
   v.integer("power_iterations", power_iterations, 1, 1000, "power iterations estimating lmax of D^-1 A at set-up");
+  v.choice("estimate", lanczos, {{"power", false}, {"lanczos", true}},
+           "lmax at set-up by power iteration, or by Lanczos (CG on A with D as preconditioner, as "
+           "many steps as power_iterations, at set-up and every update): robust where the top of the "
+           "spectrum is clustered");
   v.integer("update_iterations", update_iterations, 0, 1000,
             "per update(): 0 re-estimates lmax as at set-up; k runs k power iterations warm-started "
             "from the last estimate");
@@ -66,7 +70,7 @@ struct CycleOptions {
              "smoother is Chebyshev (its keys only); assembled: the level matrices");
     v.solver("smoother", "gauss-seidel",
              "one per level above the lowest (matrix-free route, and mgpcg on user levels: chebyshev, kind "
-             "opt-fourth, degree 3)");
+             "opt-fourth, degree 3; on user levels with estimate lanczos)");
     v.solver("lowest_level", "auto",
              "the lowest level's solver; auto: for mgpcg CHOLMOD below 40000 unknowns, BoomerAMG (one "
              "V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level keys are given "
@@ -134,8 +138,10 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
       if (!keys.count(key.substr(sc.full_key("").size()))) chebyshev = false;
   }
   // A FEM code's own levels (matrices only: no matrix-free operators to offer): MGPCG defaults to
-  // one cycle of the optimised fourth-kind Chebyshev of degree 3, measured 2.2-2.3x faster than
-  // two cycles of block Gauss–Seidel on the bunny, degrees 2 and 3 (docs/other-fem-codes.md).
+  // one cycle of the optimised fourth-kind Chebyshev of degree 3, measured 2.1-2.3x faster than
+  // two cycles of block Gauss–Seidel on the bunny, degrees 2 and 3 (docs/other-fem-codes.md),
+  // with λmax from Lanczos: any user's matrices, and 15 power steps underestimated a diffusion
+  // hierarchy's (examples/python/user_levels.py) past the 10% margin.
   // Stationary PMG keeps Gauss–Seidel, which measured faster there. FEM scenes' assembled route
   // (operator=assembled) stays the chapter's Gauss–Seidel.
   const bool user_chebyshev = mgpcg && !ctx.levels->offers_matrix_free() && chebyshev;
@@ -143,6 +149,7 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     sc.set_default("method", "chebyshev");
     sc.set_default("kind", "opt-fourth");
     sc.set_default("degree", "3");
+    sc.set_default("estimate", "lanczos");
   }
   if (o.op == "auto") {
     // Matrix-free where the levels offer operators and nothing asks for matrices: geometric lower

@@ -130,6 +130,8 @@ class Solver:
         self._keep = keep  # arrays the solver was built from (read in place at set-up)
 
     def solve(self, b, x0=None, tol=None, out=None):
+        if out is not None and not isinstance(out, np.ndarray):
+            raise InputError("out: expected a NumPy array (it is written in place), got %s" % type(out).__name__)
         return self._core.solve(np.asarray(b, dtype=np.float64), None if x0 is None else
                                 np.asarray(x0, dtype=np.float64), tol, out)
 

@@ -92,6 +92,21 @@ std::vector<char> clamp_mask(const fem::TetMesh& mesh, py::object clamp) {
   return mask;
 }
 
+/// Components held per vertex: None (empty: none) or an (n_vertices, 3) boolean array, column c
+/// set where component c is held at zero (bits 1, 2, 4 of constrain_components' masks).
+std::vector<char> component_masks(const fem::TetMesh& mesh, py::object held) {
+  if (held.is_none()) return {};
+  const auto a = held.cast<py::array_t<bool, py::array::c_style | py::array::forcecast>>();
+  if (a.ndim() != 2 || a.shape(0) != mesh.num_vertices() || a.shape(1) != 3)
+    throw InputError("components: expected an (n_vertices, 3) boolean array (" + std::to_string(mesh.num_vertices()) +
+                     " vertices; column c: component c held at zero)");
+  std::vector<char> masks(mesh.num_vertices(), 0);
+  for (index_t v = 0; v < mesh.num_vertices(); ++v)
+    for (int c = 0; c < 3; ++c)
+      if (a.at(v, c)) masks[v] = static_cast<char>(masks[v] | (1 << c));
+  return masks;
+}
+
 py::dict run_records(const sim::RunSummary& r) {
   const size_t n = r.records.size();
   auto column = [&](auto get) {
@@ -185,6 +200,9 @@ void register_fem(py::module_& m) {
         s.m().fix_nodes(nodes);
       })
       .def("fix_vertices", [](PyModel& s, py::object clamp) { s.m().fix_vertices(clamp_mask(s.m().space().mesh(), clamp)); })
+      .def("constrain_components", [](PyModel& s, py::object masks) {
+        s.m().constrain_components(component_masks(s.m().space().mesh(), masks));
+      })
       .def_property_readonly("num_fixed", [](PyModel& s) { return s.m().num_fixed(); })
       .def("stiffness", [](PyModel& s) {
         Bcsr K = s.m().assembler().make_matrix();
@@ -244,7 +262,8 @@ void register_fem(py::module_& m) {
       }, py::arg("f"), py::arg("corotational") = false);
 
   py::class_<PyHierarchy>(m, "DegreeHierarchy")
-      .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material, py::object clamp) {
+      .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material, py::object clamp,
+                       py::object components) {
              if (degree < 1 || degree > 3) throw InputError("degree must be 1, 2 or 3, got " + std::to_string(degree));
              material.check();
              const std::vector<char> mask = clamp_mask(*mesh, clamp);
@@ -254,13 +273,20 @@ void register_fem(py::module_& m) {
                if (mask[v]) clamped.insert({mesh->vertices[v].x(), mesh->vertices[v].y(), mesh->vertices[v].z()});
              auto h = std::make_unique<fem::DegreeHierarchy>(*mesh, degree, material, [&](const fem::Vec3& X) {
                return clamped.count({X.x(), X.y(), X.z()}) > 0;
-             });
+             }, component_masks(*mesh, components));
              PyHierarchy out{mesh, std::move(h)};
              py::gil_scoped_release nogil;
              out.h->assemble(nullptr);
              return out;
            }),
-           py::arg("mesh"), py::arg("degree"), py::arg("material") = fem::Material{}, py::arg("clamp") = py::none())
+           py::arg("mesh"), py::arg("degree"), py::arg("material") = fem::Material{}, py::arg("clamp") = py::none(),
+           py::arg("components") = py::none())
+      .def("constrained_dofs", [](const PyHierarchy& s) {
+        const std::vector<char>* c = s.h->constrained_dofs(s.h->num_levels() - 1);
+        py::array_t<bool> out(c ? static_cast<py::ssize_t>(c->size()) : 0);
+        for (size_t i = 0; c && i < c->size(); ++i) out.mutable_data()[i] = (*c)[i] != 0;
+        return out;
+      })
       .def_property_readonly("num_levels", [](const PyHierarchy& s) { return s.h->num_levels(); })
       .def("matrix", [](const PyHierarchy& s, int l) { return bsr_copy(s.h->matrix(l)); })
       .def("prolongation", [](const PyHierarchy& s, int l) { return csr_copy(s.h->prolongation(l)); })

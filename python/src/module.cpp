@@ -16,6 +16,7 @@
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/csr_view.hpp"
 #include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/petsc_binary.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -170,6 +171,8 @@ class PySolver {
       py::gil_scoped_release nogil;
       csr_ = to_csr(a.view, "matrix");
       if (!csr_.is_symmetric(1e-12)) throw InputError("matrix: not symmetric (the solvers need a symmetric positive definite matrix)");
+      // Judged on the scalar matrix, before it becomes blocks (pmg/sparse/layout.hpp).
+      if (method_needs_blocks(method_) && !config_.has("layout")) check_interleaved(csr_, "method " + method_);
       if (f != "csr") bcsr_ = std::make_unique<Bcsr>(Bcsr::from_csr(csr_));
       if (f == "bin-bcsr") bin_ = std::make_unique<BinBcsr>(*bcsr_);
     }

@@ -205,6 +205,30 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       if (s.clamp_fraction >= 1) c.fail_key("fraction", "must be < 1");
     }
   }
+  for (const char* kind : {"supports", "symmetry"}) {
+    if (!root.has(kind)) continue;
+    const json& list = root.at(kind);
+    if (!list.is_array()) root.fail_key(kind, "expected an array of objects ({\"axis\": \"y\", \"at\": \"min\"})");
+    for (size_t i = 0; i < list.size(); ++i) {
+      Section e(path, std::string(kind) + "[" + std::to_string(i) + "]", list[i]);
+      Scene::Support sup;
+      if (!e.has("axis")) e.fail("needs an axis (\"x\", \"y\" or \"z\")");
+      sup.axis = axis_index(e, "axis", e.string("axis", "x"));
+      sup.at_max = e.string("at", "min", {"min", "max"}) == "max";
+      if (std::string(kind) == "symmetry") {
+        sup.components = 1 << sup.axis;
+      } else {
+        const std::string comps = e.string("components", "xyz");
+        for (char ch : comps) {
+          if (ch < 'x' || ch > 'z' || (sup.components & (1 << (ch - 'x'))))
+            e.fail_key("components", "expected distinct letters among x, y, z, got '" + comps + "'");
+          sup.components |= 1 << (ch - 'x');
+        }
+        if (sup.components == 0) e.fail_key("components", "holds nothing: name at least one of x, y, z");
+      }
+      s.supports.push_back(sup);
+    }
+  }
   if (root.has("loads")) {
     Section l = root.sub("loads");
     s.gravity = l.vec3("gravity", s.gravity);
@@ -271,6 +295,9 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     root.fail("initial.state spinning needs \"clamp\": \"none\" (a clamped body cannot spin freely)");
   if ((s.initial == "deflected" || s.initial == "compressed" || s.initial == "twisted") && s.clamp_axis < 0)
     root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
+  if (!s.supports.empty() && (s.initial == "compressed" || s.initial == "twisted" || s.initial == "spinning"))
+    root.fail("initial.state " + s.initial + " prescribes a displacement or motion that supports and symmetry "
+              "planes would contradict: use rest or deflected with them");
   return s;
 }
 
@@ -338,6 +365,17 @@ std::string scene_to_json(const Scene& s) {
                                   {"young", s.inclusion_young}};
   if (s.clamp_axis < 0) j["clamp"] = "none";
   else j["clamp"] = {{"axis", std::string(1, static_cast<char>('x' + s.clamp_axis))}, {"fraction", s.clamp_fraction}};
+  if (!s.supports.empty()) {
+    json list = json::array();
+    for (const auto& sup : s.supports) {
+      std::string comps;
+      for (int c = 0; c < 3; ++c)
+        if (sup.components & (1 << c)) comps += static_cast<char>('x' + c);
+      list.push_back({{"axis", std::string(1, static_cast<char>('x' + sup.axis))},
+                      {"at", sup.at_max ? "max" : "min"}, {"components", comps}});
+    }
+    j["supports"] = list;
+  }
   auto vec = [](const fem::Vec3& v) { return std::array<double, 3>{v.x(), v.y(), v.z()}; };
   j["loads"] = {{"gravity", vec(s.gravity)}, {"end_force", vec(s.end_force)}};
   json init = {{"state", s.initial}};

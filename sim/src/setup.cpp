@@ -77,9 +77,35 @@ SceneSetup set_up(const Scene& s) {
   const int axis = s.clamp_axis;
   const double extent = (b.hi - b.lo).maxCoeff(), tol = 1e-9 * extent;
   const double limit = axis >= 0 ? b.lo[axis] + s.clamp_fraction * (b.hi[axis] - b.lo[axis]) + tol : -1e300;
+  // Supports and symmetry planes: per vertex, the components held (bits 1, 2, 4).
+  std::vector<char> held;
+  if (!s.supports.empty()) {
+    held.assign(mesh.vertices.size(), 0);
+    for (const auto& sup : s.supports) {
+      const double face = sup.at_max ? b.hi[sup.axis] : b.lo[sup.axis];
+      for (size_t v = 0; v < held.size(); ++v)
+        if (std::abs(mesh.vertices[v][sup.axis] - face) <= tol) held[v] = static_cast<char>(held[v] | sup.components);
+    }
+  }
   b.hierarchy = std::make_unique<fem::DegreeHierarchy>(
       mesh, s.degree, fem::Material{s.young, s.poisson, s.density},
-      [axis, limit](const fem::Vec3& X) { return axis >= 0 && X[axis] <= limit; });
+      [axis, limit](const fem::Vec3& X) { return axis >= 0 && X[axis] <= limit; }, std::move(held));
+  // Each support must hold a planar part of the boundary, not a point or a line where a curved
+  // surface touches its bounding box: the area of the boundary faces whose three vertices lie on it.
+  for (const auto& sup : s.supports) {
+    const double face = sup.at_max ? b.hi[sup.axis] : b.lo[sup.axis];
+    Vector scratch = Vector::Zero(b.hierarchy->finest().num_dofs());
+    const double area = b.hierarchy->finest().add_traction(
+        scratch, [&](const fem::Vec3& X) { return std::abs(X[sup.axis] - face) <= tol; }, fem::Vec3::Zero());
+    const std::string where = std::string(sup.at_max ? "maximum" : "minimum") + " of " + static_cast<char>('x' + sup.axis);
+    if (!(area > 0))
+      throw InputError("scene: the support or symmetry plane at the " + where +
+                       " holds no boundary face (the mesh touches that plane in points or lines only: a "
+                       "symmetry plane needs a planar cut face)");
+    std::ostringstream note;
+    note << "support at the " << where << ": " << area << " m^2 of boundary faces";
+    b.notes.push_back(note.str());
+  }
   if (axis >= 0) {
     const std::vector<char>& clamped = b.hierarchy->clamped_vertices();
     const int dim = fem::clamped_dimension(mesh, clamped);

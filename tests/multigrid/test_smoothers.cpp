@@ -194,3 +194,24 @@ TEST_CASE("l1 block Jacobi matches its dense serial reference and converges unda
   const Csr S = A.to_csr();
   CHECK_THROWS_WITH(on_csr.setup(S), Catch::Contains("l1-jacobi: needs the matrix as BCSR"));
 }
+
+TEST_CASE("the Lanczos estimate of lambda_max lies within the 10% margin where power steps fall short",
+          "[multigrid][smoother]") {
+  // The exact λmax of D⁻¹A from the dense generalized eigenproblem A v = λ D v.
+  const Bcsr A = spring_lattice(6);
+  const Eigen::MatrixXd dense = A.to_csr().to_eigen().toDense();
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dense.rows(), dense.cols());
+  for (Eigen::Index I = 0; I < dense.rows() / 3; ++I) D.block<3, 3>(3 * I, 3 * I) = dense.block<3, 3>(3 * I, 3 * I);
+  const double exact = Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd>(dense, D).eigenvalues().maxCoeff();
+  ChebyshevParams power, lanczos;
+  lanczos.lanczos = true;
+  power.power_iterations = lanczos.power_iterations = 10;
+  const double by_power = Chebyshev(A, power).lambda_max() / 1.1, by_lanczos = Chebyshev(A, lanczos).lambda_max() / 1.1;
+  INFO("exact " << exact << ", 10 power steps " << by_power << ", 10 Lanczos steps " << by_lanczos);
+  CHECK(by_lanczos <= exact * (1 + 1e-10));  // a Ritz value: never above
+  CHECK(by_lanczos >= exact / 1.1);          // inside the margin the smoother adds
+  CHECK(std::abs(exact - by_lanczos) <= std::abs(exact - by_power));
+  // Lanczos re-estimates at each update: warm-started power steps do not combine with it.
+  lanczos.update_iterations = 1;
+  CHECK_THROWS_WITH(Chebyshev(A, lanczos), Catch::Contains("estimate=lanczos"));
+}

@@ -334,6 +334,8 @@ def test_solve_into_the_callers_array(levels, rhs):
                            (np.zeros(2 * rhs.size)[::2], "contiguous")):
             with pytest.raises(pmgkit.InputError, match=match):
                 s.solve(rhs, out=bad)
+        with pytest.raises(pmgkit.InputError, match="NumPy array"):
+            s.solve(rhs, out=[0.0] * rhs.size)  # a list would be converted, and never written
         frozen = np.zeros(rhs.size)
         frozen.flags.writeable = False
         with pytest.raises(pmgkit.InputError, match="writeable"):

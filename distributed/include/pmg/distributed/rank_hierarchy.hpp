@@ -30,6 +30,10 @@ struct RankLevel;
 
 namespace pmg::dist {
 
+/// Whether any level holds single components (symmetry planes, supports: constrained_dofs()),
+/// which the rank levels, holding whole nodes, do not support yet.
+bool holds_components(const fem::DegreeHierarchy& serial);
+
 /// One rank's share of a DegreeHierarchy (see the file comment).
 class RankHierarchy {
  public:

@@ -70,6 +70,24 @@ class ElasticityModel {
   /// only clamped vertices: the same clamped set on every degree, so the fixed spaces are nested
   /// and prolongation maps free coarse nodes to free fine nodes. `clamped` has one entry per vertex.
   void fix_vertices(const std::vector<char>& clamped);
+  /// Holds single components at zero (symmetry planes, rollers, sliding supports): one mask per
+  /// vertex, bit c (1, 2, 4 for x, y, z) set where component c is held. A node gets bit c when
+  /// every vertex of its support sub-simplex has it (as fix_vertices: on a plane through a mesh
+  /// face, every node of the face); a node that gets all three bits is fixed. The other nodes
+  /// with bits stay free with those components as identity rows — 1 on the diagonal, the rest of
+  /// the row and column zero — in every matrix (assemble, assemble_mass, evaluate) and in the
+  /// matrix-free operator, and zero in every reduced vector (the rhs of assemble and evaluate,
+  /// restrict_to_free), so that solves keep them at zero. Call before the first assembly, after or
+  /// before the fix_* calls. Throws InputError for a wrong number of masks or a mask above 7.
+  void constrain_components(const std::vector<char>& masks);
+  /// Per free dof (3 per free node, assembler() order): 1 for a component held by
+  /// constrain_components(); empty when none is.
+  const std::vector<char>& constrained_free_dofs() const;
+  /// Identity rows and zero columns of the constrained components in a matrix of assembler()'s
+  /// pattern (nothing to do without constraints).
+  void constrain(Bcsr& A) const;
+  /// Zero at the constrained components of a reduced vector.
+  void constrain(Vector& reduced) const;
   /// Number of fixed nodes (a count over all nodes).
   index_t num_fixed() const;
   /// Whether the node is fixed; node must lie in [0, num_nodes()) (unchecked).
@@ -165,6 +183,8 @@ class ElasticityModel {
   const ElementTables& tables_;
   std::vector<ElementGeometry> geometry_;
   std::vector<char> fixed_;
+  std::vector<char> components_;                     ///< per node: bits of held components (empty: none)
+  mutable std::vector<char> constrained_free_;       ///< per free dof, built with the assembler
   std::vector<double> stiffness_scale_;  ///< empty: homogeneous
   mutable std::unique_ptr<BlockAssembler> assembler_;
 };

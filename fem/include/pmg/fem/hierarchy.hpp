@@ -37,11 +37,15 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// Levels l = 0..degree-1 hold degree l+1; `fixed` selects the clamped mesh vertices by rest
   /// position, and every level fixes the BB nodes whose support has only clamped vertices
   /// (ElasticityModel::fix_vertices): all nodes of a clamped face, on every level alike.
+  /// `components` (empty: none) holds single components on every level: one mask per vertex,
+  /// bit c (1, 2, 4) for component c (ElasticityModel::constrain_components: symmetry planes,
+  /// rollers); the cycles keep those components out of their transfers (constrained_dofs()).
   DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material,
-                  const std::function<bool(const Vec3&)>& fixed);
+                  const std::function<bool(const Vec3&)>& fixed, std::vector<char> components = {});
   /// The same with the clamped vertices given as one flag per mesh vertex (1: clamped), as
   /// clamped_vertices() returns them: a rank's share of a mesh keeps its owner's clamp.
-  DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped);
+  DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
+                  std::vector<char> components = {});
 
   int num_levels() const override { return static_cast<int>(models_.size()); }
   std::string level_name(int level) const override { return "degree " + std::to_string(level + 1); }
@@ -51,6 +55,13 @@ class DegreeHierarchy final : public mg::LevelProvider {
   const ElasticityModel& finest() const { return *models_.back(); }
   /// One flag per mesh vertex: 1 where `fixed` selected it.
   const std::vector<char>& clamped_vertices() const { return clamped_; }
+  /// The component masks given at construction (one per vertex; empty: none).
+  const std::vector<char>& component_masks() const { return components_; }
+  /// The components a level holds on their own (per free dof; nullptr: none).
+  const std::vector<char>* constrained_dofs(int level) const override {
+    const std::vector<char>& c = model(level).constrained_free_dofs();
+    return c.empty() ? nullptr : &c;
+  }
   /// Per-element Young's modulus factors on every level (ElasticityModel::set_stiffness_scale).
   void set_stiffness_scale(const std::vector<double>& scale) {
     for (auto& m : models_) m->set_stiffness_scale(scale);
@@ -135,6 +146,7 @@ class DegreeHierarchy final : public mg::LevelProvider {
   std::vector<Bcsr> masses_;  ///< per level, assembled on first use
   std::vector<Csr> prolongations_;
   std::vector<char> clamped_;
+  std::vector<char> components_;
   /// Rotations and weights of each level's last assembly or update, for operators built later.
   struct LevelState {
     bool rotated = false;

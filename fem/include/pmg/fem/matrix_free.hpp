@@ -27,6 +27,10 @@
 // diagonal and the element forces run colour by colour (BlockAssembler's colouring: no two
 // elements of a colour share a node).
 //
+// Components the model holds on their own (ElasticityModel::constrain_components: symmetry planes)
+// are identity rows and zero columns here as in the assembled matrices: x is masked before the
+// element pass and y_c = x_c after it.
+//
 // update(R) is the only per-step work of a corotational step: it rotates the stored gradients.
 // diagonal_blocks() gives the 3x3 diagonal blocks (for Jacobi and Chebyshev smoothing) from the
 // same element data, element_force() the elastic force and energy of a state.

@@ -49,6 +49,19 @@ struct Scene {
   /// Clamped slab as a fraction of the extent along clamp_axis, in [0, 1); 0 clamps the vertices
   /// at the minimum only.
   double clamp_fraction = 0.0;
+  /// A boundary face held in some components, at zero: a roller or sliding support, or a symmetry
+  /// plane (which holds its normal component). The vertices at the minimum or maximum of `axis`
+  /// (within 1e-9 of the extent), on every level (fem::ElasticityModel::constrain_components).
+  struct Support {
+    int axis = 0;         ///< 0, 1, 2 for x, y, z
+    bool at_max = false;  ///< the face at the maximum of axis (else the minimum)
+    int components = 0;   ///< bits 1, 2, 4 for x, y, z held (1 to 7)
+  };
+  /// Scene keys "supports" ([{"axis", "at": "min"|"max", "components": "xyz" subset}]) and
+  /// "symmetry" ([{"axis", "at"}]: components = the axis). They add to the clamp (a static scene
+  /// still needs one), run on one process (petsc-mgpcg refuses them) and do not combine with an
+  /// initial state that prescribes displacements (compressed, twisted, spinning).
+  std::vector<Support> supports;
   // loads (constant in time)
   /// Gravitational acceleration in m/s² (zero: no gravity load).
   fem::Vec3 gravity = fem::Vec3::Zero();

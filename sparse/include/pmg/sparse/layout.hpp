@@ -37,10 +37,13 @@ struct LayoutFit {
 /// The fit of a Csr or Bcsr (a size divisible by 3); {1, 0, 1, 0} for any other operator or size.
 /// Cost: up to three binary searches per row and reading.
 LayoutFit layout_fit(const LinearOperator& A);
-/// Throws InputError naming `who`, both fractions and the key layout=component when A reads as
-/// component-major: component >= 0.9, interleaved < 0.9 (not asked of a BCSR matrix) and density
-/// <= 0.5 (a dense matrix fits both readings). An interleaved sparse matrix has component near 0:
-/// it would need node a coupled to the nodes near a + N/3 and a + 2N/3 in nine rows of ten. Block methods call it at set-up (not at update(): the pattern is the same).
+/// Throws InputError naming `who`, both fractions and the key layout=component when A, a scalar
+/// Csr, reads as component-major: component >= 0.9, interleaved < 0.9 and density <= 0.5 (a dense
+/// matrix fits both readings). An interleaved elasticity matrix stores its nodes' 3x3 blocks
+/// (interleaved 1). A Bcsr is not judged: it declares its blocks, and its structure cannot tell a
+/// component-major matrix from an interleaved one numbered in layers (a thin plate couples node a
+/// with a + N/3); convert scalar input with Bcsr::from_csr after this check (Python and pmg compare
+/// do). Block methods call it at set-up (not at update(): the pattern is the same).
 void check_interleaved(const LinearOperator& A, const std::string& who);
 
 /// A solver of interleaved systems applied to a component-major one (see the file comment).
