@@ -309,16 +309,23 @@ void ElasticityOperator::update(const Rotations* R) {
   set_weights(mass_weight_, stiffness_weight_);
 }
 
+namespace {
+/// x itself, or (where the model holds components) a copy in `scratch` with those entries zeroed:
+/// the held components' columns are zero, as in the assembled matrices.
+const Vector& masked_input(const ElasticityModel& model, const Vector& x, Vector& scratch) {
+  if (model.constrained_free_dofs().empty()) return x;
+  scratch = x;
+  model.constrain(scratch);
+  return scratch;
+}
+}  // namespace
+
 void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
   // Components held by ElasticityModel::constrain_components(): identity rows and zero columns,
   // as the assembled matrices: y = A (x masked), then y_c = x_c.
   const std::vector<char>& held = model_->constrained_free_dofs();
-  Vector masked;
-  if (!held.empty()) {
-    masked = x;
-    model_->constrain(masked);
-  }
-  const Vector& in = held.empty() ? x : masked;
+  Vector scratch;
+  const Vector& in = masked_input(*model_, x, scratch);
   switch (impl_->p) {
     case 1: impl_->apply<1>(in, y, nullptr); break;
     case 2: impl_->apply<2>(in, y, nullptr); break;
@@ -331,12 +338,8 @@ void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
 void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector& r) const {
   r.resize(rows());
   const std::vector<char>& held = model_->constrained_free_dofs();
-  Vector masked;
-  if (!held.empty()) {
-    masked = x;
-    model_->constrain(masked);
-  }
-  const Vector& in = held.empty() ? x : masked;
+  Vector scratch;
+  const Vector& in = masked_input(*model_, x, scratch);
   switch (impl_->p) {
     case 1: impl_->apply<1>(in, r, &b); break;
     case 2: impl_->apply<2>(in, r, &b); break;
