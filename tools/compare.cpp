@@ -215,13 +215,12 @@ System load_system(const Options& o) {
       throw InputError("solution has " + std::to_string(s.x_true.size()) +
                        " entries, matrix has " + std::to_string(s.csr.rows()) + " rows");
     if (s.csr.rows() % 3 == 0) {
-      const LayoutFit fit = layout_fit(s.csr);  // judged on the scalar matrix (pmg/sparse/layout.hpp)
-      if (fit.component >= 0.9 && fit.interleaved < 0.9 && fit.density <= 0.5 &&
+      // Judged on the scalar matrix, before it becomes blocks (pmg/sparse/layout.hpp).
+      const std::string reading = component_major_reading(s.csr);
+      if (!reading.empty() &&
           std::none_of(o.overrides.begin(), o.overrides.end(), [](const std::string& kv) { return kv.rfind("layout=", 0) == 0; }))
-        std::cerr << "warning: the matrix reads as component-major (x0 x1 ... y0 ...): "
-                  << static_cast<int>(100 * fit.component) << "% of its rows couple the components of node i mod n/3, "
-                  << static_cast<int>(100 * fit.interleaved) << "% those of their interleaved node; the block methods "
-                     "read 3x3 blocks of interleaved unknowns: add --set layout=component\n";
+        std::cerr << "warning: " << reading << "; the block methods read 3x3 blocks of interleaved unknowns: add "
+                  << "--set layout=component\n";
       s.bcsr = std::make_shared<const Bcsr>(Bcsr::from_csr(s.csr));
     }
   } else if (o.fem) {

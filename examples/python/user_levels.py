@@ -78,4 +78,5 @@ for name, kwargs in (("mgpcg, re-discretised levels", dict(levels=levels)),
     print(f"{'':<42} boundary nodes removed per level: {s.removed_nodes}")
 print(f"{'scipy spsolve (SuperLU)':<42} {1:>6} {'':>10} {t_direct:>10.3f}")
 print("both hierarchies converge in under 20 iterations to the direct solution:", "yes" if ok else "NO")
-sys.exit(0 if ok else 1)
+if __name__ == "__main__":
+    sys.exit(0 if ok else 1)

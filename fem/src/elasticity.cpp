@@ -104,6 +104,9 @@ const std::vector<char>& ElasticityModel::constrained_free_dofs() const {
 void ElasticityModel::constrain(Bcsr& A) const {
   const std::vector<char>& c = constrained_free_dofs();
   if (c.empty()) return;
+  if (3 * static_cast<size_t>(A.block_rows()) != c.size())
+    throw InputError("constrain: the matrix has " + std::to_string(A.block_rows()) + " block rows, the model " +
+                     std::to_string(c.size() / 3) + " free nodes");
   const BlockPattern& p = A.pattern();
   for (index_t I = 0; I < p.rows; ++I)
     for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
@@ -117,6 +120,9 @@ void ElasticityModel::constrain(Bcsr& A) const {
 
 void ElasticityModel::constrain(Vector& reduced) const {
   const std::vector<char>& c = constrained_free_dofs();
+  if (!c.empty() && static_cast<size_t>(reduced.size()) != c.size())
+    throw InputError("constrain: the vector has " + std::to_string(reduced.size()) + " entries, the model " +
+                     std::to_string(c.size()) + " free dofs");
   for (size_t i = 0; i < c.size(); ++i)
     if (c[i]) reduced[static_cast<Eigen::Index>(i)] = 0.0;
 }

@@ -4,7 +4,6 @@
 #include "pmg/gpu/solvers.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/transfer.hpp"
-#include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/preconditioners.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -55,7 +54,6 @@ class DeviceSolver : public Solver {
     if (device_count() == 0) throw InputError(name() + ": no CUDA device or driver on this machine");
     device_name_ = device_info().name;
     const Bcsr& B = as_bcsr(A, name());
-    check_interleaved(B, name());
     const auto t0 = Clock::now();
     upload_system(B);
     synchronize();

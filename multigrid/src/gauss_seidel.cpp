@@ -1,6 +1,5 @@
 #include "pmg/multigrid/smoothers.hpp"
 
-#include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/preconditioners.hpp"
 
 #include <algorithm>
@@ -85,7 +84,6 @@ BlockGaussSeidel::BlockGaussSeidel(const GaussSeidelParams& params) : params_(pa
 
 void BlockGaussSeidel::setup_impl(const LinearOperator& op) {
   const Bcsr& A = as_bcsr(op, "Gauss-Seidel");
-  check_interleaved(A, "Gauss-Seidel");
   A_ = &A;
   colors_.clear(), order_.clear(), color_start_.clear(), source_.clear();
   colored_ = BlockPattern{};

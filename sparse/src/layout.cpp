@@ -124,60 +124,46 @@ bool row_covers(const Csr& A, index_t i, index_t c0, index_t step) {
     if (!std::binary_search(begin, end, c0 + c * step)) return false;
   return true;
 }
-bool row_covers(const Bcsr& A, index_t i, index_t c0, index_t step) {
-  for (int c = 0; c < 3; ++c)
-    if (A.find_block(i / 3, (c0 + c * step) / 3) < 0) return false;
-  return true;
-}
-/// Whether row i stores more than its diagonal (identity rows are not counted).
-bool row_couples(const Csr& A, index_t i) { return A.pattern().row_ptr[i + 1] - A.pattern().row_ptr[i] > 1; }
-bool row_couples(const Bcsr& A, index_t i) {
-  const BlockPattern& p = A.pattern();
-  const index_t I = i / 3;
-  for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k)
-    for (int c = 0; c < 3; ++c)
-      if (3 * p.col_idx[k] + c != i && A.values()[static_cast<size_t>(9 * k + 3 * (i % 3) + c)] != 0.0) return true;
-  return false;
-}
-template <typename M>
-LayoutFit fit_of(const M& A, double stored) {
+}  // namespace
+
+LayoutFit layout_fit(const Csr& A) {
   LayoutFit f;
   const index_t n = A.rows(), m = n / 3;
+  if (n % 3 != 0 || n != A.cols() || n == 0) return f;
+  const CsrPattern& p = A.pattern();
   index_t inter = 0, comp = 0;
   for (index_t i = 0; i < n; ++i) {
-    if (!row_couples(A, i)) continue;
+    if (p.row_ptr[i + 1] - p.row_ptr[i] <= 1) continue;  // an identity row
     ++f.rows;
     inter += row_covers(A, i, 3 * (i / 3), 1);
     comp += row_covers(A, i, i % m, m);
   }
   if (f.rows > 0) f.interleaved = double(inter) / double(f.rows), f.component = double(comp) / double(f.rows);
-  f.density = stored;
+  f.density = static_cast<double>(A.nnz()) / (static_cast<double>(n) * static_cast<double>(n));
   return f;
 }
-}  // namespace
 
-LayoutFit layout_fit(const LinearOperator& A) {
-  if (A.rows() % 3 != 0 || A.rows() != A.cols() || A.rows() == 0) return {};
-  const double n = static_cast<double>(A.rows());
-  if (const auto* c = dynamic_cast<const Csr*>(&A)) return fit_of(*c, static_cast<double>(c->nnz()) / (n * n));
-  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return fit_of(*b, 9.0 * static_cast<double>(b->num_blocks()) / (n * n));
-  return {};
+std::string component_major_reading(const Csr& A) {
+  const LayoutFit f = layout_fit(A);
+  if (!(f.component >= 0.9 && f.interleaved < 0.9 && f.density <= 0.5)) return "";
+  char text[300];
+  std::snprintf(text, sizeof text,
+                "the matrix reads as component-major (x0 x1 ... y0 y1 ... z0 ...): %.0f%% of the rows couple the "
+                "three components of node i mod n/3, %.0f%% those of their interleaved node 3*floor(i/3)",
+                100 * f.component, 100 * f.interleaved);
+  return text;
 }
 
 void check_interleaved(const LinearOperator& A, const std::string& who) {
   // A BCSR matrix declares its blocks: its interleaved reading is always full, and a component
   // reading alone cannot tell a component-major matrix from an interleaved one numbered in layers
   // (a plate one element thick couples node a with a + N/3 too). Only scalar input is judged.
-  if (dynamic_cast<const Csr*>(&A) == nullptr) return;
-  const LayoutFit f = layout_fit(A);
-  if (f.component >= 0.9 && f.interleaved < 0.9 && f.density <= 0.5) {
-    char text[200];
-    std::snprintf(text, sizeof text, "%.0f%% of the rows couple the three components of node i mod n/3, %.0f%% those of their interleaved node 3*floor(i/3)",
-                  100 * f.component, 100 * f.interleaved);
-    throw InputError(who + ": the matrix reads as component-major (x0 x1 ... y0 y1 ... z0 ...): " + text +
-                     "; this method reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...): give the key "
-                     "layout=component (the matrix is permuted once), or renumber the unknowns");
-  }
+  const auto* c = dynamic_cast<const Csr*>(&A);
+  if (!c) return;
+  const std::string reading = component_major_reading(*c);
+  if (!reading.empty())
+    throw InputError(who + ": " + reading + "; this method reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 "
+                     "...): give the key layout=component (the matrix is permuted once), or renumber the unknowns");
 }
 
 std::string ComponentLayout::describe() const {

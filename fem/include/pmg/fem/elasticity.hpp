@@ -84,9 +84,9 @@ class ElasticityModel {
   /// constrain_components(); empty when none is.
   const std::vector<char>& constrained_free_dofs() const;
   /// Identity rows and zero columns of the constrained components in a matrix of assembler()'s
-  /// pattern (nothing to do without constraints).
+  /// pattern (nothing to do without constraints; InputError for another number of block rows).
   void constrain(Bcsr& A) const;
-  /// Zero at the constrained components of a reduced vector.
+  /// Zero at the constrained components of a reduced vector (InputError for another size).
   void constrain(Vector& reduced) const;
   /// Number of fixed nodes (a count over all nodes).
   index_t num_fixed() const;

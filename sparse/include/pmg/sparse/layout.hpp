@@ -7,11 +7,11 @@
 // values refreshed through the same map at update()), the right-hand side and solution at each
 // solve. Multigrid levels take their layout where they are built (mg::UserLevels).
 //
-// Without the key, the block methods check what they are given (check_interleaved()): a matrix
-// whose rows couple the three components of the node i mod n/3 (component-major reading) but
-// leave most of the 3x3 blocks of interleaved nodes empty is refused with a message naming
+// Without the key, the block methods check a scalar matrix they are given (check_interleaved()):
+// one whose rows couple the three components of the node i mod n/3 (component-major reading) but
+// leave many 3x3 blocks of interleaved nodes unfilled is refused with a message naming
 // layout=component. Elasticity couples every component of a node with every other, so the right
-// reading fills (nearly) every node's diagonal block and the wrong one (nearly) none.
+// reading fills every node's diagonal block (the wrong one 42% of them on a quadratic box).
 #pragma once
 
 #include "pmg/sparse/solver.hpp"
@@ -22,28 +22,29 @@
 
 namespace pmg {
 
-/// How a matrix's pattern reads under each layout: the fraction of its rows (identity rows left out)
-/// that store an entry in each of the three components of their own node — node 3⌊i/3⌋ read
-/// interleaved, node i mod (n/3) read component-major — and the fraction of entries stored.
-/// Structural: stored entries count whatever their value (an interleaved elasticity matrix on a
-/// symmetric mesh has exact zeros inside its diagonal blocks). A BCSR matrix stores whole blocks,
-/// so it reads as interleaved wherever its diagonal blocks are stored.
+/// How a scalar matrix's pattern reads under each layout: the fraction of its rows (identity rows
+/// left out) that store an entry in each of the three components of their own node — node
+/// 3⌊i/3⌋ read interleaved, node i mod (n/3) read component-major — and the fraction of entries
+/// stored. Structural: stored entries count whatever their value (an interleaved elasticity matrix
+/// on a symmetric mesh has exact zeros inside its diagonal blocks).
 struct LayoutFit {
   double interleaved = 1.0;  ///< rows storing their interleaved node's three columns
   double component = 0.0;    ///< rows storing their component-major node's three columns
-  double density = 1.0;      ///< stored entries / n² (BCSR: 9 per block)
+  double density = 1.0;      ///< stored entries / n²
   index_t rows = 0;          ///< rows counted (more than their diagonal stored)
 };
-/// The fit of a Csr or Bcsr (a size divisible by 3); {1, 0, 1, 0} for any other operator or size.
-/// Cost: up to three binary searches per row and reading.
-LayoutFit layout_fit(const LinearOperator& A);
-/// Throws InputError naming `who`, both fractions and the key layout=component when A, a scalar
-/// Csr, reads as component-major: component >= 0.9, interleaved < 0.9 and density <= 0.5 (a dense
-/// matrix fits both readings). An interleaved elasticity matrix stores its nodes' 3x3 blocks
-/// (interleaved 1). A Bcsr is not judged: it declares its blocks, and its structure cannot tell a
-/// component-major matrix from an interleaved one numbered in layers (a thin plate couples node a
-/// with a + N/3); convert scalar input with Bcsr::from_csr after this check (Python and pmg compare
-/// do). Block methods call it at set-up (not at update(): the pattern is the same).
+/// The fit of A (a size divisible by 3; {1, 0, 1, 0} otherwise). Cost: six binary searches per row.
+LayoutFit layout_fit(const Csr& A);
+/// Empty, or why A reads as component-major: component >= 0.9, interleaved < 0.9 and density
+/// <= 0.5 (a dense matrix fits both readings). An interleaved elasticity matrix stores its nodes'
+/// 3x3 blocks (interleaved 1). The one criterion of check_interleaved() and pmg compare's warning.
+std::string component_major_reading(const Csr& A);
+/// Throws InputError naming `who`, the reading and the key layout=component when A is a Csr that
+/// reads as component-major (component_major_reading()); block methods call it at set-up (not at
+/// update(): the pattern is the same). A Bcsr is not judged: it declares its blocks, and its
+/// structure cannot tell a component-major matrix from an interleaved one numbered in layers (a
+/// thin plate couples node a with a + N/3); judge scalar input before Bcsr::from_csr (Python's
+/// make_solver and pmg compare do).
 void check_interleaved(const LinearOperator& A, const std::string& who);
 
 /// A solver of interleaved systems applied to a component-major one (see the file comment).
