@@ -1,19 +1,22 @@
-// The matrix-free BB elasticity operator (pmg/fem/matrix_free.hpp) against BCSR SpMV of the same
-// assembled matrix, in one run, with the memory bandwidth measured beside them.
+// The matrix-free BB elasticity operator (pmg/fem/matrix_free.hpp) on a roofline measured in the
+// same run: this machine's FMA peak (independent FMA chains on the vectors of each instruction set,
+// double and float, 1 and all threads) and memory bandwidth (STREAM triad, read-only sum), beside
+// BCSR SpMV of the same assembled matrix.
 //
 //   bench_operator [--pmg_boxes=8] [--pmg_triad_mib=384] [google benchmark flags]
 //
 // The system: a unit cube of n^3 boxes of 24 tetrahedra, clamped at z = 0, degrees 2 and 3 (cubic
-// n = 8: 164k unknowns). Per degree: BM_Bcsr (y = A x, A = K assembled), BM_MatrixFree (y = K x),
-// BM_MatrixFreeDynamic (y = M x + Δt² K x, the implicit-Euler matrix, against BM_BcsrDynamic: the
-// same BCSR kernel, the same bytes) and BM_MatrixFreeUpdate (a corotational step's update(R)).
+// n = 8: 177k unknowns). BM_MatrixFree/p/kernel/precision/threads/dynamic applies y = K x
+// (dynamic 0) or y = M x + dt^2 K_R x (1, the implicit-Euler matrix) with one element kernel
+// (0 reference, 1 generic, 2 avx2, 3 avx512) in double (8) or float (4); BM_Bcsr is y = K x with
+// the assembled matrix; BM_MatrixFreeUpdate a corotational step's update(R).
 // Bytes per unknown are each kernel's least traffic:
 //   BCSR          76 B per 3x3 block (values + column index), 8 B per block row (row pointer),
 //                 24 B x read and 24 B y written per block row
 //   matrix-free   128 B element data + 4 B per element node (indices), x read once, y zeroed and
-//                 accumulated (read and written once more)
-// The summary prints, per degree, both times, the speed-up, bytes per unknown, the flop rate of
-// the matrix-free kernel and each kernel's time as a multiple of its bandwidth bound.
+//                 accumulated (read and written once more); float halves all but the indices
+// The summary prints the roofline, then per kernel its time, GFLOP/s, the fraction of the FMA peak
+// of its precision and thread count, bytes per unknown and its time over the bandwidth bound.
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/matrix_free.hpp"
 
@@ -82,28 +85,124 @@ void BM_Bcsr(benchmark::State& state) {
   report(state, s, s.bcsr_bytes, 18.0 * s.K.num_blocks());
 }
 
-void BM_MatrixFree(benchmark::State& state) {
-  System& s = system_of(static_cast<int>(state.range(0)));
-  s.op->update(nullptr);
-  s.op->set_weights(0.0, 1.0);
-  for (auto _ : state) {
-    s.op->apply(s.x, s.y);
-    benchmark::DoNotOptimize(s.y.data());
+// ---- The arithmetic peak: independent FMA chains on vectors of each instruction set ------------
+// Twelve chains a = a * m + c (two FMA pipes of four cycles' latency need eight), in each thread.
+template <class T, int Bytes>
+struct Vec {
+  typedef T type __attribute__((vector_size(Bytes)));
+};
+
+template <class T, int Bytes>
+inline T fma_chains(long iterations) {
+  using V = typename Vec<T, Bytes>::type;
+  constexpr int kChains = 12;
+  V a[kChains];
+  for (int k = 0; k < kChains; ++k) a[k] = V{} + static_cast<T>(1 + k) * T(1e-3);
+  V m = V{} + T(0.999999), c = V{} + T(1e-7);
+  for (long i = 0; i < iterations; ++i) {
+    for (int k = 0; k < kChains; ++k) a[k] = a[k] * m + c;
+    __asm__ volatile("" : "+x"(m));  // keeps the chains from being folded
   }
-  report(state, s, s.op->bytes_per_apply(), s.op->flops_per_apply());
+  T s = 0;
+  for (int k = 0; k < kChains; ++k)
+    for (int l = 0; l < Bytes / static_cast<int>(sizeof(T)); ++l) s += a[k][l];
+  return s;
 }
 
-void BM_MatrixFreeDynamic(benchmark::State& state) {
-  System& s = system_of(static_cast<int>(state.range(0)));
-  s.op->update(&s.R);
-  s.op->set_weights(1.0, 1e-4);
-  for (auto _ : state) {
-    s.op->apply(s.x, s.y);
-    benchmark::DoNotOptimize(s.y.data());
+template <class T>
+T fma_generic(long n) { return fma_chains<T, 16>(n); }
+#if defined(__x86_64__)
+template <class T>
+__attribute__((target("avx2,fma"), flatten)) T fma_avx2(long n) { return fma_chains<T, 32>(n); }
+template <class T>
+__attribute__((target("avx512f,avx512vl,avx2,fma"), flatten)) T fma_avx512(long n) { return fma_chains<T, 64>(n); }
+#endif
+
+/// Flops of one fma_chains() iteration per thread, for vectors of `bytes`.
+template <class T>
+double fma_flops(long iterations, int bytes) {
+  return 2.0 * 12 * iterations * (bytes / static_cast<double>(sizeof(T)));
+}
+
+const char* kKernelNames[] = {"reference", "generic", "avx2", "avx512"};
+fem::MatrixFreeKernel kernel_of(int k) { return static_cast<fem::MatrixFreeKernel>(k + 1); }
+
+/// Arguments: instruction set (1 generic/SSE2, 2 AVX2 + FMA, 3 AVX-512), precision (8 double, 4
+/// float), threads.
+void BM_FmaPeak(benchmark::State& state) {
+  const int isa = static_cast<int>(state.range(0)), bytes_of_t = static_cast<int>(state.range(1));
+  const int threads = static_cast<int>(state.range(2));
+  if (!fem::matrix_free_kernel_available(kernel_of(isa))) {
+    state.SkipWithError("this CPU lacks the instruction set");
+    return;
   }
-  report(state, s, s.op->bytes_per_apply(), s.op->flops_per_apply());
+  const long iterations = 1 << 22;
+  const int bytes = isa == 1 ? 16 : isa == 2 ? 32 : 64;
+  double sink = 0;
+  for (auto _ : state) {
+#pragma omp parallel num_threads(threads) reduction(+ : sink)
+    {
+      if (bytes_of_t == 8) {
+#if defined(__x86_64__)
+        sink += isa == 3 ? fma_avx512<double>(iterations) : isa == 2 ? fma_avx2<double>(iterations) : fma_generic<double>(iterations);
+#else
+        sink += fma_generic<double>(iterations);
+#endif
+      } else {
+#if defined(__x86_64__)
+        sink += isa == 3 ? fma_avx512<float>(iterations) : isa == 2 ? fma_avx2<float>(iterations) : fma_generic<float>(iterations);
+#else
+        sink += fma_generic<float>(iterations);
+#endif
+      }
+    }
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["flops"] = threads * (bytes_of_t == 8 ? fma_flops<double>(iterations, bytes) : fma_flops<float>(iterations, bytes));
+}
+
+/// The triad at a given number of threads.
+void BM_TriadThreads(benchmark::State& state) {
+  const int keep = omp_get_max_threads();
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  BM_Triad(state);
+  omp_set_num_threads(keep);
+}
+
+/// Arguments: degree, kernel (0 reference, 1 generic, 2 avx2, 3 avx512), precision (8 double, 4
+/// float), threads, dynamic (0: y = K x; 1: y = M x + Δt² K_R x).
+void BM_MatrixFree(benchmark::State& state) {
+  System& s = system_of(static_cast<int>(state.range(0)));
+  const fem::MatrixFreeKernel kernel = static_cast<fem::MatrixFreeKernel>(state.range(1) + 1);
+  const bool single = state.range(2) == 4;
+  const int threads = static_cast<int>(state.range(3));
+  const bool dynamic = state.range(4) == 1;
+  if (!fem::matrix_free_kernel_available(kernel) || (single && kernel == fem::MatrixFreeKernel::reference)) {
+    state.SkipWithError("kernel not available here");
+    return;
+  }
+  const int keep = omp_get_max_threads();
+  omp_set_num_threads(threads);
+  s.op->set_kernel(kernel);
+  s.op->update(dynamic ? &s.R : nullptr);
+  s.op->set_weights(dynamic ? 1.0 : 0.0, dynamic ? 1e-4 : 1.0);
+  Eigen::VectorXf xf = s.x.cast<float>(), yf(s.x.size());
+  for (auto _ : state) {
+    if (single) {
+      s.op->apply_single(xf, yf);
+      benchmark::DoNotOptimize(yf.data());
+    } else {
+      s.op->apply(s.x, s.y);
+      benchmark::DoNotOptimize(s.y.data());
+    }
+  }
+  const double scale = single ? 0.5 : 1.0;  // the float kernel moves half the bytes (indices aside)
+  const double index_bytes = 4.0 * s.op->model().space().nodes_per_element() * s.mesh.num_tets();
+  report(state, s, index_bytes + scale * (s.op->bytes_per_apply() - index_bytes), s.op->flops_per_apply());
   s.op->update(nullptr);
   s.op->set_weights(0.0, 1.0);
+  s.op->set_kernel(fem::MatrixFreeKernel::automatic);
+  omp_set_num_threads(keep);
 }
 
 void BM_MatrixFreeUpdate(benchmark::State& state) {
@@ -121,42 +220,74 @@ class SummaryReporter : public benchmark::ConsoleReporter {
       if (!summary_run(r)) continue;
       const double seconds = r.real_accumulated_time / static_cast<double>(r.iterations);
       const std::string name = r.run_name.function_name;
+      const std::string args = r.run_name.args;
       const auto bytes = r.counters.find("bytes");
       if (name == "BM_Triad") triad_ = std::max(triad_, bytes->second.value / seconds / 1e9);
       else if (name == "BM_ReadSum") read_ = std::max(read_, bytes->second.value / seconds / 1e9);
-      else if (bytes != r.counters.end()) {
-        const std::string key = name + "/" + r.run_name.args;
+      else if (name == "BM_TriadThreads") triad_at_[args] = bytes->second.value / seconds / 1e9;
+      else if (name == "BM_FmaPeak") {
+        // args: isa/precision/threads; the peak of a precision and thread count is the best ISA's.
+        const auto cut = args.find('/');
+        const std::string key = args.substr(cut + 1);
+        const double rate = r.counters.at("flops").value / seconds / 1e9;
+        peak_isa_[args] = rate;
+        peak_[key] = std::max(peak_[key], rate);
+      } else if (bytes != r.counters.end()) {
+        const std::string key = name + "/" + args;
         times_[key] = seconds;
         bytes_[key] = bytes->second.value;
         flops_[key] = r.counters.at("flops").value;
-        unknowns_[r.run_name.args] = r.counters.at("unknowns").value;
+        unknowns_[args.substr(0, args.find('/'))] = r.counters.at("unknowns").value;
+        order_.push_back(key);
       }
     }
   }
   void Finalize() override {
     ConsoleReporter::Finalize();
-    std::printf("\nSummary (%d threads; triad %.2f GB/s, read-only %.2f GB/s)\n", omp_get_max_threads(),
-                triad_, read_);
-    std::printf("%-6s %-9s %-22s %9s %9s %11s %9s %11s\n", "degree", "unknowns", "kernel", "time ms",
-                "vs BCSR", "B/unknown", "GFLOP/s", "x bw bound");
-    for (const auto& [args, n] : unknowns_) {
-      const double bcsr = times_["BM_Bcsr/" + args];
-      for (const char* k : {"BM_Bcsr", "BM_MatrixFree", "BM_MatrixFreeDynamic"}) {
-        const std::string key = std::string(k) + "/" + args;
-        if (!times_.count(key)) continue;
-        const double t = times_[key];
-        const double bound = read_ > 0 ? bytes_[key] / (read_ * 1e9) : 0.0;
-        std::printf("%-6s %-9.0f %-22s %9.3f %8.2fx %11.1f %9.2f %10.2fx\n", args.c_str(), n, k, 1e3 * t,
-                    t > 0 ? bcsr / t : 0.0, bytes_[key] / n, flops_[key] / t / 1e9, bound > 0 ? t / bound : 0.0);
-      }
+    std::printf("\nRoofline of this machine, measured in this run\n");
+    for (const auto& [args, rate] : peak_isa_) {
+      int isa = 0, prec = 0, threads = 0;
+      std::sscanf(args.c_str(), "%d/%d/%d", &isa, &prec, &threads);
+      std::printf("  FMA peak %-8s %-6s %d thread%s: %7.1f GFLOP/s\n", kKernelNames[isa], prec == 8 ? "double" : "float",
+                  threads, threads > 1 ? "s" : " ", rate);
     }
-    std::printf("(vs BCSR: BCSR SpMV time / kernel time, the same matrix; BM_MatrixFreeDynamic applies "
-                "M + dt^2 K_R, whose BCSR matrix has the same pattern and cost as K's)\n");
+    for (const auto& [threads, bw] : triad_at_) std::printf("  triad %s thread(s): %.1f GB/s\n", threads.c_str(), bw);
+    std::printf("  triad %d threads %.2f GB/s, read-only %.2f GB/s\n\n", omp_get_max_threads(), triad_, read_);
+    std::printf("%-6s %-9s %-26s %9s %9s %9s %8s %10s %10s\n", "degree", "unknowns", "kernel", "time ms", "vs BCSR",
+                "GFLOP/s", "of peak", "B/unknown", "x bw bound");
+    for (const std::string& key : order_) {
+      const std::string name = key.substr(0, key.find('/'));
+      const std::string args = key.substr(key.find('/') + 1);
+      const std::string degree = args.substr(0, args.find('/'));
+      const double t = times_[key], n = unknowns_[degree];
+      const double bcsr = times_.count("BM_Bcsr/" + degree) ? times_["BM_Bcsr/" + degree] : 0.0;
+      std::string label = name == "BM_Bcsr" ? "bcsr" : name;
+      std::string peak_key;
+      if (name == "BM_MatrixFree") {
+        int p = 0, k = 0, prec = 0, threads = 0, dyn = 0;
+        std::sscanf(args.c_str(), "%d/%d/%d/%d/%d", &p, &k, &prec, &threads, &dyn);
+        label = std::string(dyn ? "M+dt2K " : "K ") + kKernelNames[k] + (prec == 8 ? " f64 " : " f32 ") +
+                std::to_string(threads) + "t";
+        peak_key = std::to_string(prec) + "/" + std::to_string(threads);
+      } else {
+        peak_key = "8/" + std::to_string(omp_get_max_threads());
+      }
+      const double rate = flops_[key] / t / 1e9;
+      const double peak = peak_.count(peak_key) ? peak_[peak_key] : 0.0;
+      const double bound = read_ > 0 ? bytes_[key] / (read_ * 1e9) : 0.0;
+      std::printf("%-6s %-9.0f %-26s %9.3f %8.2fx %9.2f %7.0f%% %10.1f %9.2fx\n", degree.c_str(), n, label.c_str(), 1e3 * t,
+                  bcsr > 0 ? bcsr / t : 0.0, rate, peak > 0 ? 100.0 * rate / peak : 0.0, bytes_[key] / n,
+                  bound > 0 ? t / bound : 0.0);
+    }
+    std::printf("(of peak: the flop rate against the best FMA peak of the same precision and thread count; vs BCSR:\n"
+                " BCSR SpMV time (double, all threads) / kernel time; x bw bound: time over the least bytes at the\n"
+                " read-only bandwidth; M+dt2K applies M + dt^2 K_R, whose BCSR matrix costs as K's)\n");
   }
 
  private:
   double triad_ = 0, read_ = 0;
-  std::map<std::string, double> times_, bytes_, flops_, unknowns_;
+  std::map<std::string, double> times_, bytes_, flops_, unknowns_, triad_at_, peak_, peak_isa_;
+  std::vector<std::string> order_;
 };
 
 }  // namespace
@@ -170,10 +301,25 @@ int main(int argc, char** argv) {
       rest.push_back(argv[i]);
   }
   start_benchmarks(rest, triad_mib);
+  const int max_threads = omp_get_max_threads();
+  std::vector<int> thread_counts = {1};
+  if (max_threads > 1) thread_counts.push_back(max_threads);
+  for (int threads : thread_counts) {
+    benchmark::RegisterBenchmark("BM_TriadThreads", BM_TriadThreads)->Arg(threads)->UseRealTime()->Unit(benchmark::kMillisecond);
+    for (int isa = 1; isa <= 3; ++isa)
+      for (int prec : {8, 4})
+        benchmark::RegisterBenchmark("BM_FmaPeak", BM_FmaPeak)->Args({isa, prec, threads})->UseRealTime()->Unit(benchmark::kMillisecond);
+  }
   for (int p : {2, 3}) {
     benchmark::RegisterBenchmark("BM_Bcsr", BM_Bcsr)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark("BM_MatrixFree", BM_MatrixFree)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark("BM_MatrixFreeDynamic", BM_MatrixFreeDynamic)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
+    for (int threads : thread_counts)
+      for (int dynamic : {0, 1})
+        for (int kernel = 0; kernel <= 3; ++kernel)
+          for (int prec : {8, 4}) {
+            if (prec == 4 && kernel == 0) continue;  // no scalar float kernel
+            if (dynamic && (kernel == 1 || threads != max_threads)) continue;  // M + dt^2 K: the fast kernels, all threads
+            benchmark::RegisterBenchmark("BM_MatrixFree", BM_MatrixFree)->Args({p, kernel, prec, threads, dynamic})->UseRealTime()->Unit(benchmark::kMillisecond);
+          }
     benchmark::RegisterBenchmark("BM_MatrixFreeUpdate", BM_MatrixFreeUpdate)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
   }
   SummaryReporter reporter;

@@ -1,5 +1,6 @@
 // Implicit Euler across MPI ranks (pmg/distributed/dynamics.hpp).
 #include "pmg/distributed/dynamics.hpp"
+#include "pmg/sparse/threads.hpp"
 
 #include "pmg/fem/vtk_writer.hpp"
 #include "pmg/mpi/session.hpp"
@@ -131,6 +132,7 @@ void DistributedEuler::evaluate_state() const {
 }
 
 fem::StepStats DistributedEuler::step() {
+  const ThreadBudget budget;  // the cores free now, for the whole step (pmg/sparse/threads.hpp)
   evaluate_state();
   fem::StepStats st;
   st.seconds = state_.seconds;

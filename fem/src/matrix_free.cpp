@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace pmg::fem {
 
@@ -173,78 +175,333 @@ inline void apply_range(const index_t* free, const double* data, long begin, lon
   }
 }
 
-// The element kernel is compute-bound. A default build targets the baseline x86-64 (SSE2: pmgkit
-// keeps Eigen's ABI portable, see CMakeLists.txt), so on x86-64 with GCC or Clang a second copy is
-// compiled for AVX2 + FMA and chosen at run time where the CPU has them.
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(__AVX2__)
-#define PMG_MF_AVX2_DISPATCH 1
-template <int P>
-__attribute__((target("avx2,fma"), flatten)) void apply_range_avx2(const index_t* free, const double* data,
-                                                                     long begin, long end, const double* xp,
-                                                                     double* out, double sign) {
-  apply_range<P>(free, data, begin, end, xp, out, sign);
+// ---- Element batches in SIMD lanes ------------------------------------------------------------
+//
+// The product runs kBatch consecutive elements at a time, one element per SIMD lane (deal.II's
+// VectorizedArray layout): the element data is stored structure-of-arrays per batch (datum k of
+// lane l at [k * kBatch + l]), node indices node-major ([a * kBatch + l]), and the kernel below is
+// element_apply() with every scalar replaced by a vector of L lanes. A batch is gathered from x
+// lane by lane and scattered into the accumulation vector lane by lane in order, so two elements of
+// a batch may share a node. The last batch is padded with empty lanes (index -1, data 0).
+//
+// The vector type is GCC's vector extension (also Clang's): unlike std::experimental::simd, whose
+// width is fixed by the flags of the translation unit, it compiles to the instruction set of the
+// function it is in, so one source gives the baseline x86-64 path (SSE2, a 4-lane vector split in
+// two) and AVX2 + FMA and AVX-512 copies chosen at run time (function target attributes); the
+// arithmetic is only +, * and lane access, which the extension covers on every compiler pmgkit
+// builds with.
+constexpr int kBatch = 16;
+
+template <class T, int L>
+struct Lanes;
+template <>
+struct Lanes<double, 4> {
+  typedef double type __attribute__((vector_size(32)));
+};
+template <>
+struct Lanes<double, 8> {
+  typedef double type __attribute__((vector_size(64)));
+};
+template <>
+struct Lanes<float, 8> {
+  typedef float type __attribute__((vector_size(32)));
+};
+template <>
+struct Lanes<float, 16> {
+  typedef float type __attribute__((vector_size(64)));
+};
+
+/// The degree-P tables in the kernel's precision.
+template <int P, class T>
+struct TablesIn {
+  static constexpr int N = Tables<P>::N, Q = Tables<P>::Q;
+  T q[Q][Q];
+  T mass[N][N];
+  TablesIn() {
+    const Tables<P>& t = tables<P>();
+    for (int i = 0; i < Q; ++i)
+      for (int j = 0; j < Q; ++j) q[i][j] = static_cast<T>(t.q[i][j]);
+    for (int i = 0; i < N; ++i)
+      for (int j = 0; j < N; ++j) mass[i][j] = static_cast<T>(t.mass[i][j]);
+  }
+};
+
+template <int P, class T>
+const TablesIn<P, T>& tables_in() {
+  static const TablesIn<P, T> t;
+  return t;
 }
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
+
+/// r = (m M_e + s K_R,e) u for the L elements of lanes [o, o + L) of one batch: element_apply()
+/// lane-wise. d: the batch's kData x kBatch data.
+template <int P, class T, int L>
+inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
+                        const typename Lanes<T, L>::type (&u)[Tables<P>::N][3],
+                        typename Lanes<T, L>::type (&r)[Tables<P>::N][3]) {
+  using V = typename Lanes<T, L>::type;
+  constexpr int N = Tables<P>::N, Q = Tables<P>::Q;
+  constexpr UpTable<P> up{};
+  // Datum k of the L lanes (by reference: vector values never cross a function boundary, whose
+  // ABI would depend on the instruction set).
+  auto load = [&](V& v, int k) { __builtin_memcpy(&v, d + k * kBatch + o, sizeof(V)); };
+  V g[4][3], cl, cm;
+  for (int k = 0; k < 4; ++k)
+    for (int j = 0; j < 3; ++j) load(g[k][j], 3 * k + j);
+  load(cl, 12);
+  load(cm, 13);
+  // 1. H_β = Σ_k u_{β+e_k} g_kᵀ
+  V H[Q][9];
+  for (int b = 0; b < Q; ++b) {
+    V h[9];
+    for (int c = 0; c < 9; ++c) h[c] = V{} ;
+    for (int k = 0; k < 4; ++k) {
+      const V* ua = u[up.v[b][k]];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) h[3 * i + j] += ua[i] * g[k][j];
+    }
+    for (int c = 0; c < 9; ++c) H[b][c] = h[c];
+  }
+  // 5. mass first (it initialises r): r_a = cmass Σ_b P_ab u_b
+  if (mass) {
+    V cmass;
+    load(cmass, 14);
+    for (int a = 0; a < N; ++a) {
+      V s[3] = {V{}, V{}, V{}};
+      for (int b = 0; b < N; ++b) {
+        const T w = t.mass[a][b];
+        for (int i = 0; i < 3; ++i) s[i] += w * u[b][i];
+      }
+      for (int i = 0; i < 3; ++i) r[a][i] = cmass * s[i];
+    }
+  } else {
+    for (int a = 0; a < N; ++a) r[a][0] = r[a][1] = r[a][2] = V{};
+  }
+  for (int c = 0; c < Q; ++c) {
+    // 2. Ĥ_γ = Σ_β Q_γβ H_β
+    V h[9];
+    for (int i = 0; i < 9; ++i) h[i] = V{};
+    for (int b = 0; b < Q; ++b) {
+      const T w = t.q[c][b];
+      for (int i = 0; i < 9; ++i) h[i] += w * H[b][i];
+    }
+    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ)
+    const V tr = cl * (h[0] + h[4] + h[8]);
+    V S[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) S[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
+    S[0] += tr, S[4] += tr, S[8] += tr;
+    // 4. r_{γ+e_k} += T g_k
+    for (int k = 0; k < 4; ++k) {
+      V* ra = r[up.v[c][k]];
+      for (int i = 0; i < 3; ++i) ra[i] += S[3 * i] * g[k][0] + S[3 * i + 1] * g[k][1] + S[3 * i + 2] * g[k][2];
+    }
+  }
+}
+
+/// out += sign · (element products of x) over batches [begin, end), L lanes at a time.
+template <int P, class T, int L>
+inline void apply_batches(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
+                          T sign, bool mass) {
+  using V = typename Lanes<T, L>::type;
+  constexpr int N = Tables<P>::N;
+  const TablesIn<P, T>& t = tables_in<P, T>();
+  for (long bt = begin; bt < end; ++bt) {
+    const index_t* f = free + static_cast<size_t>(bt) * N * kBatch;
+    const T* d = data + static_cast<size_t>(bt) * kData * kBatch;
+    for (int o = 0; o < kBatch; o += L) {
+      // Gathered into and scattered from plain arrays: lanes are written one by one.
+      alignas(64) T ub[N][3][L], rb[N][3][L];
+      for (int a = 0; a < N; ++a)
+        for (int l = 0; l < L; ++l) {
+          const index_t I = f[a * kBatch + o + l];
+          if (I >= 0) {
+            const T* s = xp + 3 * static_cast<size_t>(I);
+            ub[a][0][l] = s[0], ub[a][1][l] = s[1], ub[a][2][l] = s[2];
+          } else {
+            ub[a][0][l] = ub[a][1][l] = ub[a][2][l] = T(0);
+          }
+        }
+      V u[N][3], r[N][3];
+      static_assert(sizeof(u) == sizeof(ub), "lane arrays");
+      __builtin_memcpy(u, ub, sizeof(u));
+      batch_apply<P, T, L>(t, d, o, mass, u, r);
+      __builtin_memcpy(rb, r, sizeof(r));
+      for (int l = 0; l < L; ++l)
+        for (int a = 0; a < N; ++a) {
+          const index_t I = f[a * kBatch + o + l];
+          if (I < 0) continue;
+          T* s = out + 3 * static_cast<size_t>(I);
+          s[0] += sign * rb[a][0][l], s[1] += sign * rb[a][1][l], s[2] += sign * rb[a][2][l];
+        }
+    }
+  }
+}
+
+/// The lanes per vector of each instruction set: the baseline path splits a 256-bit vector.
+template <class T>
+constexpr int lanes_baseline = 32 / sizeof(T);
+
+template <int P, class T>
+void apply_batches_generic(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
+                           T sign, bool mass) {
+  apply_batches<P, T, lanes_baseline<T>>(free, data, begin, end, xp, out, sign, mass);
+}
+
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
+#define PMG_MF_X86_DISPATCH 1
+template <int P, class T>
+__attribute__((target("avx2,fma"), flatten)) void apply_batches_avx2(const index_t* free, const T* data,
+                                                                       long begin, long end, const T* xp,
+                                                                       T* out, T sign, bool mass) {
+  apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, sign, mass);
+}
+template <int P, class T>
+__attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) void apply_batches_avx512(
+    const index_t* free, const T* data, long begin, long end, const T* xp, T* out, T sign, bool mass) {
+  apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, sign, mass);
 }
 #endif
 
-template <int P>
-void apply_range_dispatch(const index_t* free, const double* data, long begin, long end,
-                          const double* xp, double* out, double sign) {
-#ifdef PMG_MF_AVX2_DISPATCH
-  if (cpu_has_avx2_fma()) return apply_range_avx2<P>(free, data, begin, end, xp, out, sign);
+}  // namespace
+
+bool matrix_free_kernel_available(MatrixFreeKernel k) {
+  switch (k) {
+    case MatrixFreeKernel::automatic:
+    case MatrixFreeKernel::reference:
+    case MatrixFreeKernel::generic: return true;
+#ifdef PMG_MF_X86_DISPATCH
+    case MatrixFreeKernel::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case MatrixFreeKernel::avx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 #endif
-  apply_range<P>(free, data, begin, end, xp, out, sign);
+    default: return false;
+  }
+}
+
+std::string to_string(MatrixFreeKernel k) {
+  switch (k) {
+    case MatrixFreeKernel::automatic: return "auto";
+    case MatrixFreeKernel::reference: return "reference";
+    case MatrixFreeKernel::generic: return "generic";
+    case MatrixFreeKernel::avx2: return "avx2";
+    case MatrixFreeKernel::avx512: return "avx512";
+  }
+  return "?";
+}
+
+MatrixFreeKernel parse_matrix_free_kernel(const std::string& name) {
+  for (MatrixFreeKernel k : {MatrixFreeKernel::automatic, MatrixFreeKernel::reference, MatrixFreeKernel::generic,
+                             MatrixFreeKernel::avx2, MatrixFreeKernel::avx512})
+    if (to_string(k) == name) return k;
+  throw InputError("matrix-free kernel: unknown name '" + name + "' (auto, reference, generic, avx2, avx512)");
+}
+
+namespace {
+
+MatrixFreeKernel resolve(MatrixFreeKernel k) {
+  if (k != MatrixFreeKernel::automatic) return k;
+  // AVX-512 where the CPU has it (on AMD Zen 4 it runs 512-bit vectors in two halves: the gain is
+  // the 32 vector registers), else AVX2 + FMA, else the baseline path.
+  for (MatrixFreeKernel c : {MatrixFreeKernel::avx512, MatrixFreeKernel::avx2})
+    if (matrix_free_kernel_available(c)) return c;
+  return MatrixFreeKernel::generic;
+}
+
+template <int P, class T>
+void apply_batches_dispatch(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end,
+                            const T* xp, T* out, T sign, bool mass) {
+#ifdef PMG_MF_X86_DISPATCH
+  if (k == MatrixFreeKernel::avx512) return apply_batches_avx512<P, T>(free, data, begin, end, xp, out, sign, mass);
+  if (k == MatrixFreeKernel::avx2) return apply_batches_avx2<P, T>(free, data, begin, end, xp, out, sign, mass);
+#endif
+  (void)k;
+  apply_batches_generic<P, T>(free, data, begin, end, xp, out, sign, mass);
 }
 
 }  // namespace
 
 struct ElasticityOperator::Impl {
   int p = 0, n = 0;
-  index_t num_elements = 0;
+  index_t num_elements = 0, num_batches = 0;
   const std::vector<std::vector<index_t>>* colors = nullptr;  ///< the model's element colouring
   std::vector<index_t> free;   ///< n per element: free node index or -1
-  std::vector<double> data;    ///< kData per element
+  std::vector<double> data;    ///< kData per element (the reference kernel, diagonal, forces)
+  std::vector<index_t> batch_free;  ///< n x kBatch per batch, node-major (padding lanes: -1)
+  std::vector<double> batch_data;   ///< kData x kBatch per batch, datum-major
+  std::vector<float> batch_data_single;  ///< the same in float, kept once apply_single() asked for it
+  bool single = false;
+  MatrixFreeKernel kernel = MatrixFreeKernel::automatic, resolved = MatrixFreeKernel::generic;
   /// apply(): thread t > 0 accumulates its contiguous range of elements into buffers[t-1] (kept
   /// from call to call: no allocation per product), thread 0 directly into y; then y += Σ buffers.
   mutable std::vector<Vector> buffers;
+  mutable std::vector<Eigen::VectorXf> buffers_single;
   /// Held by the product using `buffers`; a product that finds them taken (two solvers sharing
   /// this operator on two threads) uses buffers of its own, so products stay concurrent and exact.
   mutable std::mutex buffers_mutex;
 
-  /// y = A x, or with b: y = b - A x (the residual in the same pass).
-  template <int P>
-  void apply(const Vector& x, Vector& y, const Vector* b) const {
-    const double* xp = x.data();
-    double* yp = y.data();
+  /// The batch layout of `data` (and its float copy where kept).
+  void transpose_data() {
+    batch_data.assign(static_cast<size_t>(num_batches) * kData * kBatch, 0.0);
+#pragma omp parallel for schedule(static)
+    for (long bt = 0; bt < static_cast<long>(num_batches); ++bt)
+      for (int l = 0; l < kBatch; ++l) {
+        const long e = bt * kBatch + l;
+        if (e >= static_cast<long>(num_elements)) break;
+        for (int k = 0; k < kData; ++k)
+          batch_data[(static_cast<size_t>(bt) * kData + k) * kBatch + l] = data[static_cast<size_t>(e) * kData + k];
+      }
+    if (single) batch_data_single.assign(batch_data.begin(), batch_data.end());
+  }
+
+  /// y = A x, or with b: y = b - A x (the residual in the same pass). T: double, or float for
+  /// apply_single() (batched kernels only).
+  template <int P, class T, class Vec>
+  void apply(const Vec& x, Vec& y, const Vec* b, bool mass, std::vector<Vec>& kept) const {
+    // The float path has no scalar reference: the baseline batched kernel stands in for it.
+    const MatrixFreeKernel kernel =
+        std::is_same_v<T, float> && resolved == MatrixFreeKernel::reference ? MatrixFreeKernel::generic : resolved;
+    const T* xp = x.data();
+    T* yp = y.data();
     const long len = static_cast<long>(y.size());
     const int threads = omp_get_max_threads();
     std::unique_lock<std::mutex> lock(buffers_mutex, std::try_to_lock);
-    std::vector<Vector> own;
-    std::vector<Vector>& buffers = lock.owns_lock() ? this->buffers : own;
+    std::vector<Vec> own;
+    std::vector<Vec>& buffers = lock.owns_lock() ? kept : own;
     if (static_cast<int>(buffers.size()) != threads - 1 || (threads > 1 && buffers[0].size() != len))
-      buffers.assign(std::max(threads - 1, 0), Vector(len));
-    const double sign = b ? -1.0 : 1.0;
+      buffers.assign(std::max(threads - 1, 0), Vec(len));
+    const T sign = b ? T(-1) : T(1);
+    const T* bdata = nullptr;
+    if constexpr (std::is_same_v<T, float>) bdata = batch_data_single.data();
+    else bdata = batch_data.data();
+    const bool reference = kernel == MatrixFreeKernel::reference;
 #pragma omp parallel num_threads(threads)
     {
       const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
-      double* out = tid == 0 ? yp : buffers[tid - 1].data();
+      T* out = tid == 0 ? yp : buffers[tid - 1].data();
       if (tid == 0) {
         if (b) std::copy(b->data(), b->data() + len, yp);
-        else std::fill(yp, yp + len, 0.0);
+        else std::fill(yp, yp + len, T(0));
       } else {
-        std::fill(out, out + len, 0.0);
+        std::fill(out, out + len, T(0));
       }
-      const long begin = num_elements * static_cast<long>(tid) / nt;
-      const long end = num_elements * static_cast<long>(tid + 1) / nt;
-      apply_range_dispatch<P>(free.data(), data.data(), begin, end, xp, out, sign);
+      if constexpr (std::is_same_v<T, double>) {
+        if (reference) {
+          const long begin = num_elements * static_cast<long>(tid) / nt;
+          const long end = num_elements * static_cast<long>(tid + 1) / nt;
+          apply_range<P>(free.data(), data.data(), begin, end, xp, out, sign);
+        }
+      }
+      if (!reference) {
+        const long begin = num_batches * static_cast<long>(tid) / nt;
+        const long end = num_batches * static_cast<long>(tid + 1) / nt;
+        apply_batches_dispatch<P, T>(kernel, batch_free.data(), bdata, begin, end, xp, out, sign, mass);
+      }
 #pragma omp barrier
       if (nt > 1) {
 #pragma omp for schedule(static)
         for (long i = 0; i < len; ++i) {
-          double sum = 0.0;
+          T sum = T(0);
           for (int k = 0; k < nt - 1; ++k) sum += buffers[k][i];
           yp[i] += sum;
         }
@@ -267,7 +524,21 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
   m.free.resize(ne * m.n);
   for (size_t e = 0; e < ne; ++e)
     for (int a = 0; a < m.n; ++a) m.free[e * m.n + a] = as.free_index()[space.node(static_cast<index_t>(e), a)];
+  m.num_batches = static_cast<index_t>((ne + kBatch - 1) / kBatch);
+  m.batch_free.assign(static_cast<size_t>(m.num_batches) * m.n * kBatch, -1);
+  for (size_t e = 0; e < ne; ++e)
+    for (int a = 0; a < m.n; ++a)
+      m.batch_free[((e / kBatch) * m.n + a) * kBatch + e % kBatch] = m.free[e * m.n + a];
   m.data.assign(ne * kData, 0.0);
+  // PMG_MATRIX_FREE_KERNEL (auto, generic, avx2, avx512, reference) overrides the automatic
+  // choice, e.g. to run the portable path on a machine that has wider vectors.
+  if (const char* env = std::getenv("PMG_MATRIX_FREE_KERNEL"); env && *env) {
+    const MatrixFreeKernel k = parse_matrix_free_kernel(env);
+    if (!matrix_free_kernel_available(k))
+      throw InputError("PMG_MATRIX_FREE_KERNEL=" + std::string(env) + ": this CPU cannot run that kernel");
+    m.kernel = k;
+  }
+  m.resolved = resolve(m.kernel);
   update(nullptr);
 }
 
@@ -292,6 +563,7 @@ void ElasticityOperator::set_weights(double mass_weight, double stiffness_weight
     d[13] = v6 * p2 * stiffness_weight * s * mat.mu();
     d[14] = v6 * mat.density * mass_weight;
   }
+  impl_->transpose_data();
 }
 
 void ElasticityOperator::update(const Rotations* R) {
@@ -326,10 +598,11 @@ void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
   const std::vector<char>& held = model_->constrained_free_dofs();
   Vector scratch;
   const Vector& in = masked_input(*model_, x, scratch);
+  const bool mass = mass_weight_ != 0.0;
   switch (impl_->p) {
-    case 1: impl_->apply<1>(in, y, nullptr); break;
-    case 2: impl_->apply<2>(in, y, nullptr); break;
-    default: impl_->apply<3>(in, y, nullptr); break;
+    case 1: impl_->apply<1, double>(in, y, static_cast<const Vector*>(nullptr), mass, impl_->buffers); break;
+    case 2: impl_->apply<2, double>(in, y, static_cast<const Vector*>(nullptr), mass, impl_->buffers); break;
+    default: impl_->apply<3, double>(in, y, static_cast<const Vector*>(nullptr), mass, impl_->buffers); break;
   }
   for (size_t i = 0; i < held.size(); ++i)
     if (held[i]) y[static_cast<Eigen::Index>(i)] = x[static_cast<Eigen::Index>(i)];
@@ -340,13 +613,46 @@ void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector&
   const std::vector<char>& held = model_->constrained_free_dofs();
   Vector scratch;
   const Vector& in = masked_input(*model_, x, scratch);
+  const bool mass = mass_weight_ != 0.0;
   switch (impl_->p) {
-    case 1: impl_->apply<1>(in, r, &b); break;
-    case 2: impl_->apply<2>(in, r, &b); break;
-    default: impl_->apply<3>(in, r, &b); break;
+    case 1: impl_->apply<1, double>(in, r, &b, mass, impl_->buffers); break;
+    case 2: impl_->apply<2, double>(in, r, &b, mass, impl_->buffers); break;
+    default: impl_->apply<3, double>(in, r, &b, mass, impl_->buffers); break;
   }
   for (size_t i = 0; i < held.size(); ++i)
     if (held[i]) r[static_cast<Eigen::Index>(i)] = b[static_cast<Eigen::Index>(i)] - x[static_cast<Eigen::Index>(i)];
+}
+
+void ElasticityOperator::set_kernel(MatrixFreeKernel kernel) {
+  if (!matrix_free_kernel_available(kernel))
+    throw InputError("matrix-free operator: this CPU cannot run the " + to_string(kernel) + " kernel");
+  impl_->kernel = kernel;
+  impl_->resolved = resolve(kernel);
+}
+
+MatrixFreeKernel ElasticityOperator::kernel() const { return impl_->resolved; }
+
+void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const {
+  if (x.size() != rows())
+    throw InputError("matrix-free operator: apply_single() got " + std::to_string(x.size()) + " entries for " +
+                     std::to_string(rows()) + " unknowns");
+  if (!model_->constrained_free_dofs().empty())
+    throw InputError("matrix-free operator: apply_single() does not take held components");
+  Impl& m = *impl_;
+  {
+    std::lock_guard<std::mutex> lock(m.buffers_mutex);
+    if (!m.single) {
+      m.single = true;
+      m.batch_data_single.assign(m.batch_data.begin(), m.batch_data.end());
+    }
+  }
+  y.resize(rows());
+  const bool mass = mass_weight_ != 0.0;
+  switch (m.p) {
+    case 1: m.apply<1, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass, m.buffers_single); break;
+    case 2: m.apply<2, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass, m.buffers_single); break;
+    default: m.apply<3, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass, m.buffers_single); break;
+  }
 }
 
 void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {

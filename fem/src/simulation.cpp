@@ -1,4 +1,5 @@
 #include "pmg/fem/simulation.hpp"
+#include "pmg/sparse/threads.hpp"
 #include "pmg/sparse/timer.hpp"
 
 #include <cstdio>
@@ -137,6 +138,7 @@ void ImplicitEuler::evaluate_state() const {
 }
 
 StepStats ImplicitEuler::step() {
+  const ThreadBudget budget;  // the cores free now, for the whole step (pmg/sparse/threads.hpp)
   const ElasticityModel& m = h_.finest();
   evaluate_state();
   StepStats st;

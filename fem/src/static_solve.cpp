@@ -1,4 +1,5 @@
 #include "pmg/fem/static_solve.hpp"
+#include "pmg/sparse/threads.hpp"
 
 #include "pmg/cholmod/cholmod_solver.hpp"
 #include "pmg/sparse/factory.hpp"
@@ -79,6 +80,7 @@ StaticResult fixed_point(const ElasticityModel& model, const Vector& f_ext, bool
 StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, bool corotational,
                           const StaticOptions& options, const Vector& prescribed) {
   check_inputs(model, f_ext);
+  const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
   cholmod::register_solvers();  // the default
   Config c = options.solver.clone();
   auto solver = make_solver(c, {}, "cholmod");
@@ -100,6 +102,7 @@ StaticResult solve_static(DegreeHierarchy& h, const Vector& f_ext, bool corotati
                           const StaticOptions& options) {
   const ElasticityModel& model = h.finest();
   check_inputs(model, f_ext);
+  const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
   const SolverNeeds needs = solver.needs();
   const int L = h.num_levels();
   return fixed_point(model, f_ext, corotational, solver, options, Vector::Zero(model.num_dofs()),

@@ -1,4 +1,5 @@
 #include "pmg/sim/run.hpp"
+#include "pmg/sparse/threads.hpp"
 
 #include "pmg/fem/vtk_writer.hpp"
 #include "pmg/solvers.hpp"
@@ -260,6 +261,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
 
   const auto t_run = Clock::now();
   for (int n = 1; n <= steps_; ++n) {
+    const ThreadBudget budget;  // the step, its energies and its output on the cores free now
     fem::StepStats st;
     try {
       st = sim.step();

@@ -4,6 +4,7 @@
 #include "pmg/sparse/params.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 #include "pmg/sparse/timer.hpp"
+#include "pmg/sparse/threads.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -76,6 +77,7 @@ SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) con
                      "operator has " + std::to_string(A.rows()) + " rows");
   if (!ops::all_finite(b)) throw InputError(name() + ": right-hand side has NaN/Inf");
   if (!ops::all_finite(x)) throw InputError(name() + ": initial guess has NaN/Inf");
+  const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
   return solve_impl(b, x, monitor);
 }
 
