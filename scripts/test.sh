@@ -11,6 +11,10 @@ scripts/setup.sh
 # and two spinning teams on two cores starve each other (two concurrent `pmg coarse` runs took
 # 112 s instead of 3 s; the suite 206 s instead of 93 s). Waiting threads sleep in the tests.
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
+# Each test on the threads it was written for: the adaptive thread budget (pmg/sparse/threads.hpp)
+# would give a test run beside another one fewer threads, and reductions over fewer threads round
+# differently. tests/sparse/test_threads.cpp sets the adaptive policy itself.
+export PMG_THREADS="${PMG_THREADS:-fixed}"
 if [ "${1:-}" = "--sanitize" ]; then
   # clang 14 with ASan + UBSan in build-asan/ (the fuzz targets are built there too)
   scripts/sanitize_build.sh

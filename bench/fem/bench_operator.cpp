@@ -212,6 +212,16 @@ void BM_MatrixFreeUpdate(benchmark::State& state) {
   state.counters["unknowns"] = static_cast<double>(s.x.size());
 }
 
+void BM_DiagonalBlocks(benchmark::State& state) {
+  System& s = system_of(static_cast<int>(state.range(0)));
+  std::vector<double> blocks;
+  for (auto _ : state) {
+    s.op->diagonal_blocks(blocks);
+    benchmark::DoNotOptimize(blocks.data());
+  }
+  state.counters["unknowns"] = static_cast<double>(s.x.size());
+}
+
 class SummaryReporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
@@ -321,6 +331,7 @@ int main(int argc, char** argv) {
             benchmark::RegisterBenchmark("BM_MatrixFree", BM_MatrixFree)->Args({p, kernel, prec, threads, dynamic})->UseRealTime()->Unit(benchmark::kMillisecond);
           }
     benchmark::RegisterBenchmark("BM_MatrixFreeUpdate", BM_MatrixFreeUpdate)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("BM_DiagonalBlocks", BM_DiagonalBlocks)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
   }
   SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);

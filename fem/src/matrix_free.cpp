@@ -638,12 +638,14 @@ void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf&
                      std::to_string(rows()) + " unknowns");
   if (!model_->constrained_free_dofs().empty())
     throw InputError("matrix-free operator: apply_single() does not take held components");
+  if (x.data() == y.data() && x.size() > 0)
+    throw InputError("matrix-free operator: apply_single() needs distinct x and y");
   Impl& m = *impl_;
   {
     std::lock_guard<std::mutex> lock(m.buffers_mutex);
     if (!m.single) {
-      m.single = true;
       m.batch_data_single.assign(m.batch_data.begin(), m.batch_data.end());
+      m.single = true;  // after the copy: a failed allocation leaves the next call to try again
     }
   }
   y.resize(rows());

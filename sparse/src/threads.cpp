@@ -75,6 +75,23 @@ int other_runnable_threads() {
   bool whole = false;
   affinity_cpus(whole);
   if (!whole) return -1;
+  // This process's running threads, counted before and after the system-wide count below and the
+  // larger taken: an OpenMP worker still spinning after the last parallel region may stop in
+  // between, and must not be counted as another process's.
+  auto running_here = [] {
+    int ours = 0;
+    DIR* d = opendir("/proc/self/task");
+    if (!d) return 1;
+    while (const dirent* e = readdir(d)) {
+      if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+      char path[300];
+      std::snprintf(path, sizeof(path), "/proc/self/task/%s/stat", e->d_name);
+      ours += task_state(path) == 'R';
+    }
+    closedir(d);
+    return std::max(ours, 1);  // the calling thread runs
+  };
+  const int before = running_here();
   // The running count of /proc/loadavg: "0.52 0.58 0.59 3/512 12345" -> 3 (this thread included).
   FILE* f = std::fopen("/proc/loadavg", "r");
   if (!f) return -1;
@@ -83,28 +100,18 @@ int other_runnable_threads() {
   const int got = std::fscanf(f, "%lf %lf %lf %d/%d", &l1, &l5, &l15, &running, &total);
   std::fclose(f);
   if (got != 5) return -1;
-  int ours = 0;
-  if (DIR* d = opendir("/proc/self/task")) {
-    while (const dirent* e = readdir(d)) {
-      if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
-      char path[300];
-      std::snprintf(path, sizeof(path), "/proc/self/task/%s/stat", e->d_name);
-      ours += task_state(path) == 'R';
-    }
-    closedir(d);
-  } else {
-    ours = 1;
-  }
-  return std::max(running - std::max(ours, 1), 0);
+  const int ours = std::max(before, running_here());
+  return std::max(running - ours, 0);
 #else
   return -1;
 #endif
 }
 
 ThreadBudget::ThreadBudget() {
+  const ThreadPolicy policy = thread_policy();  // may throw: before this budget counts as open
   threads_ = omp_get_max_threads();
   outer_ = t_depth++ == 0;
-  if (!outer_ || threads_ <= 1 || thread_policy() == ThreadPolicy::fixed) return;
+  if (!outer_ || threads_ <= 1 || policy == ThreadPolicy::fixed) return;
 #if defined(__linux__)
   const int others = other_runnable_threads();
   if (others <= 0) return;

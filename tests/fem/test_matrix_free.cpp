@@ -118,9 +118,12 @@ TEST_CASE("matrix-free operator equals the assembled one, p = 1..3, rotations an
 
 TEST_CASE("batched matrix-free kernels equal the scalar reference, p = 1..3, rotations and weights",
           "[fem][matrix_free][simd]") {
-  const TetMesh mesh = jittered_box();  // 192 elements: 12 full batches, and p = 1..3 node counts
+  // 192 elements (12 full batches of 16), and 24 (one full batch and one of 8 and 8 empty lanes).
+  const TetMesh jittered = jittered_box(), small = box_mesh_24(1, 1, 1, 1.0, 0.7, 0.5);
   const Material mat{3.0e5, 0.35, 1.2e3};
-  for (int p = 1; p <= 3; ++p) {
+  for (int p = 1; p <= 3; ++p)
+  for (const TetMesh* mesh_of : {&jittered, &small}) {
+    const TetMesh& mesh = *mesh_of;
     ElasticityModel model(mesh, p, mat);
     model.fix_where([](const Vec3& X) { return X[0] < 1e-12; });
     const Vector u = 0.1 * smooth_vector(model.num_dofs(), 0.4);
@@ -137,7 +140,8 @@ TEST_CASE("batched matrix-free kernels equal the scalar reference, p = 1..3, rot
       op.residual(b, x, rref);
       for (MatrixFreeKernel k : {MatrixFreeKernel::generic, MatrixFreeKernel::avx2, MatrixFreeKernel::avx512,
                                  MatrixFreeKernel::automatic}) {
-        INFO("degree " << p << ", dynamic " << dynamic << ", kernel " << to_string(k));
+        INFO("degree " << p << ", " << mesh.num_tets() << " elements, dynamic " << dynamic << ", kernel "
+                       << to_string(k));
         if (!matrix_free_kernel_available(k)) {
           CHECK_THROWS_AS(op.set_kernel(k), InputError);
           continue;
@@ -170,6 +174,8 @@ TEST_CASE("matrix-free kernel names and bad single-precision input", "[fem][matr
   ElasticityOperator op(model);
   Eigen::VectorXf y;
   CHECK_THROWS_AS(op.apply_single(Eigen::VectorXf::Zero(op.rows() + 1), y), InputError);
+  Eigen::VectorXf same = Eigen::VectorXf::Ones(op.rows());
+  CHECK_THROWS_AS(op.apply_single(same, same), InputError);
 }
 
 TEST_CASE("matrix-free operator refuses bad weights and rotation counts", "[fem][matrix_free]") {
