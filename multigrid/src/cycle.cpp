@@ -1,5 +1,7 @@
 #include "pmg/multigrid/cycle.hpp"
 
+#include "pmg/multigrid/chebyshev.hpp"
+
 #include <algorithm>
 
 #include "pmg/sparse/convergence.hpp"
@@ -185,7 +187,42 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     work_[l].xc.resize(level_operator(l - 1).rows());
   }
   solve_r_.resize(A.rows());
+  single_.clear();
+  if (params_.single_precision) prepare_single(true);
   reset_timings();
+}
+
+void MultigridCycle::prepare_single(bool setup) {
+  const int L = num_levels();
+  if (setup) {
+    if (!params_.matrix_free)
+      throw InputError("multigrid: precision=single needs the matrix-free levels (operator=matrix-free)");
+    single_.assign(L, SingleLevel{});
+    for (int l = 1; l < L; ++l) {
+      SingleLevel& s = single_[l];
+      s.op = dynamic_cast<const SinglePrecisionSource*>(&level_operator(l));
+      s.smoother = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
+      if (!s.op)
+        throw InputError("multigrid: precision=single needs operators that apply in float; " + levels_.level_name(l) +
+                         "'s does not");
+      if (!s.smoother)
+        throw InputError("multigrid: precision=single smooths with Chebyshev only; " + levels_.level_name(l) +
+                         " has " + smoothers_[l - 1]->name());
+      const BlockTransfer& T = transfers_[l - 1];
+      if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
+        throw InputError("multigrid: precision=single takes no components constrained on their own (symmetry planes)");
+      s.p_values.assign(T.prolongation().values().begin(), T.prolongation().values().end());
+      s.r_values.assign(T.restriction().values().begin(), T.restriction().values().end());
+      const Eigen::Index n = level_operator(l).rows(), nc = level_operator(l - 1).rows();
+      s.r.resize(n), s.d.resize(n), s.z.resize(n), s.rc.resize(nc), s.xc.resize(nc);
+    }
+    lowest_b_.resize(level_operator(0).rows());
+    lowest_x_.resize(level_operator(0).rows());
+  }
+  for (int l = 1; l < L; ++l) {
+    const std::vector<double>& d = single_[l].smoother->inverse_diagonal();
+    single_[l].inv_diag.assign(d.begin(), d.end());
+  }
 }
 
 void MultigridCycle::refresh_galerkin() {
@@ -199,6 +236,7 @@ void MultigridCycle::update_impl() {
   for (int l = num_levels() - 1; l >= 1; --l)
     timed_stage("smoother " + levels_.level_name(l), [&] { smoothers_[l - 1]->update(); });
   timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
+  if (params_.single_precision && !single_.empty()) prepare_single(false);
 }
 
 TimingBreakdown MultigridCycle::timings() const {
@@ -219,8 +257,119 @@ void MultigridCycle::reset_timings() const {
 }
 
 void MultigridCycle::apply_impl(const Vector& r, Vector& z) const {
+  if (params_.single_precision && num_levels() > 1) {
+    single_r_ = r.cast<float>();
+    single_z_.setZero(r.size());
+    for (int k = 0; k < params_.cycles; ++k) cycle_single(num_levels() - 1, single_r_, single_z_, k == 0);
+    z = single_z_.cast<double>();
+    return;
+  }
   z.setZero(r.size());
   for (int k = 0; k < params_.cycles; ++k) cycle(num_levels() - 1, r, z, k == 0);
+}
+
+namespace {
+/// y = (M ⊗ I₃) x (Add: y +=) for a scalar pattern M with float values, x and y in float.
+template <bool Add>
+void block_multiply_single(const CsrPattern& p, const std::vector<float>& values, const Eigen::VectorXf& x,
+                           Eigen::VectorXf& y) {
+  const float* v = values.data();
+  const float* xp = x.data();
+  float* yp = y.data();
+#pragma omp parallel for schedule(static)
+  for (index_t i = 0; i < p.rows; ++i) {
+    float s0 = 0, s1 = 0, s2 = 0;
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) {
+      const float w = v[k];
+      const float* xj = xp + 3 * static_cast<std::ptrdiff_t>(p.col_idx[k]);
+      s0 += w * xj[0], s1 += w * xj[1], s2 += w * xj[2];
+    }
+    float* yi = yp + 3 * static_cast<std::ptrdiff_t>(i);
+    if (Add) yi[0] += s0, yi[1] += s1, yi[2] += s2;
+    else yi[0] = s0, yi[1] = s1, yi[2] = s2;
+  }
+}
+
+/// z = D⁻¹ r with D⁻¹'s 3x3 blocks in float, row-major.
+void block_diagonal_single(const std::vector<float>& inv, const Eigen::VectorXf& r, Eigen::VectorXf& z) {
+  const long n = static_cast<long>(r.size() / 3);
+  const float* rp = r.data();
+  float* zp = z.data();
+  const float* d = inv.data();
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < n; ++i) {
+    const float* b = d + 9 * i;
+    const float* ri = rp + 3 * i;
+    float* zi = zp + 3 * i;
+    const float r0 = ri[0], r1 = ri[1], r2 = ri[2];
+    zi[0] = b[0] * r0 + b[1] * r1 + b[2] * r2;
+    zi[1] = b[3] * r0 + b[4] * r1 + b[5] * r2;
+    zi[2] = b[6] * r0 + b[7] * r1 + b[8] * r2;
+  }
+}
+}  // namespace
+
+void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const {
+  const SingleLevel& s = single_[l];
+  const std::vector<ChebyshevStep>& steps = s.smoother->steps();
+  const int m = static_cast<int>(steps.size());
+  const bool first_kind = s.smoother->params().kind == ChebyshevKind::first;
+  Eigen::VectorXf &r = s.r, &d = s.d, &z = s.z;
+  auto residual = [&] {  // r = b - A x
+    s.op->apply_single(x, z);
+    r = b - z;
+  };
+  if (x_is_zero) r = b;
+  else residual();
+  block_diagonal_single(s.inv_diag, r, d);
+  d *= static_cast<float>(steps[0].c2);
+  for (int k = 0; k < m; ++k) {
+    if (k > 0) {
+      block_diagonal_single(s.inv_diag, r, z);
+      d = static_cast<float>(steps[k].c1) * d + static_cast<float>(steps[k].c2) * z;
+    }
+    x += static_cast<float>(steps[k].weight) * d;
+    if (k == m - 1) break;
+    if (first_kind) {
+      residual();
+    } else {
+      s.op->apply_single(d, z);
+      r -= z;
+    }
+  }
+}
+
+void MultigridCycle::cycle_single(int l, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const {
+  if (l == 0) {  // the lowest level in double
+    const auto t0 = Clock::now();
+    lowest_b_ = b.cast<double>();
+    lowest_->apply(lowest_b_, lowest_x_);
+    x = lowest_x_.cast<float>();
+    timings_.lowest_level += seconds_since(t0);
+    return;
+  }
+  if (l == num_levels() - 1) ++timings_.cycles;
+  const SingleLevel& s = single_[l];
+  const BlockTransfer& T = transfers_[l - 1];
+  auto t0 = Clock::now();
+  if (x_is_zero) x.setZero(b.size());
+  smooth_single(l, b, x, x_is_zero);
+  timings_.smoothing[l] += seconds_since(t0);
+  t0 = Clock::now();
+  s.op->apply_single(x, s.z);
+  s.r = b - s.z;
+  timings_.residual += seconds_since(t0);
+  t0 = Clock::now();
+  block_multiply_single<false>(T.restriction().pattern(), s.r_values, s.r, s.rc);
+  timings_.transfer += seconds_since(t0);
+  s.xc.setZero();
+  for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle_single(l - 1, s.rc, s.xc, g == 0);
+  t0 = Clock::now();
+  block_multiply_single<true>(T.prolongation().pattern(), s.p_values, s.xc, x);
+  timings_.transfer += seconds_since(t0);
+  t0 = Clock::now();
+  smooth_single(l, b, x, false);
+  timings_.smoothing[l] += seconds_since(t0);
 }
 
 void MultigridCycle::cycle(int l, const Vector& b, Vector& x, bool x_is_zero) const {
@@ -258,8 +407,14 @@ SolveResult MultigridCycle::solve_impl(const Vector& b, Vector& x, SolveMonitor*
   Vector& r = solve_r_;
   A.residual(b, x, r);
   if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
+  Vector correction;
   for (int it = 1; !track.done(); ++it) {
-    cycle(b, x);  // the cycle works on the full equation with x as initial guess
+    if (params_.single_precision) {
+      apply(r, correction);  // x += C (b - A x), the cycle in float on the residual
+      x += correction;
+    } else {
+      cycle(b, x);  // the cycle works on the full equation with x as initial guess
+    }
     A.residual(b, x, r);
     const double norm = ops::norm2(r);
     // The residual here is the true one: a converged iteration is confirmed at once.

@@ -55,6 +55,7 @@ struct CycleOptions {
   std::string coarse_operator = "geometric";
   std::string restriction = "transpose";
   std::string op = "auto";
+  std::string precision = "double";
 
   void visit(ParamVisitor& v) {
     v.choice("cycle", cycle, {"V", "W"}, "V- or W-cycle");
@@ -68,6 +69,9 @@ struct CycleOptions {
     v.choice("operator", op, {"auto", "assembled", "matrix-free"},
              "auto: matrix-free where the levels offer operators, coarse_operator is geometric and the "
              "smoother is Chebyshev (its keys only); assembled: the level matrices");
+    v.choice("precision", precision, {"double", "single"},
+             "single: the matrix-free levels above the lowest (operators, Chebyshev smoothing, transfers) "
+             "in float inside the cycle; the lowest level, the outer iteration and its residuals in double");
     v.solver("smoother", "gauss-seidel",
              "one per level above the lowest (matrix-free route, and mgpcg on user levels: chebyshev, kind "
              "opt-fourth, degree 3; on user levels with estimate lanczos)");
@@ -160,6 +164,10 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     if (p.matrix_free) Config(c).set("operator", "matrix-free");
   }
   p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free && !user_chebyshev ? 2 : 1);
+  p.single_precision = o.precision == "single";
+  if (p.single_precision && !p.matrix_free)
+    c.fail("precision", "single precision runs the matrix-free levels in float: it needs operator=matrix-free "
+                        "(levels with matrix-free operators, Chebyshev smoothing)");
   // CG needs a symmetric cycle; refused here, before an inner lowest-level solve would make the
   // outer iteration flexible and hide it.
   if (mgpcg && p.interpolating_restriction)

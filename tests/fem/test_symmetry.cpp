@@ -114,7 +114,7 @@ TEST_CASE("a quarter model with two symmetry planes: the full model's field, MGP
   const Solved f = solve(full, mgpcg), q = solve(quarter, mgpcg), c = solve(clamped_only, mgpcg);
   const Vector uf = full.finest().expand(f.x, Vector()), uq = quarter.finest().expand(q.x, Vector());
   double scale = 0.0, diff = 0.0;
-  for (const Vec3 X : {Vec3(2.0, 0.25, 0.25), Vec3(2.0, 0.5, 0.5), Vec3(1.0, 0.1, 0.45), Vec3(0.3, 0.5, 0.0),
+  for (const Vec3& X : {Vec3(2.0, 0.25, 0.25), Vec3(2.0, 0.5, 0.5), Vec3(1.0, 0.1, 0.45), Vec3(0.3, 0.5, 0.0),
                        Vec3(1.7, 0.0, 0.5)}) {
     const Vec3 a = full.finest().displacement_at(uf, X), b = quarter.finest().displacement_at(uq, X);
     scale = std::max(scale, a.norm());

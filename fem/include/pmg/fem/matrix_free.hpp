@@ -66,7 +66,7 @@ MatrixFreeKernel parse_matrix_free_kernel(const std::string& name);
 
 /// The matrix-free elasticity operator y = m M x + s K_R x over a model's free nodes (see the file
 /// comment).
-class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSource {
+class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSource, public SinglePrecisionSource {
  public:
   /// Over the model's free nodes (its Dirichlet set must be final); R = I, m = 0, s = 1 until
   /// set. The model must outlive the operator.
@@ -95,7 +95,7 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// y = A x in single precision: the batched kernel on float element data (x, y, the element
   /// data and the tables rounded to float; a sum of about C(p+3,3) x 12 terms per entry, so a
   /// relative error of a few 1e-6 in ||y||). Not for models that hold single components.
-  void apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const;
+  void apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const override;
 
   void diagonal_blocks(std::vector<double>& blocks) const override;
 

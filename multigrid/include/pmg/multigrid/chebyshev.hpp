@@ -61,6 +61,8 @@ class Chebyshev final : public Smoother {
   /// Constructs and sets up on A, which must outlive the smoother (see Solver::setup()).
   Chebyshev(const LinearOperator& A, const ChebyshevParams& params = {}) : Chebyshev(params) { setup(A); }
   std::string name() const override { return "chebyshev"; }
+  /// The parameters.
+  const ChebyshevParams& params() const { return params_; }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
   void post_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
   /// From x = 0 the first residual is b: one product with A fewer.

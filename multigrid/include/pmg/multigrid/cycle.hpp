@@ -34,6 +34,8 @@
 
 namespace pmg::mg {
 
+class Chebyshev;
+
 /// Where the matrices of the levels below the finest come from.
 enum class CoarseOperator {
   geometric,  ///< the provider's own level matrices (re-discretised, same rotations on every level)
@@ -52,6 +54,11 @@ struct MultigridParams {
   /// operators (LevelProvider::matrix_free_operator), not its matrices; geometric coarse
   /// operators only.
   bool matrix_free = false;
+  /// The levels above the lowest in float inside the cycle: their matrix-free operators
+  /// (SinglePrecisionSource), Chebyshev smoothing and transfers; the lowest level, and the outer
+  /// iteration's residuals and solution, in double. Matrix-free levels smoothed by Chebyshev only,
+  /// without components constrained on their own.
+  bool single_precision = false;
   /// solve(): the stationary iteration's stopping rule.
   KrylovParams iteration;
 };
@@ -144,6 +151,24 @@ class MultigridCycle final : public Solver {
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
   /// x_is_zero: x holds zeros (the smoother may start from that: pre_smooth_from_zero).
   void cycle(int level, const Vector& b, Vector& x, bool x_is_zero = false) const;
+
+  /// A level above the lowest in float (precision=single): its operator, its Chebyshev smoother's
+  /// D⁻¹ and the transfer from the level below, rounded to float, and work vectors.
+  struct SingleLevel {
+    const SinglePrecisionSource* op = nullptr;
+    const Chebyshev* smoother = nullptr;
+    std::vector<float> inv_diag, p_values, r_values;
+    mutable Eigen::VectorXf r, rc, xc, d, z;
+  };
+  std::vector<SingleLevel> single_;  ///< [l]: level l >= 1 (precision=single only)
+  mutable Eigen::VectorXf single_r_, single_z_;
+  mutable Vector lowest_b_, lowest_x_;
+  /// Builds single_ (set-up) or refreshes its inverse diagonals (update).
+  void prepare_single(bool setup);
+  /// cycle() in float on levels >= 1 (the lowest level in double).
+  void cycle_single(int level, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const;
+  /// The level's Chebyshev smoothing in float (Chebyshev::smooth's recurrence).
+  void smooth_single(int level, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const;
 
   const LevelProvider& levels_;
   MultigridParams params_;

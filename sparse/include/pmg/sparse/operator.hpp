@@ -71,5 +71,14 @@ class DiagonalBlocksSource {
   virtual void diagonal_blocks(std::vector<double>& blocks) const = 0;
 };
 
+/// An operator that can also apply itself in single precision: what a multigrid cycle's float
+/// levels (precision=single) ask of a level's matrix-free operator.
+class SinglePrecisionSource {
+ public:
+  virtual ~SinglePrecisionSource() = default;
+  /// y = A x in float (x and y distinct; y resized).
+  virtual void apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const = 0;
+};
+
 
 }  // namespace pmg
