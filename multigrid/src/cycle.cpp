@@ -9,6 +9,7 @@
 #include "pmg/sparse/timer.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <limits>
 
@@ -219,10 +220,12 @@ void MultigridCycle::prepare_single(bool setup) {
     lowest_b_.resize(level_operator(0).rows());
     lowest_x_.resize(level_operator(0).rows());
   }
-  for (int l = 1; l < L; ++l) {
-    const std::vector<double>& d = single_[l].smoother->inverse_diagonal();
-    single_[l].inv_diag.assign(d.begin(), d.end());
-  }
+  for (int l = 1; l < L; ++l) refresh_single(l);
+}
+
+void MultigridCycle::refresh_single(int l) {
+  const std::vector<double>& d = single_[l].smoother->inverse_diagonal();
+  single_[l].inv_diag.assign(d.begin(), d.end());
 }
 
 void MultigridCycle::refresh_galerkin() {
@@ -234,9 +237,11 @@ void MultigridCycle::update_impl() {
   setup_timings_ = TimingBreakdown{{}, 1, "update"};
   if (params_.coarse_operator == CoarseOperator::galerkin) timed_stage("Galerkin products", [&] { refresh_galerkin(); });
   for (int l = num_levels() - 1; l >= 1; --l)
-    timed_stage("smoother " + levels_.level_name(l), [&] { smoothers_[l - 1]->update(); });
+    timed_stage("smoother " + levels_.level_name(l), [&] {
+      smoothers_[l - 1]->update();
+      if (!single_.empty()) refresh_single(l);  // the float D⁻¹ with the smoother's own
+    });
   timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
-  if (params_.single_precision && !single_.empty()) prepare_single(false);
 }
 
 TimingBreakdown MultigridCycle::timings() const {
@@ -257,11 +262,19 @@ void MultigridCycle::reset_timings() const {
 }
 
 void MultigridCycle::apply_impl(const Vector& r, Vector& z) const {
-  if (params_.single_precision && num_levels() > 1) {
-    single_r_ = r.cast<float>();
+  if (!single_.empty()) {  // precision=single as of the last setup()
+    // The cycle is linear: run it on r scaled to a largest entry of 1, so that float neither
+    // overflows nor loses a residual that has fallen far below b to denormals.
+    const double scale = r.size() > 0 ? r.lpNorm<Eigen::Infinity>() : 0.0;
+    if (scale == 0.0) {
+      z.setZero(r.size());
+      return;
+    }
+    const double inv = std::isfinite(scale) ? 1.0 / scale : 1.0;
+    single_r_ = (inv * r).cast<float>();
     single_z_.setZero(r.size());
     for (int k = 0; k < params_.cycles; ++k) cycle_single(num_levels() - 1, single_r_, single_z_, k == 0);
-    z = single_z_.cast<double>();
+    z = (std::isfinite(scale) ? scale : 1.0) * single_z_.cast<double>();
     return;
   }
   z.setZero(r.size());
@@ -409,7 +422,7 @@ SolveResult MultigridCycle::solve_impl(const Vector& b, Vector& x, SolveMonitor*
   if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
   Vector correction;
   for (int it = 1; !track.done(); ++it) {
-    if (params_.single_precision) {
+    if (!single_.empty()) {
       apply(r, correction);  // x += C (b - A x), the cycle in float on the residual
       x += correction;
     } else {

@@ -190,6 +190,9 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
       sc.set_default("update_iterations", "1");
     }
   }
+  if (p.single_precision && sc.get_string("method", "chebyshev") != "chebyshev")
+    c.fail("precision", "single precision smooths with Chebyshev only (the float cycle has no " +
+                            sc.get_string("method", "") + ")");
   Config lc = c.child("lowest_level");
   // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
   // not the finest level's.

@@ -343,6 +343,41 @@ TEST_CASE("single-precision cycles reach a true residual of 1e-10 in double, sta
       CHECK(it_single <= it_double + 2);
     }
   }
+  // One application of the cycle in float against the double one, for each Chebyshev kind, a
+  // W-cycle and two cycles per application: the same map to float accuracy.
+  {
+    h.assemble(nullptr);
+    for (int l = 1; l < L; ++l) h.update_matrix_free(l, nullptr, 0.0, 1.0);
+    const Vector r = smooth_vector(h.matrix(L - 1).rows(), 0.8);
+    for (const std::vector<std::string>& keys :
+         std::vector<std::vector<std::string>>{{"smoother.kind=first", "smoother.degree=2"},
+                                               {"smoother.kind=fourth"},
+                                               {"smoother.kind=opt-fourth"},
+                                               {"cycle=W"},
+                                               {"cycles=2"}}) {
+      INFO(keys[0]);
+      Vector z[2];
+      for (int single = 0; single < 2; ++single) {
+        std::vector<std::string> pairs = {"method=pmg", "operator=matrix-free",
+                                          std::string("precision=") + (single ? "single" : "double")};
+        pairs.insert(pairs.end(), keys.begin(), keys.end());
+        auto s = make_solver(Config::from_pairs(pairs, "test"), ctx);
+        s->setup(*h.matrix_free_operator(L - 1));
+        s->apply(r, z[single]);
+        // A badly scaled right-hand side: the same map (the float cycle runs on r scaled to 1).
+        if (single) {
+          Vector tiny;
+          s->apply(1e-30 * r, tiny);
+          CHECK(rel_diff(Vector(1e30 * tiny), z[1]) < 1e-6);
+        }
+      }
+      CHECK(rel_diff(z[1], z[0]) < 1e-4);
+      CHECK(rel_diff(z[1], z[0]) > 0.0);
+    }
+  }
+  CHECK_THROWS_AS(make_solver(Config::from_pairs({"method=pmg", "operator=matrix-free", "precision=single",
+                                                  "smoother=jacobi"}, "test"), ctx),
+                  InputError);
   // Refused where it cannot run: assembled levels (no float operators or smoothers there).
   CHECK_THROWS_AS(make_solver(Config::from_pairs({"method=mgpcg", "operator=assembled", "precision=single"}, "test"),
                               ctx),

@@ -114,8 +114,8 @@ class MultigridCycle final : public Solver {
   /// The parameters.
   const MultigridParams& params() const { return params_; }
   /// The parameters, to change between solves: cycles, gamma and the iteration's stopping rule
-  /// take effect at once; coarse_operator, matrix_free and interpolating_restriction only at the
-  /// next setup().
+  /// take effect at once; coarse_operator, matrix_free, interpolating_restriction and
+  /// single_precision only at the next setup().
   MultigridParams& params() { return params_; }
   /// The matrix a level's smoother and residual use (a Galerkin product below the finest level
   /// when asked for).
@@ -165,6 +165,8 @@ class MultigridCycle final : public Solver {
   mutable Vector lowest_b_, lowest_x_;
   /// Builds single_ (set-up) or refreshes its inverse diagonals (update).
   void prepare_single(bool setup);
+  /// Level l's float D⁻¹ from its smoother's.
+  void refresh_single(int l);
   /// cycle() in float on levels >= 1 (the lowest level in double).
   void cycle_single(int level, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const;
   /// The level's Chebyshev smoothing in float (Chebyshev::smooth's recurrence).
