@@ -56,6 +56,7 @@ std::string MultigridCycle::describe() const {
   for (int l = L - 1; l >= 1; --l) s += (l == L - 1 ? " " : ", ") + smoothers_[l - 1]->name();
   const std::string lowest = lowest_->describe();
   s += "; lowest level " + lowest_->name() + (lowest.empty() ? "" : " (" + lowest + ")");
+  if (!single_.empty()) s += "; levels above the lowest in float";
   s += "; " + std::to_string(params_.cycles) + (params_.cycles == 1 ? " cycle" : " cycles") + " per application";
   long constrained = 0;
   if (!transfers_.empty())
@@ -196,6 +197,16 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
 void MultigridCycle::prepare_single(bool setup) {
   const int L = num_levels();
   if (setup) {
+    if (params_.single_where_possible) {  // float only where every level above the lowest allows it
+      bool possible = params_.matrix_free;
+      for (int l = 1; l < L && possible; ++l) {
+        const BlockTransfer& T = transfers_[l - 1];
+        possible = dynamic_cast<const SinglePrecisionSource*>(&level_operator(l)) &&
+                   dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get()) && T.fine_constraints().empty() &&
+                   T.coarse_constraints().empty();
+      }
+      if (!possible) return;
+    }
     if (!params_.matrix_free)
       throw InputError("multigrid: precision=single needs the matrix-free levels (operator=matrix-free)");
     single_.assign(L, SingleLevel{});

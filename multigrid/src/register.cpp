@@ -55,7 +55,7 @@ struct CycleOptions {
   std::string coarse_operator = "geometric";
   std::string restriction = "transpose";
   std::string op = "auto";
-  std::string precision = "double";
+  std::string precision = "auto";
 
   void visit(ParamVisitor& v) {
     v.choice("cycle", cycle, {"V", "W"}, "V- or W-cycle");
@@ -69,9 +69,11 @@ struct CycleOptions {
     v.choice("operator", op, {"auto", "assembled", "matrix-free"},
              "auto: matrix-free where the levels offer operators, coarse_operator is geometric and the "
              "smoother is Chebyshev (its keys only); assembled: the level matrices");
-    v.choice("precision", precision, {"double", "single"},
+    v.choice("precision", precision, {"auto", "double", "single"},
              "single: the matrix-free levels above the lowest (operators, Chebyshev smoothing, transfers) "
-             "in float inside the cycle; the lowest level, the outer iteration and its residuals in double");
+             "in float inside the cycle; the lowest level, the outer iteration and its residuals in double; "
+             "auto: single where the levels allow it (matrix-free, Chebyshev, no components held on their "
+             "own), else double");
     v.solver("smoother", "gauss-seidel",
              "one per level above the lowest (matrix-free route, and mgpcg on user levels: chebyshev, kind "
              "opt-fourth, degree 3; on user levels with estimate lanczos)");
@@ -164,7 +166,8 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     if (p.matrix_free) Config(c).set("operator", "matrix-free");
   }
   p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free && !user_chebyshev ? 2 : 1);
-  p.single_precision = o.precision == "single";
+  p.single_precision = o.precision == "single" || (o.precision == "auto" && p.matrix_free);
+  p.single_where_possible = o.precision == "auto";
   if (p.single_precision && !p.matrix_free)
     c.fail("precision", "single precision runs the matrix-free levels in float: it needs operator=matrix-free "
                         "(levels with matrix-free operators, Chebyshev smoothing)");
@@ -190,6 +193,8 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
       sc.set_default("update_iterations", "1");
     }
   }
+  if (p.single_precision && p.single_where_possible && sc.get_string("method", "chebyshev") != "chebyshev")
+    p.single_precision = false;
   if (p.single_precision && sc.get_string("method", "chebyshev") != "chebyshev")
     c.fail("precision", "single precision smooths with Chebyshev only (the float cycle has no " +
                             sc.get_string("method", "") + ")");

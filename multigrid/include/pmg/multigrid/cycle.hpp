@@ -59,6 +59,9 @@ struct MultigridParams {
   /// iteration's residuals and solution, in double. Matrix-free levels smoothed by Chebyshev only,
   /// without components constrained on their own.
   bool single_precision = false;
+  /// With single_precision: levels that cannot run in float (held components, operators without a
+  /// float product, smoothers other than Chebyshev) run in double instead of being refused.
+  bool single_where_possible = false;
   /// solve(): the stationary iteration's stopping rule.
   KrylovParams iteration;
 };
@@ -163,7 +166,8 @@ class MultigridCycle final : public Solver {
   std::vector<SingleLevel> single_;  ///< [l]: level l >= 1 (precision=single only)
   mutable Eigen::VectorXf single_r_, single_z_;
   mutable Vector lowest_b_, lowest_x_;
-  /// Builds single_ (set-up) or refreshes its inverse diagonals (update).
+  /// Builds single_ (set-up) or refreshes its inverse diagonals (update). At set-up, levels that
+  /// cannot run in float are an InputError, or (single_where_possible) leave single_ empty.
   void prepare_single(bool setup);
   /// Level l's float D⁻¹ from its smoother's.
   void refresh_single(int l);
