@@ -431,7 +431,7 @@ struct ElasticityOperator::Impl {
   std::vector<double> batch_data;   ///< kData x kBatch per batch, datum-major
   std::vector<float> batch_data_single;  ///< the same in float, kept once apply_single() asked for it
   bool single = false;
-  MatrixFreeKernel kernel = MatrixFreeKernel::automatic, resolved = MatrixFreeKernel::generic;
+  MatrixFreeKernel resolved = MatrixFreeKernel::generic;  ///< the kernel apply() runs (never automatic)
   /// apply(): thread t > 0 accumulates its contiguous range of elements into buffers[t-1] (kept
   /// from call to call: no allocation per product), thread 0 directly into y; then y += Σ buffers.
   mutable std::vector<Vector> buffers;
@@ -532,13 +532,13 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
   m.data.assign(ne * kData, 0.0);
   // PMG_MATRIX_FREE_KERNEL (auto, generic, avx2, avx512, reference) overrides the automatic
   // choice, e.g. to run the portable path on a machine that has wider vectors.
+  MatrixFreeKernel kernel = MatrixFreeKernel::automatic;
   if (const char* env = std::getenv("PMG_MATRIX_FREE_KERNEL"); env && *env) {
-    const MatrixFreeKernel k = parse_matrix_free_kernel(env);
-    if (!matrix_free_kernel_available(k))
+    kernel = parse_matrix_free_kernel(env);
+    if (!matrix_free_kernel_available(kernel))
       throw InputError("PMG_MATRIX_FREE_KERNEL=" + std::string(env) + ": this CPU cannot run that kernel");
-    m.kernel = k;
   }
-  m.resolved = resolve(m.kernel);
+  m.resolved = resolve(kernel);
   update(nullptr);
 }
 
@@ -626,7 +626,6 @@ void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector&
 void ElasticityOperator::set_kernel(MatrixFreeKernel kernel) {
   if (!matrix_free_kernel_available(kernel))
     throw InputError("matrix-free operator: this CPU cannot run the " + to_string(kernel) + " kernel");
-  impl_->kernel = kernel;
   impl_->resolved = resolve(kernel);
 }
 

@@ -197,32 +197,29 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
 void MultigridCycle::prepare_single(bool setup) {
   const int L = num_levels();
   if (setup) {
-    if (params_.single_where_possible) {  // float only where every level above the lowest allows it
-      bool possible = params_.matrix_free;
-      for (int l = 1; l < L && possible; ++l) {
-        const BlockTransfer& T = transfers_[l - 1];
-        possible = dynamic_cast<const SinglePrecisionSource*>(&level_operator(l)) &&
-                   dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get()) && T.fine_constraints().empty() &&
-                   T.coarse_constraints().empty();
+    // Why level l cannot run in float ("" if it can).
+    auto obstacle = [&](int l) -> std::string {
+      if (!params_.matrix_free) return "it needs the matrix-free levels (operator=matrix-free)";
+      if (!dynamic_cast<const SinglePrecisionSource*>(&level_operator(l)))
+        return "it needs operators that apply in float; " + levels_.level_name(l) + "'s does not";
+      if (!dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get()))
+        return "it smooths with Chebyshev only; " + levels_.level_name(l) + " has " + smoothers_[l - 1]->name();
+      const BlockTransfer& T = transfers_[l - 1];
+      if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
+        return "it takes no components constrained on their own (symmetry planes)";
+      return "";
+    };
+    for (int l = 1; l < L; ++l)
+      if (const std::string why = obstacle(l); !why.empty()) {
+        if (params_.single_where_possible) return;  // precision=auto: these levels stay in double
+        throw InputError("multigrid: precision=single: " + why);
       }
-      if (!possible) return;
-    }
-    if (!params_.matrix_free)
-      throw InputError("multigrid: precision=single needs the matrix-free levels (operator=matrix-free)");
     single_.assign(L, SingleLevel{});
     for (int l = 1; l < L; ++l) {
       SingleLevel& s = single_[l];
       s.op = dynamic_cast<const SinglePrecisionSource*>(&level_operator(l));
       s.smoother = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
-      if (!s.op)
-        throw InputError("multigrid: precision=single needs operators that apply in float; " + levels_.level_name(l) +
-                         "'s does not");
-      if (!s.smoother)
-        throw InputError("multigrid: precision=single smooths with Chebyshev only; " + levels_.level_name(l) +
-                         " has " + smoothers_[l - 1]->name());
       const BlockTransfer& T = transfers_[l - 1];
-      if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
-        throw InputError("multigrid: precision=single takes no components constrained on their own (symmetry planes)");
       s.p_values.assign(T.prolongation().values().begin(), T.prolongation().values().end());
       s.r_values.assign(T.restriction().values().begin(), T.restriction().values().end());
       const Eigen::Index n = level_operator(l).rows(), nc = level_operator(l - 1).rows();

@@ -193,9 +193,7 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
       sc.set_default("update_iterations", "1");
     }
   }
-  if (p.single_precision && p.single_where_possible && sc.get_string("method", "chebyshev") != "chebyshev")
-    p.single_precision = false;
-  if (p.single_precision && sc.get_string("method", "chebyshev") != "chebyshev")
+  if (p.single_precision && !p.single_where_possible && sc.get_string("method", "chebyshev") != "chebyshev")
     c.fail("precision", "single precision smooths with Chebyshev only (the float cycle has no " +
                             sc.get_string("method", "") + ")");
   Config lc = c.child("lowest_level");

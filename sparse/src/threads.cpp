@@ -70,11 +70,10 @@ ThreadPolicy thread_policy() {
 
 void set_thread_policy(ThreadPolicy policy) { g_policy.store(static_cast<int>(policy)); }
 
-int other_runnable_threads() {
 #if defined(__linux__)
-  bool whole = false;
-  affinity_cpus(whole);
-  if (!whole) return -1;
+namespace {
+/// Runnable threads of other processes, system-wide (see other_runnable_threads()); -1 unread.
+int others_system_wide() {
   // This process's running threads, counted before and after the system-wide count below and the
   // larger taken: an OpenMP worker still spinning after the last parallel region may stop in
   // between, and must not be counted as another process's.
@@ -102,6 +101,15 @@ int other_runnable_threads() {
   if (got != 5) return -1;
   const int ours = std::max(before, running_here());
   return std::max(running - ours, 0);
+}
+}  // namespace
+#endif
+
+int other_runnable_threads() {
+#if defined(__linux__)
+  bool whole = false;
+  affinity_cpus(whole);
+  return whole ? others_system_wide() : -1;
 #else
   return -1;
 #endif
@@ -113,11 +121,12 @@ ThreadBudget::ThreadBudget() {
   outer_ = t_depth++ == 0;
   if (!outer_ || threads_ <= 1 || policy == ThreadPolicy::fixed) return;
 #if defined(__linux__)
-  const int others = other_runnable_threads();
-  if (others <= 0) return;
   bool whole = false;
-  const int free_cpus = affinity_cpus(whole) - others;
-  const int n = std::clamp(free_cpus, 1, threads_);
+  const int cpus = affinity_cpus(whole);
+  if (!whole) return;  // a CPU set smaller than the machine: the system-wide count says nothing
+  const int others = others_system_wide();
+  if (others <= 0) return;
+  const int n = std::clamp(cpus - others, 1, threads_);
   if (n < threads_) {
     restore_ = threads_;
     threads_ = n;
