@@ -436,8 +436,9 @@ struct ElasticityOperator::Impl {
   /// from call to call: no allocation per product), thread 0 directly into y; then y += Σ buffers.
   mutable std::vector<Vector> buffers;
   mutable std::vector<Eigen::VectorXf> buffers_single;
-  /// Held by the product using `buffers`; a product that finds them taken (two solvers sharing
-  /// this operator on two threads) uses buffers of its own, so products stay concurrent and exact.
+  /// Held by the product using `buffers`: two solvers sharing this operator on two threads take
+  /// turns (a try-lock with private buffers for the loser let the compiler read the kept
+  /// buffers before knowing it held them, which ThreadSanitizer reported).
   mutable std::mutex buffers_mutex;
 
   /// The batch layout of `data` (and its float copy where kept).
@@ -465,9 +466,9 @@ struct ElasticityOperator::Impl {
     T* yp = y.data();
     const long len = static_cast<long>(y.size());
     const int threads = omp_get_max_threads();
-    std::unique_lock<std::mutex> lock(buffers_mutex, std::try_to_lock);
-    std::vector<Vec> own;
-    std::vector<Vec>& buffers = lock.owns_lock() ? kept : own;
+    // One product at a time uses the kept buffers (two solvers sharing this operator take turns).
+    const std::lock_guard<std::mutex> lock(buffers_mutex);
+    std::vector<Vec>& buffers = kept;
     if (static_cast<int>(buffers.size()) != threads - 1 || (threads > 1 && buffers[0].size() != len))
       buffers.assign(std::max(threads - 1, 0), Vec(len));
     const T sign = b ? T(-1) : T(1);
