@@ -95,7 +95,8 @@ void start_ranks() {
 
 /// The one error line, and under mpirun the end of every rank: rank 0 prints and ends the job;
 /// another rank waits a moment first (when rank 0 fails too, its message is the only one), then
-/// prints naming itself and ends the job.
+/// prints naming itself and ends the job. Either waits half a second after printing, so that
+/// mpirun has forwarded the line before the abort ends the job.
 int fail(int code, const std::string& line) {
   if (mpi::launched_ranks() < 2) {
     std::cerr << line;
@@ -107,6 +108,10 @@ int fail(int code, const std::string& line) {
     std::cerr << "(rank " << rank << ") ";
   }
   std::cerr << line << std::flush;
+  // The line is in the pipe to mpirun, which forwards it asynchronously; MPI_Abort right away can
+  // end the job before mpirun has read it (the message then lost under load). A pause lets it
+  // arrive first.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
   mpi::abort(code);
 }
 
