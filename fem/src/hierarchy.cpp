@@ -1,5 +1,6 @@
 #include "pmg/fem/hierarchy.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 
@@ -201,6 +202,38 @@ const LinearOperator* DegreeHierarchy::matrix_free_operator(int l) const {
   if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
   if (l == 0) return nullptr;
   return &matrix_free(l);
+}
+
+const std::vector<std::vector<index_t>>* DegreeHierarchy::vertex_patches(int l) const {
+  if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
+  if (l == 0) return nullptr;
+  if (patches_.size() != models_.size()) patches_.resize(models_.size());
+  std::vector<std::vector<index_t>>& patches = patches_[l];
+  if (!patches.empty()) return &patches;
+  const ElasticityModel& model = *models_[l];
+  const BBSpace& space = model.space();
+  const std::vector<index_t>& free = model.assembler().free_index();
+  const std::vector<MultiIndex>& alpha = multi_indices(space.degree());
+  const int n = space.nodes_per_element();
+  const TetMesh& mesh = space.mesh();
+  // Node a of an element lies on the sub-simplex of its multi-index's nonzero entries, which holds
+  // local vertex i exactly when alpha_a[i] > 0: the element's share of vertex i's open star.
+  std::vector<std::vector<index_t>> star(mesh.vertices.size());
+  for (index_t e = 0; e < mesh.num_tets(); ++e) {
+    const index_t* nodes = space.element_nodes(e);
+    for (int i = 0; i < 4; ++i) {
+      std::vector<index_t>& s = star[mesh.tets[e][i]];
+      for (int a = 0; a < n; ++a)
+        if (alpha[a][i] > 0 && free[nodes[a]] >= 0) s.push_back(free[nodes[a]]);
+    }
+  }
+  for (std::vector<index_t>& s : star) {
+    if (s.empty()) continue;
+    std::sort(s.begin(), s.end());
+    s.erase(std::unique(s.begin(), s.end()), s.end());
+    patches.push_back(std::move(s));
+  }
+  return &patches;
 }
 
 const ElasticityOperator& DegreeHierarchy::matrix_free(int l) const {

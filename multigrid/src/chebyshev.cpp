@@ -38,21 +38,30 @@ Chebyshev::Chebyshev(const ChebyshevParams& params) : params_(params) {
                      std::to_string(kMaxOptimalDegree));
 }
 
+Chebyshev::Chebyshev(const ChebyshevParams& params, std::unique_ptr<Solver> preconditioner)
+    : Chebyshev(params) {
+  if (!preconditioner) throw InputError("Chebyshev: no preconditioner");
+  M_ = std::move(preconditioner);
+}
+
 void Chebyshev::setup_impl(const LinearOperator& A) {
   check_interleaved(A, "Chebyshev");
   A_ = &A;
   const Eigen::Index n = A.rows();
   r_.resize(n), d_.resize(n), z_.resize(n);
-  inv_diag_ = inverse_diagonal_blocks(*A_);
+  if (M_) M_->setup(A);
+  else inv_diag_ = inverse_diagonal_blocks(*A_);
   estimate(params_.power_iterations, false);
 }
 
 void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
-  ops::block_diagonal_apply(inv_diag_, r, z);
+  if (M_) M_->apply(r, z);
+  else ops::block_diagonal_apply(inv_diag_, r, z);
 }
 
 void Chebyshev::update_impl() {
-  inv_diag_ = inverse_diagonal_blocks(*A_);
+  if (M_) M_->update();
+  else inv_diag_ = inverse_diagonal_blocks(*A_);
   if (params_.update_iterations > 0) estimate(params_.update_iterations, true);
   else estimate(params_.power_iterations, false);
 }

@@ -202,8 +202,10 @@ void MultigridCycle::prepare_single(bool setup) {
       if (!params_.matrix_free) return "it needs the matrix-free levels (operator=matrix-free)";
       if (!dynamic_cast<const SinglePrecisionSource*>(&level_operator(l)))
         return "it needs operators that apply in float; " + levels_.level_name(l) + "'s does not";
-      if (!dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get()))
-        return "it smooths with Chebyshev only; " + levels_.level_name(l) + " has " + smoothers_[l - 1]->name();
+      const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
+      if (!chebyshev || chebyshev->preconditioner())
+        return "it smooths with Chebyshev on the diagonal blocks only; " + levels_.level_name(l) + " has " +
+               smoothers_[l - 1]->name();
       const BlockTransfer& T = transfers_[l - 1];
       if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
         return "it takes no components constrained on their own (symmetry planes)";

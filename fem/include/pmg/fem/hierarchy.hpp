@@ -88,6 +88,10 @@ class DegreeHierarchy final : public mg::LevelProvider {
     const Vector free = model(level).free_positions();
     return std::vector<double>(free.data(), free.data() + free.size());
   }
+  /// The open vertex stars of a level of degree >= 2 over its free nodes (LevelProvider::
+  /// vertex_patches), built on first use; nullptr for the linear level. A star with no free node
+  /// (a clamped vertex whose elements are all clamped around it) is left out.
+  const std::vector<std::vector<index_t>>* vertex_patches(int level) const override;
   /// The same operator as the concrete type, built on first use with the level's last rotations and
   /// weights; throws InputError for level 0 or a level out of range.
   const ElasticityOperator& matrix_free(int level) const;
@@ -156,6 +160,7 @@ class DegreeHierarchy final : public mg::LevelProvider {
   std::vector<std::pair<std::string, double>> prepare_seconds_;
   Rotations rotations_;  ///< the last rotations given (the same on every level)
   mutable std::vector<std::unique_ptr<ElasticityOperator>> operators_;
+  mutable std::vector<std::vector<std::vector<index_t>>> patches_;  ///< per level, built on first use
   void record(int level, const Rotations* R, double mass_weight, double stiffness_weight);
 };
 

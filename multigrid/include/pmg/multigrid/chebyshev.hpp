@@ -5,6 +5,8 @@
 
 #include "pmg/multigrid/smoothers.hpp"
 
+#include <memory>
+
 namespace pmg::mg {
 
 /// Which polynomial in D⁻¹A: the first-kind Chebyshev polynomial on [f λmax, λmax] (Saad,
@@ -58,9 +60,17 @@ class Chebyshev final : public Smoother {
   /// Not yet set up. Throws InputError when degree or power_iterations is below 1, lower_fraction
   /// lies outside (0, 1), or the optimised fourth kind is asked for beyond its tabulated degrees.
   explicit Chebyshev(const ChebyshevParams& params = {});
+  /// Chebyshev in M⁻¹A instead of D⁻¹A: `preconditioner` (M⁻¹ as a Solver's apply, symmetric
+  /// positive definite: PatchSchwarz, pmg/multigrid/patch.hpp) is set up on the smoother's A and
+  /// updated with it; λmax is estimated for M⁻¹A. Throws InputError as above or for a null one.
+  Chebyshev(const ChebyshevParams& params, std::unique_ptr<Solver> preconditioner);
   /// Constructs and sets up on A, which must outlive the smoother (see Solver::setup()).
   Chebyshev(const LinearOperator& A, const ChebyshevParams& params = {}) : Chebyshev(params) { setup(A); }
-  std::string name() const override { return "chebyshev"; }
+  std::string name() const override { return M_ ? "chebyshev(" + M_->name() + ")" : "chebyshev"; }
+  /// The preconditioner M (nullptr: the inverted diagonal blocks D).
+  const Solver* preconditioner() const { return M_.get(); }
+  /// The preconditioner's description, where it has one.
+  std::string describe() const override { return M_ ? M_->describe() : ""; }
   /// The parameters.
   const ChebyshevParams& params() const { return params_; }
   void pre_smooth(const Vector& b, Vector& x) const override { smooth(b, x, false); }
@@ -72,7 +82,8 @@ class Chebyshev final : public Smoother {
   double lambda_max() const { return lambda_max_; }
   /// The steps of the polynomial for the current λmax (chebyshev_steps; empty before setup()).
   const std::vector<ChebyshevStep>& steps() const { return steps_; }
-  /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update()).
+  /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update());
+  /// empty with a preconditioner.
   const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
 
  private:
@@ -83,6 +94,7 @@ class Chebyshev final : public Smoother {
   void estimate(int iterations, bool warm);
   const LinearOperator* A_ = nullptr;
   ChebyshevParams params_;
+  std::unique_ptr<Solver> M_;  ///< M⁻¹ instead of D⁻¹ (nullptr: D⁻¹)
   std::vector<double> inv_diag_;
   double lambda_max_ = 0.0;
   std::vector<ChebyshevStep> steps_;  ///< chebyshev_steps(params_, lambda_max_), per estimate

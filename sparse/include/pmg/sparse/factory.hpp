@@ -47,6 +47,9 @@ struct SolverContext {
   /// (MPI_Comm_c2f(), mpi4py's Comm.py2f()), which keeps this header free of mpi.h; -1: the
   /// world communicator. Other methods ignore it.
   long communicator = -1;
+  /// Smoothers a multigrid cycle builds: the level they smooth (levels->level_name(level)); -1
+  /// elsewhere (a level's own data, such as vertex patches, is then the finest level's).
+  int level = -1;
 };
 
 /// Builds the solver the config's "method" names (`fallback_method` when it names none) and

@@ -68,6 +68,13 @@ class LevelProvider {
   /// every restricted residual (MFEM's and deal.II's essential dofs per component). Whole clamped
   /// nodes are not listed: they are not unknowns of the level at all.
   virtual const std::vector<char>* constrained_dofs(int /*level*/) const { return nullptr; }
+  /// The vertex patches of a level for Schwarz smoothing (mg::PatchSchwarz), or nullptr when the
+  /// provider has none (the default): per patch the level's nodes (block rows) in it, ascending.
+  /// fem::DegreeHierarchy gives the open star of each mesh vertex: the nodes of the elements around
+  /// the vertex that lie on a sub-simplex containing it (the vertex's own node, the nodes inside
+  /// its edges, faces and elements), the patches of Schöberl's parameter-robust multigrid for
+  /// nearly incompressible elasticity and of PETSc's PCPATCH "star".
+  virtual const std::vector<std::vector<index_t>>* vertex_patches(int /*level*/) const { return nullptr; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };
