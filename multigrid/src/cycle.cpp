@@ -53,7 +53,10 @@ std::string MultigridCycle::describe() const {
   if (params_.matrix_free) s += ", matrix-free above the lowest level";
   if (params_.interpolating_restriction) s += ", interpolating restriction";
   s += "; smoothing";
-  for (int l = L - 1; l >= 1; --l) s += (l == L - 1 ? " " : ", ") + smoothers_[l - 1]->name();
+  for (int l = L - 1; l >= 1; --l) {
+    s += (l == L - 1 ? " " : ", ") + smoothers_[l - 1]->name();
+    if (const std::string d = smoothers_[l - 1]->describe(); !d.empty()) s += " (" + d + ")";
+  }
   const std::string lowest = lowest_->describe();
   s += "; lowest level " + lowest_->name() + (lowest.empty() ? "" : " (" + lowest + ")");
   if (!single_.empty()) s += "; levels above the lowest in float";

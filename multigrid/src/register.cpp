@@ -61,8 +61,8 @@ struct CycleOptions {
   void visit(ParamVisitor& v) {
     v.choice("cycle", cycle, {"V", "W"}, "V- or W-cycle");
     v.integer("cycles", cycles, 0, 100,
-              "cycles per application (0: 1 matrix-free, for pmg and for mgpcg's Chebyshev on user levels; 2 "
-              "for mgpcg on an FEM scene's assembled levels)");
+              "cycles per application (0: 1 matrix-free, for pmg, for Chebyshev on vertex patches and for mgpcg's "
+              "Chebyshev on user levels; 2 for mgpcg on an FEM scene's other assembled levels)");
     v.choice("coarse_operator", coarse_operator, {"geometric", "galerkin"},
              "lower levels: the provider's matrices (re-discretised) or Galerkin products R A P");
     v.choice("restriction", restriction, {"transpose", "interpolating"},
@@ -176,7 +176,7 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     // Said in the solver's printed options: the route taken is part of what was run.
     if (p.matrix_free) Config(c).set("operator", "matrix-free");
   }
-  p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free && !user_chebyshev ? 2 : 1);
+  p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free && !user_chebyshev && !patch ? 2 : 1);
   p.single_precision = o.precision == "single" || (o.precision == "auto" && p.matrix_free);
   p.single_where_possible = o.precision == "auto";
   if (p.single_precision && !p.matrix_free)
@@ -293,7 +293,7 @@ void register_all() {
                   });
   register_builtin_solver({"patch", "additive Schwarz on the levels' vertex patches (open vertex stars), dense "
                                     "Cholesky per patch: Chebyshev's or Richardson's M",
-                   {}, true, true, "multigrid"},
+                   list_params<PatchParams>(), true, true, "multigrid"},
                   [](const Config& c, const SolverContext& ctx) {
                     if (!ctx.levels)
                       c.fail("method", "patch needs levels that define vertex patches (an FEM scene of degree >= 2)");
@@ -302,7 +302,7 @@ void register_all() {
                     if (!patches)
                       c.fail("method", "patch: " + ctx.levels->level_name(level) +
                                            " defines no vertex patches (an FEM scene's levels of degree >= 2 do)");
-                    return std::make_unique<PatchSchwarz>(*patches);
+                    return std::make_unique<PatchSchwarz>(*patches, read_params<PatchParams>(c));
                   });
   register_builtin_solver({"damped-jacobi", "damped 3x3 block Jacobi x += omega D^-1 (b - A x)",
                    list_params<JacobiParams>(), false, true, "multigrid"},

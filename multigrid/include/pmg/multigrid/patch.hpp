@@ -3,7 +3,7 @@
 //
 // Each patch P (a set of a level's nodes, LevelProvider::vertex_patches(): the open star of a mesh
 // vertex) has the dense local matrix A_P = R_P A R_Pᵀ of its 3|P| unknowns, read from the level's
-// assembled matrix and factorised once per set-up or update (Cholesky). One application is
+// assembled matrix, factorised (Cholesky) and inverted once per set-up or update. One application is
 //
 //   z = Σ_P R_Pᵀ A_P⁻¹ R_P r,
 //
@@ -17,28 +17,40 @@
 //
 // Patches are solved in parallel (each thread its own work vectors) into one correction per patch
 // unknown; each unknown then sums its patches' corrections (a fixed order: the same result on any
-// number of threads). Memory: Σ_P (3|P|)² doubles of factors; both this and the set-up cost are
-// reported by describe().
+// number of threads). Memory: Σ_P (3|P|)² floats (doubles with factors=double) of stored
+// inverses; both this and the set-up cost are reported by describe().
 #pragma once
 
 #include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/params.hpp"
 #include "pmg/sparse/solver.hpp"
 
 #include <vector>
 
 namespace pmg::mg {
 
+/// Parameters of PatchSchwarz (solver keys: see visit()).
+struct PatchParams {
+  /// Precision of the stored patch inverses and of their products: float (the default: half the
+  /// memory and bytes per application; the same iterations as double on the cubic Homer at
+  /// ν = 0.3 and 0.499, docs/robustness.md) or double. Factorisation and inversion run in double,
+  /// the patch vectors are summed in double.
+  bool single = true;
+  /// The key factors.
+  void visit(ParamVisitor& v);
+};
+
 /// Additive Schwarz on node patches (see the file comment), as a Solver: apply(r, z) gives z.
 class PatchSchwarz final : public Solver {
  public:
   /// Patches of block rows (each non-empty, ascending, no repeats; checked at setup() against the
   /// matrix's size). Throws InputError for no patches or an empty one.
-  explicit PatchSchwarz(std::vector<std::vector<index_t>> patches);
+  explicit PatchSchwarz(std::vector<std::vector<index_t>> patches, const PatchParams& params = {});
   std::string name() const override { return "patch"; }
   /// Number of patches.
   index_t num_patches() const { return static_cast<index_t>(patches_.size()); }
-  /// Bytes of the Cholesky factors (0 before setup()).
-  size_t factor_bytes() const { return factors_.size() * sizeof(double); }
+  /// Bytes of the stored patch inverses (0 before setup()).
+  size_t factor_bytes() const { return factors_.size() * sizeof(double) + factors_single_.size() * sizeof(float); }
   /// Patches, their sizes, the factors' memory per unknown and the last set-up's time.
   std::string describe() const override;
 
@@ -46,14 +58,18 @@ class PatchSchwarz final : public Solver {
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
-  /// Reads and factorises every patch matrix from A's values.
+  /// Reads every patch matrix from A's values, factorises and inverts it.
   void factorise();
+  template <typename T>
+  void solve_patches(const std::vector<T>& factors, const Vector& r) const;
 
   std::vector<std::vector<index_t>> patches_;
   const Bcsr* A_ = nullptr;
   std::vector<size_t> offset_;        ///< [p]: patch p's first unknown in the concatenated patch vectors
-  std::vector<size_t> factor_offset_; ///< [p]: patch p's factor in factors_ (column-major, lower)
-  std::vector<double> factors_;
+  std::vector<size_t> factor_offset_; ///< [p]: patch p's inverse in factors_ or factors_single_
+  PatchParams params_;
+  std::vector<double> factors_;        ///< the patch inverses A_P⁻¹, column-major (params_.single: empty)
+  std::vector<float> factors_single_;  ///< the same in float (params_.single only)
   /// Per unknown of A: its positions in the concatenated patch vectors (CSR over rows).
   std::vector<size_t> incidence_ptr_, incidence_;
   mutable std::vector<double> corrections_;  ///< concatenated A_P⁻¹ R_P r

@@ -1,0 +1,52 @@
+#!/bin/bash
+# docs/robustness.md: Chebyshev smoothing on vertex patches (smoother.preconditioner=patch) against
+# the default (matrix-free Chebyshev on the 3x3 diagonal blocks), as nu -> 1/2 and on thin parts.
+#   1. the stress matrix's quadratic bar (8 x 2 x 2 boxes, 4 x 1 x 1 m), 10 corotational steps of
+#      0.01 s to 1e-3 per step, PMG and MGPCG;
+#   2. the stress matrix's thin plate (4 x 1 x 0.01 m) and rod (4 x 0.01 x 0.01 m), quadratic, from
+#      rest under gravity (their deflected start is refused by CHOLMOD's residual check: see the doc);
+#   3. the cubic Homer of the README (models/homer.ele), static, MGPCG to 1e-6, nu = 0.3 and 0.499.
+# Run from the repository root after scripts/build.sh (and, for 3, the README's model command).
+cd "$(dirname "$0")/../.."
+export OMP_NUM_THREADS=2 PMG_THREADS=fixed
+scene=$(mktemp --suffix=.json)
+config=$(mktemp --suffix=.json)
+trap 'rm -f "$scene" "$config"' EXIT
+run() {  # run MESH-KIND NU METHOD PATCH
+  /usr/bin/python3 - "$@" > "$scene" <<'PY'
+import json, sys
+kind, nu, method, patch = sys.argv[1], float(sys.argv[2]), sys.argv[3], sys.argv[4] == "patch"
+s = {"degree": 2, "material": {"model": "corotational", "young": 5e6, "poisson": nu, "density": 1000},
+     "clamp": {"axis": "x"}, "time": {"dt": 0.01, "duration": 0.1},
+     "solver": {"method": method, "tol": 1e-3}}
+if kind == "bar":
+    s["mesh"] = {"box": [8, 2, 2], "size": [4, 1, 1]}
+    s["initial"] = {"state": "deflected", "force": [0, 0, -4000]}
+else:
+    s["mesh"] = {"box": [8, 2, 1], "size": [4, 1, 0.01]} if kind == "plate" else {"box": [16, 1, 1], "size": [4, 0.01, 0.01]}
+    s["loads"] = {"gravity": [0, 0, -9.81]}
+if patch:
+    s["solver"]["smoother.preconditioner.method"] = "patch"
+print(json.dumps(s))
+PY
+  echo "$1 nu=$2 $3 $4: $(timeout 600 build/tools/pmg simulate "$scene" 2>&1 | grep -E '^steps:|error' | cut -c1-140)"
+}
+date -u +"%Y-%m-%d %H:%M UTC, $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
+for method in pmg mgpcg; do
+  for nu in 0.3 0.45 0.49 0.499; do
+    for smoother in default patch; do run bar $nu $method $smoother; done
+  done
+done
+for kind in plate rod; do
+  for method in pmg mgpcg; do
+    for smoother in default patch; do run $kind 0.3 $method $smoother; done
+  done
+done
+if [ -f models/homer.ele ]; then
+  echo '{"mgpcg": {"method": "mgpcg"}, "mgpcg-patch": {"method": "mgpcg", "smoother.preconditioner.method": "patch"}}' > "$config"
+  for nu in 0.3 0.499; do
+    echo "Homer P3 static, nu=$nu:"
+    build/tools/pmg compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --poisson $nu \
+      --tol 1e-6 --solver-config "$config" 2>&1 | grep -E '^size|^solver|converged|stagnated|failed|one cycle|set-up [0-9]'
+  done
+fi
