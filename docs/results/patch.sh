@@ -1,11 +1,13 @@
 #!/bin/bash
 # docs/robustness.md: Chebyshev smoothing on vertex patches (smoother.preconditioner=patch) against
-# the default (matrix-free Chebyshev on the 3x3 diagonal blocks), as nu -> 1/2 and on thin parts.
+# point smoothing (smoother.method=chebyshev: matrix-free Chebyshev on the 3x3 diagonal blocks, the
+# default below lambda/mu = 99 and for mgpcg), as nu -> 1/2 and on thin parts.
 #   1. the stress matrix's quadratic bar (8 x 2 x 2 boxes, 4 x 1 x 1 m), 10 corotational steps of
 #      0.01 s to 1e-3 per step, PMG and MGPCG;
 #   2. the stress matrix's thin plate (4 x 1 x 0.01 m) and rod (4 x 0.01 x 0.01 m), quadratic, from
 #      rest under gravity (their deflected start is refused by CHOLMOD's residual check: see the doc);
-#   3. the cubic Homer of the README (models/homer.ele), static, MGPCG to 1e-6, nu = 0.3 and 0.499.
+#   3. the cubic Homer of the README (models/homer.ele), static to 1e-6: MGPCG at nu = 0.3 and 0.499,
+#      PMG at nu = 0.3, 0.495 and 0.499.
 # Run from the repository root after scripts/build.sh (and, for 3, the README's model command).
 cd "$(dirname "$0")/../.."
 export OMP_NUM_THREADS=2 PMG_THREADS=fixed
@@ -25,8 +27,7 @@ if kind == "bar":
 else:
     s["mesh"] = {"box": [8, 2, 1], "size": [4, 1, 0.01]} if kind == "plate" else {"box": [16, 1, 1], "size": [4, 0.01, 0.01]}
     s["loads"] = {"gravity": [0, 0, -9.81]}
-if patch:
-    s["solver"]["smoother.preconditioner.method"] = "patch"
+s["solver"]["smoother.preconditioner.method" if patch else "smoother.method"] = "patch" if patch else "chebyshev"
 print(json.dumps(s))
 PY
   echo "$1 nu=$2 $3 $4: $(timeout 600 build/tools/pmg simulate "$scene" 2>&1 | grep -E '^steps:|error' | cut -c1-140)"
@@ -34,19 +35,25 @@ PY
 date -u +"%Y-%m-%d %H:%M UTC, $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
 for method in pmg mgpcg; do
   for nu in 0.3 0.45 0.49 0.499; do
-    for smoother in default patch; do run bar $nu $method $smoother; done
+    for smoother in point patch; do run bar $nu $method $smoother; done
   done
 done
 for kind in plate rod; do
   for method in pmg mgpcg; do
-    for smoother in default patch; do run $kind 0.3 $method $smoother; done
+    for smoother in point patch; do run $kind 0.3 $method $smoother; done
   done
 done
 if [ -f models/homer.ele ]; then
-  echo '{"mgpcg": {"method": "mgpcg"}, "mgpcg-patch": {"method": "mgpcg", "smoother.preconditioner.method": "patch"}}' > "$config"
+  homer() {  # homer NU CONFIG-JSON
+    echo "$2" > "$config"
+    echo "Homer P3 static, nu=$1:"
+    build/tools/pmg compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --poisson "$1" \
+      --tol 1e-6 --solver-config "$config" 2>&1 | grep -E '^size|^solver|converged|stagnated|failed|one cycle|set-up [0-9]|Schwarz'
+  }
   for nu in 0.3 0.499; do
-    echo "Homer P3 static, nu=$nu:"
-    build/tools/pmg compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --poisson $nu \
-      --tol 1e-6 --solver-config "$config" 2>&1 | grep -E '^size|^solver|converged|stagnated|failed|one cycle|set-up [0-9]'
+    homer $nu '{"mgpcg": {"method": "mgpcg"}, "mgpcg-patch": {"method": "mgpcg", "smoother.preconditioner.method": "patch"}}'
+  done
+  for nu in 0.3 0.495 0.499; do
+    homer $nu '{"pmg-point": {"method": "pmg", "smoother.method": "chebyshev"}, "pmg-patch": {"method": "pmg", "smoother.preconditioner.method": "patch"}}'
   done
 fi

@@ -57,6 +57,7 @@ std::string MultigridCycle::describe() const {
     s += (l == L - 1 ? " " : ", ") + smoothers_[l - 1]->name();
     if (const std::string d = smoothers_[l - 1]->describe(); !d.empty()) s += " (" + d + ")";
   }
+  if (!params_.smoother_choice.empty()) s += " [" + params_.smoother_choice + "]";
   const std::string lowest = lowest_->describe();
   s += "; lowest level " + lowest_->name() + (lowest.empty() ? "" : " (" + lowest + ")");
   if (!single_.empty()) s += "; levels above the lowest in float";

@@ -7,6 +7,7 @@
 #include "pmg/multigrid/patch.hpp"
 #include "pmg/multigrid/smoothers.hpp"
 
+#include <cstdio>
 #include <mutex>
 #include <set>
 
@@ -134,6 +135,17 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   p.interpolating_restriction = o.restriction == "interpolating";
   p.iteration = iteration;
   Config sc = c.child("smoother");
+  // Nearly incompressible material, stationary pmg, nothing said of the smoother: Chebyshev on
+  // vertex patches, the measured faster route from kPatchLameRatio on (docs/robustness.md).
+  const double lame = ctx.levels->lame_ratio();
+  if (!mgpcg && lame >= kPatchLameRatio && sc.items().empty() && o.op == "auto" &&
+      o.coarse_operator == "geometric" && ctx.levels->vertex_patches(ctx.levels->num_levels() - 1)) {
+    sc.set("preconditioner.method", "patch");
+    char why[160];
+    std::snprintf(why, sizeof why, "vertex patches: lambda/mu = %.3g >= %.3g, where point smoothing degrades",
+                  lame, kPatchLameRatio);
+    p.smoother_choice = why;
+  }
   p.matrix_free = o.op == "matrix-free";
   bool chebyshev = true;  // the smoother named Chebyshev, or given only Chebyshev's keys (or none)
   if (sc.has("method")) {

@@ -101,6 +101,9 @@ struct Case {
   Csr A;                                           // without levels
   std::unique_ptr<Bcsr> blocks;                    // A as 3x3 blocks, for the methods reading them
   const LinearOperator* op = nullptr;
+  /// The FEM hierarchy behind the user levels: the vertex patches of the patch method (the user
+  /// levels define none), on the same numbering.
+  const mg::LevelProvider* fem = nullptr;
 };
 
 /// A quadratic bar's two levels (free dofs only) with its matrices scaled by `scale`.
@@ -119,6 +122,7 @@ void fem_levels(Case& c, double scale) {
   for (const auto& p : c.prolongations) ps.push_back(view_of(p));
   c.levels = std::make_unique<mg::UserLevels>(mats, ps, mg::UserLevelOptions{});
   c.op = &c.levels->matrix(c.levels->num_levels() - 1);
+  c.fem = &h;
 }
 
 double norm_of_residual(const LinearOperator& A, const Vector& b, const Vector& x) {
@@ -194,7 +198,7 @@ TEST_CASE("the solver contract holds for every method over random systems, scali
         config.set("tol", text);
       }
       SolverContext ctx;
-      ctx.levels = c.levels.get();
+      ctx.levels = method == "patch" ? c.fem : c.levels.get();
       std::unique_ptr<Solver> s;
       try {
         s = make_solver(config, ctx);

@@ -92,6 +92,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// vertex_patches), built on first use; nullptr for the linear level. A star with no free node
   /// (a clamped vertex whose elements are all clamped around it) is left out.
   const std::vector<std::vector<index_t>>* vertex_patches(int level) const override;
+  /// λ/μ of the material (the same on every level and element: a stiffness scale changes E only).
+  double lame_ratio() const override { return finest().material().lambda() / finest().material().mu(); }
   /// The same operator as the concrete type, built on first use with the level's last rotations and
   /// weights; throws InputError for level 0 or a level out of range.
   const ElasticityOperator& matrix_free(int level) const;

@@ -62,6 +62,9 @@ struct MultigridParams {
   /// With single_precision: levels that cannot run in float (held components, operators without a
   /// float product, smoothers other than Chebyshev) run in double instead of being refused.
   bool single_where_possible = false;
+  /// Why the smoothers are what they are, where a factory chose them from the levels (printed by
+  /// describe(); empty: nothing to add).
+  std::string smoother_choice;
   /// solve(): the stationary iteration's stopping rule.
   KrylovParams iteration;
 };

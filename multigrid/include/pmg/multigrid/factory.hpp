@@ -1,6 +1,6 @@
 // pmg/multigrid/factory.hpp — the multigrid component's methods in the solver factory
 // (pmg/sparse/factory.hpp): pmg and mgpcg (cycles on any mg::LevelProvider), and the smoothers
-// gauss-seidel, point-gauss-seidel, chebyshev, damped-jacobi, l1-jacobi and richardson.
+// gauss-seidel, point-gauss-seidel, chebyshev, patch, damped-jacobi, l1-jacobi and richardson.
 //
 //   pmg::mg::register_solvers();   // or pmg::register_all_solvers() (<pmg/solvers.hpp>)
 //   auto solver = pmg::make_solver(pmg::Config::from_pairs({"method=mgpcg"}, "example"), {&levels});
@@ -23,6 +23,13 @@ void register_solvers();
 /// the measured break-even of a whole MGPCG solve (set-up included) on the quadratic cube
 /// (docs/scaling.md, with its command).
 inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
+
+/// λ/μ (LevelProvider::lame_ratio()) from which the stationary `pmg` smooths with Chebyshev on
+/// vertex patches (smoother.preconditioner=patch) when no smoother key is given: the measured
+/// break-even (docs/robustness.md): at ν = 0.495 (λ/μ = 99) patches took 0.13 s against 0.22 s on the
+/// quadratic bar and 26 s against 21 s on the cubic Homer, where from ν = 0.499 the point smoother
+/// stagnates. mgpcg keeps the point smoother: faster in time at every ν measured.
+inline constexpr double kPatchLameRatio = 99.0;
 
 /// What `lowest_level=auto` takes for a lowest level of this many unknowns: "boomeramg" from
 /// kAmgLowestLevelUnknowns where a method of that name is registered, "cholmod" otherwise.

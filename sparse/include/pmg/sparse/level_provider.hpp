@@ -75,6 +75,10 @@ class LevelProvider {
   /// its edges, faces and elements), the patches of Schöberl's parameter-robust multigrid for
   /// nearly incompressible elasticity and of PETSc's PCPATCH "star".
   virtual const std::vector<std::vector<index_t>>* vertex_patches(int /*level*/) const { return nullptr; }
+  /// λ/μ of the levels' material where the provider knows it, 0 otherwise (the default): how
+  /// nearly incompressible the problem is (λ/μ = 2ν / (1 - 2ν): 1.5 at ν = 0.3, 499 at ν = 0.499).
+  /// The factory's stationary pmg smooths on vertex patches from kPatchLameRatio on.
+  virtual double lame_ratio() const { return 0.0; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
 };
