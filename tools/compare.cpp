@@ -41,6 +41,7 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <tuple>
 #include <memory>
 #include <sstream>
 
@@ -481,7 +482,7 @@ void run(const Options& given) {
     double seconds = 0.0;
     std::vector<std::pair<std::string, double>> parts;  // by level (DegreeHierarchy::prepare_seconds)
   };
-  std::map<std::pair<bool, bool>, Prepared> prepared;
+  std::map<std::tuple<bool, bool, int>, Prepared> prepared;
   double lower_levels = -1.0;  // seconds to assemble the lower levels (the report's lower_levels_s)
   double matrix_free = -1.0;   // seconds to build the matrix-free levels (matrix_free_s)
   auto run_one = [&](size_t k, Vector& x) {
@@ -490,7 +491,7 @@ void run(const Options& given) {
     const SolverNeeds needs = solver.needs();
     Prepared extra;
     if (needs.lower_levels || needs.matrix_free) {
-      const auto key = std::make_pair(needs.lower_levels, needs.matrix_free);
+      const auto key = std::make_tuple(needs.lower_levels, needs.matrix_free, needs.lowest_level);
       if (!prepared.count(key)) {
         const double seconds = sys.fem->prepare(needs);
         prepared[key] = {seconds, sys.fem->hierarchy().prepare_seconds()};

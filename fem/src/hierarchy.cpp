@@ -259,11 +259,12 @@ const LinearOperator& DegreeHierarchy::prepare(const SolverNeeds& needs, const R
                                                double mass_weight, double stiffness_weight, bool finest) {
   const int L = num_levels();
   prepare_seconds_.clear();
-  for (int l = L - 1; l >= 0; --l) {
+  const int lowest = std::clamp(needs.lowest_level, 0, L - 1);
+  for (int l = L - 1; l >= lowest; --l) {
     if (l == L - 1 && !finest) continue;
     if (l < L - 1 && !needs.lower_levels) break;
     const auto t0 = std::chrono::steady_clock::now();
-    const bool operator_only = needs.matrix_free && l > 0;
+    const bool operator_only = needs.matrix_free && l > lowest;
     if (operator_only) update_matrix_free(l, R, mass_weight, stiffness_weight);
     else assemble_level(l, R, nullptr, mass_weight, stiffness_weight);
     prepare_seconds_.emplace_back((operator_only ? "matrix-free " : "assembly ") + level_name(l),

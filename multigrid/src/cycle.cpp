@@ -18,6 +18,12 @@ namespace pmg::mg {
 namespace {
 }  // namespace
 
+MultigridCycle::MultigridCycle(std::shared_ptr<const LevelProvider> levels, const MultigridParams& params,
+                               const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level)
+    : MultigridCycle(*levels, params, smoothers, std::move(lowest_level)) {
+  owned_levels_ = std::move(levels);
+}
+
 MultigridCycle::MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
                                const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level)
     : levels_(levels), params_(params), lowest_(std::move(lowest_level)) {

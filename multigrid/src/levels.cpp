@@ -23,4 +23,14 @@ StoredLevels::StoredLevels(std::vector<Bcsr> matrices, std::vector<Csr> prolonga
   }
 }
 
+LevelsFrom::LevelsFrom(const LevelProvider& base, int skip) : base_(base), skip_(skip) {
+  if (skip < 0 || skip >= base.num_levels())
+    throw InputError("multigrid: skip_levels=" + std::to_string(skip) + " leaves no level of " +
+                     std::to_string(base.num_levels()));
+}
+
+// The base's operators cover its levels above its lowest, which include every level above this
+// view's lowest.
+bool LevelsFrom::offers_matrix_free() const { return num_levels() >= 2 && base_.offers_matrix_free(); }
+
 }  // namespace pmg::mg

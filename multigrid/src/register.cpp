@@ -58,6 +58,7 @@ struct CycleOptions {
   std::string restriction = "transpose";
   std::string op = "auto";
   std::string precision = "auto";
+  int skip_levels = 0;
 
   void visit(ParamVisitor& v) {
     v.choice("cycle", cycle, {"V", "W"}, "V- or W-cycle");
@@ -76,6 +77,10 @@ struct CycleOptions {
              "in float inside the cycle; the lowest level, the outer iteration and its residuals in double; "
              "auto: single where the levels allow it (matrix-free, Chebyshev, no components held on their "
              "own), else double");
+    v.integer("skip_levels", skip_levels, 0, 100,
+              "levels left out below the lowest one used: 1 on an FEM scene's degree hierarchy makes degree 2 the "
+              "factorised lowest level (p >= 3), which does not lock for thin parts and nearly incompressible "
+              "material as degree 1 does");
     v.solver("smoother", "gauss-seidel",
              "one per level above the lowest (matrix-free route, and mgpcg on user levels: chebyshev, kind "
              "opt-fourth, degree 3; on user levels with estimate lanczos)");
@@ -123,13 +128,25 @@ void set_amg_lowest_level_defaults(Config& lc) {
 namespace {
 
 /// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.
-std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext& ctx, bool mgpcg,
+std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext& given, bool mgpcg,
                                             const KrylovParams& iteration) {
-  if (!ctx.levels || ctx.levels->num_levels() < 2)
+  if (!given.levels || given.levels->num_levels() < 2)
     c.fail("method", "multigrid needs at least two levels: an FEM scene of degree >= 2, or level "
                      "matrices with prolongations");
   const CycleOptions o = read_params<CycleOptions>(c);
+  // skip_levels: the cycle runs on the levels from the given ones' level skip_levels up.
+  SolverContext ctx = given;
+  std::shared_ptr<const LevelProvider> view;
+  if (o.skip_levels > 0) {
+    if (o.skip_levels > given.levels->num_levels() - 2)
+      c.fail("skip_levels", "skip_levels=" + std::to_string(o.skip_levels) + " leaves fewer than two of the " +
+                                std::to_string(given.levels->num_levels()) +
+                                " levels (a degree-p BB hierarchy has p levels; skip_levels=1 needs p >= 3)");
+    view = std::make_shared<LevelsFrom>(*given.levels, o.skip_levels);
+    ctx.levels = view.get();
+  }
   MultigridParams p;
+  p.skip_levels = o.skip_levels;
   p.gamma = o.cycle == "W" ? 2 : 1;
   p.coarse_operator = o.coarse_operator == "galerkin" ? CoarseOperator::galerkin : CoarseOperator::geometric;
   p.interpolating_restriction = o.restriction == "interpolating";
@@ -260,8 +277,9 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = lowest_xyz.empty() ? nullptr : &lowest_xyz;
   auto lowest = build_solver(lc, lowest_ctx, "cholmod");
-  return std::make_unique<MultigridCycle>(
-      *ctx.levels, p, [&](int l) { return std::move(smoothers[l - 1]); }, std::move(lowest));
+  auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
+  if (view) return std::make_unique<MultigridCycle>(view, p, factory, std::move(lowest));
+  return std::make_unique<MultigridCycle>(*ctx.levels, p, factory, std::move(lowest));
 }
 
 void register_all() {

@@ -12,6 +12,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -195,4 +196,33 @@ TEST_CASE("patch Schwarz refuses what it cannot do, naming it", "[fem][patch]") 
     CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=richardson", "preconditioner.method=patch"}, "test")),
                       Catch::Contains("vertex patches"));
   }
+}
+
+TEST_CASE("skip_levels: degree 2 as the factorised lowest level of a cubic hierarchy", "[fem][multigrid]") {
+  const TetMesh mesh = box_mesh_24(3, 1, 1, 3.0, 1.0, 1.0);
+  DegreeHierarchy h(mesh, 3, Material{1e6, 0.3, 1e3}, [](const Vec3& X) { return X[0] < 1e-12; });
+  SolverContext ctx;
+  ctx.levels = &h;
+  const Vector b = h.finest().restrict_to_free(h.finest().gravity(Vec3(0, 0, -9.81)));
+  for (const char* route : {"operator=matrix-free", "operator=assembled"}) {
+    INFO(route);
+    auto s = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-9", "skip_levels=1", route}, "test"), ctx);
+    const SolverNeeds needs = s->needs();
+    CHECK(needs.lowest_level == 1);
+    // prepare() brings the levels from degree 2 up: degree 2 assembled, degree 1 left alone.
+    const LinearOperator& A = h.prepare(needs, nullptr);
+    CHECK(*std::max_element(h.matrix(1).values().begin(), h.matrix(1).values().end()) > 0);
+    s->setup(A);
+    CHECK_THAT(s->describe(), Catch::Contains("2 levels (degree 3") && Catch::Contains("degree 2"));
+    CHECK_THAT(s->describe(), !Catch::Contains("degree 1"));
+    Vector x = Vector::Zero(b.size());
+    const SolveResult res = s->solve(b, x);
+    REQUIRE(res.ok());
+    h.assemble_level(2, nullptr);
+    Vector r;
+    h.matrix(2).residual(b, x, r);
+    CHECK(r.norm() <= 1.01e-9 * b.norm());
+  }
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=pmg", "skip_levels=2"}, "test"), ctx),
+                    Catch::Contains("fewer than two"));
 }

@@ -106,8 +106,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// The one preparation of the levels for a solver (a time step, a static solve, pmg compare):
   /// brings what `needs` asks for (Solver::needs(), asked once) to rotations R (nullptr: none) and
   /// the weights mass_weight M + stiffness_weight K_R — the finest level's matrix, or with
-  /// needs.matrix_free its operator; with needs.lower_levels the levels below (matrix-free
-  /// operators above the lowest level, assembled matrices otherwise). `finest` false leaves the
+  /// needs.matrix_free its operator; with needs.lower_levels the levels below down to
+  /// needs.lowest_level (matrix-free operators above that level, assembled matrices otherwise). `finest` false leaves the
   /// finest level to the caller (a time step assembles it in the pass that gives the force).
   /// Returns the operator to set the solver up on (system_operator(needs)).
   const LinearOperator& prepare(const SolverNeeds& needs, const Rotations* R, double mass_weight = 0.0,

@@ -62,6 +62,9 @@ struct MultigridParams {
   /// With single_precision: levels that cannot run in float (held components, operators without a
   /// float product, smoothers other than Chebyshev) run in double instead of being refused.
   bool single_where_possible = false;
+  /// The provider's levels left out below the lowest one used (the factory's skip_levels: the
+  /// cycle then runs on a LevelsFrom view); reported to the provider by needs().
+  int skip_levels = 0;
   /// Why the smoothers are what they are, where a factory chose them from the levels (printed by
   /// describe(); empty: nothing to add).
   std::string smoother_choice;
@@ -94,6 +97,9 @@ class MultigridCycle final : public Solver {
   /// smoother.
   MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
                  const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level);
+  /// The same on levels the cycle keeps alive (a LevelsFrom view the factory built).
+  MultigridCycle(std::shared_ptr<const LevelProvider> levels, const MultigridParams& params,
+                 const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level);
 
   std::string name() const override;
   bool is_linear() const override;
@@ -103,7 +109,7 @@ class MultigridCycle final : public Solver {
   /// Geometric lower levels are the provider's matrices (Galerkin ones are formed here from A);
   /// the matrix-free route applies the provider's operators above the lowest level.
   SolverNeeds needs() const override {
-    return {params_.coarse_operator != CoarseOperator::galerkin, params_.matrix_free};
+    return {params_.coarse_operator != CoarseOperator::galerkin, params_.matrix_free, params_.skip_levels};
   }
   /// Per cycle: smoothing on each level above the lowest (finest first), residuals, transfers and
   /// the lowest-level solve.
@@ -179,6 +185,7 @@ class MultigridCycle final : public Solver {
   /// The level's Chebyshev smoothing in float (Chebyshev::smooth's recurrence).
   void smooth_single(int level, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const;
 
+  std::shared_ptr<const LevelProvider> owned_levels_;  ///< the levels, where the cycle keeps them alive
   const LevelProvider& levels_;
   MultigridParams params_;
   std::vector<std::unique_ptr<Smoother>> smoothers_;  ///< [l-1]: level l

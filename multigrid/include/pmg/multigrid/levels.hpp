@@ -30,5 +30,36 @@ class StoredLevels final : public LevelProvider {
   std::vector<Csr> prolongations_;
 };
 
+/// The levels of another provider from one of its levels up: level l here is the base's level
+/// l + skip (its matrix, operators, transfers, patches and name). A cycle built on it takes the
+/// base's level `skip` as its lowest (MultigridParams::skip_levels): on a BB hierarchy, skip 1
+/// makes degree 2 the factorised lowest level. The base must outlive the view.
+class LevelsFrom final : public LevelProvider {
+ public:
+  /// Throws InputError unless 0 <= skip < base.num_levels().
+  LevelsFrom(const LevelProvider& base, int skip);
+  int num_levels() const override { return base_.num_levels() - skip_; }
+  const Bcsr& matrix(int level) const override { return base_.matrix(level + skip_); }
+  const Csr& prolongation(int level) const override { return base_.prolongation(level + skip_); }
+  Csr interpolating_restriction(int level) const override { return base_.interpolating_restriction(level + skip_); }
+  bool has_matrix(int level) const override { return base_.has_matrix(level + skip_); }
+  const LinearOperator* matrix_free_operator(int level) const override {
+    return base_.matrix_free_operator(level + skip_);
+  }
+  bool offers_matrix_free() const override;
+  std::vector<double> node_coordinates(int level) const override { return base_.node_coordinates(level + skip_); }
+  const std::vector<char>* constrained_dofs(int level) const override { return base_.constrained_dofs(level + skip_); }
+  const std::vector<std::vector<index_t>>* vertex_patches(int level) const override {
+    return base_.vertex_patches(level + skip_);
+  }
+  double lame_ratio() const override { return base_.lame_ratio(); }
+  std::string level_name(int level) const override { return base_.level_name(level + skip_); }
+  /// The base's level behind level 0.
+  int skip() const { return skip_; }
+
+ private:
+  const LevelProvider& base_;
+  int skip_;
+};
 
 }  // namespace pmg::mg

@@ -67,6 +67,9 @@ struct SolverNeeds {
   /// set up on (and multiplies with) the finest level's operator, and no matrix above the lowest
   /// level is assembled.
   bool matrix_free = false;
+  /// The provider's level a multigrid solver factorises as its lowest (MultigridParams::
+  /// skip_levels): the levels below it are neither read nor prepared.
+  int lowest_level = 0;
 };
 
 /// A timing breakdown: named parts in seconds over `count` repetitions of a `unit` ("cycle").
