@@ -175,6 +175,7 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   }
   // Chebyshev in M⁻¹A with patch solves reads the level matrices' entries: the assembled route,
   // with the optimised fourth kind of degree 3 unless keys say otherwise (it needs no lower bound).
+  (void)sc.child("preconditioner");  // a plain "preconditioner=patch" becomes preconditioner.method
   const bool patch = sc.get_string("method", "chebyshev") == "chebyshev" && sc.has_child("preconditioner") &&
                      sc.child("preconditioner").get_string("method", "block-jacobi") != "block-jacobi";
   if (sc.has_child("preconditioner")) chebyshev = false;  // an M of its own: not the matrix-free D⁻¹

@@ -10,6 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include <atomic>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -36,12 +37,15 @@ struct System {
     const Vector free = h.finest().free_positions();
     xyz.assign(free.data(), free.data() + free.size());
   }
-  /// A solver of `method`, not set up.
-  std::unique_ptr<Solver> make(const std::string& method) {
+  /// A solver of `spec` ("method key=value ..."), not set up.
+  std::unique_ptr<Solver> make(const std::string& spec) {
     SolverContext ctx;
     ctx.coordinates = &xyz;
     ctx.levels = &h;
-    return make_solver(Config::from_pairs({"method=" + method}, "test"), ctx);
+    std::vector<std::string> pairs;
+    std::istringstream words(spec);
+    for (std::string w; words >> w;) pairs.push_back(pairs.empty() ? "method=" + w : w);
+    return make_solver(Config::from_pairs(pairs, "test"), ctx);
   }
   /// The operator `method` is set up on, the hierarchy brought up to date for it. The hierarchy
   /// is the caller's to guard (it is not a solver): call this on one thread, before the others.
@@ -59,8 +63,10 @@ System& system_once() {
   return s;
 }
 
-/// Whether this build has the method (the PETSc ones are registered without PETSc, and say so).
-bool available(const std::string& method) {
+/// Whether this build has the spec's method (the PETSc ones are registered without PETSc, and say
+/// so).
+bool available(const std::string& spec) {
+  const std::string method = spec.substr(0, spec.find(' '));
   return solver_info(method).component != "petsc" || mg::petsc_available();
 }
 
@@ -72,7 +78,8 @@ double relative_residual(const LinearOperator& A, const Vector& b, const Vector&
 }
 
 const std::vector<std::string> kMethods = {"cg", "block-jacobi-pcg", "mcg", "cholmod", "mgpcg",
-                                           "boomeramg-pcg", "gamg-pcg", "mumps", "petsc-cholmod"};
+                                           "mgpcg smoother.preconditioner=patch", "boomeramg-pcg", "gamg-pcg",
+                                           "mumps", "petsc-cholmod"};
 
 /// Runs `work(t)` on `n` threads at once and returns the messages of the exceptions they threw.
 template <typename Work>
