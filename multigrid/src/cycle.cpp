@@ -1,4 +1,5 @@
 #include "pmg/multigrid/cycle.hpp"
+#include "pmg/multigrid/levels.hpp"
 
 #include "pmg/multigrid/chebyshev.hpp"
 
@@ -27,6 +28,7 @@ MultigridCycle::MultigridCycle(std::shared_ptr<const LevelProvider> levels, cons
 MultigridCycle::MultigridCycle(const LevelProvider& levels, const MultigridParams& params,
                                const SmootherFactory& smoothers, std::unique_ptr<Solver> lowest_level)
     : levels_(levels), params_(params), lowest_(std::move(lowest_level)) {
+  if (const auto* view = dynamic_cast<const LevelsFrom*>(&levels_)) provider_lowest_ = view->skip();
   const int L = levels_.num_levels();
   if (L < 1) throw InputError("multigrid: no levels");
   if (params_.gamma < 1 || params_.gamma > 2) throw InputError("multigrid: gamma must be 1 (V) or 2 (W)");

@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -26,11 +27,12 @@ PatchSchwarz::PatchSchwarz(std::vector<std::vector<index_t>> patches, const Patc
 
 void PatchSchwarz::setup_impl(const LinearOperator& A) {
   check_interleaved(A, "patch");
-  A_ = dynamic_cast<const Bcsr*>(&A);
-  if (!A_)
+  A_ = nullptr;
+  const auto* B = dynamic_cast<const Bcsr*>(&A);
+  if (!B)
     throw InputError("patch: the patch matrices are read from the level's assembled matrix (BCSR); this level "
                      "is applied without one (use operator=assembled)");
-  const index_t rows = A_->pattern().rows;
+  const index_t rows = B->pattern().rows;
   offset_.assign(patches_.size() + 1, 0);
   factor_offset_.assign(patches_.size() + 1, 0);
   std::vector<size_t> count(static_cast<size_t>(rows) + 1, 0);
@@ -60,22 +62,45 @@ void PatchSchwarz::setup_impl(const LinearOperator& A) {
   std::vector<size_t> fill(incidence_ptr_.begin(), incidence_ptr_.end() - 1);
   for (size_t p = 0; p < patches_.size(); ++p)
     for (size_t k = 0; k < patches_[p].size(); ++k) incidence_[fill[patches_[p][k]]++] = offset_[p] + 3 * k;
-  if (params_.single) factors_single_.assign(factor_offset_.back(), 0.0f);
-  else factors_.assign(factor_offset_.back(), 0.0);
   corrections_.assign(offset_.back(), 0.0);
-  factorise();
+  A_ = B;
+  try {
+    factorise();
+  } catch (...) {
+    A_ = nullptr;  // not set up: describe() must not read a matrix that may be gone
+    throw;
+  }
 }
 
 void PatchSchwarz::update_impl() { factorise(); }
 
 void PatchSchwarz::factorise() {
   const auto t0 = Clock::now();
+  // Rounding an inverse S = A_P⁻¹ of n unknowns to float perturbs it by at most
+  // ||δS||₂ ≤ ||δS||_F ≤ 2⁻²⁴ ||S||_F ≤ 2⁻²⁴ √n ||S||₂, which keeps S positive definite while
+  // 2⁻²⁴ √n cond₂(A_P) < 1; cond₂ ≤ cond₁ for a symmetric matrix, and LLT::rcond() estimates
+  // 1 / cond₁. Below twice that bound the inverses are kept in double.
+  const double float_rcond = 2.0 * std::sqrt(static_cast<double>(largest_)) * std::ldexp(1.0, -24);
+  single_ = params_.single;
+  min_rcond_ = invert(single_);
+  if (single_ && min_rcond_ < float_rcond) {
+    single_ = false;
+    invert(false);
+  }
+  seconds_ = seconds_since(t0);
+}
+
+double PatchSchwarz::invert(bool single) {
+  if (single) factors_single_.assign(factor_offset_.back(), 0.0f), factors_ = {};
+  else factors_.assign(factor_offset_.back(), 0.0), factors_single_ = {};
   const BlockPattern& pattern = A_->pattern();
   const index_t rows = pattern.rows;
   const auto num = static_cast<std::ptrdiff_t>(patches_.size());
   std::ptrdiff_t failed = -1;
-#pragma omp parallel
+  double min_rcond = 1.0;
+#pragma omp parallel reduction(min : min_rcond)
   {
+    // Work space of this thread, allocated before the loop: nothing in it allocates or throws.
     std::vector<int> local(static_cast<size_t>(rows), -1);  // block row -> position in the patch
     std::vector<double> scratch(largest_ * largest_), inverse(largest_ * largest_);
 #pragma omp for schedule(dynamic, 8)
@@ -97,14 +122,16 @@ void PatchSchwarz::factorise() {
         if (failed < 0 || p < failed) failed = p;
         continue;
       }
+      min_rcond = std::min(min_rcond, llt.rcond());
       // A_P⁻¹ = L⁻ᵀ L⁻¹ stored whole: one matrix-vector product per application, which measured
       // faster than two triangular solves with L and than a product with the lower triangle alone.
       Eigen::Map<Eigen::MatrixXd> Inv(inverse.data(), n, n);
       Inv.setIdentity();
       llt.matrixL().solveInPlace(Inv);
       llt.matrixL().transpose().solveInPlace(Inv);
-      Inv = 0.5 * (Inv + Inv.transpose()).eval();  // exactly symmetric, in either precision
-      if (params_.single)
+      M = Inv.transpose();  // L is no longer needed: its storage takes the transpose
+      Inv = 0.5 * (Inv + M);  // exactly symmetric, in either precision
+      if (single)
         Eigen::Map<Eigen::MatrixXf>(factors_single_.data() + factor_offset_[p], n, n) = Inv.cast<float>();
       else
         Eigen::Map<Eigen::MatrixXd>(factors_.data() + factor_offset_[p], n, n) = Inv;
@@ -115,7 +142,7 @@ void PatchSchwarz::factorise() {
                      std::to_string(patches_[failed].size()) +
                      " nodes) is not positive definite: the level's matrix is singular or indefinite there "
                      "(a part held by no clamp, or a material with nu >= 0.5)");
-  seconds_ = seconds_since(t0);
+  return min_rcond;
 }
 
 // Every patch's A_P⁻¹ R_P r into corrections_, in the factors' precision T.
@@ -145,7 +172,7 @@ void PatchSchwarz::solve_patches(const std::vector<T>& factors, const Vector& r)
 }
 
 void PatchSchwarz::apply_impl(const Vector& r, Vector& z) const {
-  if (params_.single) solve_patches(factors_single_, r);
+  if (single_) solve_patches(factors_single_, r);
   else solve_patches(factors_, r);
   const double* c = corrections_.data();
   z.resize(r.size());
@@ -163,12 +190,13 @@ void PatchSchwarz::apply_impl(const Vector& r, Vector& z) const {
 
 std::string PatchSchwarz::describe() const {
   if (!A_) return "additive Schwarz on " + std::to_string(patches_.size()) + " patches (not set up)";
-  char buf[256];
+  char buf[320];
   std::snprintf(buf, sizeof buf,
-                "additive Schwarz on %zu patches of up to %zu unknowns; %s inverses %.1f MB (%.0f bytes per unknown), "
-                "set up in %.3f s",
-                patches_.size(), largest_, params_.single ? "float" : "double", factor_bytes() / 1e6,
-                static_cast<double>(factor_bytes()) / static_cast<double>(A_->rows()), seconds_);
+                "additive Schwarz on %zu patches of up to %zu unknowns; %s inverses %.1f MB (%.0f bytes per unknown)%s, "
+                "smallest reciprocal condition number %.1e, set up in %.3f s",
+                patches_.size(), largest_, single_ ? "float" : "double", factor_bytes() / 1e6,
+                static_cast<double>(factor_bytes()) / static_cast<double>(A_->rows()),
+                params_.single && !single_ ? " (float would not keep every patch definite)" : "", min_rcond_, seconds_);
   return buf;
 }
 

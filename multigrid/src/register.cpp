@@ -146,17 +146,23 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     ctx.levels = view.get();
   }
   MultigridParams p;
-  p.skip_levels = o.skip_levels;
   p.gamma = o.cycle == "W" ? 2 : 1;
   p.coarse_operator = o.coarse_operator == "galerkin" ? CoarseOperator::galerkin : CoarseOperator::geometric;
   p.interpolating_restriction = o.restriction == "interpolating";
   p.iteration = iteration;
   Config sc = c.child("smoother");
+  // Additive Schwarz on overlapping patches has λmax(M⁻¹A) up to the patches' overlap: undamped
+  // Richardson (what a non-smoother becomes) diverges, so patch is only a preconditioner here.
+  if (sc.get_string("method", "") == "patch")
+    c.fail("smoother", "patch is a preconditioner, not a smoother of its own (x += M r diverges on overlapping "
+                       "patches): use smoother.preconditioner=patch (Chebyshev in M^-1 A)");
   // Nearly incompressible material, stationary pmg, nothing said of the smoother: Chebyshev on
   // vertex patches, the measured faster route from kPatchLameRatio on (docs/robustness.md).
+  // (λ/μ at ν = 0.495 rounds to 98.999...: compared with a relative margin.)
   const double lame = ctx.levels->lame_ratio();
-  if (!mgpcg && lame >= kPatchLameRatio && sc.items().empty() && o.op == "auto" &&
-      o.coarse_operator == "geometric" && ctx.levels->vertex_patches(ctx.levels->num_levels() - 1)) {
+  if (!mgpcg && lame >= kPatchLameRatio * (1 - 1e-9) && sc.items().empty() && o.op == "auto" &&
+      o.coarse_operator == "geometric" && o.precision != "single" &&
+      ctx.levels->vertex_patches(ctx.levels->num_levels() - 1)) {
     sc.set("preconditioner.method", "patch");
     char why[160];
     std::snprintf(why, sizeof why, "vertex patches: lambda/mu = %.3g >= %.3g, where point smoothing degrades",
@@ -164,6 +170,13 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     p.smoother_choice = why;
   }
   p.matrix_free = o.op == "matrix-free";
+  // A smoother given a preconditioner (a plain "preconditioner=patch" becomes preconditioner.method)
+  // and no method is Chebyshev, the smoother whose M it is.
+  (void)sc.child("preconditioner");
+  const bool has_preconditioner = sc.has_child("preconditioner");
+  if (has_preconditioner) sc.set_default("method", "chebyshev");
+  const std::string preconditioner =
+      has_preconditioner ? sc.child("preconditioner").get_string("method", "block-jacobi") : "block-jacobi";
   bool chebyshev = true;  // the smoother named Chebyshev, or given only Chebyshev's keys (or none)
   if (sc.has("method")) {
     chebyshev = sc.get_string("method", "") == "chebyshev";
@@ -175,12 +188,10 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   }
   // Chebyshev in M⁻¹A with patch solves reads the level matrices' entries: the assembled route,
   // with the optimised fourth kind of degree 3 unless keys say otherwise (it needs no lower bound).
-  (void)sc.child("preconditioner");  // a plain "preconditioner=patch" becomes preconditioner.method
-  const bool patch = sc.get_string("method", "chebyshev") == "chebyshev" && sc.has_child("preconditioner") &&
-                     sc.child("preconditioner").get_string("method", "block-jacobi") != "block-jacobi";
-  if (sc.has_child("preconditioner")) chebyshev = false;  // an M of its own: not the matrix-free D⁻¹
+  // With M = block-jacobi it is the matrix-free route's own smoother.
+  const bool patch = chebyshev && preconditioner == "patch";
+  if (preconditioner != "block-jacobi") chebyshev = false;
   if (patch) {
-    sc.set_default("method", "chebyshev");
     sc.set_default("kind", "opt-fourth");
     sc.set_default("degree", "3");
   }
@@ -320,6 +331,10 @@ void register_all() {
                     const Config pc = c.child("preconditioner");
                     const std::string m = pc.get_string("method", "block-jacobi");
                     if (m == "block-jacobi") return std::make_unique<Chebyshev>(p);
+                    // M must be symmetric positive definite and linear (Chebyshev, and CG over
+                    // it, rely on it): the vertex patches are; other solvers are not accepted.
+                    if (m != "patch")
+                      pc.fail("method", "Chebyshev's preconditioner is block-jacobi or patch, not '" + m + "'");
                     return std::make_unique<Chebyshev>(p, build_solver(pc, ctx, "block-jacobi"));
                   });
   register_builtin_solver({"patch", "additive Schwarz on the levels' vertex patches (open vertex stars), dense "

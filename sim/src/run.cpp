@@ -90,9 +90,13 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
     sim_ = std::make_unique<fem::ImplicitEuler>(*setup.hierarchy, *solver_, setup.f_ext, sp);
     sim_->set_state(u0, v0);
     const SolverNeeds needs = solver_->needs();
-    if (needs.matrix_free)
-      setup.notes.push_back("matrix-free: degrees >= 2 never assembled (their operators take each step's "
-                            "rotations); the linear level assembled and its solver set up per step");
+    if (needs.matrix_free) {
+      const int lowest = needs.lowest_level;  // skip_levels: degree lowest + 1 is the factorised one
+      setup.notes.push_back("matrix-free: degrees >= " + std::to_string(lowest + 2) +
+                            " never assembled (their operators take each step's rotations); " +
+                            (lowest == 0 ? std::string("the linear level") : setup.hierarchy->level_name(lowest)) +
+                            " assembled and its solver set up per step");
+    }
     if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
       setup.notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
   }

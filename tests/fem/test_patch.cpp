@@ -181,14 +181,38 @@ TEST_CASE("patch Schwarz refuses what it cannot do, naming it", "[fem][patch]") 
     mg::PatchSchwarz M(*h.vertex_patches(1));
     CHECK_THROWS_WITH(M.setup(A), Catch::Contains("not positive definite"));
   }
+  SECTION("a patch too ill-conditioned for float inverses keeps double ones") {
+    h.assemble(nullptr);
+    Bcsr A = h.matrix(1);
+    // D A D with D = 1e-5 on block row 0's unknowns: still SPD, its patch's condition about 1e10.
+    const BlockPattern& p = A.pattern();
+    for (index_t I = 0; I < p.rows; ++I)
+      for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
+        if (I == 0) A.block(k) *= 1e-5;
+        if (p.col_idx[k] == 0) A.block(k) *= 1e-5;
+      }
+    mg::PatchSchwarz M(*h.vertex_patches(1));  // float by default
+    M.setup(A);
+    CHECK_THAT(M.describe(), Catch::Contains("double inverses") && Catch::Contains("float would not keep"));
+    mg::PatchParams twice;
+    twice.single = false;
+    mg::PatchSchwarz D(*h.vertex_patches(1), twice);
+    D.setup(A);
+    const Vector r = wave(A.rows(), 0.7);
+    Vector z, zd;
+    M.apply(r, z);
+    D.apply(r, zd);
+    CHECK((z - zd).norm() == 0.0);
+  }
   SECTION("patches that miss a row, or name one out of range") {
     h.assemble(nullptr);
     std::vector<std::vector<index_t>> patches = *h.vertex_patches(1);
     patches.pop_back();
     std::set<index_t> covered;
     for (const auto& P : patches) covered.insert(P.begin(), P.end());
-    if (static_cast<index_t>(covered.size()) < h.matrix(1).pattern().rows)
-      CHECK_THROWS_WITH(mg::PatchSchwarz(patches).setup(h.matrix(1)), Catch::Contains("lies in no patch"));
+    // The last patch is the last vertex's star, whose free vertex node lies in no other patch.
+    REQUIRE(static_cast<index_t>(covered.size()) < h.matrix(1).pattern().rows);
+    CHECK_THROWS_WITH(mg::PatchSchwarz(patches).setup(h.matrix(1)), Catch::Contains("lies in no patch"));
     CHECK_THROWS_WITH(mg::PatchSchwarz({{0, 100000}}).setup(h.matrix(1)), Catch::Contains("names block row"));
     CHECK_THROWS_WITH(mg::PatchSchwarz({}), Catch::Contains("no patches"));
   }
@@ -212,6 +236,7 @@ TEST_CASE("skip_levels: degree 2 as the factorised lowest level of a cubic hiera
     // prepare() brings the levels from degree 2 up: degree 2 assembled, degree 1 left alone.
     const LinearOperator& A = h.prepare(needs, nullptr);
     CHECK(*std::max_element(h.matrix(1).values().begin(), h.matrix(1).values().end()) > 0);
+    for (const auto& [part, seconds] : h.prepare_seconds()) CHECK(part.find("degree 1") == std::string::npos);
     s->setup(A);
     CHECK_THAT(s->describe(), Catch::Contains("2 levels (degree 3") && Catch::Contains("degree 2"));
     CHECK_THAT(s->describe(), !Catch::Contains("degree 1"));
@@ -225,4 +250,32 @@ TEST_CASE("skip_levels: degree 2 as the factorised lowest level of a cubic hiera
   }
   CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=pmg", "skip_levels=2"}, "test"), ctx),
                     Catch::Contains("fewer than two"));
+}
+
+TEST_CASE("the factory's smoothing choices around vertex patches", "[fem][patch]") {
+  const TetMesh mesh = box_mesh_24(2, 1, 1, 2.0, 1.0, 1.0);
+  auto make = [&](double nu, std::vector<std::string> keys) {
+    static std::vector<std::unique_ptr<DegreeHierarchy>> keep;  // outlive the solvers below
+    keep.push_back(std::make_unique<DegreeHierarchy>(mesh, 2, Material{1e6, nu, 1e3},
+                                                     [](const Vec3& X) { return X[0] < 1e-12; }));
+    SolverContext ctx;
+    ctx.levels = keep.back().get();
+    return make_solver(Config::from_pairs(keys, "test"), ctx);
+  };
+  // Stationary pmg takes the patches from lambda/mu = 99 (nu = 0.495, which rounds just below 99).
+  CHECK_THAT(make(0.495, {"method=pmg"})->describe(), Catch::Contains("chebyshev(patch)") &&
+                                                          Catch::Contains("lambda/mu = 99 >= 99"));
+  CHECK_THAT(make(0.49, {"method=pmg"})->describe(), !Catch::Contains("patch"));
+  // Not where mgpcg runs, nor where keys or precision=single say otherwise.
+  CHECK_THAT(make(0.499, {"method=mgpcg"})->describe(), !Catch::Contains("patch"));
+  CHECK_THAT(make(0.499, {"method=pmg", "smoother.degree=2"})->describe(), !Catch::Contains("patch"));
+  CHECK(make(0.499, {"method=pmg", "precision=single"})->needs().matrix_free);
+  // A preconditioner key alone means Chebyshev: block-jacobi keeps the matrix-free route.
+  auto bj = make(0.3, {"method=mgpcg", "smoother.preconditioner=block-jacobi"});
+  CHECK(bj->needs().matrix_free);
+  CHECK_THAT(bj->describe(), Catch::Contains("smoothing chebyshev"));
+  // patch is a preconditioner only; Chebyshev takes no M but block-jacobi and patch.
+  CHECK_THROWS_WITH(make(0.3, {"method=pmg", "smoother=patch"}), Catch::Contains("smoother.preconditioner=patch"));
+  CHECK_THROWS_WITH(make(0.3, {"method=pmg", "smoother.preconditioner=gauss-seidel"}),
+                    Catch::Contains("block-jacobi or patch"));
 }

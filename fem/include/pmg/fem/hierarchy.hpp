@@ -90,7 +90,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   }
   /// The open vertex stars of a level of degree >= 2 over its free nodes (LevelProvider::
   /// vertex_patches), built on first use; nullptr for the linear level. A star with no free node
-  /// (a clamped vertex whose elements are all clamped around it) is left out.
+  /// (a clamped vertex whose elements are all clamped around it) is left out. Not thread-safe on a
+  /// level's first call (a solver's construction makes it, before any solve).
   const std::vector<std::vector<index_t>>* vertex_patches(int level) const override;
   /// λ/μ of the material (the same on every level and element: a stiffness scale changes E only).
   double lame_ratio() const override { return finest().material().lambda() / finest().material().mu(); }

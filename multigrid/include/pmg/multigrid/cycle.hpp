@@ -62,9 +62,6 @@ struct MultigridParams {
   /// With single_precision: levels that cannot run in float (held components, operators without a
   /// float product, smoothers other than Chebyshev) run in double instead of being refused.
   bool single_where_possible = false;
-  /// The provider's levels left out below the lowest one used (the factory's skip_levels: the
-  /// cycle then runs on a LevelsFrom view); reported to the provider by needs().
-  int skip_levels = 0;
   /// Why the smoothers are what they are, where a factory chose them from the levels (printed by
   /// describe(); empty: nothing to add).
   std::string smoother_choice;
@@ -107,9 +104,10 @@ class MultigridCycle final : public Solver {
   /// solver linear and symmetric.
   bool is_symmetric() const override;
   /// Geometric lower levels are the provider's matrices (Galerkin ones are formed here from A);
-  /// the matrix-free route applies the provider's operators above the lowest level.
+  /// the matrix-free route applies the provider's operators above the lowest level. On a
+  /// LevelsFrom view, lowest_level is the base's level behind the view's level 0.
   SolverNeeds needs() const override {
-    return {params_.coarse_operator != CoarseOperator::galerkin, params_.matrix_free, params_.skip_levels};
+    return {params_.coarse_operator != CoarseOperator::galerkin, params_.matrix_free, provider_lowest_};
   }
   /// Per cycle: smoothing on each level above the lowest (finest first), residuals, transfers and
   /// the lowest-level solve.
@@ -187,6 +185,8 @@ class MultigridCycle final : public Solver {
 
   std::shared_ptr<const LevelProvider> owned_levels_;  ///< the levels, where the cycle keeps them alive
   const LevelProvider& levels_;
+  /// The level of the provider behind level 0 (a LevelsFrom view's skip; 0 otherwise): needs().
+  int provider_lowest_ = 0;
   MultigridParams params_;
   std::vector<std::unique_ptr<Smoother>> smoothers_;  ///< [l-1]: level l
   std::unique_ptr<Solver> lowest_;

@@ -26,9 +26,10 @@ inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
 
 /// λ/μ (LevelProvider::lame_ratio()) from which the stationary `pmg` smooths with Chebyshev on
 /// vertex patches (smoother.preconditioner=patch) when no smoother key is given: the measured
-/// break-even (docs/robustness.md): at ν = 0.495 (λ/μ = 99) patches took 0.13 s against 0.22 s on the
-/// quadratic bar and 26 s against 21 s on the cubic Homer, where from ν = 0.499 the point smoother
-/// stagnates. mgpcg keeps the point smoother: faster in time at every ν measured.
+/// break-even (docs/robustness.md): from ν = 0.49 patches were faster on the quadratic bar, at
+/// ν = 0.495 (λ/μ = 99) about even on the cubic Homer (26.4 s against 24.3 s), and from ν = 0.499 the
+/// point smoother stagnates there. mgpcg keeps the point smoother: faster in time at every ν
+/// measured.
 inline constexpr double kPatchLameRatio = 99.0;
 
 /// What `lowest_level=auto` takes for a lowest level of this many unknowns: "boomeramg" from

@@ -32,7 +32,7 @@ class StoredLevels final : public LevelProvider {
 
 /// The levels of another provider from one of its levels up: level l here is the base's level
 /// l + skip (its matrix, operators, transfers, patches and name). A cycle built on it takes the
-/// base's level `skip` as its lowest (MultigridParams::skip_levels): on a BB hierarchy, skip 1
+/// base's level `skip` as its lowest (the factory's skip_levels): on a BB hierarchy, skip 1
 /// makes degree 2 the factorised lowest level. The base must outlive the view.
 class LevelsFrom final : public LevelProvider {
  public:

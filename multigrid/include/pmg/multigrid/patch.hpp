@@ -34,7 +34,8 @@ struct PatchParams {
   /// Precision of the stored patch inverses and of their products: float (the default: half the
   /// memory and bytes per application; the same iterations as double on the cubic Homer at
   /// ν = 0.3 and 0.499, docs/robustness.md) or double. Factorisation and inversion run in double,
-  /// the patch vectors are summed in double.
+  /// the patch vectors are summed in double. Float falls back to double where a patch is too
+  /// ill-conditioned for float to keep M positive definite (describe() says so).
   bool single = true;
   /// The key factors.
   void visit(ParamVisitor& v);
@@ -58,8 +59,12 @@ class PatchSchwarz final : public Solver {
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
-  /// Reads every patch matrix from A's values, factorises and inverts it.
+  /// Reads every patch matrix from A's values, factorises and inverts it: in float where
+  /// params_.single and every patch is well enough conditioned for it, else in double.
   void factorise();
+  /// The inverses in float or double; returns the smallest reciprocal condition number (1-norm
+  /// estimate) over the patches. Throws InputError naming a patch that is not positive definite.
+  double invert(bool single);
   template <typename T>
   void solve_patches(const std::vector<T>& factors, const Vector& r) const;
 
@@ -68,6 +73,8 @@ class PatchSchwarz final : public Solver {
   std::vector<size_t> offset_;        ///< [p]: patch p's first unknown in the concatenated patch vectors
   std::vector<size_t> factor_offset_; ///< [p]: patch p's inverse in factors_ or factors_single_
   PatchParams params_;
+  bool single_ = false;     ///< the inverses in float (params_.single, unless a patch was too ill-conditioned)
+  double min_rcond_ = 0.0;  ///< the smallest reciprocal condition number of the last set-up
   std::vector<double> factors_;        ///< the patch inverses A_P⁻¹, column-major (params_.single: empty)
   std::vector<float> factors_single_;  ///< the same in float (params_.single only)
   /// Per unknown of A: its positions in the concatenated patch vectors (CSR over rows).
