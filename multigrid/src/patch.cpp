@@ -49,7 +49,7 @@ void PatchSchwarz::setup_impl(const LinearOperator& A) {
     }
     const size_t n = 3 * P.size();
     offset_[p + 1] = offset_[p] + n;
-    factor_offset_[p + 1] = factor_offset_[p] + n * n;
+    factor_offset_[p + 1] = factor_offset_[p] + n * (n + 1) / 2;  // the lower triangle, packed
     largest_ = std::max(largest_, n);
   }
   // Every row needs a patch: an unknown in none would never be corrected.
@@ -123,18 +123,22 @@ double PatchSchwarz::invert(bool single) {
         continue;
       }
       min_rcond = std::min(min_rcond, llt.rcond());
-      // A_P⁻¹ = L⁻ᵀ L⁻¹ stored whole: one matrix-vector product per application, which measured
-      // faster than two triangular solves with L and than a product with the lower triangle alone.
+      // A_P⁻¹ = L⁻ᵀ L⁻¹, its lower triangle stored packed: one pass over it per application, which
+      // measured faster than two triangular solves with L, than Eigen's product with the whole
+      // inverse and than its product with a triangle of a full matrix (CHANGELOG).
       Eigen::Map<Eigen::MatrixXd> Inv(inverse.data(), n, n);
       Inv.setIdentity();
       llt.matrixL().solveInPlace(Inv);
       llt.matrixL().transpose().solveInPlace(Inv);
       M = Inv.transpose();  // L is no longer needed: its storage takes the transpose
       Inv = 0.5 * (Inv + M);  // exactly symmetric, in either precision
-      if (single)
-        Eigen::Map<Eigen::MatrixXf>(factors_single_.data() + factor_offset_[p], n, n) = Inv.cast<float>();
-      else
-        Eigen::Map<Eigen::MatrixXd>(factors_.data() + factor_offset_[p], n, n) = Inv;
+      // Packed column by column: column j holds S(j..n-1, j).
+      size_t at = factor_offset_[p];
+      for (Eigen::Index j = 0; j < n; ++j)
+        for (Eigen::Index i = j; i < n; ++i, ++at) {
+          if (single) factors_single_[at] = static_cast<float>(Inv(i, j));
+          else factors_[at] = Inv(i, j);
+        }
     }
   }
   if (failed >= 0)
@@ -148,7 +152,6 @@ double PatchSchwarz::invert(bool single) {
 // Every patch's A_P⁻¹ R_P r into corrections_, in the factors' precision T.
 template <typename T>
 void PatchSchwarz::solve_patches(const std::vector<T>& factors, const Vector& r) const {
-  using Mat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
   using Vec = Eigen::Matrix<T, Eigen::Dynamic, 1>;
   const auto num = static_cast<std::ptrdiff_t>(patches_.size());
   double* c = corrections_.data();
@@ -163,9 +166,17 @@ void PatchSchwarz::solve_patches(const std::vector<T>& factors, const Vector& r)
       for (size_t k = 0; k < P.size(); ++k)
         for (int d = 0; d < 3; ++d)
           yp[3 * static_cast<Eigen::Index>(k) + d] = static_cast<T>(r[3 * static_cast<Eigen::Index>(P[k]) + d]);
-      const Eigen::Map<const Mat> S(factors.data() + factor_offset_[p], n, n);
+      // out = S yp from the packed lower triangle, each stored entry read once: column j gives
+      // out_j += S(j.., j) · yp(j..) and out(j+1..) += yp_j S(j+1.., j).
       auto out = w.head(n);
-      out.noalias() = S * yp;
+      out.setZero();
+      const T* col = factors.data() + factor_offset_[p];
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const Eigen::Map<const Vec> Sj(col, n - j);
+        out[j] += Sj.dot(yp.segment(j, n - j));
+        out.segment(j + 1, n - j - 1) += yp[j] * Sj.tail(n - j - 1);
+        col += n - j;
+      }
       for (Eigen::Index a = 0; a < n; ++a) c[offset_[p] + a] = static_cast<double>(out[a]);
     }
   }

@@ -17,8 +17,9 @@
 //
 // Patches are solved in parallel (each thread its own work vectors) into one correction per patch
 // unknown; each unknown then sums its patches' corrections (a fixed order: the same result on any
-// number of threads). Memory: Σ_P (3|P|)² floats (doubles with factors=double) of stored
-// inverses; both this and the set-up cost are reported by describe().
+// number of threads). Memory: the inverses' lower triangles, Σ_P n_P (n_P + 1) / 2 floats with
+// n_P = 3|P| (doubles with factors=double); both this and the set-up cost are reported by
+// describe().
 #pragma once
 
 #include "pmg/sparse/bcsr.hpp"
@@ -75,7 +76,7 @@ class PatchSchwarz final : public Solver {
   PatchParams params_;
   bool single_ = false;     ///< the inverses in float (params_.single, unless a patch was too ill-conditioned)
   double min_rcond_ = 0.0;  ///< the smallest reciprocal condition number of the last set-up
-  std::vector<double> factors_;        ///< the patch inverses A_P⁻¹, column-major (params_.single: empty)
+  std::vector<double> factors_;        ///< the patch inverses' lower triangles, packed by columns (or empty)
   std::vector<float> factors_single_;  ///< the same in float (params_.single only)
   /// Per unknown of A: its positions in the concatenated patch vectors (CSR over rows).
   std::vector<size_t> incidence_ptr_, incidence_;
