@@ -27,7 +27,7 @@ inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
 /// λ/μ (LevelProvider::lame_ratio()) from which the stationary `pmg` smooths with Chebyshev on
 /// vertex patches (smoother.preconditioner=patch) when no smoother key is given: the measured
 /// break-even (docs/robustness.md): from ν = 0.49 patches were faster on the quadratic bar, at
-/// ν = 0.495 (λ/μ = 99) about even on the cubic Homer (26.4 s against 24.3 s), and from ν = 0.499 the
+/// ν = 0.495 (λ/μ = 99) about even on the cubic Homer (21.6 s against 22.4 s), and from ν = 0.499 the
 /// point smoother stagnates there. mgpcg keeps the point smoother: faster in time at every ν
 /// measured.
 inline constexpr double kPatchLameRatio = 99.0;
