@@ -7,6 +7,8 @@
 #include "pmg/cholmod/cholmod_solver.hpp"
 #include "pmg/sparse/solver.hpp"
 
+#include "jittered.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -16,23 +18,9 @@ using namespace pmg::fem;
 
 namespace {
 
-/// A 2x2x2 box of 24-tet cells with its interior vertices moved (general element shapes).
-TetMesh jittered_box() {
-  TetMesh m = box_mesh_24(2, 2, 2, 1.0, 0.8, 0.6);
-  for (size_t i = 0; i < m.vertices.size(); ++i) {
-    Vec3& X = m.vertices[i];
-    const bool interior = X[0] > 1e-9 && X[0] < 1.0 - 1e-9 && X[1] > 1e-9 && X[1] < 0.8 - 1e-9 &&
-                          X[2] > 1e-9 && X[2] < 0.6 - 1e-9;
-    if (interior) X += 0.04 * Vec3(std::sin(3.0 * i), std::cos(5.0 * i), std::sin(7.0 * i + 1));
-  }
-  return m;
-}
+using test::jittered_box;
+using test::smooth_vector;
 
-Vector smooth_vector(index_t n, double phase) {
-  Vector v(n);
-  for (index_t i = 0; i < n; ++i) v[i] = std::sin(0.37 * i + phase) + 0.3 * std::cos(1.3 * i);
-  return v;
-}
 
 /// m M + s K_R assembled over the free nodes.
 Bcsr assembled(const ElasticityModel& model, const Rotations* R, double m, double s) {

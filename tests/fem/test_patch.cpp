@@ -8,6 +8,8 @@
 #include "pmg/multigrid/patch.hpp"
 #include "pmg/sparse/solver.hpp"
 
+#include "jittered.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <Eigen/Dense>
@@ -21,23 +23,6 @@ using namespace pmg::fem;
 
 namespace {
 
-Vector wave(index_t n, double phase) {
-  Vector v(n);
-  for (index_t i = 0; i < n; ++i) v[i] = std::sin(0.37 * i + phase) + 0.3 * std::cos(1.3 * i);
-  return v;
-}
-
-/// A box with interior vertices moved (general element shapes), clamped at x = 0.
-TetMesh jittered(int nx, int ny, int nz) {
-  TetMesh m = box_mesh_24(nx, ny, nz, 1.0, 0.8, 0.6);
-  for (size_t i = 0; i < m.vertices.size(); ++i) {
-    Vec3& X = m.vertices[i];
-    const bool interior = X[0] > 1e-9 && X[0] < 1.0 - 1e-9 && X[1] > 1e-9 && X[1] < 0.8 - 1e-9 &&
-                          X[2] > 1e-9 && X[2] < 0.6 - 1e-9;
-    if (interior) X += 0.03 * Vec3(std::sin(3.0 * i), std::cos(5.0 * i), std::sin(7.0 * i + 1));
-  }
-  return m;
-}
 
 Eigen::MatrixXd dense(const Bcsr& A) {
   Eigen::MatrixXd D = Eigen::MatrixXd::Zero(A.rows(), A.cols());
@@ -86,16 +71,16 @@ TEST_CASE("vertex patches are the open stars of the mesh vertices", "[fem][patch
 
 TEST_CASE("patch Schwarz equals the dense sum of patch solves, p = 2, 3, with rotations",
           "[fem][patch]") {
-  const TetMesh mesh = jittered(2, 2, 1);
+  const TetMesh mesh = test::jittered_box(2, 2, 1, 0.03);
   DegreeHierarchy h(mesh, 3, Material{2e5, 0.45, 1e3}, [](const Vec3& X) { return X[0] < 1e-12; });
-  const Vector u = 0.05 * wave(h.finest().num_dofs(), 0.4);
+  const Vector u = 0.05 * test::smooth_vector(h.finest().num_dofs(), 0.4);
   const Rotations R = h.finest().rotations(u);
   h.assemble(&R, nullptr, 1.0, 1e-3);
   for (int l = 1; l < h.num_levels(); ++l) {
     INFO("degree " << l + 1);
     const Bcsr& A = h.matrix(l);
     const std::vector<std::vector<index_t>>& patches = *h.vertex_patches(l);
-    const Vector r = wave(A.rows(), 1.1);
+    const Vector r = test::smooth_vector(A.rows(), 1.1);
     const Eigen::MatrixXd D = dense(A);
     Vector reference = Vector::Zero(r.size());
     for (const auto& P : patches) {
@@ -124,7 +109,7 @@ TEST_CASE("patch Schwarz equals the dense sum of patch solves, p = 2, 3, with ro
       M.apply(r, z);
       CHECK((z - reference).norm() <= (single ? 1e-6 : 1e-10) * reference.norm());
       // Symmetric: <M r, s> = <r, M s> (the stored inverses are exactly symmetric).
-      const Vector s = wave(A.rows(), 2.3);
+      const Vector s = test::smooth_vector(A.rows(), 2.3);
       Vector Ms;
       M.apply(s, Ms);
       CHECK(std::abs(z.dot(s) - r.dot(Ms)) <= (single ? 1e-7 : 1e-12) * std::abs(z.dot(s)));
@@ -198,7 +183,7 @@ TEST_CASE("patch Schwarz refuses what it cannot do, naming it", "[fem][patch]") 
     twice.single = false;
     mg::PatchSchwarz D(*h.vertex_patches(1), twice);
     D.setup(A);
-    const Vector r = wave(A.rows(), 0.7);
+    const Vector r = test::smooth_vector(A.rows(), 0.7);
     Vector z, zd;
     M.apply(r, z);
     D.apply(r, zd);
