@@ -1,5 +1,7 @@
 #include "pmg/fem/matrix_free.hpp"
 
+#include "pmg/fem/element_kernel.hpp"
+
 #include <mutex>
 #include <omp.h>
 
@@ -82,8 +84,38 @@ const Tables<P>& tables() {
   return t;
 }
 
-/// Element data, 16 doubles: g_k = R ∇λ_k (row-major 4x3), then 6V p² s λ_e, 6V p² s μ_e, 6V ρ m.
-constexpr int kData = 16;
+}  // namespace
+
+template <int P>
+const ElementKernelTables<P>& element_kernel_tables() {
+  static const ElementKernelTables<P> k = [] {
+    ElementKernelTables<P> out{};
+    constexpr int N = ElementKernelTables<P>::N, Q = ElementKernelTables<P>::Q;
+    constexpr UpTable<P> up{};
+    const Tables<P>& t = tables<P>();
+    const ElementTables& e = element_tables(P);
+    for (int b = 0; b < Q; ++b) {
+      for (int k = 0; k < 4; ++k) out.up[b][k] = up.v[b][k];
+      for (int c = 0; c < Q; ++c) out.q[b][c] = t.q[b][c];
+    }
+    for (int a = 0; a < N; ++a) {
+      for (int b = 0; b < N; ++b) out.mass[a][b] = t.mass[a][b];
+      for (int k = 0; k < 4; ++k)
+        for (int l = 0; l < 4; ++l) out.gdiag[a][4 * k + l] = e.G[static_cast<size_t>(a * N + a)](k, l);
+    }
+    return out;
+  }();
+  return k;
+}
+template const ElementKernelTables<1>& element_kernel_tables<1>();
+template const ElementKernelTables<2>& element_kernel_tables<2>();
+template const ElementKernelTables<3>& element_kernel_tables<3>();
+
+namespace {
+
+/// Element data, 16 doubles: g_k = R ∇λ_k (row-major 4x3), then 6V p² s λ_e, 6V p² s μ_e, 6V ρ m
+/// (pmg/fem/element_kernel.hpp).
+constexpr int kData = kElementData;
 
 /// r = (m M_e + s K_R,e) u for one element (steps 1–5 of the header); u[a][i]: component i of
 /// node a. The index table is a compile-time constant, so every loop unrolls to fixed offsets.
@@ -631,6 +663,11 @@ void ElasticityOperator::set_kernel(MatrixFreeKernel kernel) {
 }
 
 MatrixFreeKernel ElasticityOperator::kernel() const { return impl_->resolved; }
+
+ElasticityOperator::ElementArrays ElasticityOperator::element_arrays() const {
+  const Impl& m = *impl_;
+  return {m.p, m.n, m.num_elements, m.free.data(), m.data.data()};
+}
 
 void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const {
   if (x.size() != rows())

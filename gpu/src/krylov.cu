@@ -1,3 +1,4 @@
+#include "bin_bcsr.cuh"
 #include "cuda_check.hpp"
 #include "pmg/gpu/solvers.hpp"
 #include "pmg/sparse/convergence.hpp"
@@ -37,17 +38,18 @@ struct Record {
   double energy;  ///< α ρ: the decrease of the energy functional
 };
 
-// (1) q = A s and σ = sᵀq; the last block sets α = ρ/σ.
+// (1) q = A s and σ = sᵀq, one warp per bin (detail::bin_bcsr_warp); the last block sets α = ρ/σ.
 __global__ void step1_kernel(BinBcsrView A, const double* __restrict__ s, double* __restrict__ q,
                              double* partials, Scalars* sc, Record* rec) {
   if (sc->halt) return;
-  const int row = blockIdx.x * blockDim.x + threadIdx.x;
+  double qi[3];
+  const int I = detail::bin_bcsr_warp(A, s, qi);
   double v[1] = {0.0};
-  if (row < A.rows) {
-    const double qi = detail::bin_bcsr_row(A, s, row);
-    q[row] = qi;
-    v[0] = qi * s[row];
-  }
+  if (I >= 0)
+    for (int c = 0; c < 3; ++c) {
+      q[3LL * I + c] = qi[c];
+      v[0] += qi[c] * s[3LL * I + c];
+    }
   double total[1];
   if (detail::grid_sum(v, partials, &sc->counter, total) && threadIdx.x == 0) {
     rec->sigma = total[0];
@@ -200,7 +202,11 @@ void DeviceBlockJacobi::apply(const DeviceVector& r, DeviceVector& z) const {
 // ---- MCG -----------------------------------------------------------------------------------------
 
 struct Mcg::Workspace {
-  explicit Workspace(index_t n) : red(size_of(n)), r(size_of(n)), z(size_of(n)), s(size_of(n)), q(size_of(n)) {}
+  /// n: unknowns; threads: the most threads any kernel with a grid sum runs (step 1 runs one warp
+  /// per bin, more threads than unknowns when bins have unused lanes).
+  Workspace(index_t n, long long threads)
+      : red(std::max<std::size_t>(size_of(n), static_cast<std::size_t>(threads))), r(size_of(n)),
+        z(size_of(n)), s(size_of(n)), q(size_of(n)) {}
   Reducer red;
   DeviceVector r, z, s, q;
   DeviceArray<Record> records;
@@ -208,7 +214,7 @@ struct Mcg::Workspace {
 
 Mcg::Mcg(const DeviceBinBcsr& A, const DeviceBlockJacobi& M) : A_(A), M_(M) {
   if (M.rows() != A.rows()) throw InputError("gpu::Mcg: matrix and preconditioner differ in size");
-  w_ = std::make_unique<Workspace>(A.rows());
+  w_ = std::make_unique<Workspace>(A.rows(), A.threads());
 }
 
 Mcg::~Mcg() = default;
@@ -224,7 +230,8 @@ SolveResult Mcg::solve(const DeviceVector& b, DeviceVector& x, const KrylovParam
   Workspace& w = *w_;
   pmg::detail::ConvergenceTracker track("GPU MCG", params, monitor);
   const int nb = n / 3;
-  const unsigned g_rows = detail::blocks_for(n), g_blocks = detail::blocks_for(nb);
+  const unsigned g_rows = detail::blocks_for(n), g_blocks = detail::blocks_for(nb),
+                 g_bins = detail::blocks_for(A_.threads());
   double* partials = w.red.partials.data();
   Scalars* sc = w.red.scalars.data();
 
@@ -250,7 +257,7 @@ SolveResult Mcg::solve(const DeviceVector& b, DeviceVector& x, const KrylovParam
     const int chunk = std::max(1, std::min(k, params.max_iterations - it));
     for (int j = 0; j < chunk; ++j) {
       Record* rec = w.records.data() + j;
-      step1_kernel<<<g_rows, kThreads>>>(A_.view(), w.s.data(), w.q.data(), partials, sc, rec);
+      step1_kernel<<<g_bins, kThreads>>>(A_.view(), w.s.data(), w.q.data(), partials, sc, rec);
       step2_kernel<<<g_blocks, kThreads>>>(nb, M_.inverse_blocks(), w.s.data(), w.q.data(), x.data(),
                                            w.r.data(), w.z.data(), partials, sc, rec);
       step3_kernel<<<g_rows, kThreads>>>(n, w.z.data(), w.s.data(), sc);

@@ -1,3 +1,4 @@
+#include "bin_bcsr.cuh"
 #include "cuda_check.hpp"
 #include "pmg/gpu/matrices.hpp"
 
@@ -8,19 +9,23 @@ namespace {
 using detail::BinBcsrView;
 using detail::CsrView;
 
-// y = A x, one thread per scalar row. Bytes: values + columns + diagonal once, x (mostly cached),
-// y once.
+// y = A x, one warp per bin, `lanes` threads per block row. Bytes: values, columns (padding
+// included), diagonal blocks, permutation once, x (mostly cached), y once.
 __global__ void bin_bcsr_spmv_kernel(BinBcsrView A, const double* __restrict__ x,
                                      double* __restrict__ y) {
-  const int row = blockIdx.x * blockDim.x + threadIdx.x;
-  if (row < A.rows) y[row] = detail::bin_bcsr_row(A, x, row);
+  double q[3];
+  const int I = detail::bin_bcsr_warp(A, x, q);
+  if (I >= 0)
+    for (int c = 0; c < 3; ++c) y[3LL * I + c] = q[c];
 }
 
 // r = b - A x in one pass.
 __global__ void bin_bcsr_residual_kernel(BinBcsrView A, const double* __restrict__ b,
                                          const double* __restrict__ x, double* __restrict__ r) {
-  const int row = blockIdx.x * blockDim.x + threadIdx.x;
-  if (row < A.rows) r[row] = b[row] - detail::bin_bcsr_row(A, x, row);
+  double q[3];
+  const int I = detail::bin_bcsr_warp(A, x, q);
+  if (I >= 0)
+    for (int c = 0; c < 3; ++c) r[3LL * I + c] = b[3LL * I + c] - q[c];
 }
 
 __global__ void bcsr_spmv_kernel(CsrView A, const double* __restrict__ x, double* __restrict__ y) {
@@ -40,13 +45,14 @@ void check_vectors(index_t n, const DeviceVector& x, DeviceVector& y, const char
 // ---- DeviceBinBcsr -----------------------------------------------------------------------------
 
 DeviceBinBcsr::DeviceBinBcsr(const BinBcsr& A)
-    : rows_(A.rows()), num_values_(A.values().size()), num_columns_(A.columns().size()),
-      bytes_(A.bytes_per_spmv()), width_(A.width()), first_block_row_(A.first_block_row()),
-      bin_block_rows_(A.bin_block_rows()), columns_(A.columns()), col_offset_(A.col_offset()),
-      val_offset_(A.val_offset()), values_(A.values()), diag_(A.diagonal_blocks()) {}
+    : rows_(A.rows()), num_bins_(A.num_bins()), lanes_(A.lanes()), num_values_(A.values().size()),
+      num_columns_(A.columns().size()), bytes_(A.bytes_per_spmv()), permutation_(A.permutation()),
+      width_(A.width()), columns_(A.columns()), offset_(A.offset()), values_(A.values()),
+      diag_(A.diagonal_blocks()) {}
 
 void DeviceBinBcsr::update_values(const BinBcsr& A) {
-  if (A.rows() != rows_ || A.values().size() != num_values_ || A.columns().size() != num_columns_)
+  if (A.rows() != rows_ || A.lanes() != lanes_ || A.num_bins() != num_bins_ ||
+      A.values().size() != num_values_ || A.columns().size() != num_columns_)
     throw InputError("DeviceBinBcsr::update_values: the matrix does not have the uploaded layout");
   values_.upload(A.values());
   diag_.upload(A.diagonal_blocks());
@@ -55,21 +61,23 @@ void DeviceBinBcsr::update_values(const BinBcsr& A) {
 detail::BinBcsrView DeviceBinBcsr::view() const {
   detail::BinBcsrView v;
   v.rows = rows_;
+  v.num_bins = num_bins_;
+  v.lanes = lanes_;
+  v.permutation = permutation_.data();
   v.width = width_.data();
-  v.first_block_row = first_block_row_.data();
-  v.bin_block_rows = bin_block_rows_.data();
-  v.col_offset = col_offset_.data();
-  v.val_offset = val_offset_.data();
+  v.offset = offset_.data();
   v.columns = columns_.data();
   v.values = values_.data();
   v.diag = diag_.data();
   return v;
 }
 
+long long DeviceBinBcsr::threads() const { return static_cast<long long>(kBinLanes) * num_bins_; }
+
 void DeviceBinBcsr::multiply(const DeviceVector& x, DeviceVector& y) const {
   check_vectors(rows_, x, y, "DeviceBinBcsr::multiply");
   if (rows_ == 0) return;
-  bin_bcsr_spmv_kernel<<<detail::blocks_for(rows_), detail::kThreads>>>(view(), x.data(), y.data());
+  bin_bcsr_spmv_kernel<<<detail::blocks_for(threads()), detail::kThreads>>>(view(), x.data(), y.data());
   PMG_LAUNCHED("bin_bcsr_spmv_kernel");
 }
 
@@ -77,8 +85,8 @@ void DeviceBinBcsr::residual(const DeviceVector& b, const DeviceVector& x, Devic
   check_vectors(rows_, x, r, "DeviceBinBcsr::residual");
   if (b.size() != x.size()) throw InputError("DeviceBinBcsr::residual: b and x differ in size");
   if (rows_ == 0) return;
-  bin_bcsr_residual_kernel<<<detail::blocks_for(rows_), detail::kThreads>>>(view(), b.data(), x.data(),
-                                                                             r.data());
+  bin_bcsr_residual_kernel<<<detail::blocks_for(threads()), detail::kThreads>>>(view(), b.data(),
+                                                                                x.data(), r.data());
   PMG_LAUNCHED("bin_bcsr_residual_kernel");
 }
 

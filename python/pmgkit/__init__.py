@@ -252,9 +252,10 @@ class Bcsr(_Format):
         """A scipy bsr_matrix viewing pmgkit's arrays (no copy)."""
         return _to_scipy_bsr(self._m.arrays())
 
-    def to_bin_bcsr(self):
-        """The BIN-BCSR form (rows binned by length, padded to the bin's width)."""
-        return BinBcsr(self._m)
+    def to_bin_bcsr(self, lanes=0, sort_window=0):
+        """The BIN-BCSR form: block rows sorted by length within windows of sort_window rows,
+        `lanes` threads per block row, one 32-thread bin per warp (0: chosen from the pattern)."""
+        return BinBcsr(self._m, lanes, sort_window)
 
 
 # ---- files ---------------------------------------------------------------------------------------

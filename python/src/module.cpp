@@ -538,7 +538,13 @@ PYBIND11_MODULE(_core, m) {
       .def("matvec", &matvec<Bcsr>, py::arg("x"), py::arg("out") = py::none())
       .def("arrays", [](py::object self) { return bsr_arrays(self.cast<const Bcsr&>(), self); });
   py::class_<BinBcsr>(m, "BinBcsr")
-      .def(py::init<const Bcsr&>())
+      .def(py::init([](const Bcsr& A, int lanes, index_t sort_window) {
+             return BinBcsr(A, BinBcsrOptions{lanes, sort_window});
+           }),
+           py::arg("A"), py::arg("lanes") = 0, py::arg("sort_window") = 0)
+      .def_property_readonly("lanes", &BinBcsr::lanes)
+      .def_property_readonly("sort_window", &BinBcsr::sort_window)
+      .def_property_readonly("bcsr_bytes_per_spmv", &BinBcsr::bcsr_bytes_per_spmv)
       .def_property_readonly("shape", [](const BinBcsr& A) { return py::make_tuple(A.rows(), A.cols()); })
       .def_property_readonly("num_bins", &BinBcsr::num_bins)
       .def_property_readonly("padding_ratio", &BinBcsr::padding_ratio)

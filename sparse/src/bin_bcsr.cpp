@@ -1,72 +1,99 @@
 #include "pmg/sparse/bin_bcsr.hpp"
 
 #include <algorithm>
+#include <numeric>
 #include <string>
 
 namespace pmg {
 
 namespace {
-constexpr int W = BinBcsr::kBinRows;
-constexpr int B = Bcsr::kBlock;
+constexpr int W = kBinLanes;
 constexpr int BB = Bcsr::kBlockSize;
 
 bool same_pattern(const BlockPattern& a, const BlockPattern& b) {
   return a.rows == b.rows && a.cols == b.cols && a.row_ptr == b.row_ptr && a.col_idx == b.col_idx;
 }
+
+bool has_diagonal(const BlockPattern& p, index_t I) { return p.find(I, I) >= 0; }
+
+index_t off_diagonal_blocks(const BlockPattern& p, index_t I) {
+  return static_cast<index_t>(p.row_ptr[I + 1] - p.row_ptr[I]) - (has_diagonal(p, I) ? 1 : 0);
+}
 }  // namespace
 
-BinBcsr::BinBcsr(const Bcsr& A) {
+int BinBcsr::auto_lanes(const BlockPattern& p) {
+  if (p.rows == 0) return 1;
+  offset_t off = 0;
+  for (index_t I = 0; I < p.rows; ++I) off += off_diagonal_blocks(p, I);
+  const double mean = static_cast<double>(off) / p.rows;
+  int L = 1;
+  while (L < W && mean / (2 * L) >= BinBcsrOptions::kMinSteps) L *= 2;
+  return L;
+}
+
+BinBcsr::BinBcsr(const Bcsr& A, const BinBcsrOptions& options) {
   if (A.block_rows() != A.block_cols()) throw InputError("BIN-BCSR: matrix must be square");
   const BlockPattern& p = A.pattern();
+  const int L = options.lanes == 0 ? auto_lanes(p) : options.lanes;
+  if (L < 1 || L > W || (L & (L - 1)) != 0)
+    throw InputError("BIN-BCSR: lanes must be 0 (automatic) or a power of two from 1 to 32, got " +
+                     std::to_string(options.lanes));
+  if (options.sort_window < 0)
+    throw InputError("BIN-BCSR: sort_window must be 0 (automatic) or positive, got " +
+                     std::to_string(options.sort_window));
+  const index_t R = W / L;  // block rows per bin
   source_pattern_ = A.shared_pattern();
   source_blocks_ = A.num_blocks();
   block_rows_ = p.rows;
-  const index_t n = 3 * block_rows_;
-  const index_t nbins = (n + W - 1) / W;
-  width_.resize(nbins);
-  first_block_row_.resize(nbins);
-  bin_block_rows_.resize(nbins);
-  col_offset_.resize(nbins + 1);
-  val_offset_.resize(nbins + 1);
-  diag_source_.assign(block_rows_, -1);
+  lanes_ = L;
+  sort_window_ = options.sort_window == 0 ? BinBcsrOptions::kDefaultBins * R : options.sort_window;
 
-  // Plan: per bin the block rows it touches and the longest off-diagonal block row among them.
-  col_offset_[0] = val_offset_[0] = 0;
-  for (index_t b = 0; b < nbins; ++b) {
-    const index_t row0 = W * b, row1 = std::min(row0 + W, n);
-    const index_t first = row0 / B, last = (row1 - 1) / B;
-    index_t width = 0;
-    for (index_t I = first; I <= last; ++I) {
-      const index_t len = static_cast<index_t>(p.row_ptr[I + 1] - p.row_ptr[I]);
-      width = std::max(width, len - (p.find(I, I) >= 0 ? 1 : 0));
-    }
-    width_[b] = width;
-    first_block_row_[b] = first;
-    bin_block_rows_[b] = last - first + 1;
-    col_offset_[b + 1] = col_offset_[b] + static_cast<offset_t>(width) * (last - first + 1);
-    val_offset_[b + 1] = val_offset_[b] + static_cast<offset_t>(width) * B * W;
+  // Order: within each window, longest rows first (stable, so equal rows keep their order).
+  std::vector<index_t> len(block_rows_);
+  for (index_t I = 0; I < block_rows_; ++I) len[I] = off_diagonal_blocks(p, I);
+  const index_t nbins = (block_rows_ + R - 1) / R;
+  permutation_.assign(static_cast<std::size_t>(nbins) * R, -1);
+  std::iota(permutation_.begin(), permutation_.begin() + block_rows_, 0);
+  for (std::int64_t w0 = 0; w0 < block_rows_; w0 += sort_window_) {
+    const std::int64_t w1 = std::min<std::int64_t>(block_rows_, w0 + sort_window_);
+    std::stable_sort(permutation_.begin() + w0, permutation_.begin() + w1,
+                     [&](index_t a, index_t b) { return len[a] > len[b]; });
   }
-  columns_.assign(col_offset_[nbins], -1);
-  source_block_.assign(col_offset_[nbins], -1);
+
+  // Slicing: a bin's width is its longest row's number of steps.
+  width_.assign(nbins, 0);
+  offset_.assign(nbins + 1, 0);
   for (index_t b = 0; b < nbins; ++b) {
-    const index_t nbr = bin_block_rows_[b];
-    for (index_t l = 0; l < nbr; ++l) {
-      const index_t I = first_block_row_[b] + l;
-      index_t slot = 0;
-      for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k) {
-        if (p.col_idx[k] == I) {
-          diag_source_[I] = k;
+    index_t longest = 0;
+    for (index_t r = 0; r < R; ++r) {
+      const index_t I = permutation_[b * R + r];
+      if (I >= 0) longest = std::max(longest, len[I]);
+    }
+    width_[b] = (longest + L - 1) / L;
+    offset_[b + 1] = offset_[b] + static_cast<std::int64_t>(W) * width_[b];
+  }
+  columns_.assign(offset_[nbins], -1);
+  source_block_.assign(offset_[nbins], -1);
+  diag_source_.assign(block_rows_, -1);
+  for (index_t b = 0; b < nbins; ++b)
+    for (index_t r = 0; r < R; ++r) {
+      const index_t I = permutation_[b * R + r];
+      if (I < 0) continue;
+      index_t k = 0;  // off-diagonal block number within the row
+      for (offset_t s = p.row_ptr[I]; s < p.row_ptr[I + 1]; ++s) {
+        if (p.col_idx[s] == I) {
+          diag_source_[I] = s;
           continue;
         }
-        const offset_t pos = col_offset_[b] + static_cast<offset_t>(slot) * nbr + l;
-        columns_[pos] = p.col_idx[k];
-        source_block_[pos] = k;
-        ++slot;
+        const index_t lane = L * r + k % L, step = k / L;
+        const std::int64_t q = offset_[b] + static_cast<std::int64_t>(W) * step + lane;
+        columns_[q] = p.col_idx[s];
+        source_block_[q] = s;
+        ++k;
       }
     }
-  }
-  values_.assign(val_offset_[nbins], 0.0);
-  diag_.assign(BB * static_cast<size_t>(block_rows_), 0.0);
+  values_.assign(BB * static_cast<std::size_t>(offset_[nbins]), 0.0);
+  diag_.assign(BB * static_cast<std::size_t>(block_rows_), 0.0);
   update_values(A);
 }
 
@@ -74,24 +101,34 @@ void BinBcsr::update_values(const Bcsr& A) {
   if (A.shared_pattern() != source_pattern_ && !same_pattern(A.pattern(), *source_pattern_))
     throw InputError("BIN-BCSR update_values: the matrix does not have the sliced pattern");
   const double* src = A.values().data();
-  const index_t n = rows();
   const index_t nbins = num_bins();
 #pragma omp parallel for schedule(static)
-  for (index_t b = 0; b < nbins; ++b) {
-    const index_t row0 = W * b, nrows = std::min(W, n - row0);
-    const index_t nbr = bin_block_rows_[b];
-    for (index_t k = 0; k < width_[b]; ++k)
-      for (index_t r = 0; r < nrows; ++r) {
-        const index_t row = row0 + r, l = row / B - first_block_row_[b];
-        const offset_t s = source_block_[col_offset_[b] + static_cast<offset_t>(k) * nbr + l];
-        double* dst = values_.data() + val_offset_[b] + static_cast<offset_t>(B * k) * W + r;
-        for (int c = 0; c < B; ++c) dst[c * W] = s >= 0 ? src[BB * s + B * (row % B) + c] : 0.0;
+  for (index_t b = 0; b < nbins; ++b)
+    for (index_t s = 0; s < width_[b]; ++s)
+      for (int lane = 0; lane < W; ++lane) {
+        const std::int64_t q = offset_[b] + static_cast<std::int64_t>(W) * s + lane;
+        const offset_t from = source_block_[q];
+        double* dst = values_.data() + BB * offset_[b] + static_cast<std::int64_t>(BB * W) * s + lane;
+        for (int e = 0; e < BB; ++e) dst[e * W] = from >= 0 ? src[BB * from + e] : 0.0;
       }
-  }
   for (index_t I = 0; I < block_rows_; ++I) {
-    const offset_t s = diag_source_[I];
-    for (int e = 0; e < BB; ++e) diag_[BB * I + e] = s >= 0 ? src[BB * s + e] : 0.0;
+    const offset_t from = diag_source_[I];
+    for (int e = 0; e < BB; ++e) diag_[BB * I + e] = from >= 0 ? src[BB * from + e] : 0.0;
   }
+}
+
+BinBcsrView BinBcsr::view() const {
+  BinBcsrView v;
+  v.rows = rows();
+  v.num_bins = num_bins();
+  v.lanes = lanes_;
+  v.permutation = permutation_.data();
+  v.width = width_.data();
+  v.offset = offset_.data();
+  v.columns = columns_.data();
+  v.values = values_.data();
+  v.diag = diag_.data();
+  return v;
 }
 
 double BinBcsr::padding_ratio() const {
@@ -100,51 +137,57 @@ double BinBcsr::padding_ratio() const {
 }
 
 double BinBcsr::bytes_per_spmv() const {
-  return 8.0 * (values_.size() + diag_.size()) + 4.0 * columns_.size() + 2.0 * 8.0 * rows();
+  return 8.0 * static_cast<double>(values_.size() + diag_.size()) + 4.0 * static_cast<double>(columns_.size()) +
+         4.0 * static_cast<double>(permutation_.size()) + 12.0 * static_cast<double>(width_.size()) +
+         2.0 * 8.0 * rows();
 }
 
-// Per bin: sum[r] = D x for its 32 rows, then for each block step k (column-major: the 32 rows read
-// consecutive values) sum[r] += A[pos + 32c] * x[3 col + c]. On the CPU the rows of one block row
-// are visited together so that its column index and x-block are read once, not three times.
+double BinBcsr::bcsr_bytes_per_spmv() const {
+  return 76.0 * static_cast<double>(source_blocks_) + 8.0 * (block_rows_ + 1) + 2.0 * 8.0 * rows();
+}
+
+// Per bin: the 32 lanes' partial sums, each in bin_bcsr_lane's order (its diagonal product, then
+// its steps in turn) but computed step by step across the lanes, which reads the bin's values in
+// storage order; then each row's sum tree and its first lane's result. tests/gpu checks this
+// against bin_bcsr_lane bit for bit.
 void BinBcsr::multiply(const double* x, double* y) const {
-  const index_t n = rows();
+  const int L = lanes_;
+  const index_t R = W / L;
   const index_t nbins = num_bins();
 #pragma omp parallel for schedule(static)
   for (index_t b = 0; b < nbins; ++b) {
-    const index_t row0 = W * b, nrows = std::min(W, n - row0);
-    const index_t first = first_block_row_[b], nbr = bin_block_rows_[b];
-    double sum[W];
-    for (index_t r = 0; r < nrows; ++r) {
-      const index_t row = row0 + r, I = row / B;
-      const double* d = diag_.data() + BB * I + B * (row % B);
-      const double* xi = x + B * I;
-      sum[r] = d[0] * xi[0] + d[1] * xi[1] + d[2] * xi[2];
+    double p[W][3];
+    int row[W];
+    for (int lane = 0; lane < W; ++lane) {
+      const index_t I = permutation_[b * R + lane / L];
+      row[lane] = I;
+      p[lane][0] = p[lane][1] = p[lane][2] = 0.0;
+      if (I >= 0 && lane % L == 0)
+        block3_apply(diag_.data() + BB * static_cast<std::int64_t>(I), x + 3 * static_cast<std::int64_t>(I), p[lane]);
     }
-    const index_t* cols = columns_.data() + col_offset_[b];
-    const double* vals = values_.data() + val_offset_[b];
-    for (index_t k = 0; k < width_[b]; ++k) {
-      const index_t* ck = cols + static_cast<offset_t>(k) * nbr;
-      const double* vk = vals + static_cast<offset_t>(B * k) * W;
-      for (index_t l = 0; l < nbr; ++l) {
-        const index_t col = ck[l];
+    const std::int64_t q0 = offset_[b];
+    for (index_t s = 0; s < width_[b]; ++s) {
+      const index_t* cols = columns_.data() + q0 + static_cast<std::int64_t>(W) * s;
+      const double* v = values_.data() + BB * q0 + static_cast<std::int64_t>(BB * W) * s;
+      for (int lane = 0; lane < W; ++lane) {
+        const index_t col = cols[lane];
         if (col < 0) continue;  // padding
-        const double* xj = x + B * static_cast<offset_t>(col);
+        const double* xj = x + 3 * static_cast<std::int64_t>(col);
         const double x0 = xj[0], x1 = xj[1], x2 = xj[2];
-        // Rows of block row first+l that lie in this bin.
-        const index_t r_begin = std::max<index_t>(B * (first + l) - row0, 0);
-        const index_t r_end = std::min<index_t>(B * (first + l + 1) - row0, nrows);
-        if (r_end - r_begin == B) {  // the common case: the whole block row is in this bin
-          const index_t r = r_begin;
-          sum[r] += vk[r] * x0 + vk[r + W] * x1 + vk[r + 2 * W] * x2;
-          sum[r + 1] += vk[r + 1] * x0 + vk[r + 1 + W] * x1 + vk[r + 1 + 2 * W] * x2;
-          sum[r + 2] += vk[r + 2] * x0 + vk[r + 2 + W] * x1 + vk[r + 2 + 2 * W] * x2;
-        } else {
-          for (index_t r = r_begin; r < r_end; ++r)
-            sum[r] += vk[r] * x0 + vk[r + W] * x1 + vk[r + 2 * W] * x2;
-        }
+        const double* vl = v + lane;
+        p[lane][0] += vl[0] * x0 + vl[W] * x1 + vl[2 * W] * x2;
+        p[lane][1] += vl[3 * W] * x0 + vl[4 * W] * x1 + vl[5 * W] * x2;
+        p[lane][2] += vl[6 * W] * x0 + vl[7 * W] * x1 + vl[8 * W] * x2;
       }
     }
-    std::copy_n(sum, nrows, y + row0);
+    for (int g = 0; g < W; g += L) {
+      if (row[g] < 0) continue;
+      bin_bcsr_fold(p + g, L);
+      double* yi = y + 3 * static_cast<std::int64_t>(row[g]);
+      yi[0] = p[g][0];
+      yi[1] = p[g][1];
+      yi[2] = p[g][2];
+    }
   }
 }
 

@@ -5,6 +5,8 @@
 
 #include "../sparse/fixture.hpp"
 #include "hierarchy.hpp"
+#include "pmg/fem/generators.hpp"
+#include "pmg/gpu/matrix_free.hpp"
 #include "pmg/gpu/solvers.hpp"
 
 #include <cmath>
@@ -63,6 +65,10 @@ TEST_CASE("every device SpMV matches the host BCSR SpMV", "[gpu]") {
     const BinBcsr bin(A);
     gpu::DeviceBinBcsr(bin).multiply(dx, dy);
     CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+    for (int lanes : {1, 4, 32}) {  // every lane count the shuffle tree takes, unsorted as well
+      gpu::DeviceBinBcsr(BinBcsr(A, {lanes, lanes == 4 ? 1 : 0})).multiply(dx, dy);
+      CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
+    }
     gpu::DeviceBcsr(A).multiply(dx, dy);
     CHECK(test::rel_diff(dy.to_vector(), y_ref) < 1e-13);
     gpu::CusparseBsr(A).multiply(dx, dy);
@@ -181,4 +187,45 @@ TEST_CASE("the GPU V-cycle equals the CPU Chebyshev V-cycle, and GPU PMG converg
   CHECK(g.status == SolveStatus::converged);
   CHECK(std::abs(g.iterations - cpu.iterations) <= 1);
   CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
+}
+
+TEST_CASE("the device matrix-free operator equals the CPU one, p = 1..3, rotations and weights", "[gpu]") {
+  const fem::TetMesh mesh = fem::box_mesh_24(4, 2, 2, 1.0, 0.5, 0.5);
+  for (int p = 1; p <= 3; ++p) {
+    INFO("degree " << p);
+    fem::ElasticityModel model(mesh, p, fem::Material{3.0e5, 0.35, 1.2e3});
+    model.fix_where([](const fem::Vec3& X) { return X[0] < 1e-12; });
+    fem::ElasticityOperator op(model);
+    gpu::DeviceElasticityOperator dop(op);
+    const Vector x = test::random_vector(op.rows(), 4);
+    const gpu::DeviceVector dx(x);
+    gpu::DeviceVector dy;
+    Vector ref;
+    op.apply(x, ref);
+    dop.multiply(dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), ref) < 1e-12);
+    // Rotations applied on the device, weights refreshed from the host.
+    Vector u(model.num_dofs());
+    for (index_t i = 0; i < u.size(); ++i) u[i] = 0.05 * std::sin(0.3 * i);
+    const fem::Rotations R = model.rotations(u);
+    op.set_weights(1.3, 0.02);
+    dop.refresh(op);
+    op.update(&R);
+    dop.update(&R);
+    op.apply(x, ref);
+    dop.multiply(dx, dy);
+    CHECK(test::rel_diff(dy.to_vector(), ref) < 1e-12);
+    std::vector<double> dref;
+    op.diagonal_blocks(dref);
+    gpu::DeviceArray<double> dd;
+    dop.diagonal_blocks(dd);
+    const std::vector<double> d = dd.to_host();
+    REQUIRE(d.size() == dref.size());
+    double err = 0.0, norm = 0.0;
+    for (std::size_t k = 0; k < d.size(); ++k)
+      err = std::max(err, std::abs(d[k] - dref[k])), norm = std::max(norm, std::abs(dref[k]));
+    CHECK(err <= 1e-12 * norm);
+    const fem::Rotations wrong(3);
+    CHECK_THROWS_AS(dop.update(&wrong), InputError);
+  }
 }

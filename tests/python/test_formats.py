@@ -64,8 +64,18 @@ def test_write_petsc_changes_the_named_file_only(tmp_path):
 
 
 def test_bin_bcsr_reports_its_layout(levels):
-    Bn = pmgkit.Bcsr(levels[0][-1]).to_bin_bcsr()
+    A = levels[0][-1]
+    Bn = pmgkit.Bcsr(A).to_bin_bcsr()
     assert Bn.num_bins >= 1 and Bn.padding_ratio >= 1.0 and Bn.bytes_per_spmv > 0
+    assert Bn.lanes in (1, 2, 4, 8, 16, 32) and Bn.sort_window >= 1
+    assert Bn.bytes_per_spmv <= 1.1 * Bn.bcsr_bytes_per_spmv
+    x = np.linspace(-1.0, 1.0, A.shape[0])
+    for lanes, window in ((1, 1), (4, 7), (32, 0)):
+        B = pmgkit.Bcsr(A).to_bin_bcsr(lanes=lanes, sort_window=window)
+        assert B.lanes == lanes
+        np.testing.assert_allclose(B.matvec(x), A @ x, rtol=0, atol=1e-12 * abs(A @ x).max())
+    with pytest.raises(pmgkit.InputError, match="lanes"):
+        pmgkit.Bcsr(A).to_bin_bcsr(lanes=3)
 
 
 def test_petsc_binary_round_trip_and_pmg_compare_export(pmg_bin, levels, tmp_path):

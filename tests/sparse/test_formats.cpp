@@ -38,13 +38,11 @@ TEST_CASE("every format builds the same matrix and its SpMV matches the dense re
   const Bcsr bcsr = Bcsr::from_block_triplets(n, n, blocks);
   const Csr csr = csr_from_dense(D);
   const Bcsr bcsr_from_csr = Bcsr::from_csr(csr);
-  const BinBcsr bin(bcsr);
   const Csr csr_from_bcsr = bcsr.to_csr();
 
   REQUIRE(Eigen::MatrixXd(csr.to_eigen()) == D);
   REQUIRE(Eigen::MatrixXd(csr_from_bcsr.to_eigen()) == D);
   CHECK(bcsr_from_csr.num_blocks() == bcsr.num_blocks());
-  CHECK(bin.num_bins() == 3);
 
   for (unsigned seed = 1; seed <= 3; ++seed) {
     const Vector x = random_vector(3 * n, seed);
@@ -53,7 +51,6 @@ TEST_CASE("every format builds the same matrix and its SpMV matches the dense re
     for (const LinearOperator* op :
          {static_cast<const LinearOperator*>(&csr), static_cast<const LinearOperator*>(&bcsr),
           static_cast<const LinearOperator*>(&bcsr_from_csr),
-          static_cast<const LinearOperator*>(&bin),
           static_cast<const LinearOperator*>(&csr_from_bcsr)}) {
       Vector y, r;
       op->apply(x, y);
@@ -78,40 +75,135 @@ TEST_CASE("fused apply_dot returns A x and x.(A x)", "[sparse][spmv]") {
   }
 }
 
-TEST_CASE("BIN-BCSR stores bins column-major with the diagonal apart", "[sparse][bin]") {
+namespace {
+// Every BIN-BCSR layout the tests sweep: lanes × sorting windows (1: unsorted, 0: automatic).
+std::vector<BinBcsrOptions> bin_layouts() {
+  std::vector<BinBcsrOptions> o;
+  for (int lanes : {1, 2, 4, 8, 32})
+    for (index_t window : {1, 5, 0}) o.push_back({lanes, window});
+  o.push_back({});  // both automatic
+  return o;
+}
+}  // namespace
+
+TEST_CASE("BIN-BCSR layout: sorted slots, lane-major blocks, padding last, diagonal apart",
+          "[sparse][bin]") {
   const auto blocks = irregular_blocks();
   const index_t n = 23;
   const Bcsr A = Bcsr::from_block_triplets(n, n, blocks);
-  const BinBcsr bin(A);
   const auto& p = A.pattern();
-  constexpr int W = BinBcsr::kBinRows;
-  for (index_t row = 0; row < 3 * n; ++row) {
-    const index_t b = row / W, r = row % W, I = row / 3, i = row % 3;
-    const index_t nbr = bin.bin_block_rows()[b];
-    const index_t l = I - bin.first_block_row()[b];
-    REQUIRE(l >= 0);
-    REQUIRE(l < nbr);
+  constexpr int W = BinBcsr::kBinLanes;
+  auto off_diagonal = [&](index_t I) {
     index_t k = 0;
-    for (offset_t s = p.row_ptr[I]; s < p.row_ptr[I + 1]; ++s) {
-      if (p.col_idx[s] == I) {
-        for (int c = 0; c < 3; ++c)
-          CHECK(bin.diagonal_blocks()[9 * I + 3 * i + c] == A.block(s)(i, c));
+    for (offset_t s = p.row_ptr[I]; s < p.row_ptr[I + 1]; ++s) k += p.col_idx[s] != I;
+    return k;
+  };
+  for (const BinBcsrOptions& o : bin_layouts()) {
+    const BinBcsr bin(A, o);
+    const int L = bin.lanes();
+    const index_t R = W / L;
+    INFO("lanes " << L << ", window " << bin.sort_window());
+    if (o.lanes != 0) CHECK(L == o.lanes);
+    if (o.sort_window != 0) CHECK(bin.sort_window() == o.sort_window);
+    REQUIRE(bin.num_bins() == (n + R - 1) / R);
+    // The permutation: every block row once, unused slots only at the end, longest rows first
+    // within each window, original order among equals.
+    const auto& perm = bin.permutation();
+    REQUIRE(perm.size() == static_cast<std::size_t>(bin.num_bins() * R));
+    std::vector<int> seen(n, 0);
+    for (std::size_t s = 0; s < perm.size(); ++s) {
+      if (s >= static_cast<std::size_t>(n)) {
+        CHECK(perm[s] == -1);
         continue;
       }
-      CHECK(bin.columns()[bin.col_offset()[b] + k * nbr + l] == p.col_idx[s]);
-      for (int c = 0; c < 3; ++c)
-        CHECK(bin.values()[bin.val_offset()[b] + (3 * k + c) * W + r] == A.block(s)(i, c));
-      ++k;
+      REQUIRE(perm[s] >= 0);
+      REQUIRE(perm[s] < n);
+      ++seen[perm[s]];
+      CHECK(perm[s] / bin.sort_window() == static_cast<index_t>(s) / bin.sort_window());
+      if (s % bin.sort_window() != 0) {
+        const index_t a = perm[s - 1], b = perm[s];
+        CHECK(off_diagonal(a) >= off_diagonal(b));
+        if (off_diagonal(a) == off_diagonal(b)) CHECK(a < b);
+      }
     }
-    for (; k < bin.width()[b]; ++k) {  // padding
-      CHECK(bin.columns()[bin.col_offset()[b] + k * nbr + l] == -1);
-      for (int c = 0; c < 3; ++c)
-        CHECK(bin.values()[bin.val_offset()[b] + (3 * k + c) * W + r] == 0.0);
+    CHECK(std::all_of(seen.begin(), seen.end(), [](int c) { return c == 1; }));
+    // Blocks: the k-th off-diagonal block of the row in slot r of bin b is at lane L r + k mod L,
+    // step k / L; the rest of a bin's width is padding (column -1, zero values).
+    for (index_t slot = 0; slot < n; ++slot) {
+      const index_t I = perm[slot], b = slot / R, r = slot % R;
+      std::vector<int> steps(L, 0);
+      index_t k = 0;
+      for (offset_t s = p.row_ptr[I]; s < p.row_ptr[I + 1]; ++s) {
+        if (p.col_idx[s] == I) {
+          for (int e = 0; e < 9; ++e) CHECK(bin.diagonal_blocks()[9 * I + e] == A.block(s).data()[e] );
+          continue;
+        }
+        const index_t lane = L * r + k % L, step = k / L;
+        REQUIRE(step < bin.width()[b]);
+        const std::int64_t q = bin.offset()[b] + W * step + lane;
+        CHECK(bin.columns()[q] == p.col_idx[s]);
+        for (int i = 0; i < 3; ++i)
+          for (int c = 0; c < 3; ++c)
+            CHECK(bin.values()[9 * bin.offset()[b] + 9 * W * step + (3 * i + c) * W + lane] == A.block(s)(i, c));
+        ++steps[k % L];
+        ++k;
+      }
+      for (int t = 0; t < L; ++t)
+        for (index_t step = steps[t]; step < bin.width()[b]; ++step) {
+          const std::int64_t q = bin.offset()[b] + W * step + L * r + t;
+          CHECK(bin.columns()[q] == -1);
+          for (int e = 0; e < 9; ++e) CHECK(bin.values()[9 * bin.offset()[b] + 9 * W * step + e * W + L * r + t] == 0.0);
+        }
+      CHECK(bin.width()[b] >= (k + L - 1) / L);
     }
+    // Block row 5 has no diagonal block: its diagonal is stored as zeros.
+    for (int e = 0; e < 9; ++e) CHECK(bin.diagonal_blocks()[9 * 5 + e] == 0.0);
+    CHECK(bin.padding_ratio() >= 1.0);
+    CHECK(bin.bytes_per_spmv() > 0.0);
   }
-  // Block row 5 has no diagonal block: its diagonal is stored as zeros.
-  for (int e = 0; e < 9; ++e) CHECK(bin.diagonal_blocks()[9 * 5 + e] == 0.0);
-  CHECK(bin.padding_ratio() >= 1.0);
+}
+
+TEST_CASE("BIN-BCSR SpMV and residual match the dense reference in every layout", "[sparse][bin][spmv]") {
+  const auto blocks = irregular_blocks();
+  const index_t n = 23;
+  const Eigen::MatrixXd D = dense_from_blocks(n, blocks);
+  const Bcsr small = Bcsr::from_block_triplets(n, n, blocks);
+  const Bcsr lattice = spring_lattice(6);  // 216 block rows: many bins and windows
+  const Eigen::MatrixXd DL(lattice.to_csr().to_eigen());
+  for (const BinBcsrOptions& o : bin_layouts())
+    for (const auto& [A, dense] : {std::pair{&small, &D}, std::pair{&lattice, &DL}}) {
+      const BinBcsr bin(*A, o);
+      INFO("lanes " << bin.lanes() << ", window " << bin.sort_window() << ", rows " << A->rows());
+      const Vector x = random_vector(A->cols(), 11), b = random_vector(A->rows(), 12);
+      const Vector ref = *dense * x;
+      Vector y, r;
+      bin.apply(x, y);
+      CHECK(rel_diff(y, ref) < 1e-14);
+      bin.residual(b, x, r);
+      CHECK(rel_diff(r, Vector(b - ref)) < 1e-14);
+    }
+}
+
+TEST_CASE("BIN-BCSR options out of range are refused", "[sparse][bin]") {
+  const Bcsr A = Bcsr::from_block_triplets(23, 23, irregular_blocks());
+  for (int lanes : {-1, 3, 6, 64})
+    CHECK_THROWS_WITH(BinBcsr(A, {lanes, 0}), Catch::Contains("lanes must be"));
+  CHECK_THROWS_WITH(BinBcsr(A, {1, -2}), Catch::Contains("sort_window"));
+  const Bcsr rect = Bcsr::from_block_triplets(2, 3, {{0, 2, Block3::Identity()}});
+  CHECK_THROWS_WITH(BinBcsr(rect), Catch::Contains("square"));
+}
+
+TEST_CASE("BIN-BCSR sorting and lanes keep its bytes within 1.1x BCSR on a lattice", "[sparse][bin]") {
+  // The 27-point lattice has rows of 7 to 26 off-diagonal blocks; unsorted bins pad boundary rows
+  // to interior ones. Sorted, a bin's rows have nearly equal lengths.
+  const Bcsr A = spring_lattice(12);
+  const BinBcsr unsorted(A, {1, 1}), sorted(A);
+  INFO("lanes " << sorted.lanes() << ": bytes " << sorted.bytes_per_spmv() / sorted.bcsr_bytes_per_spmv()
+                << "x BCSR, unsorted " << unsorted.bytes_per_spmv() / unsorted.bcsr_bytes_per_spmv() << "x");
+  CHECK(sorted.bytes_per_spmv() <= 1.1 * sorted.bcsr_bytes_per_spmv());
+  CHECK(sorted.padding_ratio() < unsorted.padding_ratio());
+  CHECK(BinBcsr::auto_lanes(A.pattern()) == sorted.lanes());
+  CHECK(sorted.lanes() == 2);  // mean 22.8 off-diagonal blocks per row: 11.4 steps at 2 lanes
 }
 
 TEST_CASE("values update in place on a fixed pattern in every format", "[sparse][pattern]") {

@@ -104,6 +104,18 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// update() (nullptr: R = I), which the operator's gradients carry.
   void element_force(const Vector& u, const Rotations* R, Vector& force, double* energy) const;
 
+  /// The element arrays the product runs on, for a copy on a device (pmg/fem/element_kernel.hpp):
+  /// per element its `nodes` free node indices (-1: a fixed node) and kElementData doubles.
+  /// Pointers into the operator, valid until it is destroyed; the data change with update() and
+  /// set_weights().
+  struct ElementArrays {
+    int degree = 0, nodes = 0;
+    index_t elements = 0;
+    const index_t* free = nullptr;
+    const double* data = nullptr;
+  };
+  ElementArrays element_arrays() const;
+
   /// The cost model of one apply(): floating-point operations and the bytes it must move at least
   /// (element data once, x read once, y written and read back once).
   double flops_per_apply() const;

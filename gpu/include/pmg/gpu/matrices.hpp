@@ -1,7 +1,8 @@
 // pmg/gpu/matrices.hpp — sparse matrices in device memory and their SpMV kernels.
 //
-//   DeviceBinBcsr  BIN-BCSR (pmg/sparse/bin_bcsr.hpp), one thread per scalar row, bins of 32 rows
-//                  = one warp reading consecutive addresses. The layout (plan) is uploaded once;
+//   DeviceBinBcsr  BIN-BCSR (pmg/sparse/bin_bcsr.hpp): rows sorted within windows, one warp per
+//                  bin, `lanes` threads per block row reading consecutive addresses, their sums
+//                  added by xor shuffles. The layout (plan) is uploaded once;
 //                  update_values() re-uploads only values and diagonal blocks.
 //   DeviceBcsr     plain 3x3-block CSR, one thread per scalar row (the straightforward port).
 //   CusparseBsr    the vendor baseline: cusparseDbsrmv on the same BCSR (block size 3, row-major).
@@ -34,16 +35,19 @@ class DeviceBinBcsr {
   void residual(const DeviceVector& b, const DeviceVector& x, DeviceVector& r) const;
   /// Bytes one SpMV moves at least (the host matrix's count).
   double bytes_per_spmv() const { return bytes_; }
+  /// Threads its kernels run: one warp per bin.
+  long long threads() const;
   /// The device arrays as the plain struct the library's kernels take (pointers into this object:
   /// valid while it lives).
   detail::BinBcsrView view() const;
 
  private:
-  index_t rows_ = 0;
+  index_t rows_ = 0, num_bins_ = 0;
+  int lanes_ = 1;
   std::size_t num_values_ = 0, num_columns_ = 0;
   double bytes_ = 0;
-  DeviceArray<int> width_, first_block_row_, bin_block_rows_, columns_;
-  DeviceArray<std::int64_t> col_offset_, val_offset_;
+  DeviceArray<int> permutation_, width_, columns_;
+  DeviceArray<std::int64_t> offset_;
   DeviceArray<double> values_, diag_;
 };
 

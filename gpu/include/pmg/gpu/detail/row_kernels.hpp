@@ -6,6 +6,7 @@
 // Layouts are those of pmg/sparse/bin_bcsr.hpp and bcsr.hpp (index_t = int32, offset_t = int64).
 #pragma once
 
+#include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/block3.hpp"
 
 #include <cstdint>
@@ -14,20 +15,9 @@
 
 namespace pmg::gpu::detail {
 
-constexpr int kBinRows = 32;
-
-/// Raw device (or host) pointers of a BIN-BCSR matrix.
-struct BinBcsrView {
-  int rows = 0;  ///< scalar rows
-  const int* width = nullptr;
-  const int* first_block_row = nullptr;
-  const int* bin_block_rows = nullptr;
-  const std::int64_t* col_offset = nullptr;
-  const std::int64_t* val_offset = nullptr;
-  const int* columns = nullptr;
-  const double* values = nullptr;
-  const double* diag = nullptr;  ///< 9 per block row, row-major
-};
+// BIN-BCSR's per-lane kernel is pmg::bin_bcsr_lane (pmg/sparse/bin_bcsr.hpp), shared with the
+// host format; the device adds the xor-shuffle sum tree (gpu/src/bin_bcsr.cuh).
+using pmg::BinBcsrView;
 
 /// Raw pointers of a BCSR (3x3) or scalar CSR matrix.
 struct CsrView {
@@ -36,26 +26,6 @@ struct CsrView {
   const int* col_idx = nullptr;
   const double* values = nullptr;
 };
-
-/// (A x)_row of a BIN-BCSR matrix: the 32 threads of a warp are the 32 rows of a bin, so at every
-/// step k they read 32 consecutive values and (up to 11) column indices.
-PMG_HD double bin_bcsr_row(const BinBcsrView& A, const double* x, int row) {
-  const int bin = row / kBinRows, lane = row % kBinRows;
-  const int I = row / 3, c = row % 3;
-  const double* d = A.diag + 9 * static_cast<std::int64_t>(I) + 3 * c;
-  const double* xi = x + 3 * static_cast<std::int64_t>(I);
-  double sum = d[0] * xi[0] + d[1] * xi[1] + d[2] * xi[2];
-  const int nbr = A.bin_block_rows[bin], width = A.width[bin];
-  const int* cols = A.columns + A.col_offset[bin] + (I - A.first_block_row[bin]);
-  const double* v = A.values + A.val_offset[bin] + lane;
-  for (int k = 0; k < width; ++k, cols += nbr, v += 3 * kBinRows) {
-    const int col = *cols;
-    if (col < 0) continue;  // padding
-    const double* xj = x + 3 * static_cast<std::int64_t>(col);
-    sum += v[0] * xj[0] + v[kBinRows] * xj[1] + v[2 * kBinRows] * xj[2];
-  }
-  return sum;
-}
 
 /// (A x)_row of a 3x3-block BCSR matrix, one thread per scalar row (the plain GPU port).
 PMG_HD double bcsr_row(const CsrView& A, const double* x, int row) {
