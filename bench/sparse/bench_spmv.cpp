@@ -211,6 +211,10 @@ int main(int argc, char** argv) {
         const auto eq = v.find('=');
         if (eq == std::string::npos || eq == 0 || eq + 1 == v.size())
           throw InputError("--pmg_matrix: expected NAME=FILE, got '" + v + "'");
+        const std::string name = v.substr(0, eq);
+        if (name.find('/') != std::string::npos || name.find_first_not_of("0123456789") == std::string::npos)
+          throw InputError("--pmg_matrix: NAME may not contain '/' or be a number (the lattice sizes' names), got '" +
+                           name + "'");
         files.push_back({v.substr(0, eq), 0, v.substr(eq + 1)});
       } else if (!integer_flag(a, "pmg_triad_mib", triad_mib)) {
         rest.push_back(argv[i]);

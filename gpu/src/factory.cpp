@@ -1,6 +1,7 @@
 // The GPU solvers as pmg::Solver objects on host vectors, registered in the solver factory.
 #include "pmg/gpu/factory.hpp"
 
+#include "pmg/fem/matrix_free.hpp"
 #include "pmg/gpu/solvers.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/transfer.hpp"
@@ -43,6 +44,10 @@ class DeviceSolver : public Solver {
   virtual void upload_system(const Bcsr& A) = 0;
   /// A's values changed (same pattern): refresh the device copies.
   virtual void update_system(const Bcsr& A) = 0;
+  /// The same for any operator; by default A must be a Bcsr (gpu-mgpcg also takes the
+  /// matrix-free finest level).
+  virtual void upload_operator(const LinearOperator& A) { upload_system(as_bcsr(A, name())); }
+  virtual void update_operator(const LinearOperator& A) { update_system(as_bcsr(A, name())); }
   virtual SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
                                    SolveMonitor* monitor) const = 0;
   virtual std::string describe_device() const { return ""; }
@@ -53,19 +58,18 @@ class DeviceSolver : public Solver {
   void setup_impl(const LinearOperator& A) override {
     if (device_count() == 0) throw InputError(name() + ": no CUDA device or driver on this machine");
     device_name_ = device_info().name;
-    const Bcsr& B = as_bcsr(A, name());
     const auto t0 = Clock::now();
-    upload_system(B);
+    upload_operator(A);
     synchronize();
     setup_seconds_ = seconds_since(t0);
     // b and x on the device, allocated once: each solve's uploads reuse them.
-    b_.resize(static_cast<std::size_t>(B.rows()));
-    x_.resize(static_cast<std::size_t>(B.rows()));
+    b_.resize(static_cast<std::size_t>(A.rows()));
+    x_.resize(static_cast<std::size_t>(A.rows()));
     solved_ = false;
   }
   void update_impl() override {
     const auto t0 = Clock::now();
-    update_system(as_bcsr(system(), name()));
+    update_operator(system());
     synchronize();
     setup_seconds_ = seconds_since(t0);
   }
@@ -211,6 +215,88 @@ class PmgSolver final : public DeviceSolver {
   std::unique_ptr<VCycle> cycle_;
 };
 
+/// gpu-mgpcg: PCG on the device preconditioned by one device V-cycle (gpu::mgpcg_solve), on
+/// matrix-free levels (DeviceElasticityOperator) or the assembled ones (BIN-BCSR).
+class MgpcgSolver final : public DeviceSolver {
+ public:
+  MgpcgSolver(KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev, bool matrix_free)
+      : DeviceSolver(params), levels_(levels), chebyshev_(chebyshev), matrix_free_(matrix_free) {}
+  std::string name() const override { return "gpu-mgpcg"; }
+  SolverNeeds needs() const override { return {true, matrix_free_}; }
+
+ private:
+  void upload_system(const Bcsr& A) override { upload_operator(A); }
+  void update_system(const Bcsr&) override { cycle_->update(); }
+  void update_operator(const LinearOperator&) override { cycle_->update(); }
+  void upload_operator(const LinearOperator& A) override {
+    const int L = levels_.num_levels();
+    if (L < 2) throw InputError("gpu-mgpcg: needs at least two levels (a degree >= 2 hierarchy)");
+    for (int l = 0; l < L; ++l)
+      if (levels_.constrained_dofs(l))
+        throw InputError("gpu-mgpcg: " + levels_.level_name(l) + " has components constrained on their own "
+                         "(symmetry planes, rollers), which the device cycle does not mask; use mgpcg");
+    std::vector<const Bcsr*> matrices(static_cast<std::size_t>(L), nullptr);
+    std::vector<const LinearOperator*> operators(static_cast<std::size_t>(L), nullptr);
+    matrices[0] = &levels_.matrix(0);
+    for (int l = 1; l < L; ++l) {
+      const bool finest = l == L - 1;
+      if (matrix_free_) {
+        const LinearOperator* op = finest ? &A : levels_.matrix_free_operator(l);
+        if (!op || !dynamic_cast<const fem::ElasticityOperator*>(op))
+          throw InputError("gpu-mgpcg: " + levels_.level_name(l) +
+                           " has no matrix-free elasticity operator; use operator=assembled");
+        operators[static_cast<std::size_t>(l)] = op;
+      } else {
+        matrices[static_cast<std::size_t>(l)] = finest ? &as_bcsr(A, name()) : &levels_.matrix(l);
+      }
+    }
+    const index_t finest_rows = matrix_free_ ? operators.back()->rows() : matrices.back()->rows();
+    if (finest_rows != A.rows())
+      throw InputError("gpu-mgpcg: the system is not the finest level of the hierarchy");
+    cycle_.reset();
+    transfers_.clear();
+    transfers_.reserve(static_cast<std::size_t>(L - 1));
+    for (int l = 1; l < L; ++l) transfers_.emplace_back(levels_.prolongation(l));
+    std::vector<const mg::BlockTransfer*> transfers;
+    for (const auto& t : transfers_) transfers.push_back(&t);
+    cycle_ = std::make_unique<VCycle>(matrices, transfers, chebyshev_, operators);
+  }
+  SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
+                           SolveMonitor* monitor) const override {
+    return mgpcg_solve(*cycle_, b, x, p, monitor);
+  }
+  std::string describe_device() const override {
+    return std::to_string(cycle_ ? cycle_->num_levels() : 0) + " levels" +
+           (matrix_free_ ? ", matrix-free" : ", assembled (BIN-BCSR)") + ", Chebyshev degree " +
+           std::to_string(chebyshev_.degree) + ", CHOLMOD on the host below";
+  }
+
+  const mg::LevelProvider& levels_;
+  mg::ChebyshevParams chebyshev_;
+  bool matrix_free_;
+  std::vector<mg::BlockTransfer> transfers_;
+  std::unique_ptr<VCycle> cycle_;
+};
+
+/// gpu-mgpcg's keys: the CPU mgpcg's smoother defaults (optimised fourth kind, degree 3).
+struct GpuMgpcgParams {
+  int degree = 3;
+  mg::ChebyshevKind kind = mg::ChebyshevKind::optimal_fourth;
+  double lower_fraction = mg::ChebyshevParams{}.lower_fraction;
+  std::string op = "auto";
+  void visit(ParamVisitor& v) {
+    v.integer("degree", degree, 1, 6, "Chebyshev degree of the device smoother (the optimised fourth kind has weights to 6)");
+    v.choice("kind", kind,
+             {{"first", mg::ChebyshevKind::first}, {"fourth", mg::ChebyshevKind::fourth},
+              {"opt-fourth", mg::ChebyshevKind::optimal_fourth}},
+             "Chebyshev kind of the device smoother");
+    v.real("lower_fraction", lower_fraction, 1e-6, 1.0 - 1e-6, "lower end of the damped interval, times lmax (first kind)");
+    v.choice("operator", op, {"auto", "assembled", "matrix-free"},
+             "levels above the lowest: matrix-free (DeviceElasticityOperator) or assembled (BIN-BCSR); auto: "
+             "matrix-free where the hierarchy offers it");
+  }
+};
+
 /// gpu-pmg's smoother keys (the Chebyshev polynomial of the first kind on the device).
 struct GpuPmgParams {
   int degree = mg::ChebyshevParams{}.degree;
@@ -249,6 +335,22 @@ void register_solvers() {
                     cheb.lower_fraction = g.lower_fraction;
                     return std::make_unique<PmgSolver>(read_krylov(c), *ctx.levels, cheb);
                   });
+  register_builtin_solver({"gpu-mgpcg",
+                           "GPU: PCG preconditioned by a Chebyshev V-cycle on the GPU (matrix-free or assembled "
+                           "levels), CHOLMOD lowest level (CUDA)",
+                           krylov_keys() + list_params<GpuMgpcgParams>(), true, true, "gpu"},
+                          [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                            if (!ctx.levels) c.fail("method", "gpu-mgpcg needs a level hierarchy (an FEM system)");
+                            const GpuMgpcgParams g = read_params<GpuMgpcgParams>(c);
+                            mg::ChebyshevParams cheb;
+                            cheb.degree = g.degree;
+                            cheb.kind = g.kind;
+                            cheb.lower_fraction = g.lower_fraction;
+                            const bool mf = g.op == "matrix-free" || (g.op == "auto" && ctx.levels->offers_matrix_free());
+                            if (g.op == "matrix-free" && !ctx.levels->offers_matrix_free())
+                              c.fail("operator", "the hierarchy offers no matrix-free operators (an FEM scene's levels do)");
+                            return std::make_unique<MgpcgSolver>(read_krylov(c), *ctx.levels, cheb, mf);
+                          });
 }
 
 }  // namespace pmg::gpu

@@ -145,6 +145,12 @@ __global__ void axpy_kernel(int n, double alpha, const double* __restrict__ x, d
   if (i < n) y[i] += alpha * x[i];
 }
 
+// p = z + β p.
+__global__ void xpby_kernel(int n, const double* __restrict__ z, double beta, double* __restrict__ p) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) p[i] = z[i] + beta * p[i];
+}
+
 /// Device scalars and scratch for the reductions of one solver or of dot().
 struct Reducer {
   explicit Reducer(std::size_t n) : partials(2 * std::max<std::size_t>(detail::blocks_for(n), 1)) {
@@ -289,8 +295,7 @@ SolveResult Mcg::solve(const DeviceVector& b, DeviceVector& x, const KrylovParam
 
 SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
                             const KrylovParams& params, SolveMonitor* monitor) {
-  const DeviceBinBcsr& A = C.finest();
-  if (b.size() != size_of(A.rows()))
+  if (b.size() != size_of(C.rows()))
     throw InputError("gpu::multigrid_solve: right-hand side does not match the cycle");
   if (x.size() != b.size()) {
     x.resize(b.size());
@@ -299,17 +304,69 @@ SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector
   pmg::detail::ConvergenceTracker track("GPU PMG", params, monitor);
   Reducer red(b.size());
   DeviceVector r(b.size());
-  A.residual(b, x, r);
+  C.residual(b, x, r);
   double norm = std::sqrt(dot_with(red, r, r));
   if (!track.start(norm)) return track.finish(norm);
   for (int it = 1; !track.done(); ++it) {
     C.cycle(b, x);
-    A.residual(b, x, r);
+    C.residual(b, x, r);
     norm = std::sqrt(dot_with(red, r, r));
     if (track.after_iteration(it, norm) && track.accept_true_residual(norm)) break;
   }
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
   return track.finish(norm);
+}
+
+// The loop of pmg::pcg (sparse/src/krylov.cpp), line for line, on device vectors.
+SolveResult mgpcg_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x, const KrylovParams& params,
+                        SolveMonitor* monitor) {
+  if (b.size() != size_of(C.rows())) throw InputError("gpu::mgpcg_solve: right-hand side does not match the cycle");
+  if (x.size() != b.size()) {
+    x.resize(b.size());
+    x.set_zero();
+  }
+  pmg::detail::ConvergenceTracker track("GPU MGPCG", params, monitor);
+  const std::size_t n = b.size();
+  const int ni = static_cast<int>(n);
+  Reducer red(n);
+  DeviceVector r(n), z(n), p(n), q(n);
+  auto norm2 = [&](const DeviceVector& v) { return std::sqrt(dot_with(red, v, v)); };
+  C.residual(b, x, r);
+  if (!track.start(norm2(r))) return track.finish(norm2(r));
+  double rho = 0.0;
+  auto restart = [&](int it) {
+    C.apply(r, z);
+    p.assign(z);
+    rho = dot_with(red, r, z);
+    return track.check_positive(rho, "r^T M^{-1} r", it);
+  };
+  if (!restart(0)) return track.finish(norm2(r));
+  for (int it = 1; !track.done(); ++it) {
+    C.multiply(p, q);
+    const double sigma = dot_with(red, p, q);
+    if (!track.check_positive(sigma, "p^T A p", it)) break;
+    const double alpha = rho / sigma;
+    axpy(alpha, p, x);
+    axpy(-alpha, q, r);
+    track.add_energy_decrease(alpha * rho);
+    if (track.after_iteration(it, norm2(r))) {
+      C.residual(b, x, r);  // recursive residual converged: confirm with the true one
+      if (track.accept_true_residual(norm2(r))) break;
+      if (!restart(it)) break;
+      continue;
+    }
+    if (track.done()) break;
+    C.apply(r, z);
+    const double rho_new = dot_with(red, r, z);
+    if (!track.check_positive(rho_new, "r^T M^{-1} r", it)) break;
+    const double beta = params.flexible ? -dot_with(red, z, q) / sigma : rho_new / rho;
+    xpby_kernel<<<detail::blocks_for(ni), kThreads>>>(ni, z.data(), beta, p.data());  // p = z + β p
+    PMG_LAUNCHED("xpby_kernel");
+    rho = rho_new;
+  }
+  if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
+  C.residual(b, x, q);
+  return track.finish(norm2(q));
 }
 
 }  // namespace pmg::gpu

@@ -46,13 +46,14 @@ void check_vectors(index_t n, const DeviceVector& x, DeviceVector& y, const char
 
 DeviceBinBcsr::DeviceBinBcsr(const BinBcsr& A)
     : rows_(A.rows()), num_bins_(A.num_bins()), lanes_(A.lanes()), num_values_(A.values().size()),
-      num_columns_(A.columns().size()), bytes_(A.bytes_per_spmv()), permutation_(A.permutation()),
+      num_columns_(A.columns().size()), layout_hash_(A.layout_hash()), bytes_(A.bytes_per_spmv()),
+      permutation_(A.permutation()),
       width_(A.width()), columns_(A.columns()), offset_(A.offset()), values_(A.values()),
       diag_(A.diagonal_blocks()) {}
 
 void DeviceBinBcsr::update_values(const BinBcsr& A) {
   if (A.rows() != rows_ || A.lanes() != lanes_ || A.num_bins() != num_bins_ ||
-      A.values().size() != num_values_ || A.columns().size() != num_columns_)
+      A.values().size() != num_values_ || A.columns().size() != num_columns_ || A.layout_hash() != layout_hash_)
     throw InputError("DeviceBinBcsr::update_values: the matrix does not have the uploaded layout");
   values_.upload(A.values());
   diag_.upload(A.diagonal_blocks());

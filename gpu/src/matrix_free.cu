@@ -4,6 +4,10 @@
 
 #include <vector>
 
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ < 600
+#error "pmg::gpu needs sm_60 or newer (atomicAdd on double)"
+#endif
+
 namespace pmg::gpu {
 
 namespace {

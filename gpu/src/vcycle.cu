@@ -1,4 +1,5 @@
 #include "cuda_check.hpp"
+#include "pmg/gpu/matrix_free.hpp"
 #include "pmg/gpu/solvers.hpp"
 #include "pmg/multigrid/smoothers.hpp"
 
@@ -16,12 +17,24 @@ __global__ void transfer_kernel(CsrView T, const double* __restrict__ x, double*
   if (i < T.rows) detail::transfer_row(T, x, y, i, add);
 }
 
-// d = c1 d + c2 D⁻¹ r; x += d, one thread per block row.
+// d = c1 d + c2 D⁻¹ r; x += w d, one thread per block row.
 __global__ void chebyshev_kernel(int block_rows, const double* __restrict__ inv_diag,
                                  const double* __restrict__ r, double* __restrict__ d,
-                                 double* __restrict__ x, double c1, double c2) {
+                                 double* __restrict__ x, double c1, double c2, double w) {
   const int I = blockIdx.x * blockDim.x + threadIdx.x;
-  if (I < block_rows) detail::chebyshev_block(inv_diag, r, d, x, I, c1, c2);
+  if (I < block_rows) detail::chebyshev_block(inv_diag, r, d, x, I, c1, c2, w);
+}
+
+// r = b - y (r may be y).
+__global__ void subtract_kernel(int n, const double* __restrict__ b, const double* y, double* r) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) r[i] = b[i] - y[i];
+}
+
+// r -= q.
+__global__ void decrement_kernel(int n, const double* __restrict__ q, double* __restrict__ r) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) r[i] -= q[i];
 }
 
 void transfer(const DeviceCsr& T, const DeviceVector& x, DeviceVector& y, bool add) {
@@ -33,28 +46,60 @@ void transfer(const DeviceCsr& T, const DeviceVector& x, DeviceVector& y, bool a
 }  // namespace
 
 struct VCycle::Level {
-  const Bcsr* A = nullptr;
+  const Bcsr* A = nullptr;                      ///< assembled level (BIN-BCSR on the device), or
+  const fem::ElasticityOperator* op = nullptr;  ///< a matrix-free one
+  index_t n = 0;
   BinBcsr host;  ///< the sliced layout, refilled by update()
   std::unique_ptr<DeviceBinBcsr> device;
+  std::unique_ptr<DeviceElasticityOperator> mf;
   DeviceArray<double> inv_diag;
   std::vector<mg::ChebyshevStep> steps;  ///< the CPU smoother's polynomial for this level's λmax
   std::unique_ptr<DeviceCsr> P, R;  ///< from the level below to this one, and back
-  mutable DeviceVector b, x, r, d;  ///< b, x: this level's equation when it is not the finest
+  mutable DeviceVector b, x, r, d, q;  ///< b, x: this level's equation when it is not the finest
+
+  /// The host operator the CPU smoother would run on.
+  const LinearOperator& host_operator() const {
+    return op ? static_cast<const LinearOperator&>(*op) : static_cast<const LinearOperator&>(*A);
+  }
+  void multiply(const DeviceVector& v, DeviceVector& y) const {
+    if (mf) mf->multiply(v, y);
+    else device->multiply(v, y);
+  }
+  void residual(const DeviceVector& rhs, const DeviceVector& v, DeviceVector& res) const {
+    if (!mf) return device->residual(rhs, v, res);
+    mf->multiply(v, res);
+    subtract_kernel<<<detail::blocks_for(n), kThreads>>>(static_cast<int>(n), rhs.data(), res.data(), res.data());
+    PMG_LAUNCHED("subtract_kernel");
+  }
 };
 
 VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
                const mg::ChebyshevParams& chebyshev)
+    : VCycle(std::move(matrices), std::move(transfers), chebyshev, {}) {}
+
+VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
+               const mg::ChebyshevParams& chebyshev, std::vector<const LinearOperator*> operators)
     : matrices_(std::move(matrices)), transfers_(std::move(transfers)), chebyshev_(chebyshev) {
   if (matrices_.empty()) throw InputError("gpu::VCycle: no levels");
-  if (chebyshev_.kind != mg::ChebyshevKind::first)
-    throw InputError("gpu::VCycle: the device smoother is Chebyshev of the first kind only");
   if (transfers_.size() + 1 != matrices_.size())
     throw InputError("gpu::VCycle: need one transfer between each pair of levels");
+  if (!operators.empty() && operators.size() != matrices_.size())
+    throw InputError("gpu::VCycle: give one operator per level (nullptr: the assembled matrix) or none");
+  operators.resize(matrices_.size(), nullptr);
+  if (operators[0]) throw InputError("gpu::VCycle: the lowest level must be assembled (CHOLMOD factorises it)");
+  std::vector<index_t> rows(matrices_.size());
   for (std::size_t l = 0; l < matrices_.size(); ++l) {
     const Bcsr* A = matrices_[l];
-    if (!A || A->rows() != A->cols()) throw InputError("gpu::VCycle: level matrices must be square");
-    if (l > 0 && (transfers_[l - 1]->fine_size() != A->rows() ||
-                  transfers_[l - 1]->coarse_size() != matrices_[l - 1]->rows()))
+    if (operators[l]) {
+      if (!dynamic_cast<const fem::ElasticityOperator*>(operators[l]))
+        throw InputError("gpu::VCycle: level " + std::to_string(l) +
+                         "'s operator is not a matrix-free elasticity operator (fem::ElasticityOperator)");
+      rows[l] = operators[l]->rows();
+    } else {
+      if (!A || A->rows() != A->cols()) throw InputError("gpu::VCycle: level matrices must be square");
+      rows[l] = A->rows();
+    }
+    if (l > 0 && (transfers_[l - 1]->fine_size() != rows[l] || transfers_[l - 1]->coarse_size() != rows[l - 1]))
       throw InputError("gpu::VCycle: transfer " + std::to_string(l - 1) + " does not match levels " +
                        std::to_string(l - 1) + " and " + std::to_string(l));
   }
@@ -63,24 +108,32 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
   levels_.resize(matrices_.size());
   for (std::size_t l = 1; l < matrices_.size(); ++l) {
     auto L = std::make_unique<Level>();
-    L->A = matrices_[l];
-    L->host = BinBcsr(*L->A);
-    L->device = std::make_unique<DeviceBinBcsr>(L->host);
+    L->n = rows[l];
+    if (operators[l]) {
+      L->op = static_cast<const fem::ElasticityOperator*>(operators[l]);
+      L->mf = std::make_unique<DeviceElasticityOperator>(*L->op);
+    } else {
+      L->A = matrices_[l];
+      L->host = BinBcsr(*L->A);
+      L->device = std::make_unique<DeviceBinBcsr>(L->host);
+    }
     L->P = std::make_unique<DeviceCsr>(transfers_[l - 1]->prolongation());
     L->R = std::make_unique<DeviceCsr>(transfers_[l - 1]->restriction());
-    const std::size_t n = static_cast<std::size_t>(L->A->rows());
+    const std::size_t n = static_cast<std::size_t>(L->n);
     L->b.resize(n);
     L->x.resize(n);
     L->r.resize(n);
     L->d.resize(n);
+    L->q.resize(n);
     set_up_smoother(*L);
     levels_[l] = std::move(L);
   }
   // Level 0's right-hand side and solution also live on the device (restricted into, prolongated
   // from); they are the "b, x" of a level without a matrix on the device.
   auto L0 = std::make_unique<Level>();
-  L0->b.resize(static_cast<std::size_t>(matrices_[0]->rows()));
-  L0->x.resize(static_cast<std::size_t>(matrices_[0]->rows()));
+  L0->n = rows[0];
+  L0->b.resize(static_cast<std::size_t>(rows[0]));
+  L0->x.resize(static_cast<std::size_t>(rows[0]));
   levels_[0] = std::move(L0);
 }
 
@@ -88,7 +141,7 @@ VCycle::~VCycle() = default;
 
 // D⁻¹ (checked SPD) and λmax from the CPU smoother, so both cycles apply the same polynomial.
 void VCycle::set_up_smoother(Level& L) const {
-  const mg::Chebyshev cheb(*L.A, chebyshev_);
+  const mg::Chebyshev cheb(L.host_operator(), chebyshev_);
   L.steps = cheb.steps();
   L.inv_diag.upload(cheb.inverse_diagonal());
 }
@@ -96,30 +149,63 @@ void VCycle::set_up_smoother(Level& L) const {
 void VCycle::update() {
   for (std::size_t l = 1; l < levels_.size(); ++l) {
     Level& L = *levels_[l];
-    L.host.update_values(*L.A);
-    L.device->update_values(L.host);
+    if (L.mf) {
+      L.mf->refresh(*L.op);
+    } else {
+      L.host.update_values(*L.A);
+      L.device->update_values(L.host);
+    }
     set_up_smoother(L);
   }
   coarse_->update();
 }
 
-index_t VCycle::rows() const { return matrices_.back()->rows(); }
+index_t VCycle::rows() const { return levels_.back()->n; }
 
 const DeviceBinBcsr& VCycle::finest() const {
   if (levels_.size() < 2) throw InputError("gpu::VCycle: a single level has no device matrix");
+  if (!levels_.back()->device) throw InputError("gpu::VCycle: the finest level is matrix-free");
   return *levels_.back()->device;
 }
 
-// Chebyshev of the first kind on D⁻¹A over [f λmax, λmax]: the steps of mg::chebyshev_steps, as
-// mg::Chebyshev::smooth takes them (the residual b - A x before each step).
+bool VCycle::matrix_free() const { return levels_.size() > 1 && levels_.back()->mf != nullptr; }
+
+void VCycle::multiply(const DeviceVector& x, DeviceVector& y) const {
+  if (levels_.size() < 2) throw InputError("gpu::VCycle: a single level has no device operator");
+  if (x.size() != static_cast<std::size_t>(rows())) throw InputError("gpu::VCycle::multiply: x does not match the finest level");
+  y.resize(x.size());
+  levels_.back()->multiply(x, y);
+}
+
+void VCycle::residual(const DeviceVector& b, const DeviceVector& x, DeviceVector& r) const {
+  if (levels_.size() < 2) throw InputError("gpu::VCycle: a single level has no device operator");
+  if (x.size() != static_cast<std::size_t>(rows()) || b.size() != x.size())
+    throw InputError("gpu::VCycle::residual: vectors do not match the finest level");
+  r.resize(x.size());
+  levels_.back()->residual(b, x, r);
+}
+
+// Chebyshev on D⁻¹A: the steps of mg::chebyshev_steps, as mg::Chebyshev::smooth takes them. First
+// kind: the residual b - A x before each step; fourth kinds: one residual, then r -= A d after each
+// step with the unweighted d, and x += w d (Lottes' weights for the optimised kind).
 void VCycle::smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const {
-  const int nb = L.A->block_rows();
+  const int nb = static_cast<int>(L.n / 3);
   const unsigned grid = detail::blocks_for(nb);
-  for (const mg::ChebyshevStep& s : L.steps) {
-    L.device->residual(b, x, L.r);
-    chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(), s.c1, s.c2);
+  const bool first_kind = chebyshev_.kind == mg::ChebyshevKind::first;
+  const int m = static_cast<int>(L.steps.size());
+  if (!first_kind) L.residual(b, x, L.r);
+  for (int k = 0; k < m; ++k) {
+    const mg::ChebyshevStep& s = L.steps[static_cast<std::size_t>(k)];
+    if (first_kind) L.residual(b, x, L.r);
+    chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(), s.c1, s.c2,
+                                         s.weight);
+    PMG_LAUNCHED("chebyshev_kernel");
+    if (!first_kind && k + 1 < m) {
+      L.multiply(L.d, L.q);
+      decrement_kernel<<<detail::blocks_for(L.n), kThreads>>>(static_cast<int>(L.n), L.q.data(), L.r.data());
+      PMG_LAUNCHED("decrement_kernel");
+    }
   }
-  PMG_LAUNCHED("chebyshev_kernel");
 }
 
 void VCycle::cycle(int l, const DeviceVector& b, DeviceVector& x) const {
@@ -132,7 +218,7 @@ void VCycle::cycle(int l, const DeviceVector& b, DeviceVector& x) const {
   const Level& L = *levels_[l];
   Level& C = *levels_[l - 1];
   smooth(L, b, x);
-  L.device->residual(b, x, L.r);
+  L.residual(b, x, L.r);
   transfer(*L.R, L.r, C.b, false);
   C.x.set_zero();
   cycle(l - 1, C.b, C.x);

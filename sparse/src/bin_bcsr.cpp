@@ -46,7 +46,10 @@ BinBcsr::BinBcsr(const Bcsr& A, const BinBcsrOptions& options) {
   source_blocks_ = A.num_blocks();
   block_rows_ = p.rows;
   lanes_ = L;
-  sort_window_ = options.sort_window == 0 ? BinBcsrOptions::kDefaultBins * R : options.sort_window;
+  // Whole bins per window (rounded up), so that no bin mixes rows of two windows.
+  const std::int64_t window = options.sort_window == 0 ? std::int64_t{BinBcsrOptions::kDefaultBins} * R
+                                                       : (std::int64_t{options.sort_window} + R - 1) / R * R;
+  sort_window_ = options.sort_window == 1 ? 1 : static_cast<index_t>(std::min<std::int64_t>(window, std::max<index_t>(block_rows_, R)));
 
   // Order: within each window, longest rows first (stable, so equal rows keep their order).
   std::vector<index_t> len(block_rows_);
@@ -94,10 +97,22 @@ BinBcsr::BinBcsr(const Bcsr& A, const BinBcsrOptions& options) {
     }
   values_.assign(BB * static_cast<std::size_t>(offset_[nbins]), 0.0);
   diag_.assign(BB * static_cast<std::size_t>(block_rows_), 0.0);
+  // FNV-1a over the layout arrays.
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](std::int64_t v) {
+    for (int byte = 0; byte < 8; ++byte, v >>= 8) h = (h ^ static_cast<std::uint64_t>(v & 0xff)) * 1099511628211ull;
+  };
+  mix(lanes_);
+  mix(block_rows_);
+  for (index_t v : permutation_) mix(v);
+  for (index_t v : width_) mix(v);
+  for (index_t v : columns_) mix(v);
+  layout_hash_ = h;
   update_values(A);
 }
 
 void BinBcsr::update_values(const Bcsr& A) {
+  if (!source_pattern_) throw InputError("BIN-BCSR update_values: nothing was sliced (default-constructed)");
   if (A.shared_pattern() != source_pattern_ && !same_pattern(A.pattern(), *source_pattern_))
     throw InputError("BIN-BCSR update_values: the matrix does not have the sliced pattern");
   const double* src = A.values().data();

@@ -8,6 +8,8 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/gpu/matrix_free.hpp"
 #include "pmg/gpu/solvers.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/multigrid/transfer.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -187,6 +189,50 @@ TEST_CASE("the GPU V-cycle equals the CPU Chebyshev V-cycle, and GPU PMG converg
   CHECK(g.status == SolveStatus::converged);
   CHECK(std::abs(g.iterations - cpu.iterations) <= 1);
   CHECK(test::rel_diff(x.to_vector(), x_cpu) < 1e-6);
+}
+
+TEST_CASE("the GPU V-cycle with fourth-kind smoothing equals the CPU cycle, assembled and matrix-free", "[gpu]") {
+  test::GpuCantilever c(3, 2);
+  SolverContext ctx;
+  ctx.levels = &c.h;
+  // The same hierarchy again, prepared matrix-free above its lowest level.
+  fem::DegreeHierarchy h(c.mesh, 3, fem::Material{500e3, 0.3, 1000.0}, [](const fem::Vec3& X) { return X.x() < 1e-12; });
+  h.prepare(SolverNeeds{true, true}, nullptr);
+  std::vector<mg::BlockTransfer> transfers;
+  for (int l = 1; l < h.num_levels(); ++l) transfers.emplace_back(h.prolongation(l));
+  std::vector<const mg::BlockTransfer*> tp;
+  for (const auto& t : transfers) tp.push_back(&t);
+  for (const char* kind : {"fourth", "opt-fourth"}) {
+    INFO(kind);
+    auto cpu = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev", std::string("smoother.kind=") + kind,
+                                               "smoother.degree=3", "operator=assembled"}, "test"), ctx);
+    cpu->setup(c.A());
+    mg::ChebyshevParams p;
+    p.kind = std::string(kind) == "fourth" ? mg::ChebyshevKind::fourth : mg::ChebyshevKind::optimal_fourth;
+    p.degree = 3;
+    const gpu::VCycle C(c.matrices(), c.transfers(), p);
+    const Vector r = test::random_vector(c.A().rows(), 9);
+    Vector z_ref;
+    cpu->apply(r, z_ref);
+    gpu::DeviceVector z;
+    C.apply(gpu::DeviceVector(r), z);
+    CHECK(test::rel_diff(z.to_vector(), z_ref) < 1e-10);
+    // Matrix-free levels: the same cycle (the operators equal the matrices to round-off).
+    const gpu::VCycle M({&h.matrix(0), nullptr, nullptr}, tp, p,
+                        {nullptr, h.matrix_free_operator(1), h.matrix_free_operator(2)});
+    CHECK(M.matrix_free());
+    gpu::DeviceVector zm;
+    M.apply(gpu::DeviceVector(r), zm);
+    CHECK(test::rel_diff(zm.to_vector(), z_ref) < 1e-10);
+    // MGPCG on either converges like the CPU's.
+    gpu::DeviceVector xa, xm;
+    const SolveResult a = gpu::mgpcg_solve(C, gpu::DeviceVector(c.b), xa, tolerance(1e-8));
+    const SolveResult m = gpu::mgpcg_solve(M, gpu::DeviceVector(c.b), xm, tolerance(1e-8));
+    CHECK(a.status == SolveStatus::converged);
+    CHECK(m.status == SolveStatus::converged);
+    CHECK(std::abs(a.iterations - m.iterations) <= 1);
+    CHECK(test::rel_diff(xm.to_vector(), xa.to_vector()) < 1e-6);
+  }
 }
 
 TEST_CASE("the device matrix-free operator equals the CPU one, p = 1..3, rotations and weights", "[gpu]") {

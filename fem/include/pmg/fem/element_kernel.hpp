@@ -29,7 +29,8 @@ constexpr int element_nodes(int p) { return (p + 1) * (p + 2) * (p + 3) / 6; }
 /// are). β, γ run over the degree-(p-1) multi-indices in the order of matrix_free.cpp.
 template <int P>
 struct ElementKernelTables {
-  static constexpr int N = element_nodes(P), Q = element_nodes(P - 1);
+  static constexpr int N = element_nodes(P);      ///< nodes per element
+  static constexpr int Q = element_nodes(P - 1);  ///< gradient coefficients (degree p-1 multi-indices)
   int up[Q][4];          ///< local node of β + e_k
   double q[Q][Q];        ///< ∫ B^{p-1}_γ B^{p-1}_β / (6V)
   double mass[N][N];     ///< ∫ B^p_a B^p_b / (6V)

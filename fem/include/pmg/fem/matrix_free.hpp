@@ -104,16 +104,17 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// update() (nullptr: R = I), which the operator's gradients carry.
   void element_force(const Vector& u, const Rotations* R, Vector& force, double* energy) const;
 
-  /// The element arrays the product runs on, for a copy on a device (pmg/fem/element_kernel.hpp):
-  /// per element its `nodes` free node indices (-1: a fixed node) and kElementData doubles.
+  /// The element arrays the product runs on (see element_arrays()).
+  struct ElementArrays {
+    int degree = 0;                 ///< the elements' degree p
+    int nodes = 0;                  ///< nodes per element, (p+1)(p+2)(p+3)/6
+    index_t elements = 0;           ///< number of elements
+    const index_t* free = nullptr;  ///< `nodes` free node indices per element (-1: a fixed node)
+    const double* data = nullptr;   ///< kElementData doubles per element (pmg/fem/element_kernel.hpp)
+  };
+  /// The element arrays the product runs on, for a copy on a device (pmg/fem/element_kernel.hpp).
   /// Pointers into the operator, valid until it is destroyed; the data change with update() and
   /// set_weights().
-  struct ElementArrays {
-    int degree = 0, nodes = 0;
-    index_t elements = 0;
-    const index_t* free = nullptr;
-    const double* data = nullptr;
-  };
   ElementArrays element_arrays() const;
 
   /// The cost model of one apply(): floating-point operations and the bytes it must move at least

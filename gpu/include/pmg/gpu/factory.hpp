@@ -6,6 +6,9 @@
 //   gpu-pmg   stationary p-multigrid, Chebyshev V-cycle on the GPU, CHOLMOD on the host for the
 //             lowest level (gpu::VCycle + gpu::multigrid_solve); reads the levels' assembled
 //             matrices; degree and lower_fraction set the Chebyshev smoother (first kind)
+//   gpu-mgpcg PCG preconditioned by one device V-cycle (gpu::mgpcg_solve) on matrix-free levels
+//             (DeviceElasticityOperator, where the hierarchy offers them) or assembled ones;
+//             optimised fourth-kind Chebyshev of degree 3 as the CPU mgpcg; CHOLMOD on the host
 //
 // Each is a pmg::Solver on host vectors: solve() uploads b and x, solves on the device and
 // downloads x. The copies are timed apart from the device solve and reported by describe()
@@ -17,7 +20,7 @@
 
 namespace pmg::gpu {
 
-/// Registers gpu-mcg, gpu-pcg and gpu-pmg (idempotent; a name the user registered is kept).
+/// Registers gpu-mcg, gpu-pcg, gpu-pmg and gpu-mgpcg (idempotent; a name the user registered is kept).
 /// Registering needs no device; setting a solver up without one throws pmg::InputError saying so.
 void register_solvers();
 

@@ -24,7 +24,8 @@ class DeviceBinBcsr {
   /// Uploads the layout and the values of A.
   explicit DeviceBinBcsr(const BinBcsr& A);
   /// Re-uploads values and diagonal blocks of A, which must be the host matrix this was built
-  /// from or one with the same layout (BinBcsr::update_values keeps the layout).
+  /// from or one with the same layout (BinBcsr::update_values keeps the layout; checked by
+  /// BinBcsr::layout_hash(), InputError otherwise).
   void update_values(const BinBcsr& A);
 
   /// Number of scalar rows (= columns: the matrix is square).
@@ -45,6 +46,7 @@ class DeviceBinBcsr {
   index_t rows_ = 0, num_bins_ = 0;
   int lanes_ = 1;
   std::size_t num_values_ = 0, num_columns_ = 0;
+  std::uint64_t layout_hash_ = 0;  ///< BinBcsr::layout_hash() of the uploaded layout
   double bytes_ = 0;
   DeviceArray<int> permutation_, width_, columns_;
   DeviceArray<std::int64_t> offset_;

@@ -2,7 +2,8 @@
 // the device: y = m M x + s K_R x over the free nodes, one thread per element running the lean
 // element kernel of pmg/fem/element_kernel.hpp (the function the host tests check against the CPU
 // operator), results added with atomics; its 3x3 diagonal blocks; and the per-step rotations
-// applied on the device to the rest gradients.
+// applied on the device to the rest gradients. The atomics add in no fixed order: results vary in
+// the last bits from run to run (the CPU operator's are repeatable).
 //
 // Status: compiled (no register spills or local memory, like every kernel of the module) and
 // tested where a device is present; not yet measured on one, so neither its layout (a thread per

@@ -7,6 +7,7 @@
 //   gpu::Mcg        ≡ pmg::mcg          (BIN-BCSR, block Jacobi)
 //   gpu::LibraryPcg ≡ pmg::pcg + BlockJacobiPreconditioner
 //   gpu::VCycle     ≡ mg::MultigridCycle with mg::Chebyshev smoothers and CHOLMOD below
+//   gpu::mgpcg_solve ≡ pmg::mgpcg: PCG preconditioned by one gpu::VCycle
 #pragma once
 
 #include "pmg/gpu/matrices.hpp"
@@ -88,22 +89,28 @@ class LibraryPcg {
   mutable DeviceVector r_, z_, p_, q_;
 };
 
-/// p-multigrid V-cycle on the GPU: every level above the lowest runs there (BIN-BCSR residuals,
-/// Chebyshev smoothing on D⁻¹A, transfers P ⊗ I₃ and R ⊗ I₃ as scalar CSR kernels); the lowest
-/// level is solved on the host by CHOLMOD (one download and one upload per cycle, of the
+/// p-multigrid V-cycle on the GPU: every level above the lowest runs there (BIN-BCSR or, on
+/// matrix-free levels, DeviceElasticityOperator residuals; Chebyshev smoothing on D⁻¹A of the
+/// first, fourth or optimised fourth kind; transfers P ⊗ I₃ and R ⊗ I₃ as scalar CSR kernels); the
+/// lowest level is solved on the host by CHOLMOD (one download and one upload per cycle, of the
 /// lowest level's size). Built from the same inputs as mg::MultigridCycle (coarsest first); keeps
-/// references to the matrices and transfers. λmax of each level comes from mg::Chebyshev, so the
-/// GPU and CPU cycles apply the same polynomial.
+/// references to the matrices, operators and transfers. λmax and D⁻¹ of each level come from
+/// mg::Chebyshev on the host operator, so the GPU and CPU cycles apply the same polynomial.
 class VCycle {
  public:
   /// Level matrices coarsest first (square), and one transfer per pair of adjacent levels
   /// (transfers[l-1] maps level l-1 to level l). Factorises the lowest level with CHOLMOD and
-  /// uploads the others. Throws InputError when sizes do not match or the Chebyshev kind is not
-  /// the first (the only one on the device), CudaError on a device failure.
+  /// uploads the others. Throws InputError when sizes do not match, CudaError on a device failure.
   VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
          const mg::ChebyshevParams& chebyshev = {});
+  /// The same with matrix-free levels: operators[l] (a fem::ElasticityOperator, or nullptr for
+  /// the assembled matrices[l], which may then be nullptr itself) for every level; the lowest
+  /// must be assembled. InputError for another operator type or held components.
+  VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
+         const mg::ChebyshevParams& chebyshev, std::vector<const LinearOperator*> operators);
   ~VCycle();
-  /// The matrices' values changed (same patterns): re-upload, new D⁻¹ and λmax, refactorise.
+  /// The matrices' values (or the matrix-free operators' rotations and weights) changed:
+  /// re-upload, new D⁻¹ and λmax, refactorise.
   void update();
   /// Number of scalar rows of the finest level.
   index_t rows() const;
@@ -113,8 +120,14 @@ class VCycle {
   void cycle(const DeviceVector& b, DeviceVector& x) const;
   /// z = C r (one cycle from z = 0): the cycle as a preconditioner.
   void apply(const DeviceVector& r, DeviceVector& z) const;
-  /// The finest level's matrix on the device.
+  /// The finest level's matrix on the device (InputError where that level is matrix-free).
   const DeviceBinBcsr& finest() const;
+  /// Whether the finest level is matrix-free.
+  bool matrix_free() const;
+  /// y = A x on the finest level.
+  void multiply(const DeviceVector& x, DeviceVector& y) const;
+  /// r = b - A x on the finest level.
+  void residual(const DeviceVector& b, const DeviceVector& x, DeviceVector& r) const;
 
  private:
   struct Level;
@@ -135,6 +148,12 @@ class VCycle {
 /// CPU's stationary multigrid; the true residual's norm is read back once per cycle).
 SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
                             const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
+
+/// MGPCG on the GPU: PCG on the cycle's finest operator, preconditioned by one cycle from zero
+/// (VCycle::apply), with the loop and stopping rules of pmg::pcg (params.flexible: the flexible
+/// β = -zᵀq / σ). Dot products are read back to the host, three per iteration.
+SolveResult mgpcg_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
+                        const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
 
 /// Device vector primitives (default stream). dot() allocates its reduction scratch per call;
 /// the solvers above keep theirs.

@@ -45,7 +45,8 @@ struct BinBcsrOptions {
   /// kMinSteps steps per lane on an average row (BinBcsr::auto_lanes).
   int lanes = 0;
   /// Block rows per sorting window (σ of SELL-C-σ); 1 keeps the original order; 0 chooses
-  /// kDefaultBins bins' worth of rows.
+  /// kDefaultBins bins' worth of rows. Other values are rounded up to whole bins (32 / lanes rows),
+  /// so that no bin mixes two windows.
   index_t sort_window = 0;
   /// Bins per sorting window when sort_window = 0.
   static constexpr index_t kDefaultBins = 32;
@@ -115,7 +116,8 @@ class BinBcsr final : public LinearOperator {
   /// matrix that is not square or options out of range.
   explicit BinBcsr(const Bcsr& A, const BinBcsrOptions& options = {});
 
-  /// Refills values and diagonal blocks from A, which must have the pattern this was built from.
+  /// Refills values and diagonal blocks from A, which must have the pattern this was built from
+  /// (InputError otherwise, or when nothing was built).
   void update_values(const Bcsr& A);
 
   index_t rows() const override { return 3 * block_rows_; }
@@ -147,6 +149,9 @@ class BinBcsr final : public LinearOperator {
   const std::vector<double>& diagonal_blocks() const { return diag_; }
   /// The arrays as the plain struct bin_bcsr_lane takes (pointers into this object).
   BinBcsrView view() const;
+  /// A 64-bit hash of the layout (lanes, permutation, widths, columns): equal for the slicing of
+  /// one pattern with one set of options, so a device copy can check that new values fit it.
+  std::uint64_t layout_hash() const { return layout_hash_; }
 
   /// Stored values including padding, over the values of the source matrix (>= 1).
   double padding_ratio() const;
@@ -174,6 +179,7 @@ class BinBcsr final : public LinearOperator {
   std::vector<offset_t> source_block_;  ///< per block slot: block index in the source BCSR, or -1
   std::vector<offset_t> diag_source_;   ///< per block row: diagonal block index in the source, or -1
   std::vector<double> values_, diag_;
+  std::uint64_t layout_hash_ = 0;
 };
 
 }  // namespace pmg

@@ -63,15 +63,16 @@ PMG_HD void transfer_row(const CsrView& T, const double* x, double* y, int i, bo
 }
 
 /// One Chebyshev step on block row I (tests/gpu checks it against mg::Chebyshev):
-///   d_I = c1 d_I + c2 D_I⁻¹ r_I ;  x_I += d_I      (c1 = 0: d is not read, may be uninitialised)
+///   d_I = c1 d_I + c2 D_I⁻¹ r_I ;  x_I += w d_I    (c1 = 0: d is not read, may be uninitialised;
+///   w: Lottes' weight of the optimised fourth kind, 1 otherwise)
 PMG_HD void chebyshev_block(const double* inv_diag, const double* r, double* d, double* x, int I,
-                            double c1, double c2) {
+                            double c1, double c2, double w = 1.0) {
   const std::int64_t o = 3 * static_cast<std::int64_t>(I);
   double z[3];
   block3_apply(inv_diag + 9 * static_cast<std::int64_t>(I), r + o, z);
   for (int c = 0; c < 3; ++c) {
     d[o + c] = c1 == 0.0 ? c2 * z[c] : c1 * d[o + c] + c2 * z[c];
-    x[o + c] += d[o + c];
+    x[o + c] += w == 1.0 ? d[o + c] : w * d[o + c];
   }
 }
 
