@@ -9,6 +9,9 @@
 //                      fixed number of iterations (time per iteration)
 //   BM_VCycle_GPU, BM_VCycle_CPU  one Chebyshev V-cycle, cubic: GPU (lowest level on the host)
 //                      against the CPU cycle on all host cores
+//   BM_MatrixFree/p<p> the device matrix-free operator (gpu::DeviceElasticityOperator), p = 2, 3,
+//                      against BIN-BCSR's SpMV of the same matrix: time, and GB/s and GFLOP/s by
+//                      the CPU operator's cost model (element data, x and y once)
 //
 //   bench_gpu [--pmg_nodes=36] [--pmg_iterations=100] [google benchmark flags]
 //
@@ -19,6 +22,8 @@
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/fem/matrix_free.hpp"
+#include "pmg/gpu/matrix_free.hpp"
 #include "pmg/gpu/solvers.hpp"
 
 #include "../bandwidth.hpp"
@@ -179,6 +184,18 @@ Cycles& cycles() {
   return *c;
 }
 
+void BM_MatrixFree(benchmark::State& state, int p) {
+  Problem& pr = problem(p);
+  const fem::ElasticityOperator op(pr.h->finest());
+  const gpu::DeviceElasticityOperator d(op);
+  const gpu::DeviceVector x(Vector(Vector::Ones(op.rows())));
+  gpu::DeviceVector y;
+  timed(state, 20, [&] { d.multiply(x, y); });
+  state.counters["bytes"] = op.bytes_per_apply();
+  state.counters["flops"] = op.flops_per_apply();
+  state.counters["unknowns"] = op.rows();
+}
+
 void BM_VCycle_GPU(benchmark::State& state) {
   const gpu::VCycle& C = *cycles().gpu;
   const gpu::DeviceVector r(Vector(Vector::Ones(C.rows())));
@@ -214,6 +231,8 @@ class SummaryReporter : public benchmark::ConsoleReporter {
       if (it != r.counters.end()) gbs_[name] = it->second.value / seconds / 1e9;
       const auto own = r.counters.find("own_bytes");
       if (own != r.counters.end() && it != r.counters.end()) own_ratio_[name] = own->second.value / it->second.value;
+      const auto fl = r.counters.find("flops");
+      if (fl != r.counters.end()) gflops_[name] = fl->second.value / seconds / 1e9;
     }
   }
   void Finalize() override {
@@ -231,6 +250,15 @@ class SummaryReporter : public benchmark::ConsoleReporter {
         std::printf("%-3d %-13s %10d %9.1f %9.1f %10.1f%% %6.2f\n", p, f, problem(p).A().rows(),
                     1e6 * seconds_[name], gbs_[name], copy > 0 ? 100.0 * gbs_[name] / copy : 0.0, own_ratio_[name]);
       }
+    for (int p = 2; p <= 3; ++p) {
+      const std::string mf = "BM_MatrixFree/p" + std::to_string(p), bin = "BM_SpMV/bin-bcsr/p" + std::to_string(p);
+      if (!seconds_.count(mf)) continue;
+      std::printf("matrix-free p = %d: %.1f us (%.1f GB/s, %.0f GFLOP/s by the CPU cost model)", p, 1e6 * seconds_[mf],
+                  gbs_[mf], gflops_[mf]);
+      if (seconds_.count(bin)) std::printf(", BIN-BCSR %.1f us: matrix-free %.2fx faster", 1e6 * seconds_[bin],
+                                           seconds_[bin] / seconds_[mf]);
+      std::printf("\n");
+    }
     if (seconds_.count("BM_MCG") && seconds_.count("BM_LibraryPCG"))
       std::printf("MCG %.3f ms/iteration, library PCG %.3f ms/iteration: MCG %.2fx faster\n",
                   1e3 * seconds_["BM_MCG"] / g_iterations, 1e3 * seconds_["BM_LibraryPCG"] / g_iterations,
@@ -242,7 +270,7 @@ class SummaryReporter : public benchmark::ConsoleReporter {
   }
 
  private:
-  std::map<std::string, double> seconds_, gbs_, own_ratio_;
+  std::map<std::string, double> seconds_, gbs_, own_ratio_, gflops_;
 };
 
 }  // namespace
@@ -271,6 +299,8 @@ int main(int argc, char** argv) {
           [f, p](benchmark::State& s) { BM_SpMV(s, f, p); });
   reg("BM_MCG", BM_MCG);
   reg("BM_LibraryPCG", BM_LibraryPCG);
+  for (int p = 2; p <= 3; ++p)
+    reg("BM_MatrixFree/p" + std::to_string(p), [p](benchmark::State& s) { BM_MatrixFree(s, p); });
   reg("BM_VCycle_GPU", BM_VCycle_GPU);
   reg("BM_VCycle_CPU", BM_VCycle_CPU);
   SummaryReporter reporter;

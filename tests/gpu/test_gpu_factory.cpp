@@ -118,7 +118,7 @@ TEST_CASE("gpu-mgpcg on matrix-free levels reaches the tolerance like the CPU mg
   A.residual(b, x, res);
   CHECK(res.norm() <= 1e-7 * b.norm());
   // The CPU mgpcg with the same smoother and levels takes the same number of iterations (±1).
-  auto cpu = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-8"}, "test"), ctx);
+  auto cpu = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-8", "precision=double"}, "test"), ctx);
   cpu->setup(A);
   Vector y = Vector::Zero(b.size());
   const SolveResult rc = cpu->solve(b, y);
