@@ -3,7 +3,7 @@
 # each converges to the tolerance by the true residual. Exits 77 (skipped) without a CUDA device.
 set -u
 pmg=$1
-out=$("$pmg" compare --box 3 1 1 -p 3 --solvers gpu-pmg,gpu-mcg,gpu-pcg,mgpcg -t 1e-8 2>&1)
+out=$("$pmg" compare --box 3 1 1 -p 3 --solvers gpu-pmg,gpu-mcg,gpu-pcg,gpu-mgpcg,mgpcg -t 1e-8 2>&1)
 rc=$?
 printf '%s\n' "$out"
 if printf '%s\n' "$out" | grep -q "no CUDA device or driver"; then
@@ -11,7 +11,7 @@ if printf '%s\n' "$out" | grep -q "no CUDA device or driver"; then
   exit 77
 fi
 if [ "$rc" -ne 0 ]; then echo "gpu_solvers.sh: exit code $rc"; exit 1; fi
-for s in gpu-pmg gpu-mcg gpu-pcg mgpcg; do
+for s in gpu-pmg gpu-mcg gpu-pcg gpu-mgpcg mgpcg; do
   printf '%s\n' "$out" | grep -Eq "^$s +converged" || { echo "gpu_solvers.sh: $s did not converge"; exit 1; }
 done
 exit 0
