@@ -169,6 +169,18 @@ class LibraryPcgSolver final : public DeviceSolver {
   std::unique_ptr<LibraryPcg> pcg_;
 };
 
+/// The levels a device cycle can take: at least two, no components held on their own. Returns
+/// their number.
+int check_device_levels(const mg::LevelProvider& levels, const std::string& method) {
+  const int L = levels.num_levels();
+  if (L < 2) throw InputError(method + ": needs at least two levels (a degree >= 2 hierarchy)");
+  for (int l = 0; l < L; ++l)
+    if (levels.constrained_dofs(l))
+      throw InputError(method + ": " + levels.level_name(l) + " has components constrained on their own "
+                       "(symmetry planes, rollers), which the device cycle's transfers do not mask; use mgpcg");
+  return L;
+}
+
 class PmgSolver final : public DeviceSolver {
  public:
   PmgSolver(KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev)
@@ -178,12 +190,7 @@ class PmgSolver final : public DeviceSolver {
 
  private:
   void upload_system(const Bcsr& A) override {
-    const int L = levels_.num_levels();
-    if (L < 2) throw InputError("gpu-pmg: needs at least two levels (a degree >= 2 hierarchy)");
-    for (int l = 0; l < L; ++l)
-      if (levels_.constrained_dofs(l))
-        throw InputError("gpu-pmg: " + levels_.level_name(l) + " has components constrained on their own "
-                         "(symmetry planes, rollers), which the device cycle's transfers do not mask; use mgpcg");
+    const int L = check_device_levels(levels_, name());
     if (levels_.matrix(L - 1).rows() != A.rows())
       throw InputError("gpu-pmg: the system is not the finest level of the hierarchy (" +
                        std::to_string(A.rows()) + " vs " + std::to_string(levels_.matrix(L - 1).rows()) +
@@ -229,12 +236,7 @@ class MgpcgSolver final : public DeviceSolver {
   void update_system(const Bcsr&) override { cycle_->update(); }
   void update_operator(const LinearOperator&) override { cycle_->update(); }
   void upload_operator(const LinearOperator& A) override {
-    const int L = levels_.num_levels();
-    if (L < 2) throw InputError("gpu-mgpcg: needs at least two levels (a degree >= 2 hierarchy)");
-    for (int l = 0; l < L; ++l)
-      if (levels_.constrained_dofs(l))
-        throw InputError("gpu-mgpcg: " + levels_.level_name(l) + " has components constrained on their own "
-                         "(symmetry planes, rollers), which the device cycle does not mask; use mgpcg");
+    const int L = check_device_levels(levels_, name());
     std::vector<const Bcsr*> matrices(static_cast<std::size_t>(L), nullptr);
     std::vector<const LinearOperator*> operators(static_cast<std::size_t>(L), nullptr);
     matrices[0] = &levels_.matrix(0);
