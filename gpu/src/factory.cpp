@@ -82,7 +82,8 @@ class DeviceSolver : public Solver {
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override {
     return run(b, x, params_, monitor);
   }
-  SolveResult run(const Vector& b, Vector& x, const KrylovParams& p, SolveMonitor* monitor) const {
+  SolveResult run(const Vector& b, Vector& x, const KrylovParams& given, SolveMonitor* monitor) const {
+    const KrylovParams p = with_rhs_floor(given, b);  // rhs_floor raises abs_tol, as the CPU solvers do
     const auto t0 = Clock::now();
     b_.upload(b);
     x_.upload(x);
@@ -249,6 +250,8 @@ class MgpcgSolver final : public DeviceSolver {
                            " has no matrix-free elasticity operator; use operator=assembled");
         operators[static_cast<std::size_t>(l)] = op;
       } else {
+        if (!finest && !levels_.has_matrix(l))
+          throw InputError("gpu-mgpcg: " + levels_.level_name(l) + " has no assembled matrix; use operator=matrix-free");
         matrices[static_cast<std::size_t>(l)] = finest ? &as_bcsr(A, name()) : &levels_.matrix(l);
       }
     }
@@ -268,9 +271,12 @@ class MgpcgSolver final : public DeviceSolver {
     return mgpcg_solve(*cycle_, b, x, p, monitor);
   }
   std::string describe_device() const override {
+    const char* kind = chebyshev_.kind == mg::ChebyshevKind::first    ? "first"
+                       : chebyshev_.kind == mg::ChebyshevKind::fourth ? "fourth"
+                                                                      : "optimised fourth";
     return std::to_string(cycle_ ? cycle_->num_levels() : 0) + " levels" +
            (matrix_free_ ? ", matrix-free" : ", assembled (BIN-BCSR)") + ", Chebyshev degree " +
-           std::to_string(chebyshev_.degree) + ", CHOLMOD on the host below";
+           std::to_string(chebyshev_.degree) + " (" + kind + " kind), CHOLMOD on the host below";
   }
 
   const mg::LevelProvider& levels_;
@@ -287,7 +293,7 @@ struct GpuMgpcgParams {
   double lower_fraction = mg::ChebyshevParams{}.lower_fraction;
   std::string op = "auto";
   void visit(ParamVisitor& v) {
-    v.integer("degree", degree, 1, 6, "Chebyshev degree of the device smoother (the optimised fourth kind has weights to 6)");
+    v.integer("degree", degree, 1, 64, "Chebyshev degree of the device smoother (the optimised fourth kind: 1 to 6)");
     v.choice("kind", kind,
              {{"first", mg::ChebyshevKind::first}, {"fourth", mg::ChebyshevKind::fourth},
               {"opt-fourth", mg::ChebyshevKind::optimal_fourth}},
@@ -348,6 +354,12 @@ void register_solvers() {
                             cheb.degree = g.degree;
                             cheb.kind = g.kind;
                             cheb.lower_fraction = g.lower_fraction;
+                            cheb.update_iterations = 1;  // as the CPU mgpcg: one warm-started power step per update
+                            try {
+                              const mg::Chebyshev check(cheb);  // the smoother's own checks (opt-fourth: degree <= 6)
+                            } catch (const InputError& e) {
+                              c.fail("degree", e.what());
+                            }
                             const bool mf = g.op == "matrix-free" || (g.op == "auto" && ctx.levels->offers_matrix_free());
                             if (g.op == "matrix-free" && !ctx.levels->offers_matrix_free())
                               c.fail("operator", "the hierarchy offers no matrix-free operators (an FEM scene's levels do)");

@@ -53,6 +53,7 @@ struct VCycle::Level {
   std::unique_ptr<DeviceBinBcsr> device;
   std::unique_ptr<DeviceElasticityOperator> mf;
   DeviceArray<double> inv_diag;
+  std::unique_ptr<mg::Chebyshev> cheb;   ///< the CPU smoother on the host operator: D⁻¹ and λmax
   std::vector<mg::ChebyshevStep> steps;  ///< the CPU smoother's polynomial for this level's λmax
   std::unique_ptr<DeviceCsr> P, R;  ///< from the level below to this one, and back
   mutable DeviceVector b, x, r, d, q;  ///< b, x: this level's equation when it is not the finest
@@ -66,6 +67,7 @@ struct VCycle::Level {
     else device->multiply(v, y);
   }
   void residual(const DeviceVector& rhs, const DeviceVector& v, DeviceVector& res) const {
+    if (n == 0) return;
     if (!mf) return device->residual(rhs, v, res);
     mf->multiply(v, res);
     subtract_kernel<<<detail::blocks_for(n), kThreads>>>(static_cast<int>(n), rhs.data(), res.data(), res.data());
@@ -139,11 +141,14 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
 
 VCycle::~VCycle() = default;
 
-// D⁻¹ (checked SPD) and λmax from the CPU smoother, so both cycles apply the same polynomial.
+// D⁻¹ (checked SPD) and λmax from the CPU smoother, so both cycles apply the same polynomial. The
+// smoother is kept: update() refreshes it as the CPU cycle does (chebyshev_.update_iterations
+// warm-started power steps, or a new estimate).
 void VCycle::set_up_smoother(Level& L) const {
-  const mg::Chebyshev cheb(L.host_operator(), chebyshev_);
-  L.steps = cheb.steps();
-  L.inv_diag.upload(cheb.inverse_diagonal());
+  if (L.cheb) L.cheb->update();
+  else L.cheb = std::make_unique<mg::Chebyshev>(L.host_operator(), chebyshev_);
+  L.steps = L.cheb->steps();
+  L.inv_diag.upload(L.cheb->inverse_diagonal());
 }
 
 void VCycle::update() {
@@ -188,15 +193,18 @@ void VCycle::residual(const DeviceVector& b, const DeviceVector& x, DeviceVector
 // Chebyshev on D⁻¹A: the steps of mg::chebyshev_steps, as mg::Chebyshev::smooth takes them. First
 // kind: the residual b - A x before each step; fourth kinds: one residual, then r -= A d after each
 // step with the unweighted d, and x += w d (Lottes' weights for the optimised kind).
-void VCycle::smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const {
+// From x = 0 (x_is_zero) the first residual is b itself: one product fewer, as the CPU smoother's
+// pre_smooth_from_zero.
+void VCycle::smooth(const Level& L, const DeviceVector& b, DeviceVector& x, bool x_is_zero) const {
+  if (L.n == 0) return;
   const int nb = static_cast<int>(L.n / 3);
   const unsigned grid = detail::blocks_for(nb);
   const bool first_kind = chebyshev_.kind == mg::ChebyshevKind::first;
   const int m = static_cast<int>(L.steps.size());
-  if (!first_kind) L.residual(b, x, L.r);
   for (int k = 0; k < m; ++k) {
     const mg::ChebyshevStep& s = L.steps[static_cast<std::size_t>(k)];
-    if (first_kind) L.residual(b, x, L.r);
+    if (k == 0 && x_is_zero) L.r.assign(b);
+    else if (k == 0 || first_kind) L.residual(b, x, L.r);
     chebyshev_kernel<<<grid, kThreads>>>(nb, L.inv_diag.data(), L.r.data(), L.d.data(), x.data(), s.c1, s.c2,
                                          s.weight);
     PMG_LAUNCHED("chebyshev_kernel");
@@ -208,7 +216,7 @@ void VCycle::smooth(const Level& L, const DeviceVector& b, DeviceVector& x) cons
   }
 }
 
-void VCycle::cycle(int l, const DeviceVector& b, DeviceVector& x) const {
+void VCycle::cycle(int l, const DeviceVector& b, DeviceVector& x, bool x_is_zero) const {
   if (l == 0) {
     b.download(coarse_b_);
     coarse_->apply(coarse_b_, coarse_x_);
@@ -217,25 +225,27 @@ void VCycle::cycle(int l, const DeviceVector& b, DeviceVector& x) const {
   }
   const Level& L = *levels_[l];
   Level& C = *levels_[l - 1];
-  smooth(L, b, x);
+  smooth(L, b, x, x_is_zero);
   L.residual(b, x, L.r);
   transfer(*L.R, L.r, C.b, false);
   C.x.set_zero();
-  cycle(l - 1, C.b, C.x);
+  cycle(l - 1, C.b, C.x, true);
   transfer(*L.P, C.x, x, true);
-  smooth(L, b, x);
+  smooth(L, b, x, false);
 }
 
 void VCycle::cycle(const DeviceVector& b, DeviceVector& x) const {
   const std::size_t n = static_cast<std::size_t>(rows());
   if (b.size() != n || x.size() != n) throw InputError("gpu::VCycle::cycle: vectors do not match the finest level");
-  cycle(num_levels() - 1, b, x);
+  cycle(num_levels() - 1, b, x, false);
 }
 
 void VCycle::apply(const DeviceVector& r, DeviceVector& z) const {
   z.resize(r.size());
   z.set_zero();
-  cycle(r, z);
+  const std::size_t n = static_cast<std::size_t>(rows());
+  if (r.size() != n) throw InputError("gpu::VCycle::apply: vectors do not match the finest level");
+  cycle(num_levels() - 1, r, z, true);
 }
 
 }  // namespace pmg::gpu

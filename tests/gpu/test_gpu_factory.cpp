@@ -54,6 +54,9 @@ TEST_CASE("GPU methods refuse what they cannot use, naming the key", "[gpu][fact
   REQUIRE_THROWS_WITH(make_solver(Config::from_pairs({"method=gpu-mgpcg", "kind=second"}, "test"), ctx),
                       Catch::Contains("kind"));
   REQUIRE_THROWS_WITH(make_solver(Config::from_pairs({"method=gpu-mgpcg", "degree=7"}, "test"), ctx),
+                      Catch::Contains("degree"));  // the optimised fourth kind: 1 to 6
+  CHECK_NOTHROW(make_solver(Config::from_pairs({"method=gpu-mgpcg", "degree=7", "kind=fourth"}, "test"), ctx));
+  REQUIRE_THROWS_WITH(make_solver(Config::from_pairs({"method=gpu-mgpcg", "degree=65", "kind=first"}, "test"), ctx),
                       Catch::Contains("degree"));
   REQUIRE_THROWS_WITH(make_solver(Config::from_pairs({"method=gpu-mgpcg", "operator=csr"}, "test"), ctx),
                       Catch::Contains("operator"));

@@ -132,8 +132,8 @@ class VCycle {
  private:
   struct Level;
   void set_up_smoother(Level& L) const;
-  void cycle(int level, const DeviceVector& b, DeviceVector& x) const;
-  void smooth(const Level& L, const DeviceVector& b, DeviceVector& x) const;
+  void cycle(int level, const DeviceVector& b, DeviceVector& x, bool x_is_zero) const;
+  void smooth(const Level& L, const DeviceVector& b, DeviceVector& x, bool x_is_zero) const;
 
   std::vector<const Bcsr*> matrices_;
   std::vector<const mg::BlockTransfer*> transfers_;
