@@ -148,17 +148,26 @@ TEST_CASE("the GPU fourth-kind step sequence reproduces mg::Chebyshev smoothing"
     const std::vector<double>& inv = cheb.inverse_diagonal();
     const std::vector<mg::ChebyshevStep>& steps = cheb.steps();
     REQUIRE(steps.size() == 4);
-    Vector r, q, d = Vector::Constant(A.rows(), std::nan(""));  // step 0 must not read d
-    A.residual(b, x, r);
-    for (std::size_t k = 0; k < steps.size(); ++k) {
-      for (int I = 0; I < A.block_rows(); ++I)
-        gpu::detail::chebyshev_block(inv.data(), r.data(), d.data(), x.data(), I, steps[k].c1, steps[k].c2,
-                                     steps[k].weight);
-      if (k + 1 < steps.size()) {
-        A.apply(d, q);
-        r -= q;
+    // From x, and from x = 0 with r = b (VCycle's zero start, the CPU's pre_smooth_from_zero).
+    auto smooth = [&](Vector& v, bool from_zero) {
+      Vector r, q, d = Vector::Constant(A.rows(), std::nan(""));  // step 0 must not read d
+      if (from_zero) r = b;
+      else A.residual(b, v, r);
+      for (std::size_t k = 0; k < steps.size(); ++k) {
+        for (int I = 0; I < A.block_rows(); ++I)
+          gpu::detail::chebyshev_block(inv.data(), r.data(), d.data(), v.data(), I, steps[k].c1, steps[k].c2,
+                                       steps[k].weight);
+        if (k + 1 < steps.size()) {
+          A.apply(d, q);
+          r -= q;
+        }
       }
-    }
+    };
+    smooth(x, false);
     CHECK(test::rel_diff(x, x_ref) < 1e-12);
+    Vector z_ref = Vector::Zero(A.rows()), z = Vector::Zero(A.rows());
+    cheb.pre_smooth_from_zero(b, z_ref);
+    smooth(z, true);
+    CHECK(test::rel_diff(z, z_ref) < 1e-12);
   }
 }
