@@ -16,8 +16,6 @@ namespace pmg::fem {
 
 namespace {
 
-constexpr int nodes_of(int p) { return (p + 1) * (p + 2) * (p + 3) / 6; }
-
 /// Local index (in multi_indices(P): vertices, edges 01 02 03 12 13 23 from first to second vertex,
 /// faces 012 013 023 123) of the multi-index a, at compile time.
 constexpr int local_index_of(int P, const int (&a)[4]) {
@@ -38,7 +36,7 @@ constexpr int local_index_of(int P, const int (&a)[4]) {
 /// v[β][k] = local index of β + e_k, for the degree-(P-1) multi-indices β in the order of Tables.
 template <int P>
 struct UpTable {
-  int v[nodes_of(P - 1)][4] = {};
+  int v[element_nodes(P - 1)][4] = {};
   constexpr UpTable() {
     int i = 0;
     for (int a = 0; a <= P - 1; ++a)
@@ -52,58 +50,39 @@ struct UpTable {
   }
 };
 
-/// Per-degree tables: Q = ∫ B^{p-1}_γ B^{p-1}_β / (6V); P = ∫ B^p_a B^p_b / (6V).
+}  // namespace
+
+// The per-degree tables (pmg/fem/element_kernel.hpp): q = ∫ B^{p-1}_γ B^{p-1}_β / (6V),
+// mass = ∫ B^p_a B^p_b / (6V), up = the compile-time UpTable, gdiag = the G_aa of element_tables().
+// The CPU kernels below read q and mass from the same object.
 template <int P>
-struct Tables {
-  static constexpr int N = nodes_of(P), Q = nodes_of(P - 1);
-  double q[Q][Q];
-  double mass[N][N];
-  Tables() {
+const ElementKernelTables<P>& element_kernel_tables() {
+  static const ElementKernelTables<P> k = [] {
+    ElementKernelTables<P> t{};
+    constexpr int N = ElementKernelTables<P>::N, Q = ElementKernelTables<P>::Q;
+    constexpr UpTable<P> up{};
     std::vector<MultiIndex> beta;
     for (int a = 0; a <= P - 1; ++a)
       for (int b = 0; a + b <= P - 1; ++b)
         for (int c = 0; a + b + c <= P - 1; ++c) beta.push_back({a, b, c, P - 1 - a - b - c});
     for (int i = 0; i < Q; ++i) {
-      for (int k = 0; k < 4; ++k) {
+      for (int kk = 0; kk < 4; ++kk) {
         MultiIndex a = beta[i];
-        ++a[k];
-        if (UpTable<P>{}.v[i][k] != local_index(a))  // the compile-time table follows multi_indices()
+        ++a[kk];
+        if (up.v[i][kk] != local_index(a))  // the compile-time table follows multi_indices()
           throw std::logic_error("matrix-free operator: node order table out of date");
+        t.up[i][kk] = up.v[i][kk];
       }
-      for (int j = 0; j < Q; ++j) q[i][j] = bernstein_product_integral(beta[i], beta[j]);
+      for (int j = 0; j < Q; ++j) t.q[i][j] = bernstein_product_integral(beta[i], beta[j]);
     }
     const auto& alpha = multi_indices(P);
-    for (int a = 0; a < N; ++a)
-      for (int b = 0; b < N; ++b) mass[a][b] = bernstein_product_integral(alpha[a], alpha[b]);
-  }
-};
-
-template <int P>
-const Tables<P>& tables() {
-  static const Tables<P> t;
-  return t;
-}
-
-}  // namespace
-
-template <int P>
-const ElementKernelTables<P>& element_kernel_tables() {
-  static const ElementKernelTables<P> k = [] {
-    ElementKernelTables<P> out{};
-    constexpr int N = ElementKernelTables<P>::N, Q = ElementKernelTables<P>::Q;
-    constexpr UpTable<P> up{};
-    const Tables<P>& t = tables<P>();
     const ElementTables& e = element_tables(P);
-    for (int b = 0; b < Q; ++b) {
-      for (int k = 0; k < 4; ++k) out.up[b][k] = up.v[b][k];
-      for (int c = 0; c < Q; ++c) out.q[b][c] = t.q[b][c];
-    }
     for (int a = 0; a < N; ++a) {
-      for (int b = 0; b < N; ++b) out.mass[a][b] = t.mass[a][b];
-      for (int k = 0; k < 4; ++k)
-        for (int l = 0; l < 4; ++l) out.gdiag[a][4 * k + l] = e.G[static_cast<size_t>(a * N + a)](k, l);
+      for (int b = 0; b < N; ++b) t.mass[a][b] = bernstein_product_integral(alpha[a], alpha[b]);
+      for (int kk = 0; kk < 4; ++kk)
+        for (int l = 0; l < 4; ++l) t.gdiag[a][4 * kk + l] = e.G[static_cast<size_t>(a * N + a)](kk, l);
     }
-    return out;
+    return t;
   }();
   return k;
 }
@@ -112,6 +91,14 @@ template const ElementKernelTables<2>& element_kernel_tables<2>();
 template const ElementKernelTables<3>& element_kernel_tables<3>();
 
 namespace {
+
+template <int P>
+using Tables = ElementKernelTables<P>;
+
+template <int P>
+const Tables<P>& tables() {
+  return element_kernel_tables<P>();
+}
 
 /// Element data, 16 doubles: g_k = R ∇λ_k (row-major 4x3), then 6V p² s λ_e, 6V p² s μ_e, 6V ρ m
 /// (pmg/fem/element_kernel.hpp).
@@ -783,7 +770,7 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
 }
 
 double ElasticityOperator::flops_per_apply() const {
-  const double n = impl_->n, q = nodes_of(impl_->p - 1);
+  const double n = impl_->n, q = element_nodes(impl_->p - 1);
   const double per = 72 * q + 18 * q * q + 12 * q + 72 * q + (mass_weight_ != 0 ? 6 * n * n : 0.0);
   return per * static_cast<double>(impl_->num_elements);
 }

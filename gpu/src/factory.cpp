@@ -182,54 +182,16 @@ int check_device_levels(const mg::LevelProvider& levels, const std::string& meth
   return L;
 }
 
-class PmgSolver final : public DeviceSolver {
+/// gpu-pmg and gpu-mgpcg: one device V-cycle (gpu::VCycle) on the hierarchy's levels, matrix-free
+/// (DeviceElasticityOperator) or assembled (BIN-BCSR) above the lowest, run as a stationary
+/// iteration (gpu::multigrid_solve) or as MGPCG's preconditioner (gpu::mgpcg_solve).
+class CycleSolver final : public DeviceSolver {
  public:
-  PmgSolver(KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev)
-      : DeviceSolver(params), levels_(levels), chebyshev_(chebyshev) {}
-  std::string name() const override { return "gpu-pmg"; }
-  SolverNeeds needs() const override { return {true, false}; }
-
- private:
-  void upload_system(const Bcsr& A) override {
-    const int L = check_device_levels(levels_, name());
-    if (levels_.matrix(L - 1).rows() != A.rows())
-      throw InputError("gpu-pmg: the system is not the finest level of the hierarchy (" +
-                       std::to_string(A.rows()) + " vs " + std::to_string(levels_.matrix(L - 1).rows()) +
-                       " unknowns)");
-    cycle_.reset();
-    transfers_.clear();
-    transfers_.reserve(static_cast<std::size_t>(L - 1));
-    std::vector<const Bcsr*> matrices;
-    for (int l = 0; l + 1 < L; ++l) matrices.push_back(&levels_.matrix(l));
-    matrices.push_back(&A);
-    std::vector<const mg::BlockTransfer*> transfers;
-    for (int l = 1; l < L; ++l) transfers_.emplace_back(levels_.prolongation(l));
-    for (const auto& t : transfers_) transfers.push_back(&t);
-    cycle_ = std::make_unique<VCycle>(matrices, transfers, chebyshev_);
-  }
-  void update_system(const Bcsr&) override { cycle_->update(); }
-  SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
-                           SolveMonitor* monitor) const override {
-    return multigrid_solve(*cycle_, b, x, p, monitor);
-  }
-  std::string describe_device() const override {
-    return std::to_string(cycle_ ? cycle_->num_levels() : 0) + " levels, Chebyshev degree " +
-           std::to_string(chebyshev_.degree) + " (first kind), CHOLMOD on the host below";
-  }
-
-  const mg::LevelProvider& levels_;
-  mg::ChebyshevParams chebyshev_;
-  std::vector<mg::BlockTransfer> transfers_;
-  std::unique_ptr<VCycle> cycle_;
-};
-
-/// gpu-mgpcg: PCG on the device preconditioned by one device V-cycle (gpu::mgpcg_solve), on
-/// matrix-free levels (DeviceElasticityOperator) or the assembled ones (BIN-BCSR).
-class MgpcgSolver final : public DeviceSolver {
- public:
-  MgpcgSolver(KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev, bool matrix_free)
-      : DeviceSolver(params), levels_(levels), chebyshev_(chebyshev), matrix_free_(matrix_free) {}
-  std::string name() const override { return "gpu-mgpcg"; }
+  CycleSolver(std::string name, KrylovParams params, const mg::LevelProvider& levels, mg::ChebyshevParams chebyshev,
+              bool matrix_free, bool krylov)
+      : DeviceSolver(params), name_(std::move(name)), levels_(levels), chebyshev_(chebyshev),
+        matrix_free_(matrix_free), krylov_(krylov) {}
+  std::string name() const override { return name_; }
   SolverNeeds needs() const override { return {true, matrix_free_}; }
 
  private:
@@ -246,18 +208,19 @@ class MgpcgSolver final : public DeviceSolver {
       if (matrix_free_) {
         const LinearOperator* op = finest ? &A : levels_.matrix_free_operator(l);
         if (!op || !dynamic_cast<const fem::ElasticityOperator*>(op))
-          throw InputError("gpu-mgpcg: " + levels_.level_name(l) +
+          throw InputError(name() + ": " + levels_.level_name(l) +
                            " has no matrix-free elasticity operator; use operator=assembled");
         operators[static_cast<std::size_t>(l)] = op;
       } else {
         if (!finest && !levels_.has_matrix(l))
-          throw InputError("gpu-mgpcg: " + levels_.level_name(l) + " has no assembled matrix; use operator=matrix-free");
+          throw InputError(name() + ": " + levels_.level_name(l) + " has no assembled matrix");
         matrices[static_cast<std::size_t>(l)] = finest ? &as_bcsr(A, name()) : &levels_.matrix(l);
       }
     }
-    const index_t finest_rows = matrix_free_ ? operators.back()->rows() : matrices.back()->rows();
+    const index_t finest_rows = matrix_free_ ? operators.back()->rows() : levels_.matrix(L - 1).rows();
     if (finest_rows != A.rows())
-      throw InputError("gpu-mgpcg: the system is not the finest level of the hierarchy");
+      throw InputError(name() + ": the system is not the finest level of the hierarchy (" + std::to_string(A.rows()) +
+                       " vs " + std::to_string(finest_rows) + " unknowns)");
     cycle_.reset();
     transfers_.clear();
     transfers_.reserve(static_cast<std::size_t>(L - 1));
@@ -268,7 +231,7 @@ class MgpcgSolver final : public DeviceSolver {
   }
   SolveResult device_solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& p,
                            SolveMonitor* monitor) const override {
-    return mgpcg_solve(*cycle_, b, x, p, monitor);
+    return krylov_ ? mgpcg_solve(*cycle_, b, x, p, monitor) : multigrid_solve(*cycle_, b, x, p, monitor);
   }
   std::string describe_device() const override {
     const char* kind = chebyshev_.kind == mg::ChebyshevKind::first    ? "first"
@@ -279,9 +242,10 @@ class MgpcgSolver final : public DeviceSolver {
            std::to_string(chebyshev_.degree) + " (" + kind + " kind), CHOLMOD on the host below";
   }
 
+  std::string name_;
   const mg::LevelProvider& levels_;
   mg::ChebyshevParams chebyshev_;
-  bool matrix_free_;
+  bool matrix_free_, krylov_;
   std::vector<mg::BlockTransfer> transfers_;
   std::unique_ptr<VCycle> cycle_;
 };
@@ -341,7 +305,7 @@ void register_solvers() {
                     mg::ChebyshevParams cheb;
                     cheb.degree = g.degree;
                     cheb.lower_fraction = g.lower_fraction;
-                    return std::make_unique<PmgSolver>(read_krylov(c), *ctx.levels, cheb);
+                    return std::make_unique<CycleSolver>("gpu-pmg", read_krylov(c), *ctx.levels, cheb, false, false);
                   });
   register_builtin_solver({"gpu-mgpcg",
                            "GPU: PCG preconditioned by a Chebyshev V-cycle on the GPU (matrix-free or assembled "
@@ -363,7 +327,7 @@ void register_solvers() {
                             const bool mf = g.op == "matrix-free" || (g.op == "auto" && ctx.levels->offers_matrix_free());
                             if (g.op == "matrix-free" && !ctx.levels->offers_matrix_free())
                               c.fail("operator", "the hierarchy offers no matrix-free operators (an FEM scene's levels do)");
-                            return std::make_unique<MgpcgSolver>(read_krylov(c), *ctx.levels, cheb, mf);
+                            return std::make_unique<CycleSolver>("gpu-mgpcg", read_krylov(c), *ctx.levels, cheb, mf, true);
                           });
 }
 

@@ -248,6 +248,11 @@ class Bcsr(_Format):
     def num_blocks(self):
         return self._m.num_blocks
 
+    @property
+    def bytes_per_spmv(self):
+        """The least bytes one SpMV moves (9 values and a block column per block, row pointers, x, y)."""
+        return self._m.bytes_per_spmv
+
     def to_scipy(self):
         """A scipy bsr_matrix viewing pmgkit's arrays (no copy)."""
         return _to_scipy_bsr(self._m.arrays())

@@ -535,6 +535,7 @@ PYBIND11_MODULE(_core, m) {
       }))
       .def_property_readonly("shape", [](const Bcsr& A) { return py::make_tuple(A.rows(), A.cols()); })
       .def_property_readonly("num_blocks", &Bcsr::num_blocks)
+      .def_property_readonly("bytes_per_spmv", &Bcsr::bytes_per_spmv)
       .def("matvec", &matvec<Bcsr>, py::arg("x"), py::arg("out") = py::none())
       .def("arrays", [](py::object self) { return bsr_arrays(self.cast<const Bcsr&>(), self); });
   py::class_<BinBcsr>(m, "BinBcsr")
@@ -544,7 +545,6 @@ PYBIND11_MODULE(_core, m) {
            py::arg("A"), py::arg("lanes") = 0, py::arg("sort_window") = 0)
       .def_property_readonly("lanes", &BinBcsr::lanes)
       .def_property_readonly("sort_window", &BinBcsr::sort_window)
-      .def_property_readonly("bcsr_bytes_per_spmv", &BinBcsr::bcsr_bytes_per_spmv)
       .def_property_readonly("shape", [](const BinBcsr& A) { return py::make_tuple(A.rows(), A.cols()); })
       .def_property_readonly("num_bins", &BinBcsr::num_bins)
       .def_property_readonly("padding_ratio", &BinBcsr::padding_ratio)

@@ -157,10 +157,6 @@ double BinBcsr::bytes_per_spmv() const {
          2.0 * 8.0 * rows();
 }
 
-double BinBcsr::bcsr_bytes_per_spmv() const {
-  return 76.0 * static_cast<double>(source_blocks_) + 8.0 * (block_rows_ + 1) + 2.0 * 8.0 * rows();
-}
-
 // Per bin: the 32 lanes' partial sums, each in bin_bcsr_lane's order (its diagonal product, then
 // its steps in turn) but computed step by step across the lanes, which reads the bin's values in
 // storage order; then each row's sum tree and its first lane's result. tests/gpu checks this

@@ -158,9 +158,6 @@ class BinBcsr final : public LinearOperator {
   /// Bytes one SpMV moves at least: values and columns with padding, diagonal blocks, the
   /// permutation, widths and offsets, x once and y once.
   double bytes_per_spmv() const;
-  /// The same count for a plain BCSR SpMV of the source (76 bytes per block, row pointers, x, y),
-  /// the yardstick of bytes_per_spmv().
-  double bcsr_bytes_per_spmv() const;
 
   /// Raw kernel: y[0:rows) = A x (x has cols() entries; x and y must not overlap). OpenMP parallel
   /// over bins; the same lanes, per-lane order and sum tree as the device.
