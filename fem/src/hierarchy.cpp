@@ -179,6 +179,13 @@ void DegreeHierarchy::assemble_level(int l, ElasticityModel::ElementPass pass, d
   record(l, pass.R, mass_weight, stiffness_weight);
 }
 
+const Csr& DegreeHierarchy::prolongation(int level) const {
+  if (level < 1 || level >= num_levels())
+    throw InputError("hierarchy: no prolongation into level " + std::to_string(level) + " (levels 1 to " +
+                     std::to_string(num_levels() - 1) + " have one)");
+  return prolongations_[level - 1];
+}
+
 Bcsr& DegreeHierarchy::matrix_storage(int l) const {
   if (l < 0 || l >= num_levels()) throw InputError("hierarchy: no level " + std::to_string(l));
   Bcsr& A = matrices_[l];

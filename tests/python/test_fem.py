@@ -41,6 +41,13 @@ def test_model_matrices_match_the_hierarchy(cubic_box):
     g = m.gravity([0, 0, -9.81])
     assert g.shape == (m.num_dofs,)
     assert g[2::3].sum() == pytest.approx(-9.81 * 1e3 * 2.0, rel=1e-12)  # rho g V
+    # levels and prolongations out of range: an exception naming them, never a crash
+    with pytest.raises(pmgkit.InputError, match="no prolongation into level 0"):
+        h.prolongation(0)
+    with pytest.raises(pmgkit.InputError, match="no prolongation into level 3"):
+        h.prolongation(h.num_levels)
+    with pytest.raises(pmgkit.InputError, match="no level -1"):
+        h.matrix(-1)
 
 
 def test_static_cantilever_against_the_multigrid_and_point_evaluation(cubic_box):

@@ -72,8 +72,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// its matrix-free operator never holds one).
   Bcsr& matrix(int level) { return matrix_storage(level); }
   const Bcsr& matrix(int level) const override { return matrix_storage(level); }
-  /// Prolongation from level-1 to level (level >= 1).
-  const Csr& prolongation(int level) const override { return prolongations_[level - 1]; }
+  /// Prolongation from level-1 to level (1 <= level < num_levels(); else InputError).
+  const Csr& prolongation(int level) const override;
   Csr interpolating_restriction(int level) const override;
 
   /// The matrix-free operator (ElasticityOperator) of a level of degree >= 2; nullptr for the
