@@ -194,7 +194,7 @@ TetMesh read_gmsh(std::istream& in, const std::string& path, std::vector<std::st
     } else if (section[0] == '$') {
       gmsh_skip_section(rd, section);
     } else {
-      rd.fail("expected a $Section, found '" + line.substr(0, 80) + "'");
+      rd.fail("expected a $Section, found '" + printable(line) + "'");
     }
   }
   if (version == 0.0) throw MeshError(path + ": no $MeshFormat section: not a Gmsh .msh file");

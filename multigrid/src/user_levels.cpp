@@ -337,7 +337,41 @@ void UserLevels::set_values(const std::vector<CsrView>& matrices) {
   refresh_values(matrices);
 }
 
+const Bcsr& UserLevels::matrix(int level) const {
+  if (level < 0 || level >= num_levels())
+    throw InputError("multigrid levels: no level " + std::to_string(level) + " (levels 0 to " +
+                     std::to_string(num_levels() - 1) + ")");
+  return levels_[level].A;
+}
+
+const Csr& UserLevels::prolongation(int level) const {
+  if (level < 1 || level >= num_levels())
+    throw InputError("multigrid levels: no prolongation into level " + std::to_string(level) + " (levels 1 to " +
+                     std::to_string(num_levels() - 1) + " have one)");
+  return prolongations_[level - 1];
+}
+
 void UserLevels::refresh_values(const std::vector<CsrView>& matrices) {
+  // All or nothing: a refused update leaves the values it found (a later solve must not run on
+  // matrices that were refused).
+  const int L = num_levels();
+  std::vector<std::vector<double>> kept(levels_.size());
+  for (size_t m = 0; m < matrices.size(); ++m) {
+    const int l = options_.galerkin_only ? L - 1 : static_cast<int>(m);
+    kept[l] = levels_[l].A.values();
+  }
+  const std::vector<double> kept_diag = fixed_diag_;
+  try {
+    write_values(matrices);
+  } catch (...) {
+    for (size_t l = 0; l < kept.size(); ++l)
+      if (!kept[l].empty()) levels_[l].A.values() = std::move(kept[l]);
+    fixed_diag_ = kept_diag;
+    throw;
+  }
+}
+
+void UserLevels::write_values(const std::vector<CsrView>& matrices) {
   const int L = num_levels();
   for (size_t m = 0; m < matrices.size(); ++m) {
     const int l = options_.galerkin_only ? L - 1 : static_cast<int>(m);
@@ -411,6 +445,11 @@ void UserLevels::reduce(Eigen::Ref<const Vector> full, Eigen::Ref<Vector> reduce
   if (reduced.size() != static_cast<Eigen::Index>(free_dof_.size()))
     throw InputError("multigrid levels: reduce: the output has " + std::to_string(reduced.size()) +
                      " entries, the reduced system " + std::to_string(free_dof_.size()) + " (reduced_size())");
+  // The removed rows' entries never reach the solver's own checks: non-finite ones are refused here.
+  for (const index_t i : fixed_dof_)
+    if (!std::isfinite(full[i]))
+      throw InputError("multigrid levels: entry " + std::to_string(i) +
+                       " (an identity row: a clamped node or constrained component) is NaN or Inf");
   for (size_t k = 0; k < free_dof_.size(); ++k) reduced[static_cast<Eigen::Index>(k)] = full[free_dof_[k]];
 }
 

@@ -31,10 +31,12 @@ Eigen::Map<const Vector> view_of(const DoubleArray& a, Eigen::Index n, const std
 Eigen::Map<Vector> writable_view(py::array& a, Eigen::Index n, const std::string& who);
 /// A NumPy array owning `v`'s buffer (moved, not copied).
 py::array_t<double> to_numpy(Vector&& v);
-/// CSR arrays (indptr, indices, data, shape) of a Csr, viewing its storage (kept alive by `self`).
-py::tuple csr_arrays(const Csr& A, py::handle self);
-/// BSR arrays (indptr, indices, data as blocks x 3 x 3, shape) of a Bcsr, viewing its storage.
-py::tuple bsr_arrays(const Bcsr& A, py::handle self);
+/// CSR arrays (indptr, indices, data, shape) of a Csr, viewing its storage (kept alive by `self`),
+/// read-only unless `writeable` (a live matrix's products trust its indices).
+py::tuple csr_arrays(const Csr& A, py::handle self, bool writeable = false);
+/// BSR arrays (indptr, indices, data as blocks x 3 x 3, shape) of a Bcsr, viewing its storage;
+/// read-only unless `writeable`.
+py::tuple bsr_arrays(const Bcsr& A, py::handle self, bool writeable = false);
 /// BSR arrays owning a copy of A (for matrices that change later).
 py::object bsr_copy(const Bcsr& A);
 /// CSR arrays owning a copy of A.

@@ -12,6 +12,7 @@
 #include "pmg/sim/scene.hpp"
 #include "pmg/sim/setup.hpp"
 
+#include <optional>
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
@@ -77,12 +78,24 @@ py::array_t<double> node_positions(const fem::ElasticityModel& m) {
   return points_array(m.space().positions());
 }
 
+/// A predicate's answer: True or False (Python's or NumPy's bool), else InputError naming `who`
+/// and what it returned (None, a string or an array would otherwise be read by truthiness or fail
+/// with a cast error that names neither).
+bool predicate_answer(const py::object& r, const char* who) {
+  if (py::isinstance<py::bool_>(r)) return r.cast<bool>();
+  if (py::hasattr(r, "dtype") && py::hasattr(r, "ndim") && r.attr("ndim").cast<int>() == 0 &&
+      r.attr("dtype").attr("kind").cast<std::string>() == "b")
+    return r.cast<bool>();
+  throw InputError(std::string(who) + ": the function must return True or False, it returned " +
+                   std::string(py::str(py::type::of(r).attr("__name__"))) + " " + std::string(py::repr(r)).substr(0, 60));
+}
+
 std::vector<char> clamp_mask(const fem::TetMesh& mesh, py::object clamp) {
   std::vector<char> mask(mesh.num_vertices(), 0);
   if (clamp.is_none()) return mask;
   if (PyCallable_Check(clamp.ptr())) {
     for (index_t v = 0; v < mesh.num_vertices(); ++v)
-      mask[v] = clamp(points_array({mesh.vertices[v]})[py::make_tuple(0)]).cast<bool>();
+      mask[v] = predicate_answer(clamp(points_array({mesh.vertices[v]})[py::make_tuple(0)]), "clamp");
     return mask;
   }
   const auto a = clamp.cast<py::array_t<bool, py::array::c_style | py::array::forcecast>>();
@@ -150,10 +163,14 @@ void register_fem(py::module_& m) {
       .def_readonly("density", &fem::Material::density);
 
   py::class_<fem::TetMesh, std::shared_ptr<fem::TetMesh>>(m, "Mesh")
-      .def(py::init([](const DoubleArray& vertices, py::array_t<long long, py::array::c_style | py::array::forcecast> tets,
-                       bool fix_orientation) {
+      .def(py::init([](const DoubleArray& vertices, const py::array& tets_in, bool fix_orientation) {
              fem::TetMesh mesh;
              mesh.vertices = points_of(vertices, "vertices");
+             const char kind = tets_in.dtype().kind();
+             if (kind != 'i' && kind != 'u')  // floats would be truncated to vertex numbers silently
+               throw InputError("tets: expected an integer array, got " + std::string(py::str(tets_in.dtype())));
+             const auto tets = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(tets_in);
+             if (!tets) throw InputError("tets: expected an (m, 4) integer array");
              if (tets.ndim() != 2 || tets.shape(1) != 4) throw InputError("tets: expected an (m, 4) integer array");
              for (py::ssize_t e = 0; e < tets.shape(0); ++e) {
                fem::Tet t;
@@ -226,10 +243,10 @@ void register_fem(py::module_& m) {
         s.m().add_point_force(f, vec3(x, "point"), vec3(F, "force"));
         return to_numpy(std::move(f));
       })
-      .def("traction", [](PyModel& s, std::function<bool(py::array_t<double>)> on_face, std::vector<double> t) {
+      .def("traction", [](PyModel& s, py::function on_face, std::vector<double> t) {
         Vector f = Vector::Zero(s.m().num_dofs());
         const double area = s.m().add_traction(f, [&](const fem::Vec3& X) {
-          return on_face(points_array({X})[py::make_tuple(0)].cast<py::array_t<double>>());
+          return predicate_answer(on_face(points_array({X})[py::make_tuple(0)]), "traction: on_face");
         }, vec3(t, "traction"));
         return py::make_tuple(to_numpy(std::move(f)), area);
       })
@@ -288,8 +305,26 @@ void register_fem(py::module_& m) {
         return out;
       })
       .def_property_readonly("num_levels", [](const PyHierarchy& s) { return s.h->num_levels(); })
-      .def("matrix", [](const PyHierarchy& s, int l) { return bsr_copy(s.h->matrix(l)); })
-      .def("prolongation", [](const PyHierarchy& s, int l) { return csr_copy(s.h->prolongation(l)); })
+      // Copied under the hierarchy's lock (the GIL released first, as the solvers take it): a solver
+      // being built on another thread re-assembles the levels.
+      .def("matrix", [](const PyHierarchy& s, int l) {
+        std::optional<Bcsr> copy;
+        {
+          py::gil_scoped_release nogil;
+          std::lock_guard<std::mutex> lock(*s.lock);
+          copy.emplace(s.h->matrix(l));
+        }
+        return bsr_copy(*copy);
+      })
+      .def("prolongation", [](const PyHierarchy& s, int l) {
+        std::optional<Csr> copy;
+        {
+          py::gil_scoped_release nogil;
+          std::lock_guard<std::mutex> lock(*s.lock);
+          copy.emplace(s.h->prolongation(l));
+        }
+        return csr_copy(*copy);
+      })
       .def("free_positions", [](const PyHierarchy& s) { return to_numpy(s.h->finest().free_positions()); })
       .def("restrict_to_free", [](const PyHierarchy& s, const DoubleArray& u) {
         return to_numpy(s.h->finest().restrict_to_free(to_vector(u, s.h->finest().num_dofs(), "full vector")));

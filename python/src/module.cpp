@@ -22,6 +22,7 @@
 
 #include "common.hpp"
 
+#include <cstring>
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -72,16 +73,23 @@ py::array_t<double> to_numpy(Vector&& v) {
   return py::array_t<double>({owner->size()}, {sizeof(double)}, owner->data(), free_it);
 }
 
-/// CSR arrays (indptr, indices, data) of a Csr, viewing its storage (kept alive by `self`).
-py::tuple csr_arrays(const Csr& A, py::handle self) {
-  return py::make_tuple(view_vector(A.pattern().row_ptr, self), view_vector(A.pattern().col_idx, self),
-                        view_vector(A.values(), self), py::make_tuple(A.rows(), A.cols()));
+/// `a`, read-only when `writeable` is false.
+template <class T>
+py::array_t<T> with_write(py::array_t<T> a, bool writeable) {
+  if (!writeable) a.attr("setflags")(py::arg("write") = false);
+  return a;
 }
-/// BSR arrays (indptr, indices, data as blocks x 3 x 3) of a Bcsr, viewing its storage.
-py::tuple bsr_arrays(const Bcsr& A, py::handle self) {
+
+py::tuple csr_arrays(const Csr& A, py::handle self, bool writeable) {
+  return py::make_tuple(with_write(view_vector(A.pattern().row_ptr, self), writeable),
+                        with_write(view_vector(A.pattern().col_idx, self), writeable),
+                        with_write(view_vector(A.values(), self), writeable), py::make_tuple(A.rows(), A.cols()));
+}
+py::tuple bsr_arrays(const Bcsr& A, py::handle self, bool writeable) {
   py::array_t<double> data({static_cast<py::ssize_t>(A.num_blocks()), py::ssize_t(3), py::ssize_t(3)},
                            {9 * sizeof(double), 3 * sizeof(double), sizeof(double)}, A.values().data(), self);
-  return py::make_tuple(view_vector(A.pattern().row_ptr, self), view_vector(A.pattern().col_idx, self), data,
+  return py::make_tuple(with_write(view_vector(A.pattern().row_ptr, self), writeable),
+                        with_write(view_vector(A.pattern().col_idx, self), writeable), with_write(data, writeable),
                         py::make_tuple(A.rows(), A.cols()));
 }
 
@@ -89,12 +97,12 @@ py::tuple bsr_arrays(const Bcsr& A, py::handle self) {
 py::object bsr_copy(const Bcsr& A) {
   auto* owner = new Bcsr(A);
   py::capsule c(owner, [](void* p) { delete static_cast<Bcsr*>(p); });
-  return bsr_arrays(*owner, c);
+  return bsr_arrays(*owner, c, true);
 }
 py::object csr_copy(const Csr& A) {
   auto* owner = new Csr(A);
   py::capsule c(owner, [](void* p) { delete static_cast<Csr*>(p); });
-  return csr_arrays(*owner, c);
+  return csr_arrays(*owner, c, true);
 }
 
 }  // namespace pmg::python
@@ -116,6 +124,10 @@ int index_bytes(const py::array& a, const std::string& who) {
   if (a.ndim() != 1 || !(a.flags() & py::array::c_style))
     throw InputError(who + ": expected a contiguous one-dimensional integer array");
   const auto k = a.dtype().kind();
+  const char order = a.dtype().attr("byteorder").cast<std::string>()[0];
+  const bool big_machine = py::module_::import("sys").attr("byteorder").cast<std::string>() == "big";
+  if ((order == '>' && !big_machine) || (order == '<' && big_machine))
+    throw InputError(who + ": indices must be in the machine's byte order, got " + std::string(py::str(a.dtype())));
   if ((k == 'i' || k == 'u') && (a.itemsize() == 4 || a.itemsize() == 8) && !(k == 'u' && a.itemsize() == 8))
     return static_cast<int>(a.itemsize());
   throw InputError(who + ": indices must be int32 or int64, got " + std::string(py::str(a.dtype())));
@@ -252,6 +264,7 @@ class PySolver {
     {
       py::gil_scoped_release nogil;
       std::lock_guard<std::mutex> lock(mutex_);  // after the GIL is released: no lock-order cycle
+      check_usable("solve");
       const auto shared = lock_hierarchy();
       if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) {
         char text[32];
@@ -305,6 +318,7 @@ class PySolver {
     {
       py::gil_scoped_release nogil;
       std::lock_guard<std::mutex> lock(mutex_);
+      check_usable("apply");
       const auto shared = lock_hierarchy();
       const Vector b = levels_ ? levels_->reduce(b_full) : b_full;
       Vector y(b.size());
@@ -330,9 +344,26 @@ class PySolver {
       std::copy(previous.begin(), previous.end(), csr_.values().begin());  // the solver's matrix unchanged
       throw InputError("update: the new matrix is not symmetric");
     }
-    if (bcsr_) bcsr_->set_values(csr_);
-    if (bin_) bin_->update_values(*bcsr_);
-    solver_->update();
+    const auto to_formats = [this] {
+      if (bcsr_) bcsr_->set_values(csr_);
+      if (bin_) bin_->update_values(*bcsr_);
+    };
+    to_formats();
+    try {
+      solver_->update();
+    } catch (const std::exception& e) {
+      // The solver refused the new matrix: back to the previous one and its set-up, so that the
+      // solver stays as it was; if even that fails, it refuses to solve until an update succeeds.
+      std::copy(previous.begin(), previous.end(), csr_.values().begin());
+      to_formats();
+      try {
+        solver_->update();
+      } catch (...) {
+        failed_update_ = e.what();
+      }
+      throw;
+    }
+    failed_update_.clear();
     setup_seconds_ = seconds_since(t0);
   }
 
@@ -344,8 +375,14 @@ class PySolver {
     py::gil_scoped_release nogil;
     std::lock_guard<std::mutex> lock(mutex_);
     const auto t0 = Clock::now();
-    levels_->set_values(views(mats));
-    solver_->update();
+    levels_->set_values(views(mats));  // all or nothing: refused values leave the levels as they were
+    try {
+      solver_->update();
+    } catch (const std::exception& e) {
+      failed_update_ = e.what();  // the levels hold the new values, the set-up is partial
+      throw;
+    }
+    failed_update_.clear();
     setup_seconds_ = seconds_since(t0);
   }
 
@@ -420,6 +457,14 @@ class PySolver {
   const LinearOperator* op_ = nullptr;
   std::unique_ptr<Solver> solver_;
   double setup_seconds_ = 0.0;
+  /// Set when an update() failed part-way and the solver could not be returned to its previous
+  /// set-up: solve and apply refuse until an update succeeds.
+  std::string failed_update_;
+  void check_usable(const char* what) const {
+    if (!failed_update_.empty())
+      throw InputError(std::string(what) + ": the last update failed (" + failed_update_ +
+                       "); update with valid values or build a new solver");
+  }
   /// Serialises the calls on this object from several Python threads (solve's rebuild for a new
   /// tol, update's new values and the solve itself must not interleave).
   mutable std::mutex mutex_;
@@ -427,21 +472,28 @@ class PySolver {
 
 // ---- formats -------------------------------------------------------------------------------------
 
-/// y = A x into NumPy arrays, without copies (x converted only if not contiguous float64).
+/// y = A x into NumPy arrays, without copies (x converted only if not contiguous float64; copied
+/// when it shares memory with out, so that out = x gives A x).
 template <typename Op>
-py::array_t<double> matvec(const Op& A, const DoubleArray& x, std::optional<py::array_t<double>> out) {
+py::array_t<double> matvec(const Op& A, const DoubleArray& x, std::optional<py::array> out) {
   if (x.ndim() != 1 || x.shape(0) != A.cols())
-    throw InputError("x has " + std::to_string(x.size()) + " entries, the matrix " + std::to_string(A.cols()) + " columns");
-  py::array_t<double> y = out ? *out : py::array_t<double>(A.rows());
-  if (y.ndim() != 1 || y.shape(0) != A.rows() || !(y.flags() & py::array::c_style) || !y.writeable())
-    throw InputError("out must be a writable contiguous float64 array of " + std::to_string(A.rows()) + " entries");
-  double* yp = y.mutable_data();
+    throw InputError("x has shape " + std::string(py::str(x.attr("shape"))) + ", the matrix " +
+                     std::to_string(A.cols()) + " columns");
+  py::array y = out ? *out : py::array_t<double>(A.rows());
+  Eigen::Map<Vector> yv = writable_view(y, A.rows(), "out");
   const double* xp = x.data();
+  Vector copy;
+  const char* xb = reinterpret_cast<const char*>(xp);
+  const char* yb = reinterpret_cast<const char*>(yv.data());
+  if (xb < yb + sizeof(double) * A.rows() && yb < xb + sizeof(double) * A.cols()) {
+    copy = Eigen::Map<const Vector>(xp, A.cols());
+    xp = copy.data();
+  }
   {
     py::gil_scoped_release nogil;
-    A.multiply(xp, yp);
+    A.multiply(xp, yv.data());
   }
-  return y;
+  return py::reinterpret_borrow<py::array_t<double>>(y);
 }
 
 }  // namespace
@@ -456,15 +508,27 @@ PYBIND11_MODULE(_core, m) {
   static py::object input_bases = py::make_tuple(error, py::handle(PyExc_ValueError));
   static py::exception<InputError> input_error(m, "InputError", input_bases.ptr());
   static py::exception<SolveError> solve_error(m, "SolveError", error.ptr());
+  // Messages may quote bytes of the caller's files: decoded with \xNN for bytes that are not UTF-8,
+  // never lost (PyErr_SetString would replace an undecodable message by an empty exception).
   py::register_exception_translator([](std::exception_ptr p) {
+    const auto raise = [](PyObject* type, const char* what) {
+      PyObject* text = PyUnicode_DecodeUTF8(what, static_cast<Py_ssize_t>(std::strlen(what)), "backslashreplace");
+      if (!text) {
+        PyErr_Clear();
+        PyErr_SetString(type, "(an error message that could not be decoded)");
+        return;
+      }
+      PyErr_SetObject(type, text);
+      Py_DECREF(text);
+    };
     try {
       if (p) std::rethrow_exception(p);
     } catch (const SolveError& e) {
-      solve_error(e.what());
+      raise(solve_error.ptr(), e.what());
     } catch (const InputError& e) {
-      input_error(e.what());
+      raise(input_error.ptr(), e.what());
     } catch (const Error& e) {
-      error(e.what());
+      raise(error.ptr(), e.what());
     }
   });
 

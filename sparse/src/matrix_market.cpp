@@ -34,19 +34,19 @@ Header read_header(TextReader& rd) {
     rd.fail("first line must start with %%MatrixMarket");
   if (t.size() != 5)
     rd.fail("header must read '%%MatrixMarket matrix <format> <field> <symmetry>'");
-  if (lower(t[1]) != "matrix") rd.fail("unsupported object '" + t[1] + "' (only 'matrix')");
+  if (lower(t[1]) != "matrix") rd.fail("unsupported object '" + printable(t[1]) + "' (only 'matrix')");
   Header h;
   const std::string format = lower(t[2]), field = lower(t[3]), sym = lower(t[4]);
   if (format == "array") h.coordinate = false;
   else if (format != "coordinate")
-    rd.fail("unknown format '" + t[2] + "' (expected coordinate or array)");
+    rd.fail("unknown format '" + printable(t[2]) + "' (expected coordinate or array)");
   if (field == "pattern") h.pattern = true;
   else if (field != "real" && field != "integer" && field != "double")
-    rd.fail("unsupported field '" + t[3] + "' (real, integer or pattern)");
+    rd.fail("unsupported field '" + printable(t[3]) + "' (real, integer or pattern)");
   if (h.pattern && !h.coordinate) rd.fail("the pattern field needs the coordinate format");
   if (sym == "symmetric") h.symmetric = true;
   else if (sym != "general")
-    rd.fail("unsupported symmetry '" + t[4] + "' (general or symmetric)");
+    rd.fail("unsupported symmetry '" + printable(t[4]) + "' (general or symmetric)");
   return h;
 }
 

@@ -201,6 +201,9 @@ void write_petsc_binary(const std::string& path, const Csr& A) {
 }
 
 void write_petsc_binary(const std::string& path, const Vector& v) {
+  // The reader refuses NaN and Inf: never write a file it would refuse.
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (!std::isfinite(v[i])) throw InputError(path + ": vector entry " + std::to_string(i) + " is NaN or Inf");
   std::string out;
   put32(out, kVecClassId);
   put32(out, static_cast<std::int32_t>(v.size()));

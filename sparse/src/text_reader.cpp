@@ -85,8 +85,6 @@ void TextReader::fail(const std::string& what) const {
   throw InputError(name_ + ":" + std::to_string(line_no_) + ": " + what);
 }
 
-namespace {
-/// The token as an error message shows it: control bytes (an embedded NUL, say) as \xNN.
 std::string printable(const std::string& tok) {
   std::string out;
   for (unsigned char c : tok.substr(0, 64)) {
@@ -101,7 +99,6 @@ std::string printable(const std::string& tok) {
   if (tok.size() > 64) out += "...";
   return out;
 }
-}  // namespace
 
 long long TextReader::to_integer(const std::string& tok, const char* what) const {
   errno = 0;

@@ -26,6 +26,9 @@ TEST_CASE("the 24-tet box mesh is conforming with positive volumes", "[fem][mesh
   // corners 6*2*2, box centres 5, face centres: 5*4 lateral + 6 end faces
   CHECK(m.num_vertices() == 24 + 5 + 26);
   REQUIRE_NOTHROW(check_mesh(m));
+  CHECK_THROWS_WITH(box_mesh_24(1, 1, 1, std::numeric_limits<double>::infinity(), 1, 1),
+                    Catch::Contains("positive and finite"));
+  CHECK_THROWS_WITH(box_mesh_24(1, 1, 1, 1e-320, 1, 1), Catch::Contains("too small"));
   double volume = 0.0;
   for (index_t e = 0; e < m.num_tets(); ++e) volume += m.signed_volume(e);
   CHECK(volume == Approx(0.04));

@@ -199,6 +199,46 @@ TEST_CASE("Dirichlet identity rows: whole nodes removed, kept columns refused", 
                     Catch::Contains("columns of identity rows must be zero"));
 }
 
+TEST_CASE("refused values leave the levels as they were; levels out of range and NaN at identity rows are named",
+          "[user-levels]") {
+  Levels s;
+  mg::UserLevels u(views(s.A), views(s.P), {});
+  const std::vector<double> before = u.matrix(2).values();
+  // Not symmetric: refused after the values were written, so they must be put back.
+  Csr bad = s.A.back();
+  bad.values()[5] += 1e5;
+  CHECK_THROWS_WITH(u.set_values({view_of(s.A[0]), view_of(s.A[1]), view_of(bad)}), Catch::Contains("not symmetric"));
+  CHECK(u.matrix(2).values() == before);
+  Vector x;
+  CHECK(mgpcg(u, s.b, x).status == SolveStatus::converged);
+  Vector r(s.b.size());
+  s.h.matrix(2).residual(s.b, x, r);
+  CHECK(r.norm() <= 1e-9 * s.b.norm());
+
+  CHECK_THROWS_WITH(u.matrix(3), Catch::Contains("no level 3 (levels 0 to 2)"));
+  CHECK_THROWS_WITH(u.prolongation(0), Catch::Contains("no prolongation into level 0"));
+  CHECK_THROWS_WITH(s.h.prolongation(3), Catch::Contains("no prolongation into level 3"));
+
+  // A clamped node in front as identity rows: its right-hand side entries never reach the solver.
+  const Csr& A = s.A.back();
+  std::vector<Triplet> t;
+  for (index_t i = 0; i < A.rows(); ++i)
+    for (offset_t k = A.pattern().row_ptr[i]; k < A.pattern().row_ptr[i + 1]; ++k)
+      t.emplace_back(i + 3, A.pattern().col_idx[k] + 3, A.values()[k]);
+  for (index_t i = 0; i < 3; ++i) t.emplace_back(i, i, 1.0);
+  const Csr F = Csr::from_triplets(A.rows() + 3, A.cols() + 3, t);
+  std::vector<Triplet> tp;
+  const Csr& P = s.P.back();
+  for (index_t i = 0; i < P.rows(); ++i)
+    for (offset_t k = P.pattern().row_ptr[i]; k < P.pattern().row_ptr[i + 1]; ++k)
+      tp.emplace_back(i + 1, P.pattern().col_idx[k], P.values()[k]);
+  mg::UserLevels c({view_of(s.A[0]), view_of(s.A[1]), view_of(F)},
+                   {view_of(s.P[0]), view_of(Csr::from_triplets(P.rows() + 1, P.cols(), tp))}, {});
+  Vector bF = Vector::Ones(F.rows());
+  bF[1] = std::numeric_limits<double>::quiet_NaN();
+  CHECK_THROWS_WITH(c.reduce(bF), Catch::Contains("entry 1 (an identity row"));
+}
+
 namespace {
 
 /// A copy of A with the rows and columns of the flagged unknowns zeroed but for the diagonal: the

@@ -1,5 +1,6 @@
 #include "fixture.hpp"
 
+#include "pmg/sparse/csr_view.hpp"
 #include "pmg/sparse/generators.hpp"
 
 #include <catch2/catch.hpp>
@@ -28,6 +29,13 @@ TEST_CASE("CSR pattern validation names what is wrong", "[sparse][csr]") {
   CHECK_THROWS_WITH(Csr(p, {1, 2, 3}), Catch::Contains("out of range"));
   p->col_idx = {0, 1, 1};
   CHECK_THROWS_WITH(Csr(p, {1, 2}), Catch::Contains("2 values"));
+  // A view whose row pointers rise past the arrays and fall back: refused before any entry is read.
+  const std::vector<std::int32_t> ptr{0, 2000000000, 2}, col{0, 1};
+  const std::vector<double> val{1.0, 2.0};
+  CsrView v;
+  v.rows = 2, v.cols = 2, v.nnz = 2;
+  v.row_ptr = ptr.data(), v.row_ptr_bytes = 4, v.col_idx = col.data(), v.col_idx_bytes = 4, v.values = val.data();
+  CHECK_THROWS_WITH(v.validate("view", false), Catch::Contains("row pointers decrease at row 1"));
 }
 
 TEST_CASE("every format builds the same matrix and its SpMV matches the dense reference",

@@ -3,6 +3,9 @@
 
 #include <catch2/catch.hpp>
 
+#include <fstream>
+#include <limits>
+
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -54,6 +57,11 @@ TEST_CASE("PETSc binary: a matrix and a vector round-trip exactly", "[sparse][pe
   CHECK(w == v);
   std::remove(m.c_str());
   std::remove(f.c_str());
+  // a vector the reader would refuse is not written
+  Vector bad = v;
+  bad[1] = std::numeric_limits<double>::infinity();
+  CHECK_THROWS_WITH(write_petsc_binary(f, bad), Catch::Contains("vector entry 1 is NaN or Inf"));
+  CHECK(!std::ifstream(f).good());
 }
 
 TEST_CASE("PETSc binary: a hand-made file in PETSc's layout, unsorted row, is read", "[sparse][petsc_binary]") {

@@ -68,8 +68,10 @@ class UserLevels final : public LevelProvider {
              const UserLevelOptions& options);
 
   int num_levels() const override { return static_cast<int>(levels_.size()); }
-  const Bcsr& matrix(int level) const override { return levels_.at(level).A; }
-  const Csr& prolongation(int level) const override { return prolongations_.at(level - 1); }
+  /// Level `level`'s matrix (0 <= level < num_levels(); else InputError naming it).
+  const Bcsr& matrix(int level) const override;
+  /// The prolongation into `level` (1 <= level < num_levels(); else InputError naming it).
+  const Csr& prolongation(int level) const override;
   bool has_matrix(int level) const override;
   /// The components of kept nodes given as identity rows on a level (nullptr: none; Galerkin
   /// levels derive theirs in the cycle).
@@ -94,7 +96,8 @@ class UserLevels final : public LevelProvider {
   /// The same into the caller's storage, allocating nothing: `full` (full_size() entries) gathered
   /// into `reduced` (reduced_size() entries). Either may view the caller's memory
   /// (Eigen::Map<const Vector>(dealii_vector.data(), n)): the one pass a reduction needs.
-  /// InputError naming the sizes when they do not match.
+  /// InputError naming the sizes when they do not match, or the entry when one of an identity row
+  /// (dropped here, so no solver would see it) is NaN or Inf.
   void reduce(Eigen::Ref<const Vector> full, Eigen::Ref<Vector> reduced) const;
   /// The full solution: x on the free dofs, b / diagonal on the identity rows.
   Vector expand(const Vector& reduced, const Vector& full_rhs) const;
@@ -112,8 +115,11 @@ class UserLevels final : public LevelProvider {
     std::vector<char> constrained;      ///< per kept dof: 1 for a constrained component (or empty)
     bool has_matrix = true;
   };
-  /// Values of matrices known to be on the levels' patterns into the BCSR levels.
+  /// Values of matrices known to be on the levels' patterns into the BCSR levels; on an error the
+  /// levels keep the values they had.
   void refresh_values(const std::vector<CsrView>& matrices);
+  /// refresh_values' work, without the roll-back.
+  void write_values(const std::vector<CsrView>& matrices);
   void check_symmetric(int level) const;
 
   std::vector<Level> levels_;

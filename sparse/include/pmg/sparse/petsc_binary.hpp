@@ -30,7 +30,8 @@ Vector read_petsc_binary_vector(std::istream& in, const std::string& name = "<st
 
 /// Writes a matrix through write_file_atomically() (a reader never sees half a file).
 void write_petsc_binary(const std::string& path, const Csr& A);
-/// Writes a vector through write_file_atomically().
+/// Writes a vector through write_file_atomically(); InputError for NaN or Inf entries (which the
+/// reader refuses).
 void write_petsc_binary(const std::string& path, const Vector& v);
 
 }  // namespace pmg

@@ -11,6 +11,10 @@
 
 namespace pmg {
 
+/// `text` as an error message shows it: its first 64 bytes, printable ASCII as is and any other
+/// byte (control, NUL, non-ASCII) as \\xNN, "..." after a longer text.
+std::string printable(const std::string& text);
+
 /// Reads a text stream line by line and throws errors that name the file and the line (see the
 /// file comment). Holds a reference to the stream, which must outlive it.
 class TextReader {
