@@ -522,9 +522,14 @@ void run(const Options& given) {
   }
   if (!o.solution_out.empty() && !solutions.empty()) {
     const Vector x = sys.levels ? sys.levels->expand(solutions[0], sys.b_full) : solutions[0];
-    if (is_petsc_file(o.solution_out)) write_petsc_binary(o.solution_out, x);
-    else write_matrix_market_vector(o.solution_out, x);
-    std::cout << "solution of " << outcomes[0].name << " written to " << o.solution_out << "\n";
+    if (!x.allFinite()) {  // a failed first solver: its NaN would make a file no reader takes
+      std::cout << "solution of " << outcomes[0].name << " not written to " << o.solution_out
+                << ": it has NaN or Inf entries\n";
+    } else {
+      if (is_petsc_file(o.solution_out)) write_petsc_binary(o.solution_out, x);
+      else write_matrix_market_vector(o.solution_out, x);
+      std::cout << "solution of " << outcomes[0].name << " written to " << o.solution_out << "\n";
+    }
   }
   if (sys.reference_pending) {
     // The reference: this run's own CHOLMOD solution if it has one, else one direct solve now.

@@ -31,13 +31,15 @@ Eigen::Map<const Vector> view_of(const DoubleArray& a, Eigen::Index n, const std
 Eigen::Map<Vector> writable_view(py::array& a, Eigen::Index n, const std::string& who);
 /// A NumPy array owning `v`'s buffer (moved, not copied).
 py::array_t<double> to_numpy(Vector&& v);
-/// CSR arrays (indptr, indices, data, shape) of a Csr, viewing its storage (kept alive by `self`),
-/// read-only unless `writeable` (a live matrix's products trust its indices).
+/// CSR arrays (indptr, indices, data, shape) of a Csr, viewing its storage (kept alive by `self`);
+/// the index arrays read-only unless `writeable` (a live matrix's products trust its indices; its
+/// values may be changed in place).
 py::tuple csr_arrays(const Csr& A, py::handle self, bool writeable = false);
 /// BSR arrays (indptr, indices, data as blocks x 3 x 3, shape) of a Bcsr, viewing its storage;
-/// read-only unless `writeable`.
+/// the index arrays read-only unless `writeable`.
 py::tuple bsr_arrays(const Bcsr& A, py::handle self, bool writeable = false);
-/// BSR arrays owning a copy of A (for matrices that change later).
+/// BSR arrays owning a copy of A, pattern and values (for matrices that change later; the caller
+/// may change every array).
 py::object bsr_copy(const Bcsr& A);
 /// CSR arrays owning a copy of A.
 py::object csr_copy(const Csr& A);

@@ -12,7 +12,6 @@
 #include "pmg/sim/scene.hpp"
 #include "pmg/sim/setup.hpp"
 
-#include <optional>
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
@@ -78,16 +77,21 @@ py::array_t<double> node_positions(const fem::ElasticityModel& m) {
   return points_array(m.space().positions());
 }
 
-/// A predicate's answer: True or False (Python's or NumPy's bool), else InputError naming `who`
-/// and what it returned (None, a string or an array would otherwise be read by truthiness or fail
-/// with a cast error that names neither).
+/// A predicate's answer by its truth value (bools, numbers, NumPy scalars, one-element arrays);
+/// None, strings and values without one truth value (arrays of several entries) are an InputError
+/// naming `who` and what it returned.
 bool predicate_answer(const py::object& r, const char* who) {
-  if (py::isinstance<py::bool_>(r)) return r.cast<bool>();
-  if (py::hasattr(r, "dtype") && py::hasattr(r, "ndim") && r.attr("ndim").cast<int>() == 0 &&
-      r.attr("dtype").attr("kind").cast<std::string>() == "b")
-    return r.cast<bool>();
-  throw InputError(std::string(who) + ": the function must return True or False, it returned " +
-                   std::string(py::str(py::type::of(r).attr("__name__"))) + " " + std::string(py::repr(r)).substr(0, 60));
+  const auto refuse = [&] {
+    throw InputError(std::string(who) + ": the function must return True or False, it returned " +
+                     std::string(py::str(py::type::of(r).attr("__name__"))) + " " + std::string(py::repr(r)).substr(0, 60));
+  };
+  if (r.is_none() || py::isinstance<py::str>(r) || py::isinstance<py::bytes>(r)) refuse();
+  const int t = PyObject_IsTrue(r.ptr());  // numbers, NumPy scalars and one-element arrays by truth value
+  if (t < 0) {
+    PyErr_Clear();  // an array of several entries, or a truth value that raises
+    refuse();
+  }
+  return t != 0;
 }
 
 std::vector<char> clamp_mask(const fem::TetMesh& mesh, py::object clamp) {
@@ -163,9 +167,10 @@ void register_fem(py::module_& m) {
       .def_readonly("density", &fem::Material::density);
 
   py::class_<fem::TetMesh, std::shared_ptr<fem::TetMesh>>(m, "Mesh")
-      .def(py::init([](const DoubleArray& vertices, const py::array& tets_in, bool fix_orientation) {
+      .def(py::init([](const DoubleArray& vertices, const py::object& tets_obj, bool fix_orientation) {
              fem::TetMesh mesh;
              mesh.vertices = points_of(vertices, "vertices");
+             const py::array tets_in = py::module_::import("numpy").attr("asarray")(tets_obj);
              const char kind = tets_in.dtype().kind();
              if (kind != 'i' && kind != 'u')  // floats would be truncated to vertex numbers silently
                throw InputError("tets: expected an integer array, got " + std::string(py::str(tets_in.dtype())));
@@ -308,23 +313,19 @@ void register_fem(py::module_& m) {
       // Copied under the hierarchy's lock (the GIL released first, as the solvers take it): a solver
       // being built on another thread re-assembles the levels.
       .def("matrix", [](const PyHierarchy& s, int l) {
-        std::optional<Bcsr> copy;
+        std::unique_ptr<Bcsr> copy;
         {
           py::gil_scoped_release nogil;
           std::lock_guard<std::mutex> lock(*s.lock);
-          copy.emplace(s.h->matrix(l));
+          const Bcsr& A = s.h->matrix(l);
+          copy = std::make_unique<Bcsr>(std::make_shared<const BlockPattern>(A.pattern()), A.values());
         }
-        return bsr_copy(*copy);
+        py::capsule owner(copy.get(), [](void* p) { delete static_cast<Bcsr*>(p); });
+        const Bcsr& A = *copy.release();
+        return bsr_arrays(A, owner, true);
       })
-      .def("prolongation", [](const PyHierarchy& s, int l) {
-        std::optional<Csr> copy;
-        {
-          py::gil_scoped_release nogil;
-          std::lock_guard<std::mutex> lock(*s.lock);
-          copy.emplace(s.h->prolongation(l));
-        }
-        return csr_copy(*copy);
-      })
+      // The prolongations never change after construction: no lock.
+      .def("prolongation", [](const PyHierarchy& s, int l) { return csr_copy(s.h->prolongation(l)); })
       .def("free_positions", [](const PyHierarchy& s) { return to_numpy(s.h->finest().free_positions()); })
       .def("restrict_to_free", [](const PyHierarchy& s, const DoubleArray& u) {
         return to_numpy(s.h->finest().restrict_to_free(to_vector(u, s.h->finest().num_dofs(), "full vector")));

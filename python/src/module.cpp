@@ -82,25 +82,26 @@ py::array_t<T> with_write(py::array_t<T> a, bool writeable) {
 
 py::tuple csr_arrays(const Csr& A, py::handle self, bool writeable) {
   return py::make_tuple(with_write(view_vector(A.pattern().row_ptr, self), writeable),
-                        with_write(view_vector(A.pattern().col_idx, self), writeable),
-                        with_write(view_vector(A.values(), self), writeable), py::make_tuple(A.rows(), A.cols()));
+                        with_write(view_vector(A.pattern().col_idx, self), writeable), view_vector(A.values(), self),
+                        py::make_tuple(A.rows(), A.cols()));
 }
 py::tuple bsr_arrays(const Bcsr& A, py::handle self, bool writeable) {
   py::array_t<double> data({static_cast<py::ssize_t>(A.num_blocks()), py::ssize_t(3), py::ssize_t(3)},
                            {9 * sizeof(double), 3 * sizeof(double), sizeof(double)}, A.values().data(), self);
   return py::make_tuple(with_write(view_vector(A.pattern().row_ptr, self), writeable),
-                        with_write(view_vector(A.pattern().col_idx, self), writeable), with_write(data, writeable),
+                        with_write(view_vector(A.pattern().col_idx, self), writeable), data,
                         py::make_tuple(A.rows(), A.cols()));
 }
 
 /// A NumPy-facing copy of a Bcsr (BSR arrays owning a copy, for matrices that change later).
 py::object bsr_copy(const Bcsr& A) {
-  auto* owner = new Bcsr(A);
+  // Its own pattern too (a Bcsr copy shares its pattern): the caller may change every array.
+  auto* owner = new Bcsr(std::make_shared<const BlockPattern>(A.pattern()), A.values());
   py::capsule c(owner, [](void* p) { delete static_cast<Bcsr*>(p); });
   return bsr_arrays(*owner, c, true);
 }
 py::object csr_copy(const Csr& A) {
-  auto* owner = new Csr(A);
+  auto* owner = new Csr(std::make_shared<const CsrPattern>(A.pattern()), A.values());
   py::capsule c(owner, [](void* p) { delete static_cast<Csr*>(p); });
   return csr_arrays(*owner, c, true);
 }
@@ -250,6 +251,9 @@ class PySolver {
     if (out) x_out.emplace(writable_view(*out, n, "out"));
     Vector x;
     if (levels_) {
+      // By name here: the reduction refuses NaN at identity rows without knowing which vector it has.
+      for (Eigen::Index i = 0; i < n; ++i)
+        if (!std::isfinite(b_full[i])) throw InputError("b: entry " + std::to_string(i) + " is NaN or Inf");
       x.resize(levels_->reduced_size());
       if (x0_in) levels_->reduce(view_of(*x0_in, n, "x0"), x);
       else x.setZero();
@@ -358,6 +362,7 @@ class PySolver {
       to_formats();
       try {
         solver_->update();
+        failed_update_.clear();
       } catch (...) {
         failed_update_ = e.what();
       }

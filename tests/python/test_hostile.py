@@ -26,12 +26,28 @@ def test_row_pointers_that_rise_then_fall_are_refused_before_reading():
         pmgkit.multigrid(levels=[A], prolongations=[])
 
 
-def test_views_of_a_live_matrix_are_read_only():
+def test_index_arrays_of_a_live_matrix_are_read_only_and_copies_are_independent(quadratic):
     C = pmgkit.Csr(sp.eye(30, format="csr"))
-    for arr in C.to_scipy().indices, C.to_scipy().data:
-        with pytest.raises(ValueError, match="read-only"):
-            arr[:] = 2**30
-    assert np.array_equal(C.matvec(np.ones(30)), np.ones(30))
+    with pytest.raises(ValueError, match="read-only"):
+        C.to_scipy().indices[:] = 2**30
+    C.to_scipy().data[:] = 2.0  # values may change in place
+    assert np.array_equal(C.matvec(np.ones(30)), 2 * np.ones(30))
+    # copies (levels, model matrices) own every array: changing them changes nothing in pmgkit
+    h, L, _ = quadratic
+    b = np.ones(L[1].shape[0])
+    x_before, _ = h.solver({"method": "mgpcg", "operator": "assembled", "tol": 1e-10}).solve(b)
+    A = h.levels()[1]
+    assert not np.shares_memory(A.indices, h.levels()[1].indices)
+    A.indices[:] = 10**8
+    P = h.prolongations()[0]
+    P.indices[:] = 10**8
+    m = pmgkit.ElasticModel(pmgkit.Mesh.box(2, 1, 1), 2)
+    K = m.stiffness()
+    K.data[1] = 0
+    K.eliminate_zeros()
+    assert m.stiffness().nnz > K.nnz
+    x_after, _ = h.solver({"method": "mgpcg", "operator": "assembled", "tol": 1e-10}).solve(b)
+    assert np.array_equal(x_before, x_after)
 
 
 def test_matvec_into_its_own_input_and_refused_outputs(quadratic):
@@ -76,6 +92,19 @@ def test_a_refused_matrix_update_leaves_the_solver_as_it_was(method):
     assert np.array_equal(before, after)
 
 
+def test_levels_refused_by_the_solver_refuse_to_solve_until_an_update_succeeds(quadratic):
+    _, L, P = quadratic
+    b = np.ones(L[1].shape[0])
+    s = pmgkit.multigrid(levels=L, prolongations=P, config={"tol": 1e-10})
+    with pytest.raises(pmgkit.InputError):
+        s.update([-L[0], -L[1]])  # symmetric, on the pattern: taken by the levels, refused by the set-up
+    with pytest.raises(pmgkit.InputError, match="the last update failed"):
+        s.solve(b)
+    s.update(L)
+    x, info = s.solve(b)
+    assert info["status"] == "converged" and np.linalg.norm(L[1] @ x - b) <= 1e-9 * np.linalg.norm(b)
+
+
 def test_nan_at_a_removed_identity_row_is_refused(quadratic):
     _, L, P = quadratic
     A = L[1].tolil()
@@ -86,8 +115,10 @@ def test_nan_at_a_removed_identity_row_is_refused(quadratic):
     for bad in (np.nan, np.inf):
         b = np.ones(A.shape[0])
         b[0] = bad
-        with pytest.raises(pmgkit.InputError, match="entry 0 .*identity row.* NaN or Inf"):
+        with pytest.raises(pmgkit.InputError, match="b: entry 0 is NaN or Inf"):
             s.solve(b)
+        with pytest.raises(pmgkit.InputError, match="entry 0 .*identity row.* NaN or Inf"):
+            s.aspreconditioner().matvec(b)
 
 
 def test_level_indices_out_of_range_name_the_level(quadratic):
@@ -106,6 +137,8 @@ def test_box_meshes_refuse_infinite_and_vanishing_sides():
         pmgkit.Mesh.box(1, 1, 1, float("inf"))
     with pytest.raises(pmgkit.InputError, match="too small"):
         pmgkit.Mesh.box(1, 1, 1, 1e-320)
+    with pytest.raises(pmgkit.InputError, match="too large"):
+        pmgkit.Mesh.box(1, 1, 1, 1e200, 1e200, 1e200)
 
 
 def test_messages_quoting_bytes_that_are_not_utf8_keep_their_text(tmp_path):
@@ -115,22 +148,28 @@ def test_messages_quoting_bytes_that_are_not_utf8_keep_their_text(tmp_path):
         pmgkit.Mesh.read(str(path))
 
 
-def test_predicates_must_answer_true_or_false():
+def test_predicates_answer_by_truth_value_and_none_or_strings_are_refused():
     mesh = pmgkit.Mesh.box(2, 1, 1)
     m = pmgkit.ElasticModel(mesh, 1)
     for answer in (None, "yes", np.array([True, False])):
         with pytest.raises(pmgkit.InputError, match="clamp: the function must return True or False"):
             m.fix_vertices(lambda x, a=answer: a)
-    m.fix_vertices(lambda x: np.bool_(x[0] < 1e-9))  # NumPy's bool is an answer
-    assert m.num_fixed > 0
+    for answer in (lambda x: np.bool_(x[0] < 1e-9), lambda x: int(x[0] < 1e-9), lambda x: np.array([x[0] < 1e-9])):
+        m = pmgkit.ElasticModel(mesh, 1)
+        m.fix_vertices(answer)
+        assert m.num_fixed == 5  # the x = 0 face's 4 corners and its centre
     with pytest.raises(pmgkit.InputError, match="on_face: the function must return True or False"):
         m.traction(lambda x: "x", [0, 0, 1])
+    # a message that quotes text cut inside a UTF-8 character keeps its text (decoded with \xNN)
+    with pytest.raises(pmgkit.InputError, match="clamp: the function must return True or False, it returned str"):
+        m.fix_vertices(lambda x: "\u00e9" * 40)
 
 
 def test_tets_must_be_integers_and_indices_in_machine_order(quadratic):
     box = pmgkit.Mesh.box(2, 1, 1)
     with pytest.raises(pmgkit.InputError, match="integer array, got float64"):
         pmgkit.Mesh(box.vertices, box.tets + 0.7)
+    assert pmgkit.Mesh(box.vertices, box.tets.tolist()).num_tets == box.num_tets  # lists are arrays
     swapped = quadratic[1][0].copy()
     swapped.indices = swapped.indices.astype(">i4")  # the same numbers, bytes swapped in memory
     with pytest.raises(pmgkit.InputError, match="byte order"):
