@@ -255,6 +255,11 @@ class PySolver {
       for (Eigen::Index i = 0; i < n; ++i)
         if (!std::isfinite(b_full[i])) throw InputError("b: entry " + std::to_string(i) + " is NaN or Inf");
       x.resize(levels_->reduced_size());
+      if (x0_in) {
+        const Eigen::Map<const Vector> x0 = view_of(*x0_in, n, "x0");
+        for (Eigen::Index i = 0; i < n; ++i)
+          if (!std::isfinite(x0[i])) throw InputError("x0: entry " + std::to_string(i) + " is NaN or Inf");
+      }
       if (x0_in) levels_->reduce(view_of(*x0_in, n, "x0"), x);
       else x.setZero();
     } else {

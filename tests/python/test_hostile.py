@@ -117,6 +117,8 @@ def test_nan_at_a_removed_identity_row_is_refused(quadratic):
         b[0] = bad
         with pytest.raises(pmgkit.InputError, match="b: entry 0 is NaN or Inf"):
             s.solve(b)
+        with pytest.raises(pmgkit.InputError, match="x0: entry 0 is NaN or Inf"):
+            s.solve(np.ones(A.shape[0]), x0=b)
         with pytest.raises(pmgkit.InputError, match="entry 0 .*identity row.* NaN or Inf"):
             s.aspreconditioner().matvec(b)
 
