@@ -7,6 +7,7 @@
 //   2. Convert once to the formats the solvers need (CSR, BCSR 3x3, BIN-BCSR).
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
 //   4. Write the per-iteration history as CSV and print the summary table.
+#include "process.hpp"
 #include "checks.hpp"
 #include "commands.hpp"
 #include "levels.hpp"
@@ -18,6 +19,8 @@
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/factory.hpp"
 
+#include <filesystem>
+#include <sys/wait.h>
 #include <nlohmann/json.hpp>
 
 #include "pmg/sparse/bin_bcsr.hpp"
@@ -290,8 +293,8 @@ void write_history(const std::string& path, const std::vector<Outcome>& outcomes
 /// Draws relative residual against time and against iterations (matplotlib, Debian's python3).
 void plot_history(const std::string& csv, const std::string& png, const std::string& title) {
   const std::string script = find_data_file("plot_history.py");
-  const std::string cmd = "/usr/bin/python3 '" + script + "' '" + csv + "' '" + png + "' '" + title + "'";
-  if (std::system(cmd.c_str()) != 0)
+  const int rc = run_program({"/usr/bin/python3", script, csv, png, title});
+  if (!WIFEXITED(rc) || WEXITSTATUS(rc) != 0)
     throw Error("plotting failed (needs /usr/bin/python3 with matplotlib: apt install python3-matplotlib)");
   std::cout << "plot: " << png << "\n";
 }
@@ -355,7 +358,13 @@ void run(const Options& given) {
   if (o.threads > 0) omp_set_num_threads(o.threads);
   // Output paths are checked before any work: a run must not fail at its end for a bad path.
   if (!o.history.empty()) check_output_file(o.history, "--history");
-  if (!o.plot.empty()) check_output_file(o.plot, "--plot");
+  if (!o.solution_out.empty()) check_output_file(o.solution_out, "--solution-out");
+  if (!o.plot.empty()) {
+    check_output_file(o.plot, "--plot");
+    std::error_code ec;  // through links: a device, FIFO or folder would be replaced by the PNG's rename
+    if (std::filesystem::exists(o.plot, ec) && !std::filesystem::is_regular_file(o.plot, ec))
+      throw InputError("--plot: " + o.plot + " is not a regular file (the PNG is written there)");
+  }
   if (!o.json_report.empty()) check_output_file(o.json_report, "--json");
   if (!o.export_levels.empty()) {
     if (!o.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");

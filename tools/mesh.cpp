@@ -8,6 +8,7 @@
 //      elements, so the volume bound is rescaled from the counts obtained (up to 6 runs) until the
 //      count is within 15% of the request.
 //   3. Read TetGen's output back (checks every element), write .node/.ele, print the counts.
+#include "process.hpp"
 #include "checks.hpp"
 #include "commands.hpp"
 #include "surface_simplify.hpp"
@@ -84,10 +85,9 @@ fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::p
     fs::remove(input.parent_path() / (input.stem().string() + ext));
   char switches[128];
   std::snprintf(switches, sizeof switches, "-pq%ga%.6g", o.quality, max_volume);
-  const std::string cmd = "'" + o.tetgen + "' -Q " + switches + " '" + input.string() + "' > '" +
-                          (scratch / "tetgen.log").string() + "' 2>&1";
-  const int rc = std::system(cmd.c_str());
-  // system() ignores SIGINT in this process while TetGen runs; TetGen (or its shell) gets it.
+  const std::string log = (scratch / "tetgen.log").string();
+  const int rc = run_program({o.tetgen, "-Q", switches, input.string()}, log);
+  // Ctrl-C reaches TetGen too (the same process group): it ends with SIGINT.
   if ((WIFSIGNALED(rc) && WTERMSIG(rc) == SIGINT) || (WIFEXITED(rc) && WEXITSTATUS(rc) == 128 + SIGINT)) {
     std::cout << std::flush;
     std::cerr << "pmg: interrupted: TetGen was stopped, nothing was written, the temporary folder was removed\n";
@@ -97,9 +97,11 @@ fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::p
   // TetGen may exit with 134 even after writing a good mesh: judge by its output files.
   const fs::path base = input.parent_path() / (input.stem().string() + ".1");
   if (!fs::exists(base.string() + ".ele"))
-    throw Error("tetgen failed (exit status " + std::to_string(WIFEXITED(rc) ? WEXITSTATUS(rc) : rc) + ", see " +
-                (scratch / "tetgen.log").string() + "); is the surface closed and free of " +
-                "self-intersections? Is tetgen installed (apt install tetgen)?");
+    throw Error("tetgen failed (" +
+                (rc == -1 ? std::string("could not be started: ") + o.tetgen
+                          : "exit status " + std::to_string(WIFEXITED(rc) ? WEXITSTATUS(rc) : rc) + ", its last words: " +
+                                tail_of_file(log, 3)) +
+                "); is the surface closed and free of self-intersections? Is tetgen installed (apt install tetgen)?");
   fem::TetMesh mesh = fem::read_tetgen(base.string());
   stop_if_interrupted();
   return mesh;

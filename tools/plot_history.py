@@ -33,6 +33,10 @@ for ax in (ax_t, ax_i):
 ax_i.legend()
 fig.suptitle(title, fontsize=9)
 fig.tight_layout()
-tmp = png + ".tmp.png"
+# Through a link to its target; never over a device, FIFO or folder (a rename would replace it).
+target = os.path.realpath(png)
+if os.path.exists(target) and not os.path.isfile(target):
+    sys.exit("plot: %s is not a regular file" % png)
+tmp = target + ".tmp.png"
 fig.savefig(tmp, dpi=110)
-os.replace(tmp, png)
+os.replace(tmp, target)

@@ -1,10 +1,12 @@
 // pmg — the pmgkit command-line tool. Each subcommand lives in its own file (commands.hpp).
+#include "pmg/sparse/text_reader.hpp"
 #include "commands.hpp"
 
 #include "pmg/mpi/session.hpp"
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/monitor.hpp"
 
+#include <cerrno>
 #include <omp.h>
 #include <sched.h>
 
@@ -120,6 +122,17 @@ int fail(int code, const std::string& line) {
 int main(int argc, char** argv) {
   pmg::tools::use_transparent_huge_pages(argv);
   using pmg::tools::fail;
+  // OMP_NUM_THREADS as --threads takes it (1 to 1024), checked before the first parallel region:
+  // OpenMP itself ignores a bad value with a warning and tries to start any number of threads.
+  if (const char* env = std::getenv("OMP_NUM_THREADS")) {
+    const std::string first = std::string(env).substr(0, std::string(env).find(','));  // nested lists: the outer count
+    char* end = nullptr;
+    errno = 0;
+    const long n = std::strtol(first.c_str(), &end, 10);
+    if (first.empty() || *end != '\0' || errno != 0 || n < 1 || n > 1024)
+      return fail(pmg::tools::kBadInput, "pmg: error: OMP_NUM_THREADS='" + pmg::printable(env) +
+                                             "': expected a whole number of threads from 1 to 1024\n");
+  }
   try {
     pmg::tools::start_ranks();
   } catch (const std::exception& e) {

@@ -282,8 +282,15 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     r.probe_z_min = std::min(r.probe_z_min, d.z()), r.probe_z_max = std::max(r.probe_z_max, d.z());
     double tot = std::nan("");
     kin = el = std::nan("");
+    if (scene_.energy) energies(kin, el, tot);
+    // A solve that met its tolerance can still leave a state beyond double range (loads near 1e308
+    // overflow the energies): a failed step, never NaN in the outputs with success.
+    if (!d.allFinite() || (scene_.energy && !(std::isfinite(kin) && std::isfinite(el)))) {
+      r.failed_step = n;
+      r.failure = "the state is no longer finite (overflow: loads, material or initial state beyond double range?)";
+      break;
+    }
     if (scene_.energy) {
-      energies(kin, el, tot);
       r.energy_max_rise = std::max(r.energy_max_rise, tot - E_prev);
       r.energy_peak = std::max(r.energy_peak, tot);
       E_prev = tot;

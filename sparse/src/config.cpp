@@ -1,4 +1,5 @@
 #include "pmg/sparse/config.hpp"
+#include "pmg/sparse/text_reader.hpp"
 
 #include "pmg/sparse/file_io.hpp"
 
@@ -31,14 +32,21 @@ bool given_already(const Config& c, const std::string& key) {
   return c.has(key) || c.has(key + kMethod) || (is_method && c.has(key.substr(0, key.size() - 7)));
 }
 
-void flatten(const json& j, const std::string& prefix, Config& out, const std::string& origin) {
+/// Sections nested deeper than this are refused (no option has more than a few levels; the limit
+/// keeps the recursion's stack bounded whatever the input).
+constexpr int kMaxDepth = 64;
+
+void flatten(const json& j, const std::string& prefix, Config& out, const std::string& origin, int depth = 0) {
+  if (depth > kMaxDepth)
+    throw InputError(origin + ": " + prefix.substr(0, 80) + "...: sections nested deeper than " + std::to_string(kMaxDepth) +
+                     " levels");
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string key = prefix + it.key();
     const json& v = it.value();
     // The same key twice ("a.b" beside {"a": {"b": ...}}): refused, never resolved silently.
     if (!v.is_object() && given_already(out, key))
       throw InputError(origin + ": " + key + ": given twice (as a dotted key and inside its section)");
-    if (v.is_object()) flatten(v, key + ".", out, origin);
+    if (v.is_object()) flatten(v, key + ".", out, origin, depth + 1);
     else if (v.is_string()) out.set(key, v.get<std::string>());
     else if (v.is_boolean()) out.set(key, v.get<bool>() ? "true" : "false");
     else if (v.is_number()) out.set(key, v.dump());
@@ -165,7 +173,7 @@ std::string Config::get_choice(const std::string& key, const std::string& fallba
     if (v == a) return v;
   std::string list;
   for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-  fail(key, "'" + v + "' is not one of " + list);
+  fail(key, "'" + printable(v) + "' is not one of " + list);
 }
 
 int Config::get_int(const std::string& key, int fallback, int lo, int hi) const {
@@ -175,9 +183,11 @@ int Config::get_int(const std::string& key, int fallback, int lo, int hi) const 
   char* end = nullptr;
   errno = 0;
   const long x = std::strtol(v->c_str(), &end, 10);
-  if (v->empty() || *end != '\0' || errno == ERANGE) fail(key, "expected an integer, got '" + *v + "'");
+  // The whole value must be the number (an embedded NUL ends strtol early).
+  if (v->empty() || end != v->c_str() + v->size() || errno == ERANGE)
+    fail(key, "expected an integer, got '" + printable(*v) + "'");
   if (x < lo || x > hi)
-    fail(key, "must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + *v);
+    fail(key, "must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + printable(*v));
   return static_cast<int>(x);
 }
 
@@ -188,11 +198,12 @@ double Config::get_double(const std::string& key, double fallback, double lo, do
   char* end = nullptr;
   errno = 0;
   const double x = std::strtod(v->c_str(), &end);
-  if (v->empty() || *end != '\0' || errno == ERANGE || !std::isfinite(x))
-    fail(key, "expected a finite number, got '" + *v + "'");
+  // The whole value must be the number; underflow (ERANGE with a tiny result) is a number.
+  if (v->empty() || end != v->c_str() + v->size() || (errno == ERANGE && std::abs(x) >= 1.0) || !std::isfinite(x))
+    fail(key, "expected a finite number, got '" + printable(*v) + "'");
   if (!(x >= lo && x <= hi)) {
     std::ostringstream s;
-    s << "must lie in [" << lo << ", " << hi << "], got " << *v;
+    s << "must lie in [" << lo << ", " << hi << "], got " << printable(*v);
     fail(key, s.str());
   }
   return x;
@@ -204,7 +215,7 @@ bool Config::get_bool(const std::string& key, bool fallback) const {
   if (!v) return fallback;
   if (*v == "true" || *v == "1" || *v == "on") return true;
   if (*v == "false" || *v == "0" || *v == "off") return false;
-  fail(key, "expected true or false, got '" + *v + "'");
+  fail(key, "expected true or false, got '" + printable(*v) + "'");
 }
 
 void Config::check_all_used(const std::set<std::string>& except) const {

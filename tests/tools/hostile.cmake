@@ -204,6 +204,19 @@ add_test(NAME "hostile: --dt 1e200 is refused naming --dt, not an operator"
   COMMAND ${EXPECT} 2 "--dt, --duration: dt 1e\\+200 s makes the step matrix M \\+ dt\\^2 K overflow" ${PMG} simulate --dt 1e200 --duration 1e201)
 add_test(NAME "hostile: a command-line parse error has the pmg: error: prefix"
   COMMAND ${EXPECT} 109 "^pmg: error: The following argument was not expected: --bogus" ${PMG} compare --bogus)
+# The command-line sweep of 2026-12-03.
+add_test(NAME "hostile: solver options nested 10,000 deep are refused, not a stack overflow"
+  COMMAND ${EXPECT} 2 "sections nested deeper than 64 levels" ${PMG} simulate ${DATA}/deep_solver.json -q)
+add_test(NAME "hostile: OMP_NUM_THREADS beyond 1024 is refused before a thread starts"
+  COMMAND ${CMAKE_COMMAND} -E env OMP_NUM_THREADS=65536 ${EXPECT} 2 "OMP_NUM_THREADS='65536': expected a whole number of threads from 1 to 1024"
+  ${PMG} compare -n 3 -s cg)
+add_test(NAME "hostile: an OMP_NUM_THREADS that is not a number is refused"
+  COMMAND ${CMAKE_COMMAND} -E env OMP_NUM_THREADS=abc ${EXPECT} 2 "OMP_NUM_THREADS='abc'" ${PMG} compare -n 3 -s cg)
+add_test(NAME "hostile: --plot onto something that is not a regular file is refused"
+  COMMAND ${EXPECT} 2 "--plot: /dev/null is not a regular file" ${PMG} compare -n 3 -s cg --plot /dev/null)
+add_test(NAME "hostile: a load beyond double range fails its step instead of writing NaN"
+  COMMAND ${EXPECT} 1 "simulation failed at step 1: the state is no longer finite"
+  ${PMG} simulate ${DATA}/overflow_force.json -q -o ${CMAKE_CURRENT_BINARY_DIR}/overflow_force_out)
 get_property(all_tests DIRECTORY PROPERTY TESTS)
 list(FILTER all_tests INCLUDE REGEX "^hostile: ")
 set_tests_properties(${all_tests} PROPERTIES LABELS "tools;hostile")
