@@ -9,6 +9,7 @@
 //      count is within 15% of the request.
 //   3. Read TetGen's output back (checks every element), write .node/.ele, print the counts.
 #include "process.hpp"
+#include "pmg/sparse/text_reader.hpp"
 #include "checks.hpp"
 #include "commands.hpp"
 #include "surface_simplify.hpp"
@@ -99,8 +100,9 @@ fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::p
   if (!fs::exists(base.string() + ".ele"))
     throw Error("tetgen failed (" +
                 (rc == -1 ? std::string("could not be started: ") + o.tetgen
-                          : "exit status " + std::to_string(WIFEXITED(rc) ? WEXITSTATUS(rc) : rc) + ", its last words: " +
-                                tail_of_file(log, 3)) +
+                          : (WIFSIGNALED(rc) ? "killed by signal " + std::to_string(WTERMSIG(rc))
+                                              : "exit status " + std::to_string(WEXITSTATUS(rc))) +
+                                ", its last words: " + printable(tail_of_file(log, 3))) +
                 "); is the surface closed and free of self-intersections? Is tetgen installed (apt install tetgen)?");
   fem::TetMesh mesh = fem::read_tetgen(base.string());
   stop_if_interrupted();

@@ -122,16 +122,28 @@ int fail(int code, const std::string& line) {
 int main(int argc, char** argv) {
   pmg::tools::use_transparent_huge_pages(argv);
   using pmg::tools::fail;
-  // OMP_NUM_THREADS as --threads takes it (1 to 1024), checked before the first parallel region:
-  // OpenMP itself ignores a bad value with a warning and tries to start any number of threads.
+  // OMP_NUM_THREADS as --threads takes it (1 to 1024 per item of a nested list, blanks around a
+  // number allowed, an empty value ignored as OpenMP ignores it), checked before the first parallel
+  // region: OpenMP itself ignores a bad value with a warning and tries to start any number of threads.
   if (const char* env = std::getenv("OMP_NUM_THREADS")) {
-    const std::string first = std::string(env).substr(0, std::string(env).find(','));  // nested lists: the outer count
-    char* end = nullptr;
-    errno = 0;
-    const long n = std::strtol(first.c_str(), &end, 10);
-    if (first.empty() || *end != '\0' || errno != 0 || n < 1 || n > 1024)
+    const std::string all(env);
+    bool ok = true;
+    if (all.find_first_not_of(" \t") != std::string::npos) {
+      for (size_t start = 0; ok && start <= all.size();) {
+        const size_t comma = std::min(all.find(',', start), all.size());
+        const std::string item = all.substr(start, comma - start);
+        const size_t b = item.find_first_not_of(" \t"), e = item.find_last_not_of(" \t");
+        const std::string num = b == std::string::npos ? "" : item.substr(b, e - b + 1);
+        char* end = nullptr;
+        errno = 0;
+        const long n = num.empty() ? 0 : std::strtol(num.c_str(), &end, 10);
+        ok = !num.empty() && num.find_first_not_of("0123456789") == std::string::npos && errno == 0 && n >= 1 && n <= 1024;
+        start = comma + 1;
+      }
+    }
+    if (!ok)
       return fail(pmg::tools::kBadInput, "pmg: error: OMP_NUM_THREADS='" + pmg::printable(env) +
-                                             "': expected a whole number of threads from 1 to 1024\n");
+                                             "': expected a whole number of threads from 1 to 1024 (or a list of them)\n");
   }
   try {
     pmg::tools::start_ranks();

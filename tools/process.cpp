@@ -4,6 +4,7 @@
 #include <deque>
 #include <fcntl.h>
 #include <fstream>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 
@@ -22,13 +23,34 @@ int run_program(const std::vector<std::string>& argv, const std::string& log) {
     posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&actions, 1, 2);
   }
+  // As system(): this process ignores Ctrl-C and SIGQUIT while the program runs (the program, in the
+  // same process group, gets them with their default action and ends; its status says so).
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t defaults;
+  sigemptyset(&defaults);
+  sigaddset(&defaults, SIGINT);
+  sigaddset(&defaults, SIGQUIT);
+  posix_spawnattr_setsigdefault(&attr, &defaults);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGDEF);
+  struct sigaction ignore = {}, old_int = {}, old_quit = {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  sigaction(SIGINT, &ignore, &old_int);
+  sigaction(SIGQUIT, &ignore, &old_quit);
   pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  const int rc = posix_spawnp(&pid, args[0], &actions, &attr, args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) return -1;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) return -1;  // a signal (Ctrl-C) interrupts the wait, not the child's end
+  posix_spawnattr_destroy(&attr);
+  int status = -1;
+  if (rc == 0)
+    while (waitpid(pid, &status, 0) < 0)
+      if (errno != EINTR) {
+        status = -1;
+        break;
+      }
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGQUIT, &old_quit, nullptr);
   return status;
 }
 

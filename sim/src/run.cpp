@@ -264,6 +264,8 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   write_outputs(true);
 
   const auto t_run = Clock::now();
+  bool rejected = false;              // a step whose state was not finite
+  fem::Vec3 last_probe = sim.probe();  // the probe after the last accepted step
   for (int n = 1; n <= steps_; ++n) {
     const ThreadBudget budget;  // the step, its energies and its output on the cores free now
     fem::StepStats st;
@@ -279,7 +281,6 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     r.max_iterations = std::max(r.max_iterations, st.iterations);
     r.max_residual = std::max(r.max_residual, st.residual);
     const fem::Vec3 d = sim.probe();
-    r.probe_z_min = std::min(r.probe_z_min, d.z()), r.probe_z_max = std::max(r.probe_z_max, d.z());
     double tot = std::nan("");
     kin = el = std::nan("");
     if (scene_.energy) energies(kin, el, tot);
@@ -288,8 +289,11 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     if (!d.allFinite() || (scene_.energy && !(std::isfinite(kin) && std::isfinite(el)))) {
       r.failed_step = n;
       r.failure = "the state is no longer finite (overflow: loads, material or initial state beyond double range?)";
+      rejected = true;  // the summary reports the steps before it
       break;
     }
+    r.probe_z_min = std::min(r.probe_z_min, d.z()), r.probe_z_max = std::max(r.probe_z_max, d.z());
+    last_probe = d;
     if (scene_.energy) {
       r.energy_max_rise = std::max(r.energy_max_rise, tot - E_prev);
       r.energy_peak = std::max(r.energy_peak, tot);
@@ -306,9 +310,9 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   }
   r.wall_s = seconds_since(t_run);
   if (!output_.empty()) write_outputs(false);
-  r.steps_done = sim.steps();
+  r.steps_done = rejected ? sim.steps() - 1 : sim.steps();
   r.energy_final = E_prev;
-  r.probe = sim.probe();
+  r.probe = rejected ? last_probe : sim.probe();
   r.frames = static_cast<int>(pvd.size());
   if (run_files) {
     r.outputs.push_back(output_ + "/steps.csv");

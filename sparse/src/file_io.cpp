@@ -143,6 +143,10 @@ void prepare_output_directory(const std::string& path, const std::string& what) 
 
 void check_json_text(const std::string& text, const std::string& origin) {
   using json = nlohmann::json;
+  // Deeper documents are refused while they are read: no option has more than a few levels, and
+  // the recursive walks after parsing (dump, flatten) must not overflow the stack.
+  constexpr int kMaxJsonDepth = 64;
+  int depth = 0;
   std::vector<std::set<std::string>> open;
   std::vector<std::string> path;  // the key path to the current value, for messages
   std::string problem;
@@ -150,8 +154,17 @@ void check_json_text(const std::string& text, const std::string& origin) {
     const json document = json::parse(text, [&](int, json::parse_event_t event, json& parsed) {
       if (!problem.empty()) return false;
       switch (event) {
-        case json::parse_event_t::object_start: open.emplace_back(); path.emplace_back(); break;
+        case json::parse_event_t::object_start:
+          open.emplace_back();
+          path.emplace_back();
+          if (++depth > kMaxJsonDepth) problem = "objects and arrays nested deeper than " + std::to_string(kMaxJsonDepth) + " levels";
+          break;
+        case json::parse_event_t::array_start:
+          if (++depth > kMaxJsonDepth) problem = "objects and arrays nested deeper than " + std::to_string(kMaxJsonDepth) + " levels";
+          break;
+        case json::parse_event_t::array_end: --depth; break;
         case json::parse_event_t::object_end:
+          --depth;
           if (!open.empty()) open.pop_back();
           if (!path.empty()) path.pop_back();
           break;

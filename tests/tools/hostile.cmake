@@ -206,7 +206,7 @@ add_test(NAME "hostile: a command-line parse error has the pmg: error: prefix"
   COMMAND ${EXPECT} 109 "^pmg: error: The following argument was not expected: --bogus" ${PMG} compare --bogus)
 # The command-line sweep of 2026-12-03.
 add_test(NAME "hostile: solver options nested 10,000 deep are refused, not a stack overflow"
-  COMMAND ${EXPECT} 2 "sections nested deeper than 64 levels" ${PMG} simulate ${DATA}/deep_solver.json -q)
+  COMMAND ${EXPECT} 2 "nested deeper than 64 levels" ${PMG} simulate ${DATA}/deep_solver.json -q)
 add_test(NAME "hostile: OMP_NUM_THREADS beyond 1024 is refused before a thread starts"
   COMMAND ${CMAKE_COMMAND} -E env OMP_NUM_THREADS=65536 ${EXPECT} 2 "OMP_NUM_THREADS='65536': expected a whole number of threads from 1 to 1024"
   ${PMG} compare -n 3 -s cg)

@@ -22,7 +22,7 @@ until [ -n "$(tetgen_pids)" ]; do
 done
 sleep 0.3
 kill -INT $pid               # the terminal sends SIGINT to the whole foreground group:
-kill -INT $(tetgen_pids) 2>/dev/null  # pmg (which ignores it while TetGen runs) and TetGen
+kill -INT $(tetgen_pids) 2>/dev/null  # pmg (which ignores it while TetGen runs, as system() did) and TetGen
 wait $pid
 rc=$?
 cat "$d/log"
