@@ -54,8 +54,8 @@ void run(const CoarseOptions& o) {
           "pmg coarse");
       SolverContext ctx;
       ctx.levels = &h;
-      auto solver = make_solver(config, ctx);
-      auto& cycle = dynamic_cast<mg::MultigridCycle&>(*solver);
+      const auto solver = mg::make_cycle(config, ctx);
+      mg::MultigridCycle& cycle = *solver;
       cycle.setup(h.matrix(h.num_levels() - 1));
       // Update of the lower levels for new rotations (the finest level is common to both).
       double update = 1e300;

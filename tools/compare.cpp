@@ -8,6 +8,7 @@
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
 //   4. Write the per-iteration history as CSV and print the summary table.
 #include "process.hpp"
+#include "pmg/sparse/defaults.hpp"
 #include "checks.hpp"
 #include "commands.hpp"
 #include "levels.hpp"
@@ -18,6 +19,7 @@
 #include "pmg/mpi/session.hpp"
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/factory.hpp"
+#include "pmg/study/study.hpp"
 
 #include <filesystem>
 #include <sys/wait.h>
@@ -52,7 +54,6 @@ namespace pmg::tools {
 
 namespace {
 
-const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Options {
   std::string matrix, rhs, solution, history, plot, export_levels, export_petsc, json_report;
@@ -115,7 +116,7 @@ std::vector<std::pair<std::string, Config>> solver_configs(const Options& o, con
       if (!it.value().is_object())
         throw InputError(o.solver_config + ": " + it.key() + ": expected an object of solver options");
       Config c = Config::from_json(it.value().dump(), o.solver_config + ": " + it.key());
-      const std::string method = c.get_string("method", "cg");
+      const std::string method = c.get_string("method", kDefaultMethod);
       if (reads_stopping_flag(method, "tol")) c.set_default("tol", fmt("%.17g", o.tol));
       out.emplace_back(it.key(), c);
     }
@@ -147,12 +148,6 @@ struct System {
 /// A non-owning pointer to a matrix that outlives the system's users (the FEM hierarchy's).
 std::shared_ptr<const Bcsr> borrow(const Bcsr& A) { return std::shared_ptr<const Bcsr>(std::shared_ptr<void>(), &A); }
 
-struct Outcome {
-  std::string name, status = "ok", message, breakdown, setup_breakdown, settings;
-  int iterations = 0;
-  double setup = 0, solve = 0, rel_residual = kNaN, rel_error = kNaN;
-  std::vector<IterationRecord> history;
-};
 
 /// Files ending in .petsc are PETSc's binary format, others Matrix Market.
 bool is_petsc_file(const std::string& path) {
@@ -279,17 +274,6 @@ Formats select_format(const Options& o, const System& s) {
   return f;
 }
 
-void write_history(const std::string& path, const std::vector<Outcome>& outcomes) {
-  std::ostringstream csv;
-  csv.precision(10);
-  csv << "solver,iteration,seconds,rel_residual\n";
-  for (const auto& o : outcomes)
-    for (const auto& h : o.history)
-      csv << o.name << "," << h.iteration << "," << o.setup + h.seconds << "," << h.rel_residual
-          << "\n";
-  write_file_atomically(path, csv.str());
-}
-
 /// Draws relative residual against time and against iterations (matplotlib, Debian's python3).
 void plot_history(const std::string& csv, const std::string& png, const std::string& title) {
   const std::string script = find_data_file("plot_history.py");
@@ -299,64 +283,9 @@ void plot_history(const std::string& csv, const std::string& png, const std::str
   std::cout << "plot: " << png << "\n";
 }
 
-/// Sets up (timed), solves from x (timed, monitored) and reports.
-Outcome run_solver(const std::string& name, Solver& solver, const LinearOperator& A,
-                   const Vector& b, Vector& x, double extra_setup,
-                   const std::vector<std::pair<std::string, double>>& extra_parts = {}) {
-  Outcome out;
-  out.name = name;
-  auto t0 = Clock::now();
-  try {
-    solver.setup(A);
-  } catch (const Error& e) {  // e.g. a lowest level that is not positive definite
-    out.setup = seconds_since(t0) + extra_setup;
-    out.status = "set-up failed";
-    out.message = e.what();
-    x.setConstant(kNaN);
-    return out;
-  }
-  out.setup = seconds_since(t0) + extra_setup;
-  // The set-up by stage: the levels' preparation (outside the solver), then the solver's own.
-  TimingBreakdown stages = solver.setup_timings();
-  if (!stages.empty() || !extra_parts.empty()) {
-    stages.count = 1, stages.unit = "set-up";
-    stages.parts.insert(stages.parts.begin(), extra_parts.begin(), extra_parts.end());
-    double staged = 0.0;
-    for (const auto& p : stages.parts) staged += p.second;
-    stages.parts.emplace_back("other", std::max(0.0, out.setup - staged));
-    out.setup_breakdown = stages.to_string();
-  }
-  solver.reset_timings();
-  SolveMonitor mon;
-  t0 = Clock::now();
-  SolveResult r;
-  try {
-    r = solver.solve(b, x, &mon);
-  } catch (const SolveError& e) {
-    r = e.result;
-    out.message = e.what();
-  }
-  out.solve = seconds_since(t0);
-  out.settings = solver.describe();  // after the solve: the GPU solvers report its copies' times
-  out.history = mon.history();
-  out.iterations = r.iterations;
-  out.rel_residual = std::isnan(r.true_rel_residual) ? r.rel_residual : r.true_rel_residual;
-  out.status = to_string(r.status);
-  out.breakdown = solver.timings().to_string();
-  return out;
-}
-
-/// Setup plus the time at which the history first reached rel (NaN if never).
-double time_to(const Outcome& o, double rel) {
-  for (const auto& h : o.history)
-    if (h.rel_residual <= rel) return o.setup + h.seconds;
-  return kNaN;
-}
-
-void run(const Options& given) {
-  Options o = given;
-  if (o.threads > 0) omp_set_num_threads(o.threads);
-  // Output paths are checked before any work: a run must not fail at its end for a bad path.
+/// Every output path checked before any work (a run must not fail at its end for a bad path);
+/// under mpirun only rank 0 writes (every rank checked the paths).
+void check_outputs(Options& o) {
   if (!o.history.empty()) check_output_file(o.history, "--history");
   if (!o.solution_out.empty()) check_output_file(o.solution_out, "--solution-out");
   if (!o.plot.empty()) {
@@ -374,274 +303,247 @@ void run(const Options& given) {
     if (!o.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
     prepare_output_directory(o.export_petsc, "--export-petsc");
   }
-  if (mpi::launched_rank() != 0) {  // under mpirun rank 0 alone writes (every rank checked the paths)
+  if (mpi::launched_rank() != 0) {
     o.plot.clear(), o.json_report.clear(), o.history.clear(), o.export_levels.clear(), o.export_petsc.clear();
     o.solution_out.clear();
   }
-  auto t0 = Clock::now();
-  System sys = load_system(o);
-  // (an FEM scene: checked above)
-  if (!o.export_levels.empty()) export_levels(*sys.fem, o.export_levels);
-  if (!o.export_petsc.empty()) export_petsc(*sys.fem, o.export_petsc);
-  double load_time = seconds_since(t0);
+}
 
-  KrylovParams params;
-  params.rel_tol = o.tol;
-  params.max_iterations = o.fixed_iterations > 0 ? o.fixed_iterations : o.max_iterations;
-  params.fixed_iterations = o.fixed_iterations > 0;
-  params.check_every = o.check_every;
+/// The methods run when --solvers and --solver-config name none: the Krylov methods, the direct
+/// solver and BoomerAMG-PCG, and where there are levels the two multigrid methods.
+std::vector<std::string> default_solver_names(bool levels) {
+  std::vector<std::string> names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", kDefaultDirectMethod, "boomeramg-pcg"};
+  if (levels) names.insert(names.end(), {"pmg", "mgpcg"});  // mgpcg flexible where the lowest level iterates
+  return names;
+}
 
-  const mg::LevelProvider* levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())
-                                    : sys.fem ? &sys.fem->hierarchy() : nullptr;
-  const Config set = Config::from_pairs(o.overrides, "--set");  // read once, for every solver
-  std::vector<std::string> names = o.solvers;
-  if (names.empty()) {
-    names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", "cholmod", "boomeramg-pcg"};
-    if (levels && levels->num_levels() > 1) {
-      names.push_back("pmg");
-      names.push_back("mgpcg");  // flexible where the lowest level is an inner iteration
-    }
-  }
-  // Every solver is built (and its options checked) before any runs.
-  SolverContext ctx;
-  ctx.levels = levels;
-  std::vector<double> coordinates;  // FEM: the free nodes' rest positions (rigid-body modes)
-  if (sys.fem) {
-    coordinates = sys.fem->free_coordinates();
-    ctx.coordinates = &coordinates;
-  }
-  std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names, set);
-  // A stopping flag given twice (as a flag and in --set), or to solvers that do not read it, is an
-  // error: a conflict is never resolved silently.
+/// default_solver_names() for --help.
+std::string default_solver_help() {
+  std::string text;
+  for (const std::string& n : default_solver_names(false)) text += (text.empty() ? "" : ", ") + n;
+  return text + ", and pmg, mgpcg where there are levels";
+}
+
+/// A stopping flag given twice (as a flag and in --set), or to solvers that do not read it, is an
+/// error: a conflict is never resolved silently.
+void check_stopping_flags(const Options& o, const Config& set,
+                          const std::vector<std::pair<std::string, Config>>& configs) {
   for (const auto& [flag, key] : {std::pair<const char*, const char*>{"--tol", "tol"}, {"--max-iter", "max_iterations"},
                                   {"--fixed-iterations", "fixed_iterations"}, {"--check-every", "check_every"}}) {
     if (!o.given.count(flag)) continue;
     if (set.has(key))
-      throw InputError(std::string(flag) + " and --set " + key + "=" + set.get_string(key, "") +
-                       ": give it once");
+      throw InputError(std::string(flag) + " and --set " + key + "=" + set.get_string(key, "") + ": give it once");
     bool read = false;
-    for (const auto& nc : configs) read |= reads_stopping_flag(nc.second.get_string("method", "cg"), key);
+    for (const auto& nc : configs) read |= reads_stopping_flag(nc.second.get_string("method", kDefaultMethod), key);
     if (!read)
       throw InputError(std::string(flag) + ": no solver of this run reads it (it is the iterative methods' stopping "
                        "rule; a direct solver's check of its residual is --set tol=...)");
   }
-  std::vector<std::unique_ptr<Solver>> solvers;
-  std::set<std::string> set_keys;
+}
+
+/// Every solver added to the study (and its options checked) before any runs; a --set key that
+/// no solver reads is an error.
+void add_solvers(study::Study& st, const System& sys, const Config& set,
+                 std::vector<std::pair<std::string, Config>>& configs) {
+  std::set<std::string> set_keys, set_used;
   for (const auto& kv : set.items()) set_keys.insert(kv.first);
-  std::set<std::string> set_used;
-  double mpi = -1.0;
   for (auto& [name, c] : configs) {
-    if (!sys.bcsr && !sys.fem && method_needs_blocks(c.get_string("method", "cg")))
+    if (!sys.bcsr && !sys.fem && method_needs_blocks(c.get_string("method", kDefaultMethod)))
       throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
-    solvers.push_back(build_solver(c, ctx, "cg"));
-    c.check_all_used(set_keys);
+    st.add(name, c, set_keys);
     for (const auto& k : set_keys)
       // "smoother=X" is stored as smoother.method where the solver's options have a smoother tree.
       if (c.was_used(k) || c.was_used(k + ".method")) set_used.insert(k);
-    // MPI's and PETSc's start-up is paid once per process: started here, before the clocks, so
-    // that it is charged to no solver.
-    mpi = std::max(mpi, start_libraries(c));
   }
   for (const auto& k : set_keys)
     if (!set_used.count(k)) throw InputError("--set: " + k + ": no solver of this run reads it");
-  // FEM: the finest matrix, where a solver multiplies with it or reads its entries (matrix-free
-  // solvers do neither); its assembly belongs to the load time.
-  if (sys.fem && !sys.bcsr) {
-    bool finest = sys.fem->hierarchy().num_levels() < 2;
-    for (const auto& s : solvers) finest = finest || !s->needs().matrix_free;
-    if (finest) {
-      sys.fem->assemble_finest();
-      load_time += sys.fem->finest_assembly;
-      sys.bcsr = borrow(sys.fem->matrix());
-    }
-  }
-  t0 = Clock::now();
-  const Formats fmt_ = sys.bcsr || !sys.fem ? select_format(o, sys) : Formats{};
-  const double convert_time = seconds_since(t0);
+}
+
+/// The system, size, format and stopping rule, and the solvers' options where they were given.
+void print_header(const Options& o, const System& sys, double load_time, double convert_time,
+                  const std::vector<std::pair<std::string, Config>>& configs, double mpi) {
   std::cout << "system:  " << sys.description << "\n"
             << "size:    " << sys.unknowns() << " unknowns, "
             << (sys.nonzeros() >= 0 ? std::to_string(sys.nonzeros()) + " nonzeros" : "finest matrix not assembled (matrix-free solvers only)")
-            << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "")
-            << "\n"
+            << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "") << "\n"
             << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
             << fmt("%.3f", convert_time) << " s), " << omp_get_max_threads() << " threads\n"
             << "stop:    "
-            << (params.fixed_iterations ? std::to_string(o.fixed_iterations) + " fixed iterations"
-                                        : "relative residual <= " + fmt("%.1e", o.tol))
+            << (o.fixed_iterations > 0 ? std::to_string(o.fixed_iterations) + " fixed iterations"
+                                       : "relative residual <= " + fmt("%.1e", o.tol))
             << "\n\n";
-  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); the Krylov methods
-  // multiply in the requested format (matrix-free ones: with the finest operator, set per run).
-  static const Csr no_matrix;
-  const LinearOperator& entries = sys.bcsr ? static_cast<const LinearOperator&>(*sys.bcsr)
-                                  : sys.fem ? static_cast<const LinearOperator&>(no_matrix) : sys.csr;
-  for (auto& s : solvers) {
-    if (!fmt_.op) break;
-    if (auto* cg = dynamic_cast<Cg*>(s.get())) cg->set_multiplication_operator(fmt_.op);
-    if (auto* mcg = dynamic_cast<MergedCg*>(s.get())) mcg->set_multiplication_operator(fmt_.op);
-  }
+  const bool given = !o.solver_config.empty() || !o.overrides.empty();
   for (const auto& [name, c] : configs)
-    if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << name << ": " << c.to_string() << "\n";
-  if (!o.solver_config.empty() || !o.overrides.empty()) std::cout << "\n";
+    if (given) std::cout << name << ": " << c.to_string() << "\n";
+  if (given) std::cout << "\n";
   if (mpi >= 0) std::cout << "MPI (and PETSc) start-up: " << fmt("%.3f", mpi) << " s (charged to no solver)\n\n";
-  std::vector<Outcome> outcomes;
-  // FEM systems: what each solver needs beyond the finest matrix (lower levels, matrix-free
-  // operators), prepared once per kind of need outside the solvers' clocks and charged to every
-  // solver that needs it.
-  struct Prepared {
-    double seconds = 0.0;
-    std::vector<std::pair<std::string, double>> parts;  // by level (DegreeHierarchy::prepare_seconds)
-  };
-  std::map<std::tuple<bool, bool, int>, Prepared> prepared;
-  double lower_levels = -1.0;  // seconds to assemble the lower levels (the report's lower_levels_s)
-  double matrix_free = -1.0;   // seconds to build the matrix-free levels (matrix_free_s)
-  auto run_one = [&](size_t k, Vector& x) {
-    Solver& solver = *solvers[k];
-    if (!sys.fem) return run_solver(configs[k].first, solver, entries, sys.b, x, 0.0);
-    const SolverNeeds needs = solver.needs();
-    Prepared extra;
-    if (needs.lower_levels || needs.matrix_free) {
-      const auto key = std::make_tuple(needs.lower_levels, needs.matrix_free, needs.lowest_level);
-      if (!prepared.count(key)) {
-        const double seconds = sys.fem->prepare(needs);
-        prepared[key] = {seconds, sys.fem->hierarchy().prepare_seconds()};
-      }
-      extra = prepared[key];
-      if (needs.matrix_free) matrix_free = extra.seconds;
-      else if (needs.lower_levels) lower_levels = extra.seconds;
-    }
-    const LinearOperator& Afem = sys.fem->hierarchy().system_operator(needs);
-    // A matrix-free solver multiplies with the finest operator too.
-    if (needs.matrix_free)
-      if (auto* cg = dynamic_cast<Cg*>(&solver)) cg->set_multiplication_operator(&Afem);
-    return run_solver(configs[k].first, solver, needs.matrix_free ? Afem : entries, sys.b, x, extra.seconds,
-                      extra.parts);
-  };
   if (o.warm_up)
     std::cout << "warm-up: each solver runs once untimed before its timed run (the first solver in a "
                  "process otherwise pays the first touch of its memory)\n\n";
-  std::vector<Vector> solutions(solvers.size());
-  for (size_t k = 0; k < solvers.size(); ++k) {
-    if (o.warm_up) {
-      Vector w = Vector::Zero(sys.b.size());
-      run_one(k, w);
-    }
-    solutions[k] = Vector::Zero(sys.b.size());
-    outcomes.push_back(run_one(k, solutions[k]));
-    solvers[k].reset();  // its factors and hierarchies are not held while the next one runs
-  }
-  if (!o.solution_out.empty() && !solutions.empty()) {
-    const Vector x = sys.levels ? sys.levels->expand(solutions[0], sys.b_full) : solutions[0];
-    if (!x.allFinite()) {  // a failed first solver: its NaN would make a file no reader takes
-      std::cout << "solution of " << outcomes[0].name << " not written to " << o.solution_out
-                << ": it has NaN or Inf entries\n";
-    } else {
-      if (is_petsc_file(o.solution_out)) write_petsc_binary(o.solution_out, x);
-      else write_matrix_market_vector(o.solution_out, x);
-      std::cout << "solution of " << outcomes[0].name << " written to " << o.solution_out << "\n";
-    }
-  }
-  if (sys.reference_pending) {
-    // The reference: this run's own CHOLMOD solution if it has one, else one direct solve now.
-    for (size_t k = 0; k < outcomes.size() && sys.x_true.size() == 0; ++k)
-      if (configs[k].second.get_string("method", "cg") == "cholmod" && outcomes[k].message.empty())
-        sys.x_true = solutions[k];
-    if (sys.x_true.size() == 0) {
-      auto chol = make_solver(Config::from_pairs({"method=cholmod"}, "the reference solve"));
-      try {
-        chol->setup(*sys.bcsr);
-      } catch (const Error& e) {
-        throw InputError(std::string(e.what()) + ": the clamped nodes (" +
-                         std::to_string(sys.fem->hierarchy().finest().num_fixed()) +
-                         ") do not remove every rigid motion; raise --fix-fraction");
-      }
-      chol->apply(sys.b, sys.x_true);
-    }
-    sys.error_reference = "CHOLMOD solution";
-  }
-  if (sys.x_true.size())
-    for (size_t k = 0; k < outcomes.size(); ++k)
-      if (outcomes[k].message.empty())
-        outcomes[k].rel_error = (solutions[k] - sys.x_true).norm() / sys.x_true.norm();
+}
 
-  Table table({"solver", "status", "iters", "setup [s]", "solve [s]", "t(1e-3) [s]",
-               "t(1e-6) [s]", "rel. residual", "rel. error"});
+/// --solution-out: the first solver's answer (expanded to the given numbering for user levels).
+void write_solution(const Options& o, const System& sys, const std::vector<study::SolverRun>& runs,
+                    const std::vector<Vector>& solutions) {
+  if (o.solution_out.empty() || solutions.empty()) return;
+  const Vector x = sys.levels ? sys.levels->expand(solutions[0], sys.b_full) : solutions[0];
+  if (!x.allFinite()) {  // a failed first solver: its NaN would make a file no reader takes
+    std::cout << "solution of " << runs[0].name << " not written to " << o.solution_out << ": it has NaN or Inf entries\n";
+    return;
+  }
+  if (is_petsc_file(o.solution_out)) write_petsc_binary(o.solution_out, x);
+  else write_matrix_market_vector(o.solution_out, x);
+  std::cout << "solution of " << runs[0].name << " written to " << o.solution_out << "\n";
+}
+
+/// An FEM system's reference: this run's own direct solution if it has one, else one direct
+/// solve now (after the timed runs: no second factorisation held while the others run).
+void reference_solution(System& sys, const std::vector<std::pair<std::string, Config>>& configs,
+                        const std::vector<study::SolverRun>& runs, const std::vector<Vector>& solutions) {
+  for (size_t k = 0; k < runs.size() && sys.x_true.size() == 0; ++k)
+    if (configs[k].second.get_string("method", kDefaultMethod) == kDefaultDirectMethod && runs[k].ok())
+      sys.x_true = solutions[k];
+  if (sys.x_true.size() == 0) {
+    auto direct = make_solver(Config::from_pairs({std::string("method=") + kDefaultDirectMethod}, "the reference solve"));
+    try {
+      direct->setup(*sys.bcsr);
+    } catch (const Error& e) {
+      throw InputError(std::string(e.what()) + ": the clamped nodes (" +
+                       std::to_string(sys.fem->hierarchy().finest().num_fixed()) +
+                       ") do not remove every rigid motion; raise --fix-fraction");
+    }
+    direct->apply(sys.b, sys.x_true);
+  }
+  sys.error_reference = "CHOLMOD solution";
+}
+
+/// The summary table, failures, settings and breakdowns. Returns whether a solver failed.
+bool print_runs(const System& sys, const std::vector<study::SolverRun>& runs) {
+  Table table({"solver", "status", "iters", "setup [s]", "solve [s]", "t(1e-3) [s]", "t(1e-6) [s]", "rel. residual",
+               "rel. error"});
   bool failed = false;
-  for (const auto& out : outcomes) {
-    const bool ok = out.message.empty();
-    failed |= !ok;
-    table.add({out.name, out.status, std::to_string(out.iterations), fmt("%.4f", out.setup),
-               fmt("%.4f", out.solve), fmt("%.4f", time_to(out, 1e-3)),
-               fmt("%.4f", time_to(out, 1e-6)), fmt("%.2e", out.rel_residual),
-               fmt("%.2e", out.rel_error)});
+  for (const auto& r : runs) {
+    failed |= !r.ok();
+    table.add({r.name, r.status, std::to_string(r.iterations), fmt("%.4f", r.setup_s), fmt("%.4f", r.solve_s),
+               fmt("%.4f", r.time_to(1e-3)), fmt("%.4f", r.time_to(1e-6)), fmt("%.2e", r.rel_residual),
+               fmt("%.2e", r.rel_error)});
   }
   table.print(std::cout);
-  for (const auto& out : outcomes)
-    if (!out.message.empty()) std::cout << "\n" << out.name << " failed: " << out.message << "\n";
-  for (const auto& out : outcomes)
-    if (!out.settings.empty()) std::cout << "\n" << out.name << ": " << out.settings << "\n";
-  for (const auto& out : outcomes)
-    if (!out.setup_breakdown.empty()) std::cout << "\n" << out.name << ": " << out.setup_breakdown << "\n";
-  for (const auto& out : outcomes)
-    if (!out.breakdown.empty()) std::cout << "\n" << out.name << ": " << out.breakdown << "\n";
+  for (const auto& r : runs)
+    if (!r.ok()) std::cout << "\n" << r.name << " failed: " << r.message << "\n";
+  for (const std::string study::SolverRun::*part :
+       {&study::SolverRun::settings, &study::SolverRun::setup_breakdown, &study::SolverRun::breakdown})
+    for (const auto& r : runs)
+      if (!(r.*part).empty()) std::cout << "\n" << r.name << ": " << r.*part << "\n";
   if (sys.x_true.size()) std::cout << "\nrel. error: against the " << sys.error_reference << "\n";
-  std::string history = o.history;
-  if (!o.plot.empty() && history.empty()) history = o.plot + ".csv";
-  if (!history.empty()) {
-    write_history(history, outcomes);
-    std::cout << "history: " << history << "\n";
+  return failed;
+}
+
+/// What a report's JSON holds besides the runs.
+struct RunFigures {
+  double load_s = 0.0, convert_s = 0.0, mpi_s = -1.0, lower_levels_s = -1.0, matrix_free_s = -1.0;
+  std::string history;
+};
+
+/// --json: every figure of the table, with units in the key names; NaN and "not measured" are null.
+void write_report(const Options& o, const System& sys, const std::vector<study::SolverRun>& runs, const RunFigures& f) {
+  auto seconds_or_null = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  nlohmann::json report = {
+      {"command", "pmg compare"},
+      {"system", {{"description", sys.description},
+                  {"unknowns", sys.unknowns()},
+                  {"nonzeros", sys.nonzeros() >= 0 ? nlohmann::json(sys.nonzeros()) : nlohmann::json(nullptr)},
+                  {"blocks", sys.blocks() >= 0 ? nlohmann::json(sys.blocks()) : nlohmann::json(nullptr)},
+                  {"finest_assembled", !sys.fem || sys.fem->finest_assembled}}},
+      {"format", o.format},
+      {"load_s", f.load_s},
+      {"convert_s", f.convert_s},
+      {"threads", omp_get_max_threads()},
+      // Whether malloc asked for transparent huge pages (pmg's start-up; docs/scaling.md): the
+      // set-up times depend on it.
+      {"malloc_huge_pages", [] {
+         const char* t = std::getenv("GLIBC_TUNABLES");
+         return t && std::string(t).find("glibc.malloc.hugetlb=1") != std::string::npos;
+       }()},
+      {"stop", o.fixed_iterations > 0 ? nlohmann::json({{"fixed_iterations", o.fixed_iterations}})
+                                      : nlohmann::json({{"rel_tol", o.tol}})},
+      {"warm_up", o.warm_up},
+      {"mpi_startup_s", seconds_or_null(f.mpi_s)},
+      {"lower_levels_s", seconds_or_null(f.lower_levels_s)},
+      {"matrix_free_s", seconds_or_null(f.matrix_free_s)},
+      {"user_levels_s", seconds_or_null(sys.user_levels_s)},
+      {"error_reference", sys.x_true.size() ? nlohmann::json(sys.error_reference) : nlohmann::json(nullptr)},
+      {"history", f.history},
+      {"solvers", nlohmann::json::parse(study::runs_json(runs))}};
+  write_file_atomically(o.json_report, report.dump(2) + "\n");
+  std::cout << "report:  " << o.json_report << "\n";
+}
+
+void run(const Options& given) {
+  Options o = given;
+  if (o.threads > 0) omp_set_num_threads(o.threads);
+  check_outputs(o);
+  auto t0 = Clock::now();
+  System sys = load_system(o);
+  if (!o.export_levels.empty()) export_levels(*sys.fem, o.export_levels);
+  if (!o.export_petsc.empty()) export_petsc(*sys.fem, o.export_petsc);
+  RunFigures figures;
+  figures.load_s = seconds_since(t0);
+
+  study::StudySystem ss;
+  ss.description = sys.description;
+  ss.b = sys.b;
+  ss.levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())
+              : sys.fem ? &sys.fem->hierarchy() : nullptr;
+  std::vector<double> coordinates;  // FEM: the free nodes' rest positions (rigid-body modes)
+  if (sys.fem) {
+    coordinates = sys.fem->free_coordinates();
+    ss.coordinates = &coordinates;
+    ss.hierarchy = &sys.fem->hierarchy();
+    ss.weights = sys.fem->weights();
   }
-  if (!o.plot.empty()) plot_history(history, o.plot, sys.description);
-  if (!o.json_report.empty()) {
-    // Every figure of the table, with units in the key names; NaN (not measured) is null.
-    auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-    nlohmann::json solvers_json = nlohmann::json::array();
-    for (size_t k = 0; k < outcomes.size(); ++k) {
-      const Outcome& out = outcomes[k];
-      solvers_json.push_back({{"name", out.name},
-                              {"config", configs[k].second.to_string()},
-                              {"status", out.status},
-                              {"message", out.message},
-                              {"iterations", out.iterations},
-                              {"setup_s", out.setup},
-                              {"solve_s", out.solve},
-                              {"time_to_1e-3_s", num(time_to(out, 1e-3))},
-                              {"time_to_1e-6_s", num(time_to(out, 1e-6))},
-                              {"rel_residual", num(out.rel_residual)},
-                              {"rel_error", num(out.rel_error)},
-                              {"settings", out.settings},
-                              {"breakdown", out.breakdown},
-                              {"setup_breakdown", out.setup_breakdown}});
-    }
-    nlohmann::json report = {
-        {"command", "pmg compare"},
-        {"system", {{"description", sys.description},
-                    {"unknowns", sys.unknowns()},
-                    {"nonzeros", sys.nonzeros() >= 0 ? nlohmann::json(sys.nonzeros()) : nlohmann::json(nullptr)},
-                    {"blocks", sys.blocks() >= 0 ? nlohmann::json(sys.blocks()) : nlohmann::json(nullptr)},
-                    {"finest_assembled", !sys.fem || sys.fem->finest_assembled}}},
-        {"format", o.format},
-        {"load_s", load_time},
-        {"convert_s", convert_time},
-        {"threads", omp_get_max_threads()},
-        // Whether malloc asked for transparent huge pages (pmg's start-up; docs/scaling.md): the
-        // set-up times depend on it.
-        {"malloc_huge_pages", [] {
-           const char* t = std::getenv("GLIBC_TUNABLES");
-           return t && std::string(t).find("glibc.malloc.hugetlb=1") != std::string::npos;
-         }()},
-        {"stop", params.fixed_iterations ? nlohmann::json({{"fixed_iterations", o.fixed_iterations}})
-                                         : nlohmann::json({{"rel_tol", o.tol}})},
-        {"warm_up", o.warm_up},
-        {"mpi_startup_s", mpi >= 0 ? nlohmann::json(mpi) : nlohmann::json(nullptr)},
-        {"lower_levels_s", lower_levels >= 0 ? nlohmann::json(lower_levels) : nlohmann::json(nullptr)},
-        {"matrix_free_s", matrix_free >= 0 ? nlohmann::json(matrix_free) : nlohmann::json(nullptr)},
-        {"user_levels_s", sys.user_levels_s >= 0 ? nlohmann::json(sys.user_levels_s) : nlohmann::json(nullptr)},
-        {"error_reference", sys.x_true.size() ? nlohmann::json(sys.error_reference) : nlohmann::json(nullptr)},
-        {"history", history},
-        {"solvers", solvers_json}};
-    write_file_atomically(o.json_report, report.dump(2) + "\n");
-    std::cout << "report:  " << o.json_report << "\n";
+  const Config set = Config::from_pairs(o.overrides, "--set");  // read once, for every solver
+  std::vector<std::string> names = o.solvers;
+  if (names.empty()) names = default_solver_names(ss.levels && ss.levels->num_levels() > 1);
+  std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names, set);
+  check_stopping_flags(o, set, configs);
+  study::Study st(ss);
+  add_solvers(st, sys, set, configs);
+  figures.mpi_s = st.library_startup_s();
+  // FEM: the finest matrix, where a solver multiplies with it or reads its entries (matrix-free
+  // solvers do neither); its assembly belongs to the load time.
+  if (sys.fem && !sys.bcsr && st.reads_finest_matrix()) {
+    sys.fem->assemble_finest();
+    figures.load_s += sys.fem->finest_assembly;
+    sys.bcsr = borrow(sys.fem->matrix());
   }
+  t0 = Clock::now();
+  const Formats formats = sys.bcsr || !sys.fem ? select_format(o, sys) : Formats{};
+  figures.convert_s = seconds_since(t0);
+  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); the Krylov methods
+  // multiply in the requested format (matrix-free ones: with the finest operator).
+  ss.matrix = sys.bcsr ? static_cast<const LinearOperator*>(sys.bcsr.get()) : sys.fem ? nullptr : &sys.csr;
+  ss.product = formats.op;
+  ss.reference = sys.x_true;
+  print_header(o, sys, figures.load_s, figures.convert_s, configs, figures.mpi_s);
+  std::vector<Vector> solutions;
+  std::vector<study::SolverRun> runs = st.run(o.warm_up, &solutions);
+  figures.lower_levels_s = st.lower_levels_s();
+  figures.matrix_free_s = st.matrix_free_s();
+  write_solution(o, sys, runs, solutions);
+  if (sys.reference_pending) {
+    reference_solution(sys, configs, runs, solutions);
+    study::measure_errors(runs, solutions, sys.x_true);
+  }
+  const bool failed = print_runs(sys, runs);
+  figures.history = o.history;
+  if (!o.plot.empty() && figures.history.empty()) figures.history = o.plot + ".csv";
+  if (!figures.history.empty()) {
+    study::write_history(figures.history, runs);
+    std::cout << "history: " << figures.history << "\n";
+  }
+  if (!o.plot.empty()) plot_history(figures.history, o.plot, sys.description);
+  if (!o.json_report.empty()) write_report(o, sys, runs, figures);
   if (failed) throw Exit{kSolveFailed};
 }
 
@@ -663,9 +565,7 @@ void register_compare(CLI::App& app) {
       ->check(CLI::Range(2, 400))
       ->capture_default_str();
   sub->add_option("-s,--solvers", opts->solvers,
-                  "comma-separated methods: " + method_list() +
-                      " (default: cg, jacobi-pcg, block-jacobi-pcg, mcg, cholmod, boomeramg-pcg, and pmg, mgpcg "
-                      "where there are levels)")
+                  "comma-separated methods: " + method_list() + " (default: " + default_solver_help() + ")")
       ->delimiter(',');
   sub->add_option("--set", opts->overrides,
                   "solver option key=value for every solver of the run (repeatable; e.g. smoother=chebyshev "

@@ -12,7 +12,7 @@ namespace pmg::tools {
 
 void export_levels(FemSystem& system, const std::string& dir) {
   prepare_output_directory(dir, "--export-levels");
-  system.prepare(SolverNeeds{/*lower_levels=*/true, /*matrix_free=*/false});
+  system.assemble_lower_levels();
   const fem::DegreeHierarchy& h = system.hierarchy();
   for (int l = 0; l < h.num_levels(); ++l) {
     write_matrix_market(dir + "/A" + std::to_string(l) + ".mtx", h.matrix(l).to_csr(), true);

@@ -70,12 +70,9 @@ void FemSystem::assemble_finest() {
   finest_assembled = true;
 }
 
-double FemSystem::prepare(const SolverNeeds& needs) {
-  const auto t0 = Clock::now();
-  // A matrix-free solver needs the finest operator; any other reads the finest matrix, which
-  // assemble_finest() provides.
-  hierarchy().prepare(needs, nullptr, mass_weight, stiffness_weight, /*finest=*/needs.matrix_free);
-  return seconds_since(t0);
+void FemSystem::assemble_lower_levels() {
+  for (int l = 0; l + 1 < hierarchy().num_levels(); ++l)
+    hierarchy().assemble_level(l, nullptr, nullptr, mass_weight, stiffness_weight);
 }
 
 std::vector<double> FemSystem::free_coordinates() const {

@@ -51,11 +51,11 @@ struct FemSystem {
   const Bcsr& matrix() const;
   /// Assembles the finest level's matrix with the system's weights (once; timed in finest_assembly).
   void assemble_finest();
-  /// What a solver needs beyond the finest matrix (assemble_finest()), prepared with the system's
-  /// weights (fem::DegreeHierarchy::prepare): lower levels, matrix-free operators.
-  /// Returns the seconds it took; the operator to set the solver up on is
-  /// hierarchy().system_operator(needs).
-  double prepare(const SolverNeeds& needs);
+  /// The matrices of the levels below the finest with the system's weights (exports of every
+  /// level; solvers prepare what they read through fem::BoundSystem).
+  void assemble_lower_levels();
+  /// The system's weights (mass M + stiffness K) for fem::BoundSystem.
+  fem::SystemWeights weights() const { return {mass_weight, stiffness_weight}; }
   /// x, y, z of the finest level's free nodes (rest positions), interleaved like the unknowns: the
   /// rigid-body modes of AMG baselines (BoomerAMG interpolation vectors, GAMG near-null space).
   std::vector<double> free_coordinates() const;

@@ -160,7 +160,7 @@ void BM_LibraryPCG(benchmark::State& state) {
 }
 
 struct Cycles {
-  std::unique_ptr<Solver> cpu;  ///< a MultigridCycle with Chebyshev smoothing
+  std::unique_ptr<mg::MultigridCycle> cpu;  ///< Chebyshev smoothing (mg::make_cycle)
   std::unique_ptr<gpu::VCycle> gpu;
 };
 
@@ -172,9 +172,9 @@ Cycles& cycles() {
   SolverContext ctx;
   ctx.levels = &h;
   mg::register_solvers();
-  c->cpu = make_solver(Config::from_pairs({"method=pmg", "smoother=chebyshev", "operator=assembled"}, "bench"), ctx);
+  c->cpu = mg::make_cycle(Config::from_pairs({"method=pmg", "smoother=chebyshev", "operator=assembled"}, "bench"), ctx);
   c->cpu->setup(h.matrix(h.num_levels() - 1));
-  const auto& cycle = dynamic_cast<const mg::MultigridCycle&>(*c->cpu);
+  const mg::MultigridCycle& cycle = *c->cpu;
   std::vector<const Bcsr*> m;
   for (int l = 0; l < h.num_levels(); ++l) m.push_back(&h.matrix(l));
   std::vector<const mg::BlockTransfer*> t;
@@ -204,7 +204,7 @@ void BM_VCycle_GPU(benchmark::State& state) {
 }
 
 void BM_VCycle_CPU(benchmark::State& state) {
-  const auto& C = dynamic_cast<const mg::MultigridCycle&>(*cycles().cpu);
+  const mg::MultigridCycle& C = *cycles().cpu;
   const Vector r = Vector::Ones(C.rows());
   Vector z;
   for (auto _ : state) {

@@ -1,5 +1,7 @@
 // petsc-mgpcg (pmg/distributed/mgpcg.hpp).
 #include "pmg/distributed/mgpcg.hpp"
+#include "pmg/sparse/timer.hpp"
+#include "pmg/sparse/defaults.hpp"
 
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
@@ -14,23 +16,16 @@
 namespace pmg::dist {
 
 void DistributedMgpcgParams::visit(ParamVisitor& v) {
-  v.real("tol", tol, 0.0, 1.0 - 1e-15, "relative residual ||r|| / ||r_0|| to reach");
-  v.integer("max_iterations", max_iterations, 1, 100000000, "CG iteration limit (a failure)");
-  v.real("rhs_floor", rhs_floor, 0.0, 1.0,
-         "also converged when ||r|| <= rhs_floor ||b||: the rounding floor of warm-started solves");
-  v.boolean("throw_on_failure", throw_on_failure, "a failed solve throws (false: only its status says so)");
+  visit_stopping_keys(v, tol, rhs_floor, max_iterations, throw_on_failure);  // the common keys
   v.integer("smoothing_steps", smoothing_steps, 1, 100, "Chebyshev steps per pre- and post-smoothing");
   v.choice("lowest_level", lowest_level, {"auto", "mumps", "gamg", "hypre"},
-           "auto: MUMPS below 40000 unknowns on the linear level, BoomerAMG (PCHYPRE, one V-cycle) from "
-           "there; gamg: one GAMG V-cycle with the rigid-body near-null space");
+           ("auto: MUMPS below " + std::to_string(kAmgLowestLevelUnknowns) +
+            " unknowns on the linear level, BoomerAMG (PCHYPRE, one V-cycle) from there; gamg: one GAMG "
+            "V-cycle with the rigid-body near-null space")
+               .c_str());
   v.text("options", options, "further PETSc options (\"-name value ...\": -mg_levels_..., -mg_coarse_...), "
                              "under this solver's own prefix");
 }
-
-namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-}  // namespace
 
 petsc::PcmgParams to_pcmg(const DistributedMgpcgParams& params) {
   petsc::PcmgParams p;
@@ -62,11 +57,11 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   partition_seconds_.clear();
   auto t0 = Clock::now();
   ranks_ = std::make_unique<RankHierarchy>(*serial_, comm_);
-  partition_seconds_.emplace_back("partition and the rank's hierarchy", since(t0));
+  partition_seconds_.emplace_back("partition and the rank's hierarchy", seconds_since(t0));
   t0 = Clock::now();
   ranks_->bring_to(*serial_);
   std::vector<petsc::RankLevel> levels = ranks_->rank_levels();
-  partition_seconds_.emplace_back("the rank's operators", since(t0));
+  partition_seconds_.emplace_back("the rank's operators", seconds_since(t0));
   solver_ = std::make_unique<petsc::PMultigridCg>(comm_, to_pcmg(params_));
   solver_->setup(std::move(levels));
   ghosts_.clear();
@@ -127,9 +122,10 @@ void register_solvers() {
     register_builtin_solver(
         {"petsc-mgpcg",
          "p-multigrid preconditioned CG across MPI ranks on PETSc (CG + PCMG; METIS partition, shell levels)",
-         list_params<DistributedMgpcgParams>(), true, false, "distributed", [] { mg::start_petsc(); }},
+         list_params<DistributedMgpcgParams>(), true, false, "distributed", [] { mg::start_petsc(); },
+         /*across_ranks=*/true},
         [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
-          const auto* h = dynamic_cast<const fem::DegreeHierarchy*>(ctx.levels);
+          const fem::DegreeHierarchy* h = ctx.levels ? ctx.levels->partitionable_hierarchy() : nullptr;
           if (!h)
             c.fail("method", "petsc-mgpcg needs an FEM scene (--box, --mesh or a scene file): it partitions "
                              "the mesh, which a matrix file does not have");

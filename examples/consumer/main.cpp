@@ -6,6 +6,7 @@
 #include <pmg/fem/generators.hpp>
 #include <pmg/fem/static_solve.hpp>
 #include <pmg/sim/run.hpp>
+#include <pmg/solvers.hpp>
 #include <pmg/cholmod/cholmod_solver.hpp>
 #include <pmg/sparse/krylov.hpp>
 
@@ -13,6 +14,7 @@
 #include <iostream>
 
 int main() {
+  pmg::register_all_solvers();  // the factory's methods: solve_static's default (CHOLMOD) among them
   const int n = 100;
   Eigen::SparseMatrix<double> L(n, n);
   std::vector<Eigen::Triplet<double>> t;

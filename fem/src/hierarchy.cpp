@@ -262,28 +262,6 @@ void DegreeHierarchy::update_matrix_free(int l, const Rotations* R, double mass_
   record(l, R, mass_weight, stiffness_weight);
 }
 
-const LinearOperator& DegreeHierarchy::prepare(const SolverNeeds& needs, const Rotations* R,
-                                               double mass_weight, double stiffness_weight, bool finest) {
-  const int L = num_levels();
-  prepare_seconds_.clear();
-  const int lowest = std::clamp(needs.lowest_level, 0, L - 1);
-  for (int l = L - 1; l >= lowest; --l) {
-    if (l == L - 1 && !finest) continue;
-    if (l < L - 1 && !needs.lower_levels) break;
-    const auto t0 = std::chrono::steady_clock::now();
-    const bool operator_only = needs.matrix_free && l > lowest;
-    if (operator_only) update_matrix_free(l, R, mass_weight, stiffness_weight);
-    else assemble_level(l, R, nullptr, mass_weight, stiffness_weight);
-    prepare_seconds_.emplace_back((operator_only ? "matrix-free " : "assembly ") + level_name(l),
-                                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return system_operator(needs);
-}
-
-const LinearOperator& DegreeHierarchy::system_operator(const SolverNeeds& needs) const {
-  const int L = num_levels();
-  if (needs.matrix_free && L > 1) return *matrix_free_operator(L - 1);
-  return matrix(L - 1);
-}
+BoundSystem DegreeHierarchy::bind(Solver& solver) { return BoundSystem(*this, solver); }
 
 }  // namespace pmg::fem

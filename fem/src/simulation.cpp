@@ -10,9 +10,6 @@
 
 namespace pmg::fem {
 
-namespace {
-}  // namespace
-
 StepWeights step_weights(const SimulationParams& p) {
   return {1.0 + p.dt * p.rayleigh_alpha, p.dt * p.rayleigh_beta + p.dt * p.dt};
 }
@@ -64,7 +61,7 @@ void record_solve(StepStats& st, const SolveResult& res, double b_norm) {
 
 ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
                              const SimulationParams& p)
-    : h_(h), solver_(solver), needs_(solver.needs()), f_ext_(f_ext), p_(p) {
+    : h_(h), solver_(solver), system_(h.bind(solver)), f_ext_(f_ext), p_(p) {
   const ElasticityModel& m = h_.finest();
   check_simulation(m, f_ext_, p_);
   u_ = Vector::Zero(m.num_dofs());
@@ -102,38 +99,19 @@ void ImplicitEuler::set_state(const Vector& u, const Vector& v) {
 void ImplicitEuler::evaluate_state() const {
   if (state_.valid) return;
   state_.seconds = {};
-  const int L = h_.num_levels();
   auto t0 = Clock::now();
   if (p_.corotational) {
     state_.R = h_.finest().rotations(u_);
     state_.seconds[kRotations] = seconds_since(t0);
   }
   const Rotations* R = p_.corotational ? &state_.R : nullptr;
-  t0 = Clock::now();
+  // Linear material keeps its finest operator after the first pass: force and energy only.
   state_.matrix_assembled = p_.corotational || !assembled_;
-  if (needs_.matrix_free) {
-    // The finest level is an operator: its update is the rotation of the stored gradients, and
-    // force and energy come from the same operator.
-    if (state_.matrix_assembled) {
-      h_.update_matrix_free(L - 1, R, mass_weight(), stiffness_weight());
-      state_.seconds[kAssembly] = seconds_since(t0);
-      assembled_ = true;
-    }
-    t0 = Clock::now();
-    h_.matrix_free(L - 1).element_force(u_, R, state_.force, &state_.energy);
-    state_.seconds[kForces] = seconds_since(t0);
-  } else if (state_.matrix_assembled) {
-    h_.assemble_level(L - 1, R, mass_weight(), stiffness_weight(), u_, &state_.force, &state_.energy);
-    state_.seconds[kAssembly] = seconds_since(t0);
-    assembled_ = true;
-  } else {  // linear material, matrix kept: force and energy only
-    ElasticityModel::ElementPass pass;
-    pass.u = &u_;
-    pass.force = &state_.force;
-    pass.energy = &state_.energy;
-    h_.finest().evaluate(pass);
-    state_.seconds[kForces] = seconds_since(t0);
-  }
+  const EvaluateSeconds s =
+      system_.evaluate(u_, R, weights(), &state_.force, &state_.energy, state_.matrix_assembled);
+  assembled_ = true;
+  state_.seconds[kAssembly] = s.finest;
+  state_.seconds[kForces] = s.force;
   state_.valid = true;
 }
 
@@ -145,18 +123,14 @@ StepStats ImplicitEuler::step() {
   st.seconds = state_.seconds;
   if (state_.matrix_assembled) {
     // The lower degrees get the same rotations and weights: (1 + Δt α) M + (Δt β + Δt²) K_R.
-    const auto t0 = Clock::now();
-    const Rotations* R = p_.corotational ? &state_.R : nullptr;
-    const LinearOperator& A = h_.prepare(needs_, R, mass_weight(), stiffness_weight(), /*finest=*/false);
-    if (solver_.is_set_up()) solver_.update();
-    else solver_.setup(A);
-    st.seconds[kHierarchy] = seconds_since(t0);
+    const RefreshSeconds r = system_.refresh(p_.corotational ? &state_.R : nullptr, weights());
+    st.seconds[kHierarchy] = r.prepare + r.setup;
   }
   // b = M v + Δt (f_ext + f_el(x)) on the free nodes.
   auto t0 = Clock::now();
   const Vector f = m.restrict_to_free(f_ext_ + state_.force);
   Vector b(v_free_.size());
-  mass_operator().apply(v_free_, b);
+  system_.mass().apply(v_free_, b);
   b += p_.dt * f;
   st.seconds[kForces] += seconds_since(t0);
 
@@ -167,7 +141,7 @@ StepStats ImplicitEuler::step() {
   // of an oscillation b is small and the old velocity a poor guess, and a step started from it would
   // be accepted with ||b - A v|| far above tol ||b||. So every accepted step has
   // ||b - A v|| <= tol ||b|| (up to the solvers' factor-2 allowance on the true residual).
-  system_operator().residual(b, v_free_, start_residual_);
+  system_.system().residual(b, v_free_, start_residual_);
   if (start_residual_.norm() > bn) v_free_.setZero();
   SolveResult res;
   try {
@@ -193,20 +167,9 @@ StepStats ImplicitEuler::step() {
   return st;
 }
 
-const LinearOperator& ImplicitEuler::system_operator() const { return h_.system_operator(needs_); }
-
-const LinearOperator& ImplicitEuler::mass_operator() const {
-  if (!needs_.matrix_free) return h_.mass(h_.num_levels() - 1);
-  if (!mass_op_) {
-    mass_op_ = std::make_unique<ElasticityOperator>(h_.finest());
-    mass_op_->set_weights(1.0, 0.0);
-  }
-  return *mass_op_;
-}
-
 double ImplicitEuler::kinetic_energy() const {
   Vector Mv(v_free_.size());
-  mass_operator().apply(v_free_, Mv);
+  system_.mass().apply(v_free_, Mv);
   return 0.5 * v_free_.dot(Mv);
 }
 

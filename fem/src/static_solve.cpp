@@ -1,7 +1,7 @@
 #include "pmg/fem/static_solve.hpp"
+#include "pmg/sparse/defaults.hpp"
 #include "pmg/sparse/threads.hpp"
 
-#include "pmg/cholmod/cholmod_solver.hpp"
 #include "pmg/sparse/factory.hpp"
 
 #include <cmath>
@@ -13,9 +13,12 @@ namespace pmg::fem {
 
 namespace {
 
-/// Brings the solver's operator to rotations R (nullptr: none) at displacement u, writes the
-/// elastic force f_el(u) (full vector) and returns the operator of the free nodes.
-using Evaluate = std::function<const LinearOperator&(const Vector& u, const Rotations* R, Vector& force)>;
+/// Brings the solver's operator to rotations R (nullptr: none) at displacement u and writes the
+/// elastic force f_el(u) (full vector).
+using Evaluate = std::function<void(const Vector& u, const Rotations* R, Vector& force)>;
+/// Sets the solver up on the operator of the last evaluation (first: the first iteration) or
+/// updates it.
+using Refresh = std::function<void(const Rotations* R, bool first)>;
 
 void check_inputs(const ElasticityModel& model, const Vector& f_ext) {
   if (model.num_fixed() == 0)
@@ -32,7 +35,8 @@ void check_inputs(const ElasticityModel& model, const Vector& f_ext) {
 
 /// The fixed point of the file comment of static_solve.hpp, from u0.
 StaticResult fixed_point(const ElasticityModel& model, const Vector& f_ext, bool corotational, Solver& solver,
-                         const StaticOptions& options, Vector u0, const Evaluate& evaluate) {
+                         const StaticOptions& options, Vector u0, const Evaluate& evaluate,
+                         const Refresh& refresh) {
   StaticResult res;
   res.u = std::move(u0);
   Rotations R;
@@ -40,10 +44,9 @@ StaticResult fixed_point(const ElasticityModel& model, const Vector& f_ext, bool
   double omega = options.relaxation, previous_change = INFINITY;
   for (int it = 1;; ++it) {
     if (corotational) R = model.rotations(res.u);
-    const LinearOperator& K = evaluate(res.u, corotational ? &R : nullptr, force);
+    evaluate(res.u, corotational ? &R : nullptr, force);
     try {
-      if (it == 1) solver.setup(K);  // symbolic set-up once; later iterations are numeric only
-      else solver.update();
+      refresh(corotational ? &R : nullptr, it == 1);  // symbolic set-up once, then numeric only
     } catch (const InputError&) {
       throw;  // a solver that does not suit this system says so itself
     } catch (const Error& e) {
@@ -81,21 +84,24 @@ StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, boo
                           const StaticOptions& options, const Vector& prescribed) {
   check_inputs(model, f_ext);
   const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
-  cholmod::register_solvers();  // the default
   Config c = options.solver.clone();
-  auto solver = make_solver(c, {}, "cholmod");
+  auto solver = make_solver(c, {}, kDefaultDirectMethod);
   Bcsr K = model.assembler().make_matrix();
   const Vector u0 = prescribed.size() ? prescribed : Vector::Zero(model.num_dofs());
-  return fixed_point(model, f_ext, corotational, *solver, options, u0,
-                     [&](const Vector& u, const Rotations* R, Vector& force) -> const LinearOperator& {
-                       ElasticityModel::ElementPass pass;
-                       pass.u = &u;
-                       pass.R = R;
-                       pass.stiffness = &K;
-                       pass.force = &force;
-                       model.evaluate(pass);
-                       return K;
-                     });
+  return fixed_point(
+      model, f_ext, corotational, *solver, options, u0,
+      [&](const Vector& u, const Rotations* R, Vector& force) {
+        ElasticityModel::ElementPass pass;
+        pass.u = &u;
+        pass.R = R;
+        pass.stiffness = &K;
+        pass.force = &force;
+        model.evaluate(pass);
+      },
+      [&](const Rotations*, bool first) {
+        if (first) solver->setup(K);
+        else solver->update();
+      });
 }
 
 StaticResult solve_static(DegreeHierarchy& h, const Vector& f_ext, bool corotational, Solver& solver,
@@ -103,19 +109,11 @@ StaticResult solve_static(DegreeHierarchy& h, const Vector& f_ext, bool corotati
   const ElasticityModel& model = h.finest();
   check_inputs(model, f_ext);
   const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
-  const SolverNeeds needs = solver.needs();
-  const int L = h.num_levels();
-  return fixed_point(model, f_ext, corotational, solver, options, Vector::Zero(model.num_dofs()),
-                     [&](const Vector& u, const Rotations* R, Vector& force) -> const LinearOperator& {
-                       // The finest level in the pass that gives the force, then the levels below.
-                       if (needs.matrix_free) {
-                         h.update_matrix_free(L - 1, R);
-                         h.matrix_free(L - 1).element_force(u, R, force, nullptr);
-                       } else {
-                         h.assemble_level(L - 1, R, 0.0, 1.0, u, &force, nullptr);
-                       }
-                       return h.prepare(needs, R, 0.0, 1.0, /*finest=*/false);
-                     });
+  BoundSystem system = h.bind(solver);
+  return fixed_point(
+      model, f_ext, corotational, solver, options, Vector::Zero(model.num_dofs()),
+      [&](const Vector& u, const Rotations* R, Vector& force) { system.evaluate(u, R, {}, &force, nullptr); },
+      [&](const Rotations* R, bool) { system.refresh(R, {}); });
 }
 
 }  // namespace pmg::fem

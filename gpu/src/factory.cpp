@@ -207,7 +207,7 @@ class CycleSolver final : public DeviceSolver {
       const bool finest = l == L - 1;
       if (matrix_free_) {
         const LinearOperator* op = finest ? &A : levels_.matrix_free_operator(l);
-        if (!op || !dynamic_cast<const fem::ElasticityOperator*>(op))
+        if (!op || !op->elasticity_operator())
           throw InputError(name() + ": " + levels_.level_name(l) +
                            " has no matrix-free elasticity operator; use operator=assembled");
         operators[static_cast<std::size_t>(l)] = op;

@@ -1,7 +1,9 @@
 #include "cuda_check.hpp"
 #include "pmg/gpu/matrix_free.hpp"
 #include "pmg/gpu/solvers.hpp"
+#include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/smoothers.hpp"
+#include "pmg/sparse/defaults.hpp"
 
 namespace pmg::gpu {
 
@@ -93,7 +95,7 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
   for (std::size_t l = 0; l < matrices_.size(); ++l) {
     const Bcsr* A = matrices_[l];
     if (operators[l]) {
-      if (!dynamic_cast<const fem::ElasticityOperator*>(operators[l]))
+      if (!operators[l]->elasticity_operator())
         throw InputError("gpu::VCycle: level " + std::to_string(l) +
                          "'s operator is not a matrix-free elasticity operator (fem::ElasticityOperator)");
       rows[l] = operators[l]->rows();
@@ -105,14 +107,15 @@ VCycle::VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTra
       throw InputError("gpu::VCycle: transfer " + std::to_string(l - 1) + " does not match levels " +
                        std::to_string(l - 1) + " and " + std::to_string(l));
   }
-  coarse_ = std::make_unique<CholmodSolver>();
+  mg::register_solvers();  // the direct method of the lowest level (idempotent)
+  coarse_ = make_solver(Config::from_pairs({std::string("method=") + kDefaultDirectMethod}, "gpu::VCycle lowest level"));
   coarse_->setup(*matrices_[0]);
   levels_.resize(matrices_.size());
   for (std::size_t l = 1; l < matrices_.size(); ++l) {
     auto L = std::make_unique<Level>();
     L->n = rows[l];
     if (operators[l]) {
-      L->op = static_cast<const fem::ElasticityOperator*>(operators[l]);
+      L->op = operators[l]->elasticity_operator();
       L->mf = std::make_unique<DeviceElasticityOperator>(*L->op);
     } else {
       L->A = matrices_[l];

@@ -212,7 +212,7 @@ void MultigridCycle::prepare_single(bool setup) {
     // Why level l cannot run in float ("" if it can).
     auto obstacle = [&](int l) -> std::string {
       if (!params_.matrix_free) return "it needs the matrix-free levels (operator=matrix-free)";
-      if (!dynamic_cast<const SinglePrecisionSource*>(&level_operator(l)))
+      if (!level_operator(l).single_precision_source())
         return "it needs operators that apply in float; " + levels_.level_name(l) + "'s does not";
       const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
       if (!chebyshev || chebyshev->preconditioner())
@@ -231,7 +231,7 @@ void MultigridCycle::prepare_single(bool setup) {
     single_.assign(L, SingleLevel{});
     for (int l = 1; l < L; ++l) {
       SingleLevel& s = single_[l];
-      s.op = dynamic_cast<const SinglePrecisionSource*>(&level_operator(l));
+      s.op = level_operator(l).single_precision_source();
       s.smoother = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
       const BlockTransfer& T = transfers_[l - 1];
       s.p_values.assign(T.prolongation().values().begin(), T.prolongation().values().end());

@@ -18,7 +18,7 @@ BlockJacobi::BlockJacobi(const JacobiParams& params) : params_(params) {
 namespace {
 /// The l1 blocks: A_II plus, on the diagonal, Σ_{J≠I} Σ_c |(A_IJ)_rc| for each scalar row r.
 std::vector<double> l1_diagonal_blocks(const LinearOperator& A) {
-  const auto* B = dynamic_cast<const Bcsr*>(&A);
+  const Bcsr* B = A.bcsr_matrix();
   if (!B) throw InputError("l1-jacobi: needs the matrix as BCSR (3x3 blocks)");
   const BlockPattern& p = B->pattern();
   std::vector<double> blocks(9 * static_cast<size_t>(p.rows), 0.0);

@@ -28,7 +28,7 @@ PatchSchwarz::PatchSchwarz(std::vector<std::vector<index_t>> patches, const Patc
 void PatchSchwarz::setup_impl(const LinearOperator& A) {
   check_interleaved(A, "patch");
   A_ = nullptr;
-  const auto* B = dynamic_cast<const Bcsr*>(&A);
+  const Bcsr* B = A.bcsr_matrix();
   if (!B)
     throw InputError("patch: the patch matrices are read from the level's assembled matrix (BCSR); this level "
                      "is applied without one (use operator=assembled)");

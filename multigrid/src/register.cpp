@@ -84,10 +84,11 @@ struct CycleOptions {
     v.solver("smoother", "gauss-seidel",
              "one per level above the lowest (matrix-free route, and mgpcg on user levels: chebyshev, kind "
              "opt-fourth, degree 3; on user levels with estimate lanczos)");
-    v.solver("lowest_level", "auto",
-             "the lowest level's solver; auto: for mgpcg CHOLMOD below 40000 unknowns, BoomerAMG (one "
-             "V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level keys are given "
-             "(cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)");
+    const std::string lowest_help =
+        "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
+        " unknowns, BoomerAMG (one V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level "
+        "keys are given (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)";
+    v.solver("lowest_level", "auto", lowest_help.c_str());
   }
 };
 
@@ -113,7 +114,7 @@ index_t lowest_level_unknowns(const LevelProvider& levels, const std::vector<dou
 std::string choose_lowest_level(index_t unknowns) {
   bool amg = false;
   for (const SolverInfo& s : registered_solvers()) amg = amg || s.name == "boomeramg";
-  return amg && unknowns >= kAmgLowestLevelUnknowns ? "boomeramg" : "cholmod";
+  return amg && unknowns >= kAmgLowestLevelUnknowns ? "boomeramg" : kDefaultDirectMethod;
 }
 
 void set_amg_lowest_level_defaults(Config& lc) {
@@ -127,49 +128,27 @@ void set_amg_lowest_level_defaults(Config& lc) {
 
 namespace {
 
-/// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.
-std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext& given, bool mgpcg,
-                                            const KrylovParams& iteration) {
-  if (!given.levels || given.levels->num_levels() < 2)
-    c.fail("method", "multigrid needs at least two levels: an FEM scene of degree >= 2, or level "
-                     "matrices with prolongations");
-  const CycleOptions o = read_params<CycleOptions>(c);
-  // skip_levels: the cycle runs on the levels from the given ones' level skip_levels up.
-  SolverContext ctx = given;
-  std::shared_ptr<const LevelProvider> view;
-  if (o.skip_levels > 0) {
-    if (o.skip_levels > given.levels->num_levels() - 2)
-      c.fail("skip_levels", "skip_levels=" + std::to_string(o.skip_levels) + " leaves fewer than two of the " +
-                                std::to_string(given.levels->num_levels()) +
-                                " levels (a degree-p BB hierarchy has p levels; skip_levels=1 needs p >= 3)");
-    view = std::make_shared<LevelsFrom>(*given.levels, o.skip_levels);
-    ctx.levels = view.get();
-  }
-  MultigridParams p;
-  p.gamma = o.cycle == "W" ? 2 : 1;
-  p.coarse_operator = o.coarse_operator == "galerkin" ? CoarseOperator::galerkin : CoarseOperator::geometric;
-  p.interpolating_restriction = o.restriction == "interpolating";
-  p.iteration = iteration;
-  Config sc = c.child("smoother");
-  // Additive Schwarz on overlapping patches has λmax(M⁻¹A) up to the patches' overlap: undamped
-  // Richardson (what a non-smoother becomes) diverges, so patch is only a preconditioner here.
-  if (sc.get_string("method", "") == "patch")
-    c.fail("smoother", "patch is a preconditioner, not a smoother of its own (x += M r diverges on overlapping "
-                       "patches): use smoother.preconditioner=patch (Chebyshev in M^-1 A)");
-  // Nearly incompressible material, stationary pmg, nothing said of the smoother: Chebyshev on
-  // vertex patches, the measured faster route from kPatchLameRatio on (docs/robustness.md).
-  // (λ/μ at ν = 0.495 rounds to 98.999...: compared with a relative margin.)
-  const double lame = ctx.levels->lame_ratio();
-  if (!mgpcg && lame >= kPatchLameRatio * (1 - 1e-9) && sc.items().empty() && o.op == "auto" &&
-      o.coarse_operator == "geometric" && o.precision != "single" &&
-      ctx.levels->vertex_patches(ctx.levels->num_levels() - 1)) {
-    sc.set("preconditioner.method", "patch");
-    char why[160];
-    std::snprintf(why, sizeof why, "vertex patches: lambda/mu = %.3g >= %.3g, where point smoothing degrades",
-                  lame, kPatchLameRatio);
-    p.smoother_choice = why;
-  }
-  p.matrix_free = o.op == "matrix-free";
+/// skip_levels: a view of the given levels from level skip_levels up (nullptr when none are
+/// skipped); ctx.levels is set to the levels the cycle runs on.
+std::shared_ptr<const LevelProvider> skip_view(const Config& c, const CycleOptions& o, SolverContext& ctx) {
+  if (o.skip_levels <= 0) return nullptr;
+  if (o.skip_levels > ctx.levels->num_levels() - 2)
+    c.fail("skip_levels", "skip_levels=" + std::to_string(o.skip_levels) + " leaves fewer than two of the " +
+                              std::to_string(ctx.levels->num_levels()) +
+                              " levels (a degree-p BB hierarchy has p levels; skip_levels=1 needs p >= 3)");
+  auto view = std::make_shared<LevelsFrom>(*ctx.levels, o.skip_levels);
+  ctx.levels = view.get();
+  return view;
+}
+
+/// What the smoother keys say: Chebyshev (named, or given only Chebyshev's keys, or none), and its
+/// preconditioner M (block-jacobi unless smoother.preconditioner names another).
+struct SmootherKind {
+  bool chebyshev = true;  ///< Chebyshev in D⁻¹A (M = block-jacobi)
+  bool patch = false;     ///< Chebyshev in M⁻¹A with M = patch (additive Schwarz on vertex stars)
+};
+
+SmootherKind smoother_kind(Config& sc) {
   // A smoother given a preconditioner (a plain "preconditioner=patch" becomes preconditioner.method)
   // and no method is Chebyshev, the smoother whose M it is.
   (void)sc.child("preconditioner");
@@ -177,24 +156,48 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   if (has_preconditioner) sc.set_default("method", "chebyshev");
   const std::string preconditioner =
       has_preconditioner ? sc.child("preconditioner").get_string("method", "block-jacobi") : "block-jacobi";
-  bool chebyshev = true;  // the smoother named Chebyshev, or given only Chebyshev's keys (or none)
+  SmootherKind k;
   if (sc.has("method")) {
-    chebyshev = sc.get_string("method", "") == "chebyshev";
+    k.chebyshev = sc.get_string("method", "") == "chebyshev";
   } else {
     std::set<std::string> keys;
-    for (const auto& k : list_params<ChebyshevParams>()) keys.insert(k.key);
+    for (const auto& key : list_params<ChebyshevParams>()) keys.insert(key.key);
     for (const auto& [key, value] : sc.items())
-      if (!keys.count(key.substr(sc.full_key("").size()))) chebyshev = false;
+      if (!keys.count(key.substr(sc.full_key("").size()))) k.chebyshev = false;
   }
   // Chebyshev in M⁻¹A with patch solves reads the level matrices' entries: the assembled route,
   // with the optimised fourth kind of degree 3 unless keys say otherwise (it needs no lower bound).
   // With M = block-jacobi it is the matrix-free route's own smoother.
-  const bool patch = chebyshev && preconditioner == "patch";
-  if (preconditioner != "block-jacobi") chebyshev = false;
-  if (patch) {
+  k.patch = k.chebyshev && preconditioner == "patch";
+  if (preconditioner != "block-jacobi") k.chebyshev = false;
+  if (k.patch) {
     sc.set_default("kind", "opt-fourth");
     sc.set_default("degree", "3");
   }
+  return k;
+}
+
+/// Nearly incompressible material, stationary pmg, nothing said of the smoother: Chebyshev on
+/// vertex patches, the measured faster route from kPatchLameRatio on (docs/robustness.md).
+void choose_patches(Config& sc, const CycleOptions& o, const LevelProvider& levels, bool mgpcg, MultigridParams& p) {
+  // (λ/μ at ν = 0.495 rounds to 98.999...: compared with a relative margin.)
+  const double lame = levels.lame_ratio();
+  if (!mgpcg && lame >= kPatchLameRatio * (1 - 1e-9) && sc.items().empty() && o.op == "auto" &&
+      o.coarse_operator == "geometric" && o.precision != "single" && levels.vertex_patches(levels.num_levels() - 1)) {
+    sc.set("preconditioner.method", "patch");
+    char why[160];
+    std::snprintf(why, sizeof why, "vertex patches: lambda/mu = %.3g >= %.3g, where point smoothing degrades",
+                  lame, kPatchLameRatio);
+    p.smoother_choice = why;
+  }
+}
+
+/// The route (matrix-free or assembled), cycles per application and precision, with the smoother
+/// defaults each route brings; refuses combinations that cannot run.
+void choose_route(const Config& c, Config& sc, const CycleOptions& o, const LevelProvider& levels, bool mgpcg,
+                  MultigridParams& p) {
+  p.matrix_free = o.op == "matrix-free";
+  const SmootherKind kind = smoother_kind(sc);
   // A FEM code's own levels (matrices only: no matrix-free operators to offer): MGPCG defaults to
   // one cycle of the optimised fourth-kind Chebyshev of degree 3, measured 2.1-2.3x faster than
   // two cycles of block Gauss–Seidel on the bunny, degrees 2 and 3 (docs/other-fem-codes.md),
@@ -202,7 +205,7 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   // hierarchy's (examples/python/user_levels.py) past the 10% margin.
   // Stationary PMG keeps Gauss–Seidel, which measured faster there. FEM scenes' assembled route
   // (operator=assembled) stays the chapter's Gauss–Seidel.
-  const bool user_chebyshev = mgpcg && !ctx.levels->offers_matrix_free() && chebyshev;
+  const bool user_chebyshev = mgpcg && !levels.offers_matrix_free() && kind.chebyshev;
   if (user_chebyshev) {
     sc.set_default("method", "chebyshev");
     sc.set_default("kind", "opt-fourth");
@@ -213,26 +216,21 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     // Matrix-free where the levels offer operators and nothing asks for matrices: geometric lower
     // levels, and no smoother chosen other than Chebyshev (Gauss–Seidel's keys, say, keep the
     // assembled route the configuration was written for).
-    p.matrix_free = ctx.levels->offers_matrix_free() && p.coarse_operator == CoarseOperator::geometric && chebyshev;
+    p.matrix_free = levels.offers_matrix_free() && p.coarse_operator == CoarseOperator::geometric && kind.chebyshev;
     // Said in the solver's printed options: the route taken is part of what was run.
     if (p.matrix_free) Config(c).set("operator", "matrix-free");
   }
-  p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free && !user_chebyshev && !patch ? 2 : 1);
+  p.cycles = o.cycles > 0 ? o.cycles : (mgpcg && !p.matrix_free && !user_chebyshev && !kind.patch ? 2 : 1);
   p.single_precision = o.precision == "single" || (o.precision == "auto" && p.matrix_free);
   p.single_where_possible = o.precision == "auto";
   if (p.single_precision && !p.matrix_free)
     c.fail("precision", "single precision runs the matrix-free levels in float: it needs operator=matrix-free "
                         "(levels with matrix-free operators, Chebyshev smoothing)");
-  // CG needs a symmetric cycle; refused here, before an inner lowest-level solve would make the
-  // outer iteration flexible and hide it.
-  if (mgpcg && p.interpolating_restriction)
-    c.fail("restriction", "mgpcg needs restriction=transpose: CG needs a symmetric cycle, and the "
-                          "interpolating restriction is not the prolongation's transpose (use pmg)");
   if (p.matrix_free) {
     if (p.coarse_operator == CoarseOperator::galerkin)
       c.fail("operator", "matrix-free levels need coarse_operator=geometric (Galerkin products are matrices)");
-    for (int l = 1; l < ctx.levels->num_levels(); ++l)
-      if (!ctx.levels->matrix_free_operator(l))
+    for (int l = 1; l < levels.num_levels(); ++l)
+      if (!levels.matrix_free_operator(l))
         c.fail("operator", "matrix-free needs levels with matrix-free operators (an FEM scene's degree "
                            "hierarchy has them for degree >= 2); these levels have none");
     // Gauss–Seidel needs the matrix's entries; Chebyshev needs only products and the diagonal, and
@@ -248,28 +246,29 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   if (p.single_precision && !p.single_where_possible && sc.get_string("method", "chebyshev") != "chebyshev")
     c.fail("precision", "single precision smooths with Chebyshev only (the float cycle has no " +
                             sc.get_string("method", "") + ")");
+}
+
+/// The lowest level's solver keys: `auto` resolved and written back (so the printed options say
+/// what ran), and the defaults of the method chosen.
+Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mgpcg, const std::vector<double>& xyz) {
   Config lc = c.child("lowest_level");
-  // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
-  // not the finest level's.
-  const std::vector<double> lowest_xyz = ctx.levels->node_coordinates(0);
   // auto: for MGPCG by the lowest level's size, from the measured break-even (docs/scaling.md);
   // CHOLMOD for stationary PMG (one inexact V-cycle slows a stationary cycle far more: 990
   // cycles instead of 12 on the slender bar of docs/performance.md) and wherever lowest-level keys
-  // are given without a method (they were CHOLMOD's before auto). Resolved here and written back,
-  // so the printed options say what ran.
+  // are given without a method (they were CHOLMOD's before auto).
   if (lc.get_string("method", "auto") == "auto") {
     bool keys = false;
     for (const auto& kv : lc.items()) keys = keys || kv.first != lc.full_key("method");
     const std::string chosen =
-        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(*ctx.levels, lowest_xyz)) : "cholmod";
+        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz)) : kDefaultDirectMethod;
     lc.set("method", chosen);
   }
   if (lc.get_string("method", "") == "boomeramg") set_amg_lowest_level_defaults(lc);
   // The linear level solved by CG to a loose tolerance: a usable correction even when the inner
   // solve stops early (the outer iteration judges it); only a broken one is an error.
-  const std::string lm = lc.get_string("method", "cholmod");
+  const std::string lm = lc.get_string("method", kDefaultDirectMethod);
   // The lowest level's factorisation and solves run between the cycle's OpenMP kernels: serial
-  // BLAS in the solves, threaded factorisations (CholmodSolver: blas_threads, factor_threads).
+  // BLAS in the solves, threaded factorisations (the cholmod keys blas_threads, factor_threads).
   if (lm == "cholmod") {
     lc.set_default("blas_threads", "1");
     lc.set_default("factor_threads", "0");
@@ -279,19 +278,54 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     lc.set_default("max_iterations", "500");
     lc.set_default("throw_on_failure", "false");
   }
+  return lc;
+}
+
+/// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.
+std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext& given, bool mgpcg,
+                                            const KrylovParams& iteration) {
+  if (!given.levels || given.levels->num_levels() < 2)
+    c.fail("method", "multigrid needs at least two levels: an FEM scene of degree >= 2, or level "
+                     "matrices with prolongations");
+  const CycleOptions o = read_params<CycleOptions>(c);
+  SolverContext ctx = given;
+  const std::shared_ptr<const LevelProvider> view = skip_view(c, o, ctx);
+  const LevelProvider& levels = *ctx.levels;
+  MultigridParams p;
+  p.gamma = o.cycle == "W" ? 2 : 1;
+  p.coarse_operator = o.coarse_operator == "galerkin" ? CoarseOperator::galerkin : CoarseOperator::geometric;
+  p.interpolating_restriction = o.restriction == "interpolating";
+  p.iteration = iteration;
+  Config sc = c.child("smoother");
+  // Additive Schwarz on overlapping patches has λmax(M⁻¹A) up to the patches' overlap: undamped
+  // Richardson (what a non-smoother becomes) diverges, so patch is only a preconditioner here.
+  if (sc.get_string("method", "") == "patch")
+    c.fail("smoother", "patch is a preconditioner, not a smoother of its own (x += M r diverges on overlapping "
+                       "patches): use smoother.preconditioner=patch (Chebyshev in M^-1 A)");
+  choose_patches(sc, o, levels, mgpcg, p);
+  // CG needs a symmetric cycle; refused here, before an inner lowest-level solve would make the
+  // outer iteration flexible and hide it.
+  if (mgpcg && p.interpolating_restriction)
+    c.fail("restriction", "mgpcg needs restriction=transpose: CG needs a symmetric cycle, and the "
+                          "interpolating restriction is not the prolongation's transpose (use pmg)");
+  choose_route(c, sc, o, levels, mgpcg, p);
+  // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
+  // not the finest level's.
+  const std::vector<double> lowest_xyz = levels.node_coordinates(0);
+  const Config lc = lowest_level_config(c, levels, mgpcg, lowest_xyz);
   // One smoother per level, built from the same options (read once per level: same keys).
   std::vector<std::unique_ptr<Smoother>> smoothers;
-  for (int l = 1; l < ctx.levels->num_levels(); ++l) {
+  for (int l = 1; l < levels.num_levels(); ++l) {
     SolverContext level_ctx = ctx;
     level_ctx.level = l;
     smoothers.push_back(build_smoother(sc, level_ctx));
   }
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = lowest_xyz.empty() ? nullptr : &lowest_xyz;
-  auto lowest = build_solver(lc, lowest_ctx, "cholmod");
+  auto lowest = build_solver(lc, lowest_ctx, kDefaultDirectMethod);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
   if (view) return std::make_unique<MultigridCycle>(view, p, factory, std::move(lowest));
-  return std::make_unique<MultigridCycle>(*ctx.levels, p, factory, std::move(lowest));
+  return std::make_unique<MultigridCycle>(levels, p, factory, std::move(lowest));
 }
 
 void register_all() {
@@ -379,6 +413,15 @@ void register_all() {
 void register_solvers() {
   static std::once_flag once;
   std::call_once(once, register_all);
+}
+
+std::unique_ptr<MultigridCycle> make_cycle(const Config& config, const SolverContext& context) {
+  register_solvers();  // smoothers and the lowest level's method
+  if (config.get_string("method", "pmg") != "pmg")
+    config.fail("method", "make_cycle builds the stationary pmg method's cycle only");
+  auto cycle = build_cycle(config, context, false, read_krylov(config));
+  config.check_all_used();
+  return cycle;
 }
 
 }  // namespace pmg::mg

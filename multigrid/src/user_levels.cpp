@@ -97,19 +97,30 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
       throw InputError(who + " is " + std::to_string(matrices[l].rows) + "x" + std::to_string(matrices[l].cols) +
                        ": a level matrix must be square with 3 unknowns per node");
   }
-
   levels_.resize(L);
-  auto given_matrix = [&](int l) -> const CsrView* {
-    if (options.galerkin_only) return l == L - 1 ? &matrices[0] : nullptr;
-    return &matrices[l];
-  };
-  // Node counts and node prolongations, finest first (a Galerkin level's size comes from P).
-  std::vector<Csr> node_P(L > 1 ? L - 1 : 0);
+  std::vector<const CsrView*> given(L, nullptr);
+  for (int l = 0; l < L; ++l)
+    given[l] = options.galerkin_only ? (l == L - 1 ? &matrices[0] : nullptr) : &matrices[l];
   levels_[L - 1].given_nodes = matrices.back().rows / B;
+  const std::vector<Csr> node_P = node_prolongations(prolongations, given);
+  const std::vector<std::vector<char>> identity_of = find_identity_rows(given);
+  keep_nodes(node_P);
+  for (int l = 0; l < L; ++l) build_level(l, given[l], identity_of[l]);
+  full_size_ = matrices.back().rows;
+  number_finest_dofs();
+  fixed_diag_.resize(fixed_dof_.size());
+  given_matrices_ = matrices.size();
+  refresh_values(matrices);
+}
+
+std::vector<Csr> UserLevels::node_prolongations(const std::vector<CsrView>& prolongations,
+                                                const std::vector<const CsrView*>& given) {
+  const int L = static_cast<int>(levels_.size());
+  std::vector<Csr> node_P(L > 1 ? L - 1 : 0);
   for (int l = L - 1; l >= 1; --l) {
     const CsrView& P = prolongations[l - 1];
     const index_t nf = levels_[l].given_nodes;
-    const CsrView* Ac = given_matrix(l - 1);
+    const CsrView* Ac = given[l - 1];
     const std::string who = "prolongation " + std::to_string(l);
     if (P.rows == nf) {
       if (Ac && P.cols != Ac->rows / B)
@@ -119,7 +130,7 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
                          std::to_string(Ac->rows) + " (dofs)");
       node_P[l - 1] = to_csr(P, who);
     } else if (P.rows == B * nf && P.cols % B == 0 && (!Ac || P.cols == Ac->rows)) {
-      node_P[l - 1] = node_prolongation_of_dofs(P, nf, P.cols / B, options.layout, l);
+      node_P[l - 1] = node_prolongation_of_dofs(P, nf, P.cols / B, options_.layout, l);
     } else {
       throw InputError(who + " is " + std::to_string(P.rows) + "x" + std::to_string(P.cols) + "; level " +
                        std::to_string(l) + " has " + std::to_string(nf) + " nodes (" + std::to_string(B * nf) +
@@ -127,18 +138,22 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     }
     levels_[l - 1].given_nodes = node_P[l - 1].cols();
   }
+  return node_P;
+}
 
+std::vector<std::vector<char>> UserLevels::find_identity_rows(const std::vector<const CsrView*>& given) {
   // Level matrices: identity rows found; whole clamped nodes removed, nodes with some components
   // constrained (symmetry planes, rollers) kept with those components flagged.
+  const int L = static_cast<int>(levels_.size());
   std::vector<std::vector<char>> identity_of(L);
   for (int l = 0; l < L; ++l) {
     Level& lv = levels_[l];
-    const CsrView* A = given_matrix(l);
+    const CsrView* A = given[l];
     lv.has_matrix = A != nullptr;
     lv.node_of.assign(lv.given_nodes, 0);
     if (!A) continue;  // kept nodes decided from the finer level below
     const index_t n = lv.given_nodes;
-    const DofMap map{options.layout, n};
+    const DofMap map{options_.layout, n};
     const std::string who = level_label(l);
     std::vector<char> identity(B * n, 0);
     for (index_t i = 0; i < A->rows; ++i) {
@@ -159,6 +174,11 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     }
     identity_of[l] = std::move(identity);
   }
+  return identity_of;
+}
+
+void UserLevels::keep_nodes(const std::vector<Csr>& node_P) {
+  const int L = static_cast<int>(levels_.size());
   // Kept nodes, finest first: a Galerkin level keeps the coarse nodes some kept fine node takes from.
   for (int l = L - 1; l >= 0; --l) {
     Level& lv = levels_[l];
@@ -196,94 +216,91 @@ UserLevels::UserLevels(const std::vector<CsrView>& matrices, const std::vector<C
     const index_t nc = *std::max_element(coarse.begin(), coarse.end()) + 1;
     prolongations_.push_back(Csr::from_triplets(nf, nc, t));
   }
+}
 
-  // Block patterns and the entry -> slot maps.
-  for (int l = 0; l < L; ++l) {
-    Level& lv = levels_[l];
-    const index_t nk = *std::max_element(lv.node_of.begin(), lv.node_of.end()) + 1;
-    const CsrView* A = given_matrix(l);
-    if (!A) {
-      lv.A = Bcsr::from_block_triplets(nk, nk, {});
-      continue;
-    }
-    const DofMap map{options.layout, lv.given_nodes};
-    // Given rows of each kept node (3 per node; in place for interleaved, gathered otherwise).
-    std::vector<index_t> row_of(B * nk);
-    for (index_t i = 0; i < A->rows; ++i) {
-      const index_t ri = map(i), R = lv.node_of[ri / B];
-      if (R >= 0) row_of[B * R + ri % B] = i;
-    }
-    // Pattern: per block row, the kept block columns of its three rows (marker array, then sort).
-    auto pat = std::make_shared<BlockPattern>();
-    pat->rows = pat->cols = nk;
-    pat->row_ptr.assign(nk + 1, 0);
-    pat->col_idx.reserve(static_cast<size_t>(A->nnz / (B * B)) + nk);
-    std::vector<index_t> mark(nk, -1), row_cols, seen(B * nk, -1);
-    const std::vector<char>& is_identity = identity_of[l];
-    offset_t stored = 0;  // distinct entries between free components (for the layout check)
-    for (index_t R = 0; R < nk; ++R) {
-      row_cols.clear();
-      for (int a = 0; a < B; ++a) {
-        const index_t i = row_of[B * R + a];
-        for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
-          const index_t cj = map(A->col(k)), C = lv.node_of[cj / B];
-          if (C < 0) continue;
-          if (!is_identity[map(i)] && !is_identity[cj] && seen[B * C + cj % B] != B * R + a)
-            seen[B * C + cj % B] = B * R + a, ++stored;
-          if (mark[C] != R) mark[C] = R, row_cols.push_back(C);
-        }
-      }
-      std::sort(row_cols.begin(), row_cols.end());
-      pat->col_idx.insert(pat->col_idx.end(), row_cols.begin(), row_cols.end());
-      pat->row_ptr[R + 1] = static_cast<offset_t>(pat->col_idx.size());
-    }
-    lv.A = Bcsr(pat, std::vector<double>(Bcsr::kBlockSize * pat->nnz(), 0.0));
-    lv.row_of = std::move(row_of);
-    for (index_t i = 0; i < A->rows; ++i)
-      if (lv.node_of[map(i) / B] < 0) lv.clamped_rows.push_back(i);
-    // The constrained components of kept nodes, in the cycle's numbering.
-    const std::vector<char>& identity = identity_of[l];
-    for (index_t i = 0; i < A->rows; ++i) {
-      const index_t ri = map(i), R = lv.node_of[ri / B];
-      if (R < 0 || !identity[ri]) continue;
-      if (lv.constrained.empty()) lv.constrained.assign(B * nk, 0);
-      lv.constrained[B * R + ri % B] = 1;
-      lv.clamped_rows.push_back(i);  // stays an identity row: checked at every refresh
-    }
-    // Layout check: elasticity couples all three components of every pair of coupled nodes, so
-    // under the right layout the 3x3 blocks are (nearly) full.
-    // Entries the blocks can hold between free components (constrained ones have zero couplings).
-    std::vector<int> free_of(nk, B);
-    for (index_t i = 0; i < A->rows; ++i)
-      if (lv.node_of[map(i) / B] >= 0 && is_identity[map(i)]) --free_of[lv.node_of[map(i) / B]];
-    double capacity = 0.0;
-    for (index_t R = 0; R < nk; ++R)
-      for (offset_t q = pat->row_ptr[R]; q < pat->row_ptr[R + 1]; ++q) capacity += free_of[R] * free_of[pat->col_idx[q]];
-    if (capacity > 0 && stored < 0.5 * capacity)
-      throw InputError(level_label(l) + ": only " +
-                       std::to_string(static_cast<int>(100.0 * stored / capacity)) +
-                       "% of the entries of its 3x3 blocks are stored under the " +
-                       (options.layout == DofLayout::interleaved
-                            ? "interleaved layout (x0 y0 z0 x1 ...): is it component-major (x0 x1 ... y0 ...)? "
-                              "Give the component layout (Python layout='component', pmg compare --layout "
-                              "component, C++ DofLayout::component)"
-                            : "component-major layout: is it interleaved (x0 y0 z0 x1 ...)? Give the interleaved "
-                              "layout (Python layout='interleaved', pmg compare --layout interleaved, C++ "
-                              "DofLayout::interleaved)"));
+void UserLevels::build_level(int l, const CsrView* A, const std::vector<char>& identity_of_level) {
+  Level& lv = levels_[l];
+  const index_t nk = *std::max_element(lv.node_of.begin(), lv.node_of.end()) + 1;
+  if (!A) {
+    lv.A = Bcsr::from_block_triplets(nk, nk, {});
+    return;
   }
-  full_size_ = matrices.back().rows;
+  const DofMap map{options_.layout, lv.given_nodes};
+  // Given rows of each kept node (3 per node; in place for interleaved, gathered otherwise).
+  std::vector<index_t> row_of(B * nk);
+  for (index_t i = 0; i < A->rows; ++i) {
+    const index_t ri = map(i), R = lv.node_of[ri / B];
+    if (R >= 0) row_of[B * R + ri % B] = i;
+  }
+  // Pattern: per block row, the kept block columns of its three rows (marker array, then sort).
+  auto pat = std::make_shared<BlockPattern>();
+  pat->rows = pat->cols = nk;
+  pat->row_ptr.assign(nk + 1, 0);
+  pat->col_idx.reserve(static_cast<size_t>(A->nnz / (B * B)) + nk);
+  std::vector<index_t> mark(nk, -1), row_cols, seen(B * nk, -1);
+  const std::vector<char>& is_identity = identity_of_level;
+  offset_t stored = 0;  // distinct entries between free components (for the layout check)
+  for (index_t R = 0; R < nk; ++R) {
+    row_cols.clear();
+    for (int a = 0; a < B; ++a) {
+      const index_t i = row_of[B * R + a];
+      for (offset_t k = A->row_begin(i); k < A->row_end(i); ++k) {
+        const index_t cj = map(A->col(k)), C = lv.node_of[cj / B];
+        if (C < 0) continue;
+        if (!is_identity[map(i)] && !is_identity[cj] && seen[B * C + cj % B] != B * R + a)
+          seen[B * C + cj % B] = B * R + a, ++stored;
+        if (mark[C] != R) mark[C] = R, row_cols.push_back(C);
+      }
+    }
+    std::sort(row_cols.begin(), row_cols.end());
+    pat->col_idx.insert(pat->col_idx.end(), row_cols.begin(), row_cols.end());
+    pat->row_ptr[R + 1] = static_cast<offset_t>(pat->col_idx.size());
+  }
+  lv.A = Bcsr(pat, std::vector<double>(Bcsr::kBlockSize * pat->nnz(), 0.0));
+  lv.row_of = std::move(row_of);
+  for (index_t i = 0; i < A->rows; ++i)
+    if (lv.node_of[map(i) / B] < 0) lv.clamped_rows.push_back(i);
+  // The constrained components of kept nodes, in the cycle's numbering.
+  const std::vector<char>& identity = identity_of_level;
+  for (index_t i = 0; i < A->rows; ++i) {
+    const index_t ri = map(i), R = lv.node_of[ri / B];
+    if (R < 0 || !identity[ri]) continue;
+    if (lv.constrained.empty()) lv.constrained.assign(B * nk, 0);
+    lv.constrained[B * R + ri % B] = 1;
+    lv.clamped_rows.push_back(i);  // stays an identity row: checked at every refresh
+  }
+  // Layout check: elasticity couples all three components of every pair of coupled nodes, so
+  // under the right layout the 3x3 blocks are (nearly) full.
+  // Entries the blocks can hold between free components (constrained ones have zero couplings).
+  std::vector<int> free_of(nk, B);
+  for (index_t i = 0; i < A->rows; ++i)
+    if (lv.node_of[map(i) / B] >= 0 && is_identity[map(i)]) --free_of[lv.node_of[map(i) / B]];
+  double capacity = 0.0;
+  for (index_t R = 0; R < nk; ++R)
+    for (offset_t q = pat->row_ptr[R]; q < pat->row_ptr[R + 1]; ++q) capacity += free_of[R] * free_of[pat->col_idx[q]];
+  if (capacity > 0 && stored < 0.5 * capacity)
+    throw InputError(level_label(l) + ": only " +
+                     std::to_string(static_cast<int>(100.0 * stored / capacity)) +
+                     "% of the entries of its 3x3 blocks are stored under the " +
+                     (options_.layout == DofLayout::interleaved
+                          ? "interleaved layout (x0 y0 z0 x1 ...): is it component-major (x0 x1 ... y0 ...)? "
+                            "Give the component layout (Python layout='component', pmg compare --layout "
+                            "component, C++ DofLayout::component)"
+                          : "component-major layout: is it interleaved (x0 y0 z0 x1 ...)? Give the interleaved "
+                            "layout (Python layout='interleaved', pmg compare --layout interleaved, C++ "
+                            "DofLayout::interleaved)"));
+}
+
+void UserLevels::number_finest_dofs() {
   // Finest level: free and fixed dofs in the caller's numbering.
-  const Level& fl = levels_[L - 1];
-  const DofMap fmap{options.layout, fl.given_nodes};
-  free_dof_.assign(B * matrix(L - 1).block_rows(), 0);
+  const Level& fl = levels_.back();
+  const DofMap fmap{options_.layout, fl.given_nodes};
+  free_dof_.assign(B * fl.A.block_rows(), 0);
   for (index_t I = 0; I < fl.given_nodes; ++I)
     for (int a = 0; a < B; ++a) {
       if (fl.node_of[I] >= 0) free_dof_[B * fl.node_of[I] + a] = fmap.given(I, a);
       else fixed_dof_.push_back(fmap.given(I, a));
     }
-  fixed_diag_.resize(fixed_dof_.size());
-  given_matrices_ = matrices.size();
-  refresh_values(matrices);
 }
 
 void UserLevels::check_symmetric(int l) const {

@@ -25,7 +25,7 @@ from . import _core
 from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, ElasticModel,
                     DegreeHierarchy)
 
-__all__ = ["make_solver", "multigrid", "methods", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
+__all__ = ["make_solver", "multigrid", "methods", "study", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
            "Material", "ElasticModel", "DegreeHierarchy", "simulate", "read_petsc", "write_petsc",
            "Error", "InputError",
            "SolveError"]
@@ -335,6 +335,40 @@ def _hierarchy_solver(self, config=None, comm=None):
 DegreeHierarchy.levels = _hierarchy_levels
 DegreeHierarchy.prolongations = _hierarchy_prolongations
 DegreeHierarchy.solver = _hierarchy_solver
+
+
+def study(system, b, solvers, reference=None, coordinates=None, format="auto", warm_up=False):
+    """Several solvers on one system, as `pmg compare` runs them (the same C++ study layer): each
+    is set up and solved from zero under a clock, in order, one at a time.
+
+    system: a scipy.sparse matrix (symmetric positive definite) or a DegreeHierarchy (b then over
+        its finest level's free unknowns; multigrid methods take its degrees as levels, prepared
+        outside the clocks once per kind of need).
+    solvers: {"name": config, ...} in the factory's schema (a list of method names is short for
+        {name: {"method": name}}); default method cg for a matrix, mgpcg for a hierarchy.
+    reference: the solution errors are measured against (None: no error column).
+    coordinates: x, y, z per node (matrix systems; BoomerAMG's and GAMG's rigid-body modes).
+    format: auto | csr | bcsr | bin-bcsr, the format the Krylov methods multiply in.
+    warm_up: run each solver once untimed first (the first touch of its memory).
+
+    Returns one dict per solver: name, config, status, message, iterations, setup_seconds,
+    solve_seconds, time_to_1e-3, time_to_1e-6 (set-up included; None when not reached),
+    rel_residual, rel_error, settings, breakdown, setup_breakdown, history (relative residual per
+    iteration) and history_seconds (from the start of the solve)."""
+    if isinstance(solvers, (list, tuple)):
+        solvers = {str(m): {"method": str(m)} for m in solvers}
+    if not isinstance(solvers, dict) or not solvers:
+        raise InputError("solvers: expected a non-empty dict of named configurations or a list of methods")
+    hierarchy = isinstance(system, DegreeHierarchy)
+    default = "mgpcg" if hierarchy else "cg"
+    text = "{" + ",".join(json.dumps(str(name)) + ":" + _config_text(config, default)
+                          for name, config in solvers.items()) + "}"
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    ref = None if reference is None else np.ascontiguousarray(reference, dtype=np.float64)
+    if hierarchy:
+        return _core.study_hierarchy(system, b, text, ref, bool(warm_up))
+    xyz = None if coordinates is None else np.ascontiguousarray(coordinates, dtype=np.float64)
+    return _core.study_matrix(_csr_arrays(system), b, text, ref, xyz, str(format), bool(warm_up))
 
 
 def simulate(scene, output_dir=""):

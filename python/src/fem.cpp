@@ -153,8 +153,10 @@ py::dict run_records(const sim::RunSummary& r) {
 
 }  // namespace
 
-void register_fem(py::module_& m) {
-  // ---- FEM ----
+namespace {
+
+/// Material and Mesh.
+void register_mesh(py::module_& m) {
   py::class_<fem::Material>(m, "Material")
       .def(py::init([](double young, double poisson, double density) {
              fem::Material mat{young, poisson, density};
@@ -207,7 +209,10 @@ void register_fem(py::module_& m) {
       })
       .def_property_readonly("num_vertices", &fem::TetMesh::num_vertices)
       .def_property_readonly("num_tets", &fem::TetMesh::num_tets);
+}
 
+/// ElasticModel: one degree's model, its matrices, loads and static solves.
+void register_model(py::module_& m) {
   py::class_<PyModel>(m, "ElasticModel")
       .def(py::init<std::shared_ptr<const fem::TetMesh>, int, const fem::Material&>(), py::arg("mesh"),
            py::arg("degree"), py::arg("material") = fem::Material{})
@@ -282,7 +287,10 @@ void register_fem(py::module_& m) {
         }
         return py::make_tuple(to_numpy(std::move(r.u)), r.iterations);
       }, py::arg("f"), py::arg("corotational") = false);
+}
 
+/// DegreeHierarchy: the p-multigrid levels of a model.
+void register_hierarchy(py::module_& m) {
   py::class_<PyHierarchy>(m, "DegreeHierarchy")
       .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material, py::object clamp,
                        py::object components) {
@@ -334,7 +342,10 @@ void register_fem(py::module_& m) {
         return to_numpy(s.h->finest().expand(to_vector(u, s.h->finest().num_free_dofs(), "free vector"), Vector()));
       })
       .def("gravity", [](const PyHierarchy& s, std::vector<double> g) { return to_numpy(s.h->finest().gravity(vec3(g, "gravity"))); });
+}
 
+/// simulate(): a scene run from Python.
+void register_simulation(py::module_& m) {
   // ---- simulation ----
   m.def("simulate", [](const std::string& scene_json, const std::string& origin, const std::string& output_dir) {
     const sim::Scene scene = sim::parse_scene(scene_json, origin);
@@ -364,6 +375,15 @@ void register_fem(py::module_& m) {
     out["failure"] = r.failure;
     return out;
   }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "");
+}
+
+}  // namespace
+
+void register_fem(py::module_& m) {
+  register_mesh(m);
+  register_model(m);
+  register_hierarchy(m);
+  register_simulation(m);
 }
 
 }  // namespace pmg::python

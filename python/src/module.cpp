@@ -10,6 +10,7 @@
 // The GIL is released during set-up, updates, solves, products, assembly and simulation: the
 // caller must not modify the arrays it passed while such a call runs in another thread.
 #include "pmg/fem/hierarchy.hpp"
+#include "pmg/sparse/defaults.hpp"
 #include "pmg/solvers.hpp"
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/bcsr.hpp"
@@ -19,6 +20,7 @@
 #include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/petsc_binary.hpp"
 #include "pmg/sparse/timer.hpp"
+#include "pmg/study/study.hpp"
 
 #include "common.hpp"
 
@@ -27,6 +29,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -170,7 +173,7 @@ class PySolver {
       : config_(Config::from_json(config_json, "config")) {
     ArrayCsr a = array_csr(A, "matrix");
     if (a.view.rows != a.view.cols) throw InputError("matrix: must be square, is " + std::to_string(a.view.rows) + "x" + std::to_string(a.view.cols));
-    method_ = config_.get_string("method", "cg");
+    method_ = config_.get_string("method", kDefaultMethod);
     std::string f = format;
     if (f == "auto") f = a.view.rows % 3 == 0 ? "bcsr" : "csr";
     if (f != "csr" && f != "bcsr" && f != "bin-bcsr") throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
@@ -211,7 +214,7 @@ class PySolver {
     mg::UserLevelOptions o;
     o.layout = mg::parse_layout(layout);
     o.galerkin_only = galerkin_only;
-    method_ = config_.get_string("method", "mgpcg");
+    method_ = config_.get_string("method", kDefaultLevelsMethod);
     config_.set_default("method", method_);
     if (galerkin_only && method_accepts_key(method_, "coarse_operator")) config_.set_default("coarse_operator", "galerkin");
     {
@@ -228,7 +231,7 @@ class PySolver {
   /// for it); petsc-mgpcg runs across the ranks of `communicator` (a Fortran handle, -1: world).
   PySolver(PyHierarchy& h, const std::string& config_json, long communicator)
       : config_(Config::from_json(config_json, "config")) {
-    method_ = config_.get_string("method", "mgpcg");
+    method_ = config_.get_string("method", kDefaultLevelsMethod);
     config_.set_default("method", method_);
     hierarchy_ = h.h.get();
     hierarchy_lock_ = h.lock;
@@ -440,9 +443,9 @@ class PySolver {
   /// A new solver from `config`, set up on op_, replacing solver_ only when its set-up succeeded;
   /// the GIL released and mutex_ and the hierarchy's lock held (or constructing).
   void build_locked(const Config& config) {
-    auto solver = make_solver(config, context_, levels_ || hierarchy_ ? "mgpcg" : "cg");
+    auto solver = make_solver(config, context_, levels_ || hierarchy_ ? kDefaultLevelsMethod : kDefaultMethod);
     start_libraries(config);  // MPI and PETSc where the method needs them, outside its set-up time
-    if (hierarchy_) op_ = &hierarchy_->prepare(solver->needs(), nullptr);
+    if (hierarchy_) op_ = &hierarchy_->bind(*solver).prepare();
     const auto t0 = Clock::now();
     solver->setup(*op_);
     setup_seconds_ = seconds_since(t0);
@@ -508,11 +511,94 @@ py::array_t<double> matvec(const Op& A, const DoubleArray& x, std::optional<py::
 
 }  // namespace
 
-PYBIND11_MODULE(_core, m) {
-  m.doc() = "pmgkit's compiled core; use the pmgkit package";
-  register_all_solvers();  // every method of this build, as in pmg compare and scenes
-  m.attr("max_config_bytes") = kMaxConfigBytes;  // the longest scene file read
+namespace {
 
+/// pmgkit.study's core: the solvers of `solvers_json` (an object of named configurations, in
+/// order) on one system through pmg::study, as pmg compare runs them; one dict per run.
+py::list study_runs(study::StudySystem& ss, const std::string& solvers_json, bool warm_up,
+                    const std::function<void(study::Study&)>& before_run, const char* fallback) {
+  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(solvers_json);
+  if (!j.is_object() || j.empty()) throw InputError("study: solvers: expected named solver configurations");
+  study::Study st(ss);
+  for (auto it = j.begin(); it != j.end(); ++it)
+    st.add(it.key(), Config::from_json(it.value().dump(), "study: " + it.key()), {}, fallback);
+  before_run(st);
+  std::vector<study::SolverRun> runs;
+  {
+    py::gil_scoped_release nogil;
+    runs = st.run(warm_up);
+  }
+  auto maybe = [](double v) { return std::isfinite(v) ? py::object(py::float_(v)) : py::object(py::none()); };
+  py::list out;
+  for (const study::SolverRun& r : runs) {
+    py::dict d;
+    d["name"] = r.name, d["config"] = r.config, d["status"] = r.status, d["message"] = r.message;
+    d["iterations"] = r.iterations, d["setup_seconds"] = r.setup_s, d["solve_seconds"] = r.solve_s;
+    d["time_to_1e-3"] = maybe(r.time_to(1e-3)), d["time_to_1e-6"] = maybe(r.time_to(1e-6));
+    d["rel_residual"] = maybe(r.rel_residual), d["rel_error"] = maybe(r.rel_error);
+    d["settings"] = r.settings, d["breakdown"] = r.breakdown, d["setup_breakdown"] = r.setup_breakdown;
+    Vector rel(static_cast<Eigen::Index>(r.history.size())), sec(rel.size());
+    for (size_t k = 0; k < r.history.size(); ++k) rel[k] = r.history[k].rel_residual, sec[k] = r.history[k].seconds;
+    d["history"] = to_numpy(std::move(rel));
+    d["history_seconds"] = to_numpy(std::move(sec));
+    out.append(d);
+  }
+  return out;
+}
+
+/// study_matrix (a user's matrix) and study_hierarchy (an FEM degree hierarchy).
+void register_study(py::module_& m) {
+  m.def("study_matrix", [](py::tuple A, const DoubleArray& b, const std::string& solvers, std::optional<DoubleArray> reference,
+                           std::optional<DoubleArray> coordinates, const std::string& format, bool warm_up) {
+    const ArrayCsr a = array_csr(A, "matrix");
+    if (a.view.rows != a.view.cols) throw InputError("matrix: must be square");
+    if (format != "auto" && format != "csr" && format != "bcsr" && format != "bin-bcsr")
+      throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
+    const Csr csr = to_csr(a.view, "matrix");
+    if (!csr.is_symmetric(1e-12)) throw InputError("matrix: not symmetric (the solvers need a symmetric positive definite matrix)");
+    const bool blocks = csr.rows() % 3 == 0 && format != "csr";
+    if (format != "auto" && format != "csr" && !blocks) throw InputError("format " + format + ": the size is not divisible by 3");
+    std::unique_ptr<Bcsr> bcsr = blocks ? std::make_unique<Bcsr>(Bcsr::from_csr(csr)) : nullptr;
+    std::unique_ptr<BinBcsr> bin = format == "bin-bcsr" ? std::make_unique<BinBcsr>(*bcsr) : nullptr;
+    study::StudySystem ss;
+    ss.description = "matrix " + std::to_string(csr.rows()) + "x" + std::to_string(csr.cols());
+    ss.matrix = bcsr ? static_cast<const LinearOperator*>(bcsr.get()) : &csr;
+    ss.product = bin ? static_cast<const LinearOperator*>(bin.get()) : nullptr;
+    ss.b = to_vector(b, csr.rows(), "b");
+    if (reference) ss.reference = to_vector(*reference, csr.rows(), "reference");
+    std::vector<double> xyz;
+    if (coordinates) {
+      const Vector c = to_vector(*coordinates, csr.rows(), "coordinates");
+      xyz.assign(c.data(), c.data() + c.size());
+      ss.coordinates = &xyz;
+    }
+    return study_runs(ss, solvers, warm_up, [](study::Study&) {}, kDefaultMethod);
+  }, py::arg("A"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("coordinates"), py::arg("format"),
+     py::arg("warm_up"));
+  m.def("study_hierarchy", [](PyHierarchy& h, const DoubleArray& b, const std::string& solvers,
+                              std::optional<DoubleArray> reference, bool warm_up) {
+    const std::unique_lock<std::mutex> lock(*h.lock);  // its solvers share the hierarchy's operators
+    fem::DegreeHierarchy& H = *h.h;
+    const int L = H.num_levels();
+    const index_t n = H.finest().num_free_dofs();
+    study::StudySystem ss;
+    ss.description = "degree " + std::to_string(L) + " hierarchy, " + std::to_string(n) + " free unknowns";
+    ss.b = to_vector(b, n, "b");
+    if (reference) ss.reference = to_vector(*reference, n, "reference");
+    ss.levels = &H;
+    ss.hierarchy = &H;
+    const std::vector<double> xyz = H.node_coordinates(L - 1);
+    ss.coordinates = &xyz;
+    return study_runs(ss, solvers, warm_up, [&](study::Study& st) {
+      if (!st.reads_finest_matrix()) return;
+      H.assemble_level(L - 1, nullptr);  // the finest matrix some solver reads (R = I, static weights)
+      ss.matrix = &H.matrix(L - 1);
+    }, kDefaultLevelsMethod);
+  }, py::arg("hierarchy"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("warm_up"));
+}
+
+/// Error, InputError and SolveError as Python exceptions, with the same messages.
+void register_errors(py::module_& m) {
   // Errors: the C++ types as Python exceptions, with the same messages.
   static py::exception<Error> error(m, "Error", PyExc_RuntimeError);
   static py::object input_bases = py::make_tuple(error, py::handle(PyExc_ValueError));
@@ -541,7 +627,10 @@ PYBIND11_MODULE(_core, m) {
       raise(error.ptr(), e.what());
     }
   });
+}
 
+/// Solver (matrices, user levels or an FEM hierarchy) and the registry's methods.
+void register_solver(py::module_& m) {
   // ---- solvers ----
   py::class_<PySolver>(m, "Solver")
       .def(py::init<py::tuple, const std::string&, const std::string&, std::optional<DoubleArray>>(),
@@ -594,7 +683,10 @@ PYBIND11_MODULE(_core, m) {
     return py::make_tuple(reinterpret_cast<std::uintptr_t>(a.view.row_ptr), reinterpret_cast<std::uintptr_t>(a.view.col_idx),
                           reinterpret_cast<std::uintptr_t>(a.view.values));
   }, "The addresses pmgkit reads a matrix's arrays at (for checking that nothing was copied).");
+}
 
+/// Csr, Bcsr and BinBcsr.
+void register_formats(py::module_& m) {
   // ---- formats ----
   py::class_<Csr>(m, "Csr")
       .def(py::init([](py::tuple A) { return to_csr(array_csr(A, "matrix").view, "matrix"); }))
@@ -624,7 +716,10 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("padding_ratio", &BinBcsr::padding_ratio)
       .def_property_readonly("bytes_per_spmv", &BinBcsr::bytes_per_spmv)
       .def("matvec", &matvec<BinBcsr>, py::arg("x"), py::arg("out") = py::none());
+}
 
+/// PETSc's binary format (what MatView/VecView write; loads at disk speed).
+void register_petsc_files(py::module_& m) {
   // ---- PETSc's binary format (what MatView/VecView write; loads at disk speed) ----
   m.def("read_petsc_matrix", [](const std::string& path) {
     Csr A;
@@ -653,6 +748,19 @@ PYBIND11_MODULE(_core, m) {
     py::gil_scoped_release nogil;
     write_petsc_binary(path, x);
   }, py::arg("path"), py::arg("v"));
+}
 
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "pmgkit's compiled core; use the pmgkit package";
+  register_all_solvers();  // every method of this build, as in pmg compare and scenes
+  m.attr("max_config_bytes") = kMaxConfigBytes;  // the longest scene file read
+
+  register_errors(m);
+  register_solver(m);
+  register_formats(m);
+  register_petsc_files(m);
+  register_study(m);
   register_fem(m);  // meshes, models, hierarchies and scenes (fem.cpp)
 }

@@ -89,16 +89,7 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
     solver_ = make_step_solver(scene, *setup.hierarchy, method, settings, setup.notes);
     sim_ = std::make_unique<fem::ImplicitEuler>(*setup.hierarchy, *solver_, setup.f_ext, sp);
     sim_->set_state(u0, v0);
-    const SolverNeeds needs = solver_->needs();
-    if (needs.matrix_free) {
-      const int lowest = needs.lowest_level;  // skip_levels: degree lowest + 1 is the factorised one
-      setup.notes.push_back("matrix-free: degrees >= " + std::to_string(lowest + 2) +
-                            " never assembled (their operators take each step's rotations); " +
-                            (lowest == 0 ? std::string("the linear level") : setup.hierarchy->level_name(lowest)) +
-                            " assembled and its solver set up per step");
-    }
-    if (!needs.lower_levels && setup.hierarchy->num_levels() > 1)
-      setup.notes.push_back("lower degrees: not assembled (" + solver_->name() + " needs only the finest level)");
+    for (std::string& note : sim_->bound_system().notes()) setup.notes.push_back(std::move(note));
   }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
@@ -177,7 +168,12 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
 
 bool runs_across_ranks(const Scene& scene) {
 #ifdef PMG_HAVE_DISTRIBUTED
-  return scene.dynamic && scene.degree >= 2 && scene.solver.get_string("method", "pmg") == "petsc-mgpcg";
+  // What the method's registration says (SolverInfo::across_ranks), not its name.
+  if (!scene.dynamic || scene.degree < 2) return false;
+  const std::string method = scene.solver.get_string("method", kDefaultDynamicMethod);
+  for (const SolverInfo& info : registered_solvers())
+    if (info.name == method) return info.across_ranks;
+  return false;
 #else
   (void)scene;
   return false;
@@ -195,7 +191,7 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   sp.corotational = scene.corotational;
 #ifdef PMG_HAVE_DISTRIBUTED
   if (runs_across_ranks(scene)) {
-    method_ = "petsc-mgpcg";
+    method_ = scene.solver.get_string("method", kDefaultDynamicMethod);
     stepper_ = std::make_unique<detail::RankStepper>(scene, setup, sp, u0, v0, settings_);
   }
 #endif

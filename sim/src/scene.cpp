@@ -1,4 +1,5 @@
 #include "pmg/sim/scene.hpp"
+#include "pmg/sparse/defaults.hpp"
 
 #include "pmg/fem/elasticity.hpp"
 #include "pmg/fem/simulation.hpp"
@@ -136,13 +137,10 @@ Scene read_scene(const std::string& path) {
   return parse_scene(read_text_file(path, kMaxConfigBytes, "scene"), path);
 }
 
-Scene parse_scene(const std::string& text, const std::string& path) {
-  // Syntax, duplicate keys and numbers beyond double range, named before the content is read.
-  check_json_text(text, path);
-  const json j = json::parse(text);
-  Scene s;
-  s.source = path;
-  Section root(path, "", j);
+namespace {
+
+/// The "mesh" section: a file (relative to the scene's folder) or a box, refinement, allowed defects.
+void read_mesh(Section& root, const std::string& path, Scene& s) {
   if (root.has("mesh")) {
     Section m = root.sub("mesh");
     if (m.has("file")) {
@@ -177,7 +175,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       }
     }
   }
-  s.degree = root.integer("degree", s.degree, 1, 3);
+}
+
+/// The "material" section, with its optional stiffer inclusion.
+void read_material(Section& root, Scene& s) {
   if (root.has("material")) {
     Section m = root.sub("material");
     s.corotational = m.string("model", "corotational", {"corotational", "linear"}) == "corotational";
@@ -195,6 +196,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         inc.fail("min must lie below max in every coordinate");
     }
   }
+}
+
+/// "clamp", "supports" and "symmetry": what holds the body.
+void read_constraints(Section& root, const std::string& path, Scene& s) {
   if (root.has("clamp")) {
     if (root.at("clamp").is_string() && root.at("clamp").get<std::string>() == "none") {
       s.clamp_axis = -1;
@@ -229,6 +234,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       s.supports.push_back(sup);
     }
   }
+}
+
+/// "loads", "initial", "time" and "damping".
+void read_loads_and_time(Section& root, Scene& s) {
   if (root.has("loads")) {
     Section l = root.sub("loads");
     s.gravity = l.vec3("gravity", s.gravity);
@@ -262,6 +271,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     s.rayleigh_alpha = d.nonnegative("alpha", 0.0);
     s.rayleigh_beta = d.nonnegative("beta", 0.0);
   }
+}
+
+/// The "solver" options (completed by the registry's defaults) and "output".
+void read_solver_and_output(Section& root, const std::string& path, Scene& s) {
   if (root.has("solver")) {
     // Keys the solver factory renamed (pmgkit 0.1 scene files): a clear pointer, not "unknown key".
     const json& sj = root.at("solver");
@@ -287,7 +300,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     s.energy = o.boolean("energy", s.energy);
     if (o.has("probe")) s.probe = o.vec3("probe", fem::Vec3::Zero());
   }
-  if (root.has("name")) s.source = root.string("name", s.source) + " (" + path + ")";
+}
+
+/// Combinations of sections, checked before any work.
+void check_combinations(Section& root, const Scene& s) {
   // Combinations, checked before any work.
   if (!s.dynamic && s.clamp_axis < 0) root.fail("a static scene needs a clamp (nothing holds the body)");
   if (s.dynamic && s.density == 0) root.fail("material.density: a dynamic scene needs a density > 0");
@@ -298,6 +314,25 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (!s.supports.empty() && (s.initial == "compressed" || s.initial == "twisted" || s.initial == "spinning"))
     root.fail("initial.state " + s.initial + " prescribes a displacement or motion that supports and symmetry "
               "planes would contradict: use rest or deflected with them");
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& path) {
+  // Syntax, duplicate keys and numbers beyond double range, named before the content is read.
+  check_json_text(text, path);
+  const json j = json::parse(text);
+  Scene s;
+  s.source = path;
+  Section root(path, "", j);
+  read_mesh(root, path, s);
+  s.degree = root.integer("degree", s.degree, 1, 3);
+  read_material(root, s);
+  read_constraints(root, path, s);
+  read_loads_and_time(root, s);
+  read_solver_and_output(root, path, s);
+  if (root.has("name")) s.source = root.string("name", s.source) + " (" + path + ")";
+  check_combinations(root, s);
   return s;
 }
 
@@ -340,8 +375,8 @@ void Scene::set_solver_defaults(Config& c, bool dynamic) {
   register_all_solvers();
   // Dynamic: PMG to 1e-3 per step (the seed's setting), at most 1000 iterations. Static: CHOLMOD,
   // or an iterative method to 1e-10 (the fixed point's accuracy is the solves').
-  c.set_default("method", dynamic ? "pmg" : "cholmod");
-  const std::string method = c.get_string("method", "pmg");
+  c.set_default("method", dynamic ? kDefaultDynamicMethod : kDefaultDirectMethod);
+  const std::string method = c.get_string("method", kDefaultDynamicMethod);
   // Iterative methods (those with an iteration limit) get the scene's stopping rule; a direct
   // solver keeps its own check (DirectSolveParams: a residual any sound factorisation meets).
   if (!c.has("fixed_iterations") && method_accepts_key(method, "max_iterations")) {

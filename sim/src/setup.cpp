@@ -1,4 +1,5 @@
 #include "pmg/sim/setup.hpp"
+#include "pmg/sparse/defaults.hpp"
 
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mesh_io.hpp"
@@ -176,6 +177,7 @@ std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
     const Vector f = end_force(m, axis, b.hi[axis], 1e-9 * L, s.initial_force);
     fem::StaticOptions so;
     so.corotational_tol = 1e-6;
+    register_all_solvers();  // the static solve's default direct method
     const fem::StaticResult r = fem::solve_static(m, f, s.corotational, so);
     u = r.u;
     b.notes.push_back("initial state: static deflection under the end force, " +
@@ -209,17 +211,17 @@ std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierar
                                          std::string& method, std::string& settings,
                                          std::vector<std::string>& notes) {
   Config c = s.solver.clone();  // every Scene's solver options were completed by the registry
-  method = c.get_string("method", "pmg");
+  method = c.get_string("method", kDefaultDynamicMethod);
   if (method_uses_levels(method) && h.num_levels() < 2) {
     notes.push_back("multigrid: skipped (degree 1 has no lower degree; CHOLMOD solves each step)");
-    c = Config::from_pairs({"method=cholmod"}, c.origin());
-    method = "cholmod";
+    c = Config::from_pairs({std::string("method=") + kDefaultDirectMethod}, c.origin());
+    method = kDefaultDirectMethod;
   }
   // Warm-started steps end at once when the start is within rounding of the solution.
   if (method_accepts_key(method, "rhs_floor")) c.set_default("rhs_floor", "1e-12");
   SolverContext ctx;
   ctx.levels = &h;
-  auto solver = make_solver(c, ctx, "pmg");
+  auto solver = make_solver(c, ctx, kDefaultDynamicMethod);
   const double start = start_libraries(c);  // MPI, PETSc: once per process, not a step's cost
   if (start >= 0) notes.push_back("MPI (and PETSc) start-up: " + seconds(start, 3) + " s");
   settings = c.to_string();

@@ -81,15 +81,26 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
   return track.finish(ops::norm2(q));
 }
 
+void visit_stopping_keys(ParamVisitor& v, double& tol, double& rhs_floor, int& max_iterations,
+                         bool& throw_on_failure) {
+  v.real("tol", tol, 0.0, 1.0, "relative residual ||r|| / ||r0|| to reach (< 1)");
+  if (v.reading() && !(tol < 1.0)) v.fail("tol", "must be < 1");
+  v.real("rhs_floor", rhs_floor, 0.0, 1.0,
+         "also converged when ||r|| <= rhs_floor ||b||: the rounding floor of warm-started solves");
+  v.integer("max_iterations", max_iterations, 1, std::numeric_limits<int>::max(), "iteration limit");
+  v.boolean("throw_on_failure", throw_on_failure,
+            "a failed solve throws SolveError (false: only its status says so)");
+}
+
+void KrylovParams::visit_stopping(ParamVisitor& v) {
+  visit_stopping_keys(v, rel_tol, rhs_floor, max_iterations, throw_on_failure);
+}
+
 void KrylovParams::visit(ParamVisitor& v) {
   constexpr int kMaxInt = std::numeric_limits<int>::max();
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  v.real("tol", rel_tol, 0.0, 1.0, "relative residual ||r|| / ||r0|| to reach (< 1)");
-  if (v.reading() && !(rel_tol < 1.0)) v.fail("tol", "must be < 1");
+  visit_stopping(v);
   v.real("abs_tol", abs_tol, 0.0, kInf, "also converged when ||r|| <= abs_tol (0: off)");
-  v.real("rhs_floor", rhs_floor, 0.0, 1.0,
-         "also converged when ||r|| <= rhs_floor ||b||: the rounding floor of warm-started solves");
-  v.integer("max_iterations", max_iterations, 1, kMaxInt, "iteration limit");
   int fixed = 0;
   v.integer("fixed_iterations", fixed, 0, kMaxInt,
             "run exactly this many iterations, no tolerance (0: off; excludes max_iterations)");
@@ -101,8 +112,6 @@ void KrylovParams::visit(ParamVisitor& v) {
   v.real("divergence_limit", divergence_limit, 1.0, kInf, "a relative residual above this is divergence");
   v.integer("stagnation_window", stagnation_window, 0, kMaxInt,
             "iterations without progress (residual and energy norm) that count as stagnation (0: off)");
-  v.boolean("throw_on_failure", throw_on_failure,
-            "a failed solve throws SolveError (false: only its status says so)");
 }
 
 void KrylovParams::visit_check_every(ParamVisitor& v) {

@@ -25,8 +25,8 @@ ComponentLayout::~ComponentLayout() = default;
 namespace {
 /// The scalar CSR of a Csr or Bcsr (a copy for a Bcsr).
 const Csr& scalar_of(const LinearOperator& A, Csr& scratch) {
-  if (const auto* c = dynamic_cast<const Csr*>(&A)) return *c;
-  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return scratch = b->to_csr();
+  if (const Csr* c = A.csr_matrix()) return *c;
+  if (const Bcsr* b = A.bcsr_matrix()) return scratch = b->to_csr();
   throw InputError("layout=component: the matrix must be CSR or BCSR (its entries are permuted)");
 }
 }  // namespace
@@ -158,7 +158,7 @@ void check_interleaved(const LinearOperator& A, const std::string& who) {
   // A BCSR matrix declares its blocks: its interleaved reading is always full, and a component
   // reading alone cannot tell a component-major matrix from an interleaved one numbered in layers
   // (a plate one element thick couples node a with a + N/3 too). Only scalar input is judged.
-  const auto* c = dynamic_cast<const Csr*>(&A);
+  const Csr* c = A.csr_matrix();
   if (!c) return;
   const std::string reading = component_major_reading(*c);
   if (!reading.empty())

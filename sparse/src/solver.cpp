@@ -148,15 +148,15 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
 }
 
 Vector diagonal_of(const LinearOperator& A, const std::string& who) {
-  if (const auto* c = dynamic_cast<const Csr*>(&A)) return c->diagonal();
-  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return b->diagonal();
-  if (const auto* bin = dynamic_cast<const BinBcsr*>(&A)) {
+  if (const Csr* c = A.csr_matrix()) return c->diagonal();
+  if (const Bcsr* b = A.bcsr_matrix()) return b->diagonal();
+  if (const BinBcsr* bin = A.bin_bcsr_matrix()) {
     const std::vector<double>& d = bin->diagonal_blocks();
     Vector out(A.rows());
     for (index_t i = 0; i < A.rows(); ++i) out[i] = d[9 * (i / 3) + 4 * (i % 3)];
     return out;
   }
-  if (const auto* mf = dynamic_cast<const DiagonalBlocksSource*>(&A)) {
+  if (const DiagonalBlocksSource* mf = A.diagonal_blocks_source()) {
     std::vector<double> d;
     mf->diagonal_blocks(d);
     Vector out(A.rows());
@@ -168,9 +168,9 @@ Vector diagonal_of(const LinearOperator& A, const std::string& who) {
 }
 
 std::vector<double> diagonal_blocks_of(const LinearOperator& A, const std::string& who) {
-  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return b->diagonal_blocks();
-  if (const auto* bin = dynamic_cast<const BinBcsr*>(&A)) return bin->diagonal_blocks();
-  if (const auto* c = dynamic_cast<const Csr*>(&A)) {
+  if (const Bcsr* b = A.bcsr_matrix()) return b->diagonal_blocks();
+  if (const BinBcsr* bin = A.bin_bcsr_matrix()) return bin->diagonal_blocks();
+  if (const Csr* c = A.csr_matrix()) {
     if (c->rows() % 3 != 0)
       throw InputError(who + " needs 3x3 blocks: the size " + std::to_string(c->rows()) +
                        " is not divisible by 3");
@@ -183,7 +183,7 @@ std::vector<double> diagonal_blocks_of(const LinearOperator& A, const std::strin
       }
     return d;
   }
-  if (const auto* mf = dynamic_cast<const DiagonalBlocksSource*>(&A)) {
+  if (const DiagonalBlocksSource* mf = A.diagonal_blocks_source()) {
     std::vector<double> d;
     mf->diagonal_blocks(d);
     return d;
@@ -193,13 +193,13 @@ std::vector<double> diagonal_blocks_of(const LinearOperator& A, const std::strin
 }
 
 const Bcsr& as_bcsr(const LinearOperator& A, const std::string& who) {
-  if (const auto* b = dynamic_cast<const Bcsr*>(&A)) return *b;
+  if (const Bcsr* b = A.bcsr_matrix()) return *b;
   throw InputError(who + " needs a 3x3-block (BCSR) matrix");
 }
 
 void ScalarMatrix::setup(const LinearOperator& A, const std::string& who) {
-  direct_ = dynamic_cast<const Csr*>(&A);
-  block_ = dynamic_cast<const Bcsr*>(&A);
+  direct_ = A.csr_matrix();
+  block_ = A.bcsr_matrix();
   copy_.reset();
   if (block_) copy_ = std::make_unique<Csr>(block_->to_csr());
   else if (!direct_)

@@ -192,7 +192,7 @@ TEST_CASE("an AMG lowest level on the matrix-free route: the cube's solution as 
   auto run = [&](const std::string& lowest, Vector& x) {
     auto s = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-10", "lowest_level=" + lowest}, "test"), ctx);
     REQUIRE(s->needs().matrix_free);
-    const LinearOperator& A = h.prepare(s->needs(), nullptr);
+    const LinearOperator& A = h.bind(*s).prepare();
     s->setup(A);
     x = Vector::Zero(b.size());
     const SolveResult r = s->solve(b, x);

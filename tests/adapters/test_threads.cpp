@@ -49,7 +49,7 @@ struct System {
   }
   /// The operator `method` is set up on, the hierarchy brought up to date for it. The hierarchy
   /// is the caller's to guard (it is not a solver): call this on one thread, before the others.
-  const LinearOperator& prepare(const std::string& method) { return h.prepare(make(method)->needs(), nullptr); }
+  const LinearOperator& prepare(const std::string& method) { return h.bind(*make(method)).prepare(); }
   /// A solver of `method` set up on the prepared operator (safe on any thread after prepare()).
   std::unique_ptr<Solver> build(const std::string& method, const LinearOperator& op) {
     auto s = make(method);

@@ -55,7 +55,7 @@ struct Bar {
 Vector serial_solution(DegreeHierarchy& h, const Vector& b, const std::string& tol, int* iterations = nullptr) {
   auto s = make_solver(Config::from_pairs({"method=mgpcg", "tol=" + tol, "lowest_level=cholmod"}, "test"),
                        SolverContext{&h, nullptr});
-  const LinearOperator& A = h.prepare(s->needs(), nullptr);
+  const LinearOperator& A = h.bind(*s).prepare();
   s->setup(A);
   Vector x = Vector::Zero(b.size());
   const SolveResult r = s->solve(b, x);
@@ -131,7 +131,7 @@ TEST_CASE("the distributed solve equals the serial MGPCG, its iterations the one
       params.lowest_level = lowest;
       dist::DistributedMgpcg world(bar.h, params, MPI_COMM_WORLD);
       dist::DistributedMgpcg self(bar.h, params, MPI_COMM_SELF);
-      const LinearOperator& A = bar.h.prepare(world.needs(), nullptr);
+      const LinearOperator& A = bar.h.bind(world).prepare();
       world.setup(A);
       self.setup(A);
       Vector x_world, x_self;
@@ -157,7 +157,7 @@ TEST_CASE("the solver contract: every guess and tolerance, a scaled system, a ti
   for (double tol : {1e-4, 1e-8, 1e-10}) {
     params.tol = tol;
     dist::DistributedMgpcg s(bar.h, params);
-    const LinearOperator& A = bar.h.prepare(s.needs(), nullptr);
+    const LinearOperator& A = bar.h.bind(s).prepare();
     s.setup(A);
     const Vector x_star = random_vector(A.rows(), 3);
     Vector b;
@@ -203,11 +203,11 @@ TEST_CASE("the solver contract: every guess and tolerance, a scaled system, a ti
       Bar scaled(2);
       scaled.h.set_stiffness_scale(std::vector<double>(scaled.mesh.num_tets(), scale));
       dist::DistributedMgpcg a(bar.h), b(scaled.h);
-      a.setup(bar.h.prepare(a.needs(), nullptr));
+      a.setup(bar.h.bind(a).prepare());
       Vector xa, xb;
       const SolveResult ra = a.solve(bar.b, xa);
       try {
-        b.setup(scaled.h.prepare(b.needs(), nullptr));
+        b.setup(scaled.h.bind(b).prepare());
         const SolveResult rb = b.solve(scaled.b * scale, xb);
         CHECK(rb.ok());
         CHECK(std::abs(ra.iterations - rb.iterations) <= 1);
@@ -220,10 +220,10 @@ TEST_CASE("the solver contract: every guess and tolerance, a scaled system, a ti
   }
   SECTION("mass and stiffness weights and rotations follow the serial level (update)") {
     dist::DistributedMgpcg s(bar.h);
-    s.setup(bar.h.prepare(s.needs(), nullptr));
+    s.setup(bar.h.bind(s).prepare());
     // A time step's operator: 2 M + 1e-3 K_R with a rotation per element.
     fem::Rotations R(bar.mesh.num_tets(), Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized()).toRotationMatrix());
-    const LinearOperator& A = bar.h.prepare(s.needs(), &R, 2.0, 1e-3);
+    const LinearOperator& A = bar.h.bind(s).prepare(&R, {2.0, 1e-3});
     s.update();
     Vector x;
     const SolveResult r = s.solve(bar.b, x);
@@ -239,7 +239,7 @@ TEST_CASE("bad input is one clear error on every rank", "[distributed]") {
   // A set-up with these options fails with a message containing `what`.
   auto refused = [&](const dist::DistributedMgpcgParams& params, const std::string& what) {
     dist::DistributedMgpcg s(bar.h, params);
-    CHECK_THROWS_WITH(s.setup(bar.h.prepare(s.needs(), nullptr)), Catch::Contains(what));
+    CHECK_THROWS_WITH(s.setup(bar.h.bind(s).prepare()), Catch::Contains(what));
   };
   SECTION("an unknown lowest level") {
     dist::DistributedMgpcgParams params;
@@ -264,7 +264,7 @@ TEST_CASE("bad input is one clear error on every rank", "[distributed]") {
     params.max_iterations = 2;
     params.tol = 1e-14;
     dist::DistributedMgpcg s(bar.h, params);
-    s.setup(bar.h.prepare(s.needs(), nullptr));
+    s.setup(bar.h.bind(s).prepare());
     Vector x;
     CHECK_THROWS_AS(s.solve(bar.b, x), SolveError);
   }

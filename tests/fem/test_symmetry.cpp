@@ -41,7 +41,7 @@ struct Solved {
 
 Solved solve(DegreeHierarchy& h, const std::vector<std::string>& keys) {
   auto s = make_solver(Config::from_pairs(keys, "test"), {&h});
-  const LinearOperator& A = h.prepare(s->needs(), nullptr);
+  const LinearOperator& A = h.bind(*s).prepare();
   s->setup(A);
   Solved out;
   const Vector b = load(h.finest());
@@ -154,7 +154,7 @@ TEST_CASE("components held on their own are refused across ranks and by the GPU 
     if (!registered) continue;
     try {
       auto s = make_solver(Config::from_pairs({std::string("method=") + method}, "test"), {&h});
-      s->setup(h.prepare(s->needs(), nullptr));
+      s->setup(h.bind(*s).prepare());
       FAIL("no error");
     } catch (const InputError& e) {
       CHECK_THAT(e.what(), Catch::Contains("constrain") || Catch::Contains("held") || Catch::Contains("CUDA"));

@@ -197,7 +197,8 @@ TEST_CASE("the GPU V-cycle with fourth-kind smoothing equals the CPU cycle, asse
   ctx.levels = &c.h;
   // The same hierarchy again, prepared matrix-free above its lowest level.
   fem::DegreeHierarchy h(c.mesh, 3, fem::Material{500e3, 0.3, 1000.0}, [](const fem::Vec3& X) { return X.x() < 1e-12; });
-  h.prepare(SolverNeeds{true, true}, nullptr);
+  h.assemble_level(0, nullptr);
+  for (int l = 1; l < h.num_levels(); ++l) h.update_matrix_free(l, nullptr);
   std::vector<mg::BlockTransfer> transfers;
   for (int l = 1; l < h.num_levels(); ++l) transfers.emplace_back(h.prolongation(l));
   std::vector<const mg::BlockTransfer*> tp;

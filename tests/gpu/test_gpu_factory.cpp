@@ -105,7 +105,7 @@ TEST_CASE("gpu-mgpcg on matrix-free levels reaches the tolerance like the CPU mg
   ctx.levels = &h;
   auto gpu_solver = make_solver(Config::from_pairs({"method=gpu-mgpcg", "tol=1e-8"}, "test"), ctx);
   REQUIRE(gpu_solver->needs().matrix_free);
-  const LinearOperator& A = h.prepare(gpu_solver->needs(), nullptr);
+  const LinearOperator& A = h.bind(*gpu_solver).prepare();
   if (gpu::device_count() == 0) {
     REQUIRE_THROWS_WITH(gpu_solver->setup(A), Catch::Contains("no CUDA device or driver"));
     return;

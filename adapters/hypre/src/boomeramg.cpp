@@ -58,6 +58,17 @@ struct BoomerAMG::Impl {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
     destroy();
   }
+  // The steps of BoomerAMG::build, in order.
+  /// Contiguous row blocks of whole nodes per rank (counts, displs, lower, upper).
+  void distribute_rows(index_t n);
+  /// The rank's rows of A into the IJ matrix, and the IJ vectors b and x; returns the rows.
+  std::vector<HYPRE_Int> set_matrix(const Csr& A);
+  /// The BoomerAMG keys onto the solver.
+  void set_parameters(HYPRE_Solver s) const;
+  /// The rigid-body rotations e_k x (X - c) as interpolation vectors (interp_vectors=3).
+  void set_rigid_body_vectors(HYPRE_Solver s, index_t n, const std::vector<HYPRE_Int>& rows);
+  /// Levels and complexities of the set-up hierarchy, from hypre's AMG data.
+  void record_hierarchy(HYPRE_Solver s);
 };
 
 BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()) {
@@ -139,17 +150,8 @@ void BoomerAMG::update_impl() {
   build(scalar_.csr());
 }
 
-void BoomerAMG::build(const Csr& A) {
-  if (A.rows() % impl_->params.num_functions != 0)
-    throw InputError("BoomerAMG: size is not a multiple of the number of functions");
-  for (double v : A.values())
-    if (!std::isfinite(v)) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
-  Impl& d = *impl_;
-  d.destroy();
-  // hypre's error flag is global: clear what an earlier object's calls left (a Destroy of a nodal
-  // hierarchy can flag an argument), so that this set-up reports only its own errors.
-  HYPRE_ClearAllErrors();
-  const index_t n = A.rows();
+void BoomerAMG::Impl::distribute_rows(index_t n) {
+  Impl& d = *this;
   const int size = mpi::size(), rank = mpi::rank();
   // Contiguous row blocks, whole nodes per rank.
   const index_t nodes = n / d.params.num_functions;
@@ -163,6 +165,10 @@ void BoomerAMG::build(const Csr& A) {
   }
   d.lower = d.displs[rank];
   d.upper = d.displs[rank] + d.counts[rank] - 1;
+}
+
+std::vector<HYPRE_Int> BoomerAMG::Impl::set_matrix(const Csr& A) {
+  Impl& d = *this;
   const CsrPattern& p = A.pattern();
 
   check(HYPRE_IJMatrixCreate(MPI_COMM_WORLD, d.lower, d.upper, d.lower, d.upper, &d.ij), "IJMatrixCreate");
@@ -189,16 +195,11 @@ void BoomerAMG::build(const Csr& A) {
     check(HYPRE_IJVectorInitialize(*v), "IJVectorInitialize");
     check(HYPRE_IJVectorAssemble(*v), "IJVectorAssemble");
   }
-  HYPRE_ParCSRMatrix parA;
-  HYPRE_ParVector parb, parx;
-  HYPRE_IJMatrixGetObject(d.ij, reinterpret_cast<void**>(&parA));
-  HYPRE_IJVectorGetObject(d.b, reinterpret_cast<void**>(&parb));
-  HYPRE_IJVectorGetObject(d.x, reinterpret_cast<void**>(&parx));
+  return rows;
+}
 
-  HYPRE_Solver s;
-  check(HYPRE_BoomerAMGCreate(&s), "BoomerAMGCreate");
-  d.solver = s;
-  const BoomerAMGParams& q = d.params;
+void BoomerAMG::Impl::set_parameters(HYPRE_Solver s) const {
+  const BoomerAMGParams& q = params;
   HYPRE_BoomerAMGSetPrintLevel(s, 0);
   HYPRE_BoomerAMGSetNumFunctions(s, q.num_functions);
   if (q.num_functions > 1 && q.nodal > 0) {
@@ -221,53 +222,51 @@ void BoomerAMG::build(const Csr& A) {
   HYPRE_BoomerAMGSetMaxCoarseSize(s, q.max_coarse_size);
   HYPRE_BoomerAMGSetMaxIter(s, q.cycles);
   HYPRE_BoomerAMGSetTol(s, 0.0);
-  if (q.interp_vectors > 0) {
-    // The rotations about the three axes, e_k x (X - c), from each node's position; the
-    // translations are already in the unknown-based interpolation.
-    if (static_cast<index_t>(d.coordinates.size()) != n)
-      throw InputError("BoomerAMG: interp_vectors=rigid needs the node coordinates of the system (" +
-                       std::to_string(n / 3) + " nodes); this system has " +
-                       (d.coordinates.empty() ? std::string("none (only FEM scenes provide them)")
-                                              : std::to_string(d.coordinates.size() / 3)));
-    double c[3] = {0, 0, 0};
-    for (index_t i = 0; i < n; ++i) c[i % 3] += d.coordinates[i] / static_cast<double>(n / 3);
-    std::vector<double> values(nlocal);
-    for (int k = 0; k < 3; ++k) {
-      HYPRE_IJVector v;
-      check(HYPRE_IJVectorCreate(MPI_COMM_WORLD, d.lower, d.upper, &v), "IJVectorCreate");
-      d.rigid.push_back(v);
-      check(HYPRE_IJVectorSetObjectType(v, HYPRE_PARCSR), "IJVectorSetObjectType");
-      check(HYPRE_IJVectorInitialize(v), "IJVectorInitialize");
-      for (HYPRE_Int i = 0; i < nlocal; ++i) {
-        const index_t row = d.lower + i, node = row / 3;
-        const int comp = static_cast<int>(row % 3);
-        const double x[3] = {d.coordinates[3 * node] - c[0], d.coordinates[3 * node + 1] - c[1],
-                             d.coordinates[3 * node + 2] - c[2]};
-        // (e_k x x)_comp: rotation about axis k
-        const int a = (k + 1) % 3, b = (k + 2) % 3;
-        values[i] = comp == a ? -x[b] : comp == b ? x[a] : 0.0;
-      }
-      if (nlocal > 0) check(HYPRE_IJVectorSetValues(v, nlocal, rows.data(), values.data()), "IJVectorSetValues");
-      check(HYPRE_IJVectorAssemble(v), "IJVectorAssemble");
-      HYPRE_ParVector pv;
-      HYPRE_IJVectorGetObject(v, reinterpret_cast<void**>(&pv));
-      d.rigid_par.push_back(pv);
+}
+
+void BoomerAMG::Impl::set_rigid_body_vectors(HYPRE_Solver s, index_t n, const std::vector<HYPRE_Int>& rows) {
+  Impl& d = *this;
+  const BoomerAMGParams& q = d.params;
+  const HYPRE_Int nlocal = d.upper - d.lower + 1;
+  // The rotations about the three axes, e_k x (X - c), from each node's position; the
+  // translations are already in the unknown-based interpolation.
+  if (static_cast<index_t>(d.coordinates.size()) != n)
+    throw InputError("BoomerAMG: interp_vectors=rigid needs the node coordinates of the system (" +
+                     std::to_string(n / 3) + " nodes); this system has " +
+                     (d.coordinates.empty() ? std::string("none (only FEM scenes provide them)")
+                                            : std::to_string(d.coordinates.size() / 3)));
+  double c[3] = {0, 0, 0};
+  for (index_t i = 0; i < n; ++i) c[i % 3] += d.coordinates[i] / static_cast<double>(n / 3);
+  std::vector<double> values(nlocal);
+  for (int k = 0; k < 3; ++k) {
+    HYPRE_IJVector v;
+    check(HYPRE_IJVectorCreate(MPI_COMM_WORLD, d.lower, d.upper, &v), "IJVectorCreate");
+    d.rigid.push_back(v);
+    check(HYPRE_IJVectorSetObjectType(v, HYPRE_PARCSR), "IJVectorSetObjectType");
+    check(HYPRE_IJVectorInitialize(v), "IJVectorInitialize");
+    for (HYPRE_Int i = 0; i < nlocal; ++i) {
+      const index_t row = d.lower + i, node = row / 3;
+      const int comp = static_cast<int>(row % 3);
+      const double x[3] = {d.coordinates[3 * node] - c[0], d.coordinates[3 * node + 1] - c[1],
+                           d.coordinates[3 * node + 2] - c[2]};
+      // (e_k x x)_comp: rotation about axis k
+      const int a = (k + 1) % 3, b = (k + 2) % 3;
+      values[i] = comp == a ? -x[b] : comp == b ? x[a] : 0.0;
     }
-    HYPRE_BoomerAMGSetInterpVectors(s, 3, d.rigid_par.data());
-    HYPRE_BoomerAMGSetInterpVecVariant(s, q.interp_vec_variant);
-    HYPRE_BoomerAMGSetInterpVecQMax(s, q.interp_vec_q_max);
-    HYPRE_BoomerAMGSetSmoothInterpVectors(s, q.smooth_interp_vectors);
+    if (nlocal > 0) check(HYPRE_IJVectorSetValues(v, nlocal, rows.data(), values.data()), "IJVectorSetValues");
+    check(HYPRE_IJVectorAssemble(v), "IJVectorAssemble");
+    HYPRE_ParVector pv;
+    HYPRE_IJVectorGetObject(v, reinterpret_cast<void**>(&pv));
+    d.rigid_par.push_back(pv);
   }
-  const HYPRE_Int setup_error = HYPRE_BoomerAMGSetup(s, parA, parb, parx);
-  if (setup_error && q.interp_vectors > 0 && q.interp_vec_variant > 1) {
-    HYPRE_ClearAllErrors();
-    // Measured with hypre 2.26: the GM-2 and LN variants fail ("Error in argument 1") on the
-    // Homer P3 system of docs/performance.md (any p_max) and on a 6x2x2 quadratic bar with p_max=4; GM-1 sets up.
-    throw Error("hypre: BoomerAMGSetup failed with rigid-body interpolation vectors of variant " +
-                std::to_string(q.interp_vec_variant) + " (p_max=" + std::to_string(q.p_max_elements) +
-                "), which hypre does not manage on this matrix: try interp_vec_variant=1, or p_max=0");
-  }
-  check(setup_error, "BoomerAMGSetup");
+  HYPRE_BoomerAMGSetInterpVectors(s, 3, d.rigid_par.data());
+  HYPRE_BoomerAMGSetInterpVecVariant(s, q.interp_vec_variant);
+  HYPRE_BoomerAMGSetInterpVecQMax(s, q.interp_vec_q_max);
+  HYPRE_BoomerAMGSetSmoothInterpVectors(s, q.smooth_interp_vectors);
+}
+
+void BoomerAMG::Impl::record_hierarchy(HYPRE_Solver s) {
+  Impl& d = *this;
   // The hierarchy's sizes, from hypre's AMG data (no public getter for the complexities).
   auto* amg = reinterpret_cast<hypre_ParAMGData*>(s);
   d.levels = hypre_ParAMGDataNumLevels(amg);
@@ -282,6 +281,44 @@ void BoomerAMG::build(const Csr& A) {
   }
   d.grid_complexity = rows0 > 0 ? rows_sum / rows0 : 0;
   d.operator_complexity = nnz0 > 0 ? nnz_sum / nnz0 : 0;
+}
+
+void BoomerAMG::build(const Csr& A) {
+  if (A.rows() % impl_->params.num_functions != 0)
+    throw InputError("BoomerAMG: size is not a multiple of the number of functions");
+  for (double v : A.values())
+    if (!std::isfinite(v)) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
+  Impl& d = *impl_;
+  d.destroy();
+  // hypre's error flag is global: clear what an earlier object's calls left (a Destroy of a nodal
+  // hierarchy can flag an argument), so that this set-up reports only its own errors.
+  HYPRE_ClearAllErrors();
+  const index_t n = A.rows();
+  d.distribute_rows(n);
+  const std::vector<HYPRE_Int> rows = d.set_matrix(A);
+  HYPRE_ParCSRMatrix parA;
+  HYPRE_ParVector parb, parx;
+  HYPRE_IJMatrixGetObject(d.ij, reinterpret_cast<void**>(&parA));
+  HYPRE_IJVectorGetObject(d.b, reinterpret_cast<void**>(&parb));
+  HYPRE_IJVectorGetObject(d.x, reinterpret_cast<void**>(&parx));
+
+  HYPRE_Solver s;
+  check(HYPRE_BoomerAMGCreate(&s), "BoomerAMGCreate");
+  d.solver = s;
+  d.set_parameters(s);
+  const BoomerAMGParams& q = d.params;
+  if (q.interp_vectors > 0) d.set_rigid_body_vectors(s, n, rows);
+  const HYPRE_Int setup_error = HYPRE_BoomerAMGSetup(s, parA, parb, parx);
+  if (setup_error && q.interp_vectors > 0 && q.interp_vec_variant > 1) {
+    HYPRE_ClearAllErrors();
+    // Measured with hypre 2.26: the GM-2 and LN variants fail ("Error in argument 1") on the
+    // Homer P3 system of docs/performance.md (any p_max) and on a 6x2x2 quadratic bar with p_max=4; GM-1 sets up.
+    throw Error("hypre: BoomerAMGSetup failed with rigid-body interpolation vectors of variant " +
+                std::to_string(q.interp_vec_variant) + " (p_max=" + std::to_string(q.p_max_elements) +
+                "), which hypre does not manage on this matrix: try interp_vec_variant=1, or p_max=0");
+  }
+  check(setup_error, "BoomerAMGSetup");
+  d.record_hierarchy(s);
 }
 
 void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {

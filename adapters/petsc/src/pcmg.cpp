@@ -1,5 +1,6 @@
 // CG + PCMG across MPI ranks (pmg/petsc/pcmg.hpp).
 #include "pmg/petsc/pcmg.hpp"
+#include "pmg/sparse/timer.hpp"
 
 #include "common.hpp"
 #include "pmg/mpi/session.hpp"
@@ -50,9 +51,6 @@ class SerialBlas {
   Set set_ = nullptr;
   int saved_ = 0;
 };
-
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 /// MPI and PETSc are both still running (objects held past PetscFinalize() are left alone).
 bool libraries_running() {
@@ -240,6 +238,11 @@ struct PMultigridCg::Impl {
     const RankLevel& L = levels[0];
     check(MatSetValuesCOO(coarse, L.matrix->values().data(), ADD_VALUES), "MatSetValuesCOO");
   }
+  // The steps of setup(), in order.
+  void create_shell_level(int l);
+  void assemble_lowest_level();
+  void create_transfers();
+  void create_solver(const PcmgParams& params, const std::string& lowest);
 };
 
 PMultigridCg::PMultigridCg(MPI_Comm comm, PcmgParams params) : impl_(std::make_unique<Impl>()), params_(std::move(params)) {
@@ -261,14 +264,11 @@ int PMultigridCg::num_levels() const { return static_cast<int>(impl_->levels.siz
 
 long PMultigridCg::global_size(int level) const { return impl_->global_sizes.at(level); }
 
-void PMultigridCg::setup(std::vector<RankLevel> levels) {
-  detail::start();
-  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  const SerialBlas serial_blas;
-  Impl& d = *impl_;
-  d.ready = false;
-  d.destroy();
-  d.setup_seconds.clear();
+namespace {
+
+/// The checks of setup()'s levels: the lowest assembled, the others with operator, diagonal
+/// blocks and prolongation, sizes matching the rank's nodes.
+void check_rank_levels(const std::vector<RankLevel>& levels) {
   if (levels.size() < 2) throw InputError("distributed p-multigrid: needs at least two levels (degree >= 2)");
   for (size_t l = 0; l < levels.size(); ++l) {
     const RankLevel& L = levels[l];
@@ -284,106 +284,105 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     if (lowest && (L.matrix->block_rows() != n_local || L.coordinates.size() != 3 * L.global.size()))
       throw InputError("distributed p-multigrid: the lowest level's matrix or coordinates do not match its nodes");
   }
-  d.levels = std::move(levels);
-  const int nl = static_cast<int>(d.levels.size());
-  d.global_sizes.resize(nl);
-  for (int l = 0; l < nl; ++l) d.global_sizes[l] = 3 * sum_over(d.comm, d.levels[l].owned);
-  d.ops.assign(nl, nullptr);
-  d.shells.resize(nl);
+}
 
-  // Shell levels.
-  auto t0 = Clock::now();
-  for (int l = 1; l < nl; ++l) {
-    const RankLevel& L = d.levels[l];
-    d.shells[l] = std::make_unique<ShellLevel>();  // owned by d at once: destroy() frees it on any error
-    ShellLevel* s = d.shells[l].get();
-    s->op = L.op;
-    s->blocks = L.blocks;
-    s->owned = L.owned;
-    const PetscInt n_local = static_cast<PetscInt>(L.global.size());
-    s->xd = Vector::Zero(3 * n_local);
-    s->yd = Vector::Zero(3 * n_local);
-    check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->xd.data(), &s->xl), "VecCreateSeqWithArray");
-    check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->yd.data(), &s->yl), "VecCreateSeqWithArray");
-    Mat A = nullptr;
-    check(MatCreateShell(d.comm, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE, s, &A),
-          "MatCreateShell");
-    d.ops[l] = A;
-    check(MatSetBlockSizes(A, 3, 3), "MatSetBlockSizes");
-    check(MatShellSetOperation(A, MATOP_MULT, reinterpret_cast<void (*)(void)>(shell_mult)), "MatShellSetOperation");
-    check(MatShellSetOperation(A, MATOP_MULT_TRANSPOSE, reinterpret_cast<void (*)(void)>(shell_mult)),
-          "MatShellSetOperation");
-    check(MatShellSetOperation(A, MATOP_GET_DIAGONAL, reinterpret_cast<void (*)(void)>(shell_diagonal)),
-          "MatShellSetOperation");
-    check(MatShellSetOperation(A, MATOP_INVERT_BLOCK_DIAGONAL,
-                               reinterpret_cast<void (*)(void)>(shell_invert_block_diagonal)),
-          "MatShellSetOperation");
-    {
-      OwnedVec global;
-      check(MatCreateVecs(A, &global.object, nullptr), "MatCreateVecs");
-      OwnedIS is;
-      check(ISCreateBlock(PETSC_COMM_SELF, 3, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
-      check(VecScatterCreate(global.object, is.object, s->xl, nullptr, &s->scatter), "VecScatterCreate");
-    }
-    // The same numbering, 9 values per node, for the diagonal blocks.
-    check(VecCreateMPI(d.comm, 9 * L.owned, PETSC_DETERMINE, &s->gg), "VecCreateMPI");
-    check(VecSetBlockSize(s->gg, 9), "VecSetBlockSize");
-    {
-      OwnedVec layout;  // the local side's layout only: refresh_diagonal() scatters from the blocks
-      check(VecCreateSeq(PETSC_COMM_SELF, 9 * n_local, &layout.object), "VecCreateSeq");
-      OwnedIS is;
-      check(ISCreateBlock(PETSC_COMM_SELF, 9, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
-      check(VecScatterCreate(s->gg, is.object, layout.object, nullptr, &s->block_scatter), "VecScatterCreate");
-    }
-    refresh_diagonal(*s, d.comm);
-  }
-  d.setup_seconds.emplace_back("shell levels", since(t0));
+}  // namespace
 
-  // The lowest level: the rank's element sum as COO entries (ghost rows go to their owners).
-  t0 = Clock::now();
+/// Level l >= 1 as a PETSc shell matrix over the rank's operator (products, diagonal, inverted
+/// diagonal blocks) with its ghost scatters.
+void PMultigridCg::Impl::create_shell_level(int l) {
+  Impl& d = *this;
+  const RankLevel& L = d.levels[l];
+  d.shells[l] = std::make_unique<ShellLevel>();  // owned by d at once: destroy() frees it on any error
+  ShellLevel* s = d.shells[l].get();
+  s->op = L.op;
+  s->blocks = L.blocks;
+  s->owned = L.owned;
+  const PetscInt n_local = static_cast<PetscInt>(L.global.size());
+  s->xd = Vector::Zero(3 * n_local);
+  s->yd = Vector::Zero(3 * n_local);
+  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->xd.data(), &s->xl), "VecCreateSeqWithArray");
+  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, 3 * n_local, s->yd.data(), &s->yl), "VecCreateSeqWithArray");
+  Mat A = nullptr;
+  check(MatCreateShell(d.comm, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE, s, &A),
+        "MatCreateShell");
+  d.ops[l] = A;
+  check(MatSetBlockSizes(A, 3, 3), "MatSetBlockSizes");
+  check(MatShellSetOperation(A, MATOP_MULT, reinterpret_cast<void (*)(void)>(shell_mult)), "MatShellSetOperation");
+  check(MatShellSetOperation(A, MATOP_MULT_TRANSPOSE, reinterpret_cast<void (*)(void)>(shell_mult)),
+        "MatShellSetOperation");
+  check(MatShellSetOperation(A, MATOP_GET_DIAGONAL, reinterpret_cast<void (*)(void)>(shell_diagonal)),
+        "MatShellSetOperation");
+  check(MatShellSetOperation(A, MATOP_INVERT_BLOCK_DIAGONAL,
+                             reinterpret_cast<void (*)(void)>(shell_invert_block_diagonal)),
+        "MatShellSetOperation");
   {
-    const RankLevel& L = d.levels[0];
-    const Bcsr& M = *L.matrix;
-    const CsrPattern& pat = M.pattern();
-    const offset_t blocks = M.num_blocks();
-    std::vector<PetscInt> ci(9 * static_cast<size_t>(blocks)), cj(9 * static_cast<size_t>(blocks));
-    for (index_t i = 0; i < pat.rows; ++i)
-      for (offset_t k = pat.row_ptr[i]; k < pat.row_ptr[i + 1]; ++k) {
-        const index_t gi = L.global[i], gj = L.global[pat.col_idx[k]];
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) {
-            ci[9 * k + 3 * a + b] = 3 * gi + a;
-            cj[9 * k + 3 * a + b] = 3 * gj + b;
-          }
-      }
-    check(MatCreate(d.comm, &d.coarse), "MatCreate");
-    check(MatSetSizes(d.coarse, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE), "MatSetSizes");
-    check(MatSetType(d.coarse, MATAIJ), "MatSetType");
-    check(MatSetBlockSize(d.coarse, 3), "MatSetBlockSize");
-    check(MatSetPreallocationCOO(d.coarse, static_cast<PetscCount>(ci.size()), ci.data(), cj.data()),
-          "MatSetPreallocationCOO");
-    d.set_coarse_values();
-    check(MatSetOption(d.coarse, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
-    check(MatSetOption(d.coarse, MAT_SPD, PETSC_TRUE), "MatSetOption");
-    d.ops[0] = d.coarse;
-    // Rigid-body modes from the owned nodes' coordinates.
-    check(MatCreateVecs(d.coarse, &d.coordinates, nullptr), "MatCreateVecs");
-    check(VecSetBlockSize(d.coordinates, 3), "VecSetBlockSize");
-    PetscScalar* c = nullptr;
-    check(VecGetArray(d.coordinates, &c), "VecGetArray");
-    for (size_t i = 0; i < L.global.size(); ++i) {
-      const index_t g = L.global[i] - L.first;
-      if (g < 0 || g >= L.owned) continue;
-      for (int k = 0; k < 3; ++k) c[3 * g + k] = L.coordinates[3 * i + k];
-    }
-    VecRestoreArray(d.coordinates, &c);
-    check(MatNullSpaceCreateRigidBody(d.coordinates, &d.near_null), "MatNullSpaceCreateRigidBody");
-    check(MatSetNearNullSpace(d.coarse, d.near_null), "MatSetNearNullSpace");
+    OwnedVec global;
+    check(MatCreateVecs(A, &global.object, nullptr), "MatCreateVecs");
+    OwnedIS is;
+    check(ISCreateBlock(PETSC_COMM_SELF, 3, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
+    check(VecScatterCreate(global.object, is.object, s->xl, nullptr, &s->scatter), "VecScatterCreate");
   }
-  d.setup_seconds.emplace_back("assembly " + d.levels[0].name, since(t0));
+  // The same numbering, 9 values per node, for the diagonal blocks.
+  check(VecCreateMPI(d.comm, 9 * L.owned, PETSC_DETERMINE, &s->gg), "VecCreateMPI");
+  check(VecSetBlockSize(s->gg, 9), "VecSetBlockSize");
+  {
+    OwnedVec layout;  // the local side's layout only: refresh_diagonal() scatters from the blocks
+    check(VecCreateSeq(PETSC_COMM_SELF, 9 * n_local, &layout.object), "VecCreateSeq");
+    OwnedIS is;
+    check(ISCreateBlock(PETSC_COMM_SELF, 9, n_local, L.global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");
+    check(VecScatterCreate(s->gg, is.object, layout.object, nullptr, &s->block_scatter), "VecScatterCreate");
+  }
+  refresh_diagonal(*s, d.comm);
+}
 
-  // Transfers: the owned rows of each prolongation, 3x3 identity blocks per scalar entry.
-  t0 = Clock::now();
+/// The lowest level: the rank's element sum as COO entries (ghost rows go to their owners), and
+/// its rigid-body near-null space from the owned nodes' coordinates.
+void PMultigridCg::Impl::assemble_lowest_level() {
+  Impl& d = *this;
+  const RankLevel& L = d.levels[0];
+  const Bcsr& M = *L.matrix;
+  const CsrPattern& pat = M.pattern();
+  const offset_t blocks = M.num_blocks();
+  std::vector<PetscInt> ci(9 * static_cast<size_t>(blocks)), cj(9 * static_cast<size_t>(blocks));
+  for (index_t i = 0; i < pat.rows; ++i)
+    for (offset_t k = pat.row_ptr[i]; k < pat.row_ptr[i + 1]; ++k) {
+      const index_t gi = L.global[i], gj = L.global[pat.col_idx[k]];
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          ci[9 * k + 3 * a + b] = 3 * gi + a;
+          cj[9 * k + 3 * a + b] = 3 * gj + b;
+        }
+    }
+  check(MatCreate(d.comm, &d.coarse), "MatCreate");
+  check(MatSetSizes(d.coarse, 3 * L.owned, 3 * L.owned, PETSC_DETERMINE, PETSC_DETERMINE), "MatSetSizes");
+  check(MatSetType(d.coarse, MATAIJ), "MatSetType");
+  check(MatSetBlockSize(d.coarse, 3), "MatSetBlockSize");
+  check(MatSetPreallocationCOO(d.coarse, static_cast<PetscCount>(ci.size()), ci.data(), cj.data()),
+        "MatSetPreallocationCOO");
+  d.set_coarse_values();
+  check(MatSetOption(d.coarse, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+  check(MatSetOption(d.coarse, MAT_SPD, PETSC_TRUE), "MatSetOption");
+  d.ops[0] = d.coarse;
+  // Rigid-body modes from the owned nodes' coordinates.
+  check(MatCreateVecs(d.coarse, &d.coordinates, nullptr), "MatCreateVecs");
+  check(VecSetBlockSize(d.coordinates, 3), "VecSetBlockSize");
+  PetscScalar* c = nullptr;
+  check(VecGetArray(d.coordinates, &c), "VecGetArray");
+  for (size_t i = 0; i < L.global.size(); ++i) {
+    const index_t g = L.global[i] - L.first;
+    if (g < 0 || g >= L.owned) continue;
+    for (int k = 0; k < 3; ++k) c[3 * g + k] = L.coordinates[3 * i + k];
+  }
+  VecRestoreArray(d.coordinates, &c);
+  check(MatNullSpaceCreateRigidBody(d.coordinates, &d.near_null), "MatNullSpaceCreateRigidBody");
+  check(MatSetNearNullSpace(d.coarse, d.near_null), "MatSetNearNullSpace");
+}
+
+/// The owned rows of each prolongation, 3x3 identity blocks per scalar entry.
+void PMultigridCg::Impl::create_transfers() {
+  Impl& d = *this;
+  const int nl = static_cast<int>(d.levels.size());
   d.prolongations.assign(nl, nullptr);
   for (int l = 1; l < nl; ++l) {
     const RankLevel& F = d.levels[l];
@@ -413,18 +412,19 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     check(MatSetPreallocationCOO(Pm, static_cast<PetscCount>(ci.size()), ci.data(), cj.data()), "MatSetPreallocationCOO");
     check(MatSetValuesCOO(Pm, v.data(), INSERT_VALUES), "MatSetValuesCOO");
   }
-  d.setup_seconds.emplace_back("transfers", since(t0));
+}
 
-  // CG + PCMG.
-  t0 = Clock::now();
-  lowest_ = params_.lowest_level;
-  if (lowest_ == "auto") lowest_ = d.global_sizes[0] < params_.amg_threshold ? "mumps" : "hypre";
+/// CG + PCMG on the levels: Chebyshev with point-block Jacobi above the lowest level, MUMPS'
+/// Cholesky, GAMG or BoomerAMG on it; the defaults as options, so that the user's override them.
+void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::string& lowest) {
+  Impl& d = *this;
+  const int nl = static_cast<int>(d.levels.size());
   check(KSPCreate(d.comm, &d.ksp), "KSPCreate");
   check(KSPSetOptionsPrefix(d.ksp, d.prefix.c_str()), "KSPSetOptionsPrefix");
   check(KSPSetOperators(d.ksp, d.ops[nl - 1], d.ops[nl - 1]), "KSPSetOperators");
   check(KSPSetType(d.ksp, KSPCG), "KSPSetType");
   check(KSPSetNormType(d.ksp, KSP_NORM_UNPRECONDITIONED), "KSPSetNormType");
-  check(KSPSetTolerances(d.ksp, params_.rel_tol, 0.0, 1e6, params_.max_iterations), "KSPSetTolerances");
+  check(KSPSetTolerances(d.ksp, params.rel_tol, 0.0, 1e6, params.max_iterations), "KSPSetTolerances");
   check(KSPConvergedDefaultSetUIRNorm(d.ksp), "KSPConvergedDefaultSetUIRNorm");
   PC pc = nullptr;
   check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
@@ -442,10 +442,10 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     check(KSPGetPC(s, &sp), "KSPGetPC");
     if (l == 0) {
       check(KSPSetType(s, KSPPREONLY), "KSPSetType");
-      if (lowest_ == "mumps") {
+      if (lowest == "mumps") {
         check(PCSetType(sp, PCCHOLESKY), "PCSetType");
         check(PCFactorSetMatSolverType(sp, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
-      } else if (lowest_ == "gamg") {
+      } else if (lowest == "gamg") {
         check(PCSetType(sp, PCGAMG), "PCSetType");
       } else {
         check(PCSetType(sp, PCHYPRE), "PCSetType");
@@ -454,25 +454,55 @@ void PMultigridCg::setup(std::vector<RankLevel> levels) {
     } else {
       check(KSPSetType(s, KSPCHEBYSHEV), "KSPSetType");
       check(KSPChebyshevEstEigSet(s, 0.0, 0.1, 0.0, 1.1), "KSPChebyshevEstEigSet");
-      check(KSPSetTolerances(s, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, params_.smoothing_steps), "KSPSetTolerances");
+      check(KSPSetTolerances(s, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, params.smoothing_steps), "KSPSetTolerances");
       check(KSPSetNormType(s, KSP_NORM_NONE), "KSPSetNormType");
       check(PCSetType(sp, PCPBJACOBI), "PCSetType");
     }
   }
   // Defaults as options (so that the user's options, inserted after, override them).
   std::string defaults = "-mg_levels_esteig_ksp_type cg -mg_levels_esteig_ksp_max_it 10 ";
-  if (lowest_ == "gamg")
+  if (lowest == "gamg")
     defaults += "-mg_coarse_mg_levels_ksp_type chebyshev -mg_coarse_mg_levels_pc_type jacobi "
                 "-mg_coarse_mg_levels_esteig_ksp_type cg ";
-  if (lowest_ == "hypre") defaults += "-mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev ";
-  check(PetscOptionsInsertString(nullptr, detail::prefixed(defaults + params_.options, d.prefix).c_str()),
-        ("the options '" + params_.options + "'").c_str());
+  if (lowest == "hypre") defaults += "-mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev ";
+  check(PetscOptionsInsertString(nullptr, detail::prefixed(defaults + params.options, d.prefix).c_str()),
+        ("the options '" + params.options + "'").c_str());
   check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions");
   check(KSPMonitorSet(d.ksp, record_iteration, &d.monitor, nullptr), "KSPMonitorSet");
   check(KSPSetUp(d.ksp), "KSPSetUp");
   check(MatCreateVecs(d.ops[nl - 1], &d.x, &d.b), "MatCreateVecs");
   check(VecDuplicate(d.b, &d.r), "VecDuplicate");
-  d.setup_seconds.emplace_back("KSP set-up (lowest level " + lowest_ + ")", since(t0));
+}
+
+void PMultigridCg::setup(std::vector<RankLevel> levels) {
+  detail::start();
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const SerialBlas serial_blas;
+  Impl& d = *impl_;
+  d.ready = false;
+  d.destroy();
+  d.setup_seconds.clear();
+  check_rank_levels(levels);
+  d.levels = std::move(levels);
+  const int nl = static_cast<int>(d.levels.size());
+  d.global_sizes.resize(nl);
+  for (int l = 0; l < nl; ++l) d.global_sizes[l] = 3 * sum_over(d.comm, d.levels[l].owned);
+  d.ops.assign(nl, nullptr);
+  d.shells.resize(nl);
+  auto t0 = Clock::now();
+  for (int l = 1; l < nl; ++l) d.create_shell_level(l);
+  d.setup_seconds.emplace_back("shell levels", seconds_since(t0));
+  t0 = Clock::now();
+  d.assemble_lowest_level();
+  d.setup_seconds.emplace_back("assembly " + d.levels[0].name, seconds_since(t0));
+  t0 = Clock::now();
+  d.create_transfers();
+  d.setup_seconds.emplace_back("transfers", seconds_since(t0));
+  t0 = Clock::now();
+  lowest_ = params_.lowest_level;
+  if (lowest_ == "auto") lowest_ = d.global_sizes[0] < params_.amg_threshold ? "mumps" : "hypre";
+  d.create_solver(params_, lowest_);
+  d.setup_seconds.emplace_back("KSP set-up (lowest level " + lowest_ + ")", seconds_since(t0));
   d.ready = true;
 }
 
@@ -592,7 +622,7 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   if (r0 == 0 || r0 <= floor) {  // x is the solution already (to the floor)
     res.status = SolveStatus::converged;
     res.rel_residual = res.true_rel_residual = r0 > 0 ? 1.0 : 0.0;
-    res.seconds = since(t0);
+    res.seconds = seconds_since(t0);
     return res;
   }
   // The floor in the units of the scaled system.
@@ -630,7 +660,7 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
     res.message = std::string("distributed p-multigrid: CG ended with ") + KSPConvergedReasons[reason] + " after " +
                   std::to_string(its) + " iterations (relative residual " + std::to_string(res.rel_residual) + ")";
   }
-  res.seconds = since(t0);
+  res.seconds = seconds_since(t0);
   return res;
 }
 

@@ -22,6 +22,8 @@
 
 namespace pmg::fem {
 
+class BoundSystem;
+
 /// Scalar prolongation (fine free nodes x coarse free nodes) from degree p-1 to degree p.
 Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
                      const BBSpace& coarse, const std::vector<index_t>& coarse_free);
@@ -49,6 +51,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
 
   int num_levels() const override { return static_cast<int>(models_.size()); }
   std::string level_name(int level) const override { return "degree " + std::to_string(level + 1); }
+  /// This hierarchy: a mesh that methods across ranks partition (LevelProvider).
+  const DegreeHierarchy* partitionable_hierarchy() const override { return this; }
   /// The model of a level (degree level + 1); level is not range-checked.
   const ElasticityModel& model(int level) const { return *models_[level]; }
   /// The model of the finest level (the highest degree).
@@ -104,28 +108,17 @@ class DegreeHierarchy final : public mg::LevelProvider {
   void update_matrix_free(int level, const Rotations* R, double mass_weight = 0.0,
                           double stiffness_weight = 1.0);
 
-  /// The one preparation of the levels for a solver (a time step, a static solve, pmg compare):
-  /// brings what `needs` asks for (Solver::needs(), asked once) to rotations R (nullptr: none) and
-  /// the weights mass_weight M + stiffness_weight K_R — the finest level's matrix, or with
-  /// needs.matrix_free its operator; with needs.lower_levels the levels below down to
-  /// needs.lowest_level (matrix-free operators above that level, assembled matrices otherwise). `finest` false leaves the
-  /// finest level to the caller (a time step assembles it in the pass that gives the force).
-  /// Returns the operator to set the solver up on (system_operator(needs)).
-  const LinearOperator& prepare(const SolverNeeds& needs, const Rotations* R, double mass_weight = 0.0,
-                                double stiffness_weight = 1.0, bool finest = true);
-  /// The operator a solver with these needs is set up on and multiplies with: the finest level's
-  /// matrix-free operator (needs.matrix_free) or its matrix.
-  const LinearOperator& system_operator(const SolverNeeds& needs) const;
-  /// The rotations a level was last brought to (assemble_level(), update_matrix_free(),
-  /// prepare()), or nullptr for none (R = I). Every level is given the same rotations.
+  /// This hierarchy bound to a solver (BoundSystem, pmg/fem/bound_system.hpp): the one seam through
+  /// which every FEM caller prepares the levels the solver reads and sets it up or updates it.
+  /// Both must outlive the binding.
+  BoundSystem bind(Solver& solver);
+  /// The rotations a level was last brought to (assemble_level(), update_matrix_free()), or
+  /// nullptr for none (R = I). Every level is given the same rotations.
   const Rotations* last_rotations(int level) const { return state_.at(level).rotated ? &rotations_ : nullptr; }
   /// The weights (mass, stiffness) of a level's last assembly or update: (0, 1) until one.
   std::pair<double, double> last_weights(int level) const {
     return {state_.at(level).mass_weight, state_.at(level).stiffness_weight};
   }
-  /// Where the last prepare() spent its time: ("matrix-free degree 2", s) or ("assembly degree 1",
-  /// s) per level it touched, finest first.
-  const std::vector<std::pair<std::string, double>>& prepare_seconds() const { return prepare_seconds_; }
 
   /// Assembles every level with rotations R (nullptr: linear elasticity), the same R on every
   /// level, and on the finest level also the right-hand side correction (see
@@ -160,7 +153,6 @@ class DegreeHierarchy final : public mg::LevelProvider {
     double mass_weight = 0.0, stiffness_weight = 1.0;
   };
   std::vector<LevelState> state_;
-  std::vector<std::pair<std::string, double>> prepare_seconds_;
   Rotations rotations_;  ///< the last rotations given (the same on every level)
   mutable std::vector<std::unique_ptr<ElasticityOperator>> operators_;
   mutable std::vector<std::vector<std::vector<index_t>>> patches_;  ///< per level, built on first use
@@ -168,3 +160,5 @@ class DegreeHierarchy final : public mg::LevelProvider {
 };
 
 }  // namespace pmg::fem
+
+#include "pmg/fem/bound_system.hpp"  // DegreeHierarchy::bind's result

@@ -72,6 +72,10 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// set. The model must outlive the operator.
   explicit ElasticityOperator(const ElasticityModel& model);
   ~ElasticityOperator() override;
+  /// This operator (LinearOperator's capability query for device kernels).
+  const ElasticityOperator* elasticity_operator() const override { return this; }
+  const DiagonalBlocksSource* diagonal_blocks_source() const override { return this; }
+  const SinglePrecisionSource* single_precision_source() const override { return this; }
 
   index_t rows() const override { return 3 * num_free_; }
   index_t cols() const override { return rows(); }

@@ -14,8 +14,8 @@
 // recording the energy after every step costs nothing extra, and the finest matrix in the
 // hierarchy may already be the next step's once the energy of the new state has been asked for.
 //
-// What the solver needs (Solver::needs(), asked once) decides what a step prepares
-// (DegreeHierarchy::prepare). With a matrix-free multigrid (operator=matrix-free) the levels of
+// The hierarchy bound to the solver (BoundSystem, pmg/fem/bound_system.hpp) decides what a step
+// prepares, from what the solver needs. With a matrix-free multigrid (operator=matrix-free) the levels of
 // degree >= 2 are ElasticityOperators: a step rotates their stored gradients instead of
 // assembling them, assembles the linear level only, and takes the force from the finest operator.
 //
@@ -26,6 +26,7 @@
 // rounding of the solution ends at once.
 #pragma once
 
+#include "pmg/fem/bound_system.hpp"
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/sparse/solver.hpp"
 
@@ -115,22 +116,18 @@ class ImplicitEuler {
   double external_work() const;   ///< f_extᵀ u (the potential of the constant loads is -f_extᵀ u)
   /// Total energy of the state: kinetic_energy() + elastic_energy() - external_work().
   double total_energy() const { return kinetic_energy() + elastic_energy() - external_work(); }
+  /// The hierarchy bound to the step's solver (what a step prepares; its notes for reports).
+  const BoundSystem& bound_system() const { return system_; }
 
  private:
   double mass_weight() const { return step_weights(p_).mass; }
   double stiffness_weight() const { return step_weights(p_).stiffness; }
+  SystemWeights weights() const { return {mass_weight(), stiffness_weight()}; }
   /// The pass over the elements for the current state, once per state.
   void evaluate_state() const;
-  /// The finest step matrix, or its matrix-free operator for a solver that uses those.
-  const LinearOperator& system_operator() const;
-  /// The finest consistent mass: its matrix, or with matrix-free levels an ElasticityOperator
-  /// with weights (1, 0) (built on first use), so that no matrix of the finest level is held.
-  const LinearOperator& mass_operator() const;
-  mutable std::unique_ptr<ElasticityOperator> mass_op_;
-
   DegreeHierarchy& h_;
   Solver& solver_;
-  SolverNeeds needs_;  ///< what the solver reads of the hierarchy
+  mutable BoundSystem system_;  ///< the seam: what the solver reads of the hierarchy, kept current
   Vector f_ext_;
   SimulationParams p_;
   Vector u_, v_, v_free_;

@@ -25,7 +25,8 @@ struct StaticOptions {
   int max_corotational_iterations = 200;
   /// Initial under-relaxation ω of the fixed point (see the file comment).
   double relaxation = 1.0;
-  /// The model overload's solver, built by the factory (empty: method cholmod).
+  /// The model overload's solver, built by the factory (empty: kDefaultDirectMethod, CHOLMOD,
+  /// which must be registered: pmg::register_all_solvers() or pmg::cholmod::register_solvers()).
   Config solver;
 };
 
@@ -37,7 +38,8 @@ struct StaticResult {
   int solver_iterations = 0;  ///< iterations of the linear solves, summed
 };
 
-/// On one model with options.solver (a single-level method: CHOLMOD by default). `prescribed`
+/// On one model with options.solver (a single-level method of the factory: kDefaultDirectMethod,
+/// CHOLMOD, by default; fem links no solver library, so the caller registers the method). `prescribed`
 /// (full vector, may be empty) gives the clamped nodes' displacements. Throws InputError when no
 /// node is fixed (the static problem is singular) and pmg::Error when the system is not positive
 /// definite or the fixed point does not converge.

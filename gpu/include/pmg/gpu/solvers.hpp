@@ -13,7 +13,7 @@
 #include "pmg/gpu/matrices.hpp"
 #include "pmg/multigrid/chebyshev.hpp"
 #include "pmg/multigrid/cycle.hpp"
-#include "pmg/cholmod/cholmod_solver.hpp"
+#include "pmg/sparse/solver.hpp"
 #include "pmg/sparse/krylov.hpp"
 
 #include <memory>
@@ -92,14 +92,15 @@ class LibraryPcg {
 /// p-multigrid V-cycle on the GPU: every level above the lowest runs there (BIN-BCSR or, on
 /// matrix-free levels, DeviceElasticityOperator residuals; Chebyshev smoothing on D⁻¹A of the
 /// first, fourth or optimised fourth kind; transfers P ⊗ I₃ and R ⊗ I₃ as scalar CSR kernels); the
-/// lowest level is solved on the host by CHOLMOD (one download and one upload per cycle, of the
-/// lowest level's size). Built from the same inputs as mg::MultigridCycle (coarsest first); keeps
+/// lowest level is solved on the host by the factory's direct method (CHOLMOD; one download and
+/// one upload per cycle, of the lowest level's size). Built from the same inputs as mg::MultigridCycle (coarsest first); keeps
 /// references to the matrices, operators and transfers. λmax and D⁻¹ of each level come from
 /// mg::Chebyshev on the host operator, so the GPU and CPU cycles apply the same polynomial.
 class VCycle {
  public:
   /// Level matrices coarsest first (square), and one transfer per pair of adjacent levels
-  /// (transfers[l-1] maps level l-1 to level l). Factorises the lowest level with CHOLMOD and
+  /// (transfers[l-1] maps level l-1 to level l). Factorises the lowest level with the factory's
+  /// direct method (pmg/sparse/defaults.hpp; the multigrid methods are registered here) and
   /// uploads the others. Throws InputError when sizes do not match, CudaError on a device failure.
   VCycle(std::vector<const Bcsr*> matrices, std::vector<const mg::BlockTransfer*> transfers,
          const mg::ChebyshevParams& chebyshev = {});
@@ -140,7 +141,7 @@ class VCycle {
   mg::ChebyshevParams chebyshev_;
   /// levels_[0] holds only the lowest level's b and x on the device (its matrix is the host's)
   std::vector<std::unique_ptr<Level>> levels_;
-  std::unique_ptr<CholmodSolver> coarse_;
+  std::unique_ptr<Solver> coarse_;  ///< the lowest level's solver, from the factory (kDefaultDirectMethod)
   mutable Vector coarse_b_, coarse_x_;
 };
 

@@ -11,18 +11,27 @@
 // these also registers the CHOLMOD adapter's method (pmg::cholmod::register_solvers()).
 #pragma once
 
+#include "pmg/sparse/defaults.hpp"
 #include "pmg/sparse/factory.hpp"
+
+#include <memory>
+#include "pmg/sparse/defaults.hpp"
 
 namespace pmg::mg {
 
 /// Registers the multigrid methods and smoothers (idempotent; a name the user registered is kept).
 void register_solvers();
 
+class MultigridCycle;
+/// The stationary `pmg` method's cycle from its keys (the config of method=pmg) as its concrete
+/// type, for studies that drive a cycle's own operations (MultigridCycle::refresh_galerkin);
+/// InputError names a key no part of the cycle read. Solvers for solving come from make_solver.
+std::unique_ptr<MultigridCycle> make_cycle(const Config& config, const SolverContext& context);
+
 /// The lowest level's size from which `lowest_level=auto` takes BoomerAMG instead of CHOLMOD for
-/// mgpcg (levels without node coordinates or a lowest matrix of their own count as 0):
-/// the measured break-even of a whole MGPCG solve (set-up included) on the quadratic cube
-/// (docs/scaling.md, with its command).
-inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
+/// mgpcg (levels without node coordinates or a lowest matrix of their own count as 0); its one
+/// home is pmg/sparse/defaults.hpp.
+using pmg::kAmgLowestLevelUnknowns;
 
 /// λ/μ (LevelProvider::lame_ratio()) from which the stationary `pmg` smooths with Chebyshev on
 /// vertex patches (smoother.preconditioner=patch) when no smoother key is given: the measured

@@ -121,6 +121,20 @@ class UserLevels final : public LevelProvider {
   /// refresh_values' work, without the roll-back.
   void write_values(const std::vector<CsrView>& matrices);
   void check_symmetric(int level) const;
+  // The steps of the constructor; `given` holds each level's matrix as given (nullptr: a Galerkin
+  // level formed by the cycle).
+  /// Node counts (levels_[l].given_nodes) and node prolongations, finest first.
+  std::vector<Csr> node_prolongations(const std::vector<CsrView>& prolongations,
+                                      const std::vector<const CsrView*>& given);
+  /// Each given matrix's identity rows (per dof, interleaved); nodes with three are clamped.
+  std::vector<std::vector<char>> find_identity_rows(const std::vector<const CsrView*>& given);
+  /// Kept nodes per level, finest first (removed_), and the prolongations between kept nodes.
+  void keep_nodes(const std::vector<Csr>& node_P);
+  /// Level l's block pattern, entry slots, clamped rows and constrained components; refuses a
+  /// matrix whose blocks are mostly empty under the layout (the wrong layout).
+  void build_level(int l, const CsrView* A, const std::vector<char>& identity);
+  /// The finest level's free and fixed dofs in the caller's numbering.
+  void number_finest_dofs();
 
   std::vector<Level> levels_;
   std::vector<Csr> prolongations_;

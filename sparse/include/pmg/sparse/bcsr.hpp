@@ -32,6 +32,8 @@ using BlockPattern = CsrPattern;
 /// immutable, the values are updated in place.
 class Bcsr final : public LinearOperator {
  public:
+  /// This matrix (LinearOperator's capability query).
+  const Bcsr* bcsr_matrix() const override { return this; }
   /// Rows (and columns) of one block.
   static constexpr int kBlock = 3;
   /// Values per block.

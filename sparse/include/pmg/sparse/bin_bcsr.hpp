@@ -108,6 +108,8 @@ PMG_HOST_DEVICE void bin_bcsr_fold(double (*p)[3], int lanes) {
 /// the GPU kernel, sliced once from a Bcsr and refilled with update_values().
 class BinBcsr final : public LinearOperator {
  public:
+  /// This matrix (LinearOperator's capability query).
+  const BinBcsr* bin_bcsr_matrix() const override { return this; }
   /// Threads per bin (one GPU warp).
   static constexpr int kBinLanes = pmg::kBinLanes;
 

@@ -38,6 +38,8 @@ struct CsrPattern {
 /// A scalar CSR matrix: a shared immutable pattern and its values (see the file comment).
 class Csr final : public LinearOperator {
  public:
+  /// This matrix (LinearOperator's capability query).
+  const Csr* csr_matrix() const override { return this; }
   /// The empty 0x0 matrix.
   Csr() : pattern_(std::make_shared<CsrPattern>()) {}
   /// Shares `pattern` (validated) and takes the values, one per entry in pattern order. Throws

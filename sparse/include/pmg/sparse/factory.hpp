@@ -21,6 +21,7 @@
 #pragma once
 
 #include "pmg/sparse/config.hpp"
+#include "pmg/sparse/defaults.hpp"
 #include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/params.hpp"
 #include "pmg/sparse/solver.hpp"
@@ -61,7 +62,7 @@ struct SolverContext {
 /// given to cholmod, may go unused: one option set for a loop over methods; any other key is still
 /// an error) or `ignore`. Config::unused_keys() then lists what was left unused.
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context = {},
-                                    const std::string& fallback_method = "cg");
+                                    const std::string& fallback_method = kDefaultMethod);
 
 /// The keys make_solver reads for every method (layout, unused_keys), as SolverInfo lists keys.
 std::vector<KeyInfo> factory_keys();
@@ -85,15 +86,18 @@ struct SolverInfo {
   /// Process-wide start-up of the library behind the method (MPI for hypre, PETSc's
   /// initialisation), run by start_libraries() before any clock starts; empty when there is none.
   std::function<void()> start;
+  /// Runs across MPI ranks on each rank's part of an FEM model: FEM callers step it with their
+  /// distributed stepper (sim::DynamicRun), never with the serial one.
+  bool across_ranks = false;
 
   SolverInfo() = default;
   /// Every field in declaration order; the trailing ones default as above.
   SolverInfo(std::string name_, std::string description_, std::vector<KeyInfo> keys_ = {},
              bool uses_levels_ = false, bool needs_blocks_ = false, std::string component_ = "core",
-             std::function<void()> start_ = {})
+             std::function<void()> start_ = {}, bool across_ranks_ = false)
       : name(std::move(name_)), description(std::move(description_)), keys(std::move(keys_)),
         uses_levels(uses_levels_), needs_blocks(needs_blocks_), component(std::move(component_)),
-        start(std::move(start_)) {}
+        start(std::move(start_)), across_ranks(across_ranks_) {}
 };
 
 /// Registers a method (replacing one of the same name).

@@ -18,6 +18,11 @@
 
 namespace pmg {
 
+/// The stopping keys shared by every iterative method, over the caller's own fields: tol (< 1),
+/// rhs_floor, max_iterations, throw_on_failure; their one definition (ranges, help).
+void visit_stopping_keys(ParamVisitor& v, double& tol, double& rhs_floor, int& max_iterations,
+                         bool& throw_on_failure);
+
 /// Stopping and failure rules of the CG-type methods (and the stationary multigrid iteration);
 /// solver keys: see visit().
 struct KrylovParams {
@@ -60,6 +65,10 @@ struct KrylovParams {
   /// stagnation_window and throw_on_failure (check_every is the merged CG's alone:
   /// visit_check_every).
   void visit(ParamVisitor& v);
+  /// The stopping keys every iterative method shares (tol, rhs_floor, max_iterations,
+  /// throw_on_failure): visit() reads them first; methods with parameters of their own (petsc-mgpcg)
+  /// read the same keys through visit_stopping_keys().
+  void visit_stopping(ParamVisitor& v);
   /// The key check_every.
   void visit_check_every(ParamVisitor& v);
 };
@@ -133,6 +142,10 @@ class Cg final : public Solver {
   /// Multiply with `op` instead of the set-up matrix (the same matrix in another format, e.g.
   /// BIN-BCSR, while the preconditioner reads the BCSR entries). nullptr: the set-up matrix.
   void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }
+  bool multiply_with(const LinearOperator* op) override {
+    spmv_ = op;
+    return true;
+  }
 
  private:
   void setup_impl(const LinearOperator& A) override;
@@ -158,6 +171,10 @@ class MergedCg final : public Solver {
   KrylovParams& params() { return params_; }
   /// Multiply with `op` instead of the set-up matrix, as Cg::set_multiplication_operator().
   void set_multiplication_operator(const LinearOperator* op) { spmv_ = op; }
+  bool multiply_with(const LinearOperator* op) override {
+    spmv_ = op;
+    return true;
+  }
   /// The built-in block-Jacobi preconditioner (set up with the solver).
   const BlockJacobiPreconditioner& preconditioner() const { return M_; }
 

@@ -22,6 +22,10 @@
 #include <string>
 #include <vector>
 
+namespace pmg::fem {
+class DegreeHierarchy;
+}
+
 namespace pmg::mg {
 
 /// Where a multigrid cycle gets its levels from (see the file comment): level matrices coarsest
@@ -81,6 +85,10 @@ class LevelProvider {
   virtual double lame_ratio() const { return 0.0; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
+  /// The FEM degree hierarchy (mesh, spaces, clamp, material) behind these levels, for methods
+  /// that partition the mesh across ranks (petsc-mgpcg); nullptr for levels without a mesh (user
+  /// levels, stored matrices, views). The capability is asked, never cast to.
+  virtual const fem::DegreeHierarchy* partitionable_hierarchy() const { return nullptr; }
 };
 
 }  // namespace pmg::mg

@@ -15,6 +15,15 @@
 
 namespace pmg {
 
+namespace fem {
+class ElasticityOperator;
+}
+class Csr;
+class Bcsr;
+class BinBcsr;
+class DiagonalBlocksSource;
+class SinglePrecisionSource;
+
 /// A linear map from vectors of cols() entries to vectors of rows() entries (see the file comment):
 /// the base of every matrix and every Solver.
 class LinearOperator {
@@ -38,6 +47,23 @@ class LinearOperator {
   /// r = b - Op(x). r is resized to rows(); x must have cols() entries and b rows() entries
   /// (InputError otherwise).
   void residual(const Vector& b, const Vector& x, Vector& r) const;
+
+  // Capabilities: what the operator is or offers, asked instead of cast to (Csr, Bcsr, BinBcsr
+  // and the matrix-free operators answer for themselves; nullptr: not this).
+
+  /// This operator as scalar CSR (nullptr: it is not one).
+  virtual const Csr* csr_matrix() const { return nullptr; }
+  /// This operator as a 3x3-block BCSR matrix (nullptr: it is not one).
+  virtual const Bcsr* bcsr_matrix() const { return nullptr; }
+  /// This operator as a BIN-BCSR matrix (nullptr: it is not one).
+  virtual const BinBcsr* bin_bcsr_matrix() const { return nullptr; }
+  /// Its 3x3 diagonal blocks, computed without a matrix (a matrix-free operator; nullptr: none).
+  virtual const DiagonalBlocksSource* diagonal_blocks_source() const { return nullptr; }
+  /// Its product in single precision (a matrix-free operator; nullptr: none).
+  virtual const SinglePrecisionSource* single_precision_source() const { return nullptr; }
+  /// The matrix-free elasticity operator this is (its element arrays, for device kernels that
+  /// re-implement its product; nullptr: another operator).
+  virtual const fem::ElasticityOperator* elasticity_operator() const { return nullptr; }
 
  protected:
   /// y = Op(x), the operator's kernel. Called by apply() with x of cols() entries and y already

@@ -125,6 +125,14 @@ class Solver : public LinearOperator {
   /// it is built: fem::DegreeHierarchy::prepare() brings exactly those levels up to date and
   /// returns the operator to set the solver up on. A Krylov method answers for its preconditioner.
   virtual SolverNeeds needs() const { return {}; }
+  /// Multiply with `op` instead of the set-up operator in the solver's own iterations (the same
+  /// matrix in another format, e.g. BIN-BCSR while a preconditioner reads the BCSR entries);
+  /// nullptr: the set-up operator. Returns false, ignoring op, for a solver that does not multiply
+  /// with its system itself (the default).
+  virtual bool multiply_with(const LinearOperator* op) {
+    (void)op;
+    return false;
+  }
   /// Where the time of the solves since the last reset_timings() went, by part (a multigrid
   /// cycle's smoothing per level, residuals, transfers, lowest-level solve); empty when the solver
   /// keeps no breakdown. A Krylov method reports its preconditioner's.

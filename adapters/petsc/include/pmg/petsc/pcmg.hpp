@@ -24,6 +24,7 @@
 #pragma once
 
 #include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/defaults.hpp"
 #include "pmg/sparse/csr.hpp"
 #include "pmg/sparse/monitor.hpp"
 #include "pmg/sparse/operator.hpp"
@@ -77,7 +78,7 @@ struct PcmgParams {
   /// unknowns on the lowest level, BoomerAMG from there.
   std::string lowest_level = "auto";
   /// "auto" takes BoomerAMG from this many global unknowns on the lowest level.
-  long amg_threshold = 40000;
+  long amg_threshold = kAmgLowestLevelUnknowns;
   /// Further PETSc options, under this solver's prefix, applied after the defaults.
   std::string options;
 };

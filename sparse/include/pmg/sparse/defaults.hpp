@@ -1,0 +1,27 @@
+// pmg/sparse/defaults.hpp — the one home of the defaults that more than one component chooses: the
+// method per use and the AMG break-even. Code, help texts (built from these constants) and the
+// generated docs/solvers.md read them here.
+#pragma once
+
+#include "pmg/sparse/types.hpp"
+
+namespace pmg {
+
+/// The method for a system given as a matrix alone (pmg::make_solver's fallback, pmg compare's
+/// --set without a method, pmgkit.make_solver).
+inline constexpr const char* kDefaultMethod = "cg";
+/// The method for a system with levels (a degree hierarchy or user levels: pmgkit.multigrid,
+/// pmgkit's FEM systems).
+inline constexpr const char* kDefaultLevelsMethod = "mgpcg";
+/// The direct method: a static solve on one model (fem::solve_static), a scene's static solve,
+/// the reference of pmg compare and the lowest level of a cycle below kAmgLowestLevelUnknowns.
+inline constexpr const char* kDefaultDirectMethod = "cholmod";
+/// A scene's time steps.
+inline constexpr const char* kDefaultDynamicMethod = "pmg";
+
+/// The lowest level's size (global unknowns) from which `lowest_level=auto` takes AMG (BoomerAMG)
+/// instead of a direct solve (CHOLMOD serially, MUMPS across ranks): the measured break-even of a
+/// whole MGPCG solve (set-up included) on the quadratic cube (docs/scaling.md, with its command).
+inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
+
+}  // namespace pmg
