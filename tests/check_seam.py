@@ -15,7 +15,8 @@ import pathlib
 import re
 import sys
 
-LIBRARIES = ["sparse", "multigrid", "fem", "gpu", "adapters", "solvers", "distributed", "sim", "tools", "python/src"]
+LIBRARIES = ["sparse", "multigrid", "fem", "gpu", "adapters", "solvers", "distributed", "sim", "study", "tools",
+             "python/src"]
 SOURCES = (".cpp", ".hpp", ".cu", ".cuh")
 MAX_LINES = 120
 

@@ -343,14 +343,12 @@ void check_stopping_flags(const Options& o, const Config& set,
 
 /// Every solver added to the study (and its options checked) before any runs; a --set key that
 /// no solver reads is an error.
-void add_solvers(study::Study& st, const System& sys, const Config& set,
+void add_solvers(study::Study& st, const Config& set,
                  std::vector<std::pair<std::string, Config>>& configs) {
   std::set<std::string> set_keys, set_used;
   for (const auto& kv : set.items()) set_keys.insert(kv.first);
   for (auto& [name, c] : configs) {
-    if (!sys.bcsr && !sys.fem && method_needs_blocks(c.get_string("method", kDefaultMethod)))
-      throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
-    st.add(name, c, set_keys);
+    st.add(name, c, set_keys);  // a block method on a matrix whose size is not divisible by 3: refused
     for (const auto& k : set_keys)
       // "smoother=X" is stored as smoother.method where the solver's options have a smoother tree.
       if (c.was_used(k) || c.was_used(k + ".method")) set_used.insert(k);
@@ -502,13 +500,16 @@ void run(const Options& given) {
     ss.hierarchy = &sys.fem->hierarchy();
     ss.weights = sys.fem->weights();
   }
+  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); an FEM system's
+  // finest matrix is assembled below, where a solver reads it.
+  ss.matrix = sys.bcsr ? static_cast<const LinearOperator*>(sys.bcsr.get()) : sys.fem ? nullptr : &sys.csr;
   const Config set = Config::from_pairs(o.overrides, "--set");  // read once, for every solver
   std::vector<std::string> names = o.solvers;
   if (names.empty()) names = default_solver_names(ss.levels && ss.levels->num_levels() > 1);
   std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names, set);
   check_stopping_flags(o, set, configs);
   study::Study st(ss);
-  add_solvers(st, sys, set, configs);
+  add_solvers(st, set, configs);
   figures.mpi_s = st.library_startup_s();
   // FEM: the finest matrix, where a solver multiplies with it or reads its entries (matrix-free
   // solvers do neither); its assembly belongs to the load time.
@@ -520,8 +521,7 @@ void run(const Options& given) {
   t0 = Clock::now();
   const Formats formats = sys.bcsr || !sys.fem ? select_format(o, sys) : Formats{};
   figures.convert_s = seconds_since(t0);
-  // Solvers read the entries of BCSR (CSR when the size is not a multiple of 3); the Krylov methods
-  // multiply in the requested format (matrix-free ones: with the finest operator).
+  // The Krylov methods multiply in the requested format (matrix-free ones: with the finest operator).
   ss.matrix = sys.bcsr ? static_cast<const LinearOperator*>(sys.bcsr.get()) : sys.fem ? nullptr : &sys.csr;
   ss.product = formats.op;
   ss.reference = sys.x_true;

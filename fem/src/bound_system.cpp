@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <string>
 
-// The only reader of SolverNeeds outside the solvers that answer it (tests/seam_check.sh checks).
+// The only reader of SolverNeeds outside the solvers that answer it (tests/check_seam.py checks).
 namespace pmg::fem {
 
 BoundSystem::BoundSystem(DegreeHierarchy& h, Solver& solver) : h_(&h), solver_(&solver), needs_(solver.needs()) {}
@@ -69,18 +69,18 @@ const LinearOperator& BoundSystem::prepare(const Rotations* R, SystemWeights w, 
 RefreshSeconds BoundSystem::refresh(const Rotations* R, SystemWeights w, bool finest) {
   RefreshSeconds s;
   auto t0 = Clock::now();
-  const LinearOperator& A = prepare(R, w, finest);
+  prepare(R, w, finest);
   s.prepare = seconds_since(t0);
-  t0 = Clock::now();
-  if (set_up_ && solver_->is_set_up() && &solver_->system() == &A) {
-    solver_->update();
-  } else {
-    set_up_ = false;
-    solver_->setup(A);
-    set_up_ = true;
-  }
-  s.setup = seconds_since(t0);
+  s.setup = set_up_solver();
   return s;
+}
+
+double BoundSystem::set_up_solver() {
+  const auto t0 = Clock::now();
+  const LinearOperator& A = system();
+  if (solver_->is_set_up() && &solver_->system() == &A) solver_->update();
+  else solver_->setup(A);
+  return seconds_since(t0);
 }
 
 const LinearOperator& BoundSystem::system() const {

@@ -123,7 +123,7 @@ StepStats ImplicitEuler::step() {
   st.seconds = state_.seconds;
   if (state_.matrix_assembled) {
     // The lower degrees get the same rotations and weights: (1 + Δt α) M + (Δt β + Δt²) K_R.
-    const RefreshSeconds r = system_.refresh(p_.corotational ? &state_.R : nullptr, weights());
+    const RefreshSeconds r = system_.refresh(p_.corotational ? &state_.R : nullptr, weights(), /*finest=*/false);
     st.seconds[kHierarchy] = r.prepare + r.setup;
   }
   // b = M v + Δt (f_ext + f_el(x)) on the free nodes.

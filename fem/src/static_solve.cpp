@@ -112,8 +112,11 @@ StaticResult solve_static(DegreeHierarchy& h, const Vector& f_ext, bool corotati
   BoundSystem system = h.bind(solver);
   return fixed_point(
       model, f_ext, corotational, solver, options, Vector::Zero(model.num_dofs()),
-      [&](const Vector& u, const Rotations* R, Vector& force) { system.evaluate(u, R, {}, &force, nullptr); },
-      [&](const Rotations* R, bool) { system.refresh(R, {}); });
+      [&](const Vector& u, const Rotations* R, Vector& force) {
+        system.evaluate(u, R, {}, &force, nullptr);  // the finest level, in the pass that gives the force
+        system.prepare(R, {}, /*finest=*/false);      // the levels below it that the solver reads
+      },
+      [&](const Rotations*, bool) { system.set_up_solver(); });
 }
 
 }  // namespace pmg::fem

@@ -193,7 +193,7 @@ void choose_patches(Config& sc, const CycleOptions& o, const LevelProvider& leve
 }
 
 /// The route (matrix-free or assembled), cycles per application and precision, with the smoother
-/// defaults each route brings; refuses combinations that cannot run.
+/// defaults each route brings; refuses single precision off the matrix-free route.
 void choose_route(const Config& c, Config& sc, const CycleOptions& o, const LevelProvider& levels, bool mgpcg,
                   MultigridParams& p) {
   p.matrix_free = o.op == "matrix-free";
@@ -226,13 +226,21 @@ void choose_route(const Config& c, Config& sc, const CycleOptions& o, const Leve
   if (p.single_precision && !p.matrix_free)
     c.fail("precision", "single precision runs the matrix-free levels in float: it needs operator=matrix-free "
                         "(levels with matrix-free operators, Chebyshev smoothing)");
+}
+
+/// The matrix-free route's checks and smoother defaults, and what single precision needs of the
+/// smoother.
+void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& levels, const MultigridParams& p) {
   if (p.matrix_free) {
     if (p.coarse_operator == CoarseOperator::galerkin)
       c.fail("operator", "matrix-free levels need coarse_operator=geometric (Galerkin products are matrices)");
-    for (int l = 1; l < levels.num_levels(); ++l)
-      if (!levels.matrix_free_operator(l))
-        c.fail("operator", "matrix-free needs levels with matrix-free operators (an FEM scene's degree "
-                           "hierarchy has them for degree >= 2); these levels have none");
+    // Asked without building them (an FEM hierarchy builds its operators when the cycle is set
+    // up); a provider that does not say so is asked for the operators themselves.
+    if (!levels.offers_matrix_free())
+      for (int l = 1; l < levels.num_levels(); ++l)
+        if (!levels.matrix_free_operator(l))
+          c.fail("operator", "matrix-free needs levels with matrix-free operators (an FEM scene's degree "
+                             "hierarchy has them for degree >= 2); these levels have none");
     // Gauss–Seidel needs the matrix's entries; Chebyshev needs only products and the diagonal, and
     // its eigenvalue estimate is refreshed per update by one power iteration warm-started from the
     // last estimate. The optimised fourth kind of degree 3 needs no lower bound (docs/performance.md).
@@ -303,12 +311,13 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     c.fail("smoother", "patch is a preconditioner, not a smoother of its own (x += M r diverges on overlapping "
                        "patches): use smoother.preconditioner=patch (Chebyshev in M^-1 A)");
   choose_patches(sc, o, levels, mgpcg, p);
+  choose_route(c, sc, o, levels, mgpcg, p);
   // CG needs a symmetric cycle; refused here, before an inner lowest-level solve would make the
   // outer iteration flexible and hide it.
   if (mgpcg && p.interpolating_restriction)
     c.fail("restriction", "mgpcg needs restriction=transpose: CG needs a symmetric cycle, and the "
                           "interpolating restriction is not the prolongation's transpose (use pmg)");
-  choose_route(c, sc, o, levels, mgpcg, p);
+  check_matrix_free_route(c, sc, levels, p);
   // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
   // not the finest level's.
   const std::vector<double> lowest_xyz = levels.node_coordinates(0);

@@ -348,7 +348,8 @@ def study(system, b, solvers, reference=None, coordinates=None, format="auto", w
         {name: {"method": name}}); default method cg for a matrix, mgpcg for a hierarchy.
     reference: the solution errors are measured against (None: no error column).
     coordinates: x, y, z per node (matrix systems; BoomerAMG's and GAMG's rigid-body modes).
-    format: auto | csr | bcsr | bin-bcsr, the format the Krylov methods multiply in.
+    format: auto | csr | bcsr | bin-bcsr, the format the Krylov methods multiply in (matrix
+        systems; a hierarchy's solvers use its BCSR levels and matrix-free operators).
     warm_up: run each solver once untimed first (the first touch of its memory).
 
     Returns one dict per solver: name, config, status, message, iterations, setup_seconds,
@@ -356,7 +357,10 @@ def study(system, b, solvers, reference=None, coordinates=None, format="auto", w
     rel_residual, rel_error, settings, breakdown, setup_breakdown, history (relative residual per
     iteration) and history_seconds (from the start of the solve)."""
     if isinstance(solvers, (list, tuple)):
-        solvers = {str(m): {"method": str(m)} for m in solvers}
+        names = [str(m) for m in solvers]
+        if len(set(names)) != len(names):
+            raise InputError("solvers: a method named twice in the list; name configurations in a dict instead")
+        solvers = {m: {"method": m} for m in names}
     if not isinstance(solvers, dict) or not solvers:
         raise InputError("solvers: expected a non-empty dict of named configurations or a list of methods")
     hierarchy = isinstance(system, DegreeHierarchy)

@@ -577,7 +577,11 @@ void register_study(py::module_& m) {
      py::arg("warm_up"));
   m.def("study_hierarchy", [](PyHierarchy& h, const DoubleArray& b, const std::string& solvers,
                               std::optional<DoubleArray> reference, bool warm_up) {
-    const std::unique_lock<std::mutex> lock(*h.lock);  // its solvers share the hierarchy's operators
+    std::unique_lock<std::mutex> lock;  // its solvers share the hierarchy's operators
+    {
+      py::gil_scoped_release nogil;  // never wait for the lock holding the GIL
+      lock = std::unique_lock<std::mutex>(*h.lock);
+    }
     fem::DegreeHierarchy& H = *h.h;
     const int L = H.num_levels();
     const index_t n = H.finest().num_free_dofs();

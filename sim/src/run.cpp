@@ -170,6 +170,7 @@ bool runs_across_ranks(const Scene& scene) {
 #ifdef PMG_HAVE_DISTRIBUTED
   // What the method's registration says (SolverInfo::across_ranks), not its name.
   if (!scene.dynamic || scene.degree < 2) return false;
+  register_all_solvers();  // the registrations say which methods run across ranks
   const std::string method = scene.solver.get_string("method", kDefaultDynamicMethod);
   for (const SolverInfo& info : registered_solvers())
     if (info.name == method) return info.across_ranks;

@@ -72,6 +72,9 @@ Study::~Study() = default;
 
 void Study::add(const std::string& name, const Config& config, const std::set<std::string>& may_be_unused,
                 const std::string& fallback_method) {
+  const std::string method = config.get_string("method", fallback_method);
+  if (method_needs_blocks(method) && system_.matrix && system_.matrix->rows() % 3 != 0)
+    throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
   SolverContext ctx;
   ctx.levels = system_.levels;
   ctx.coordinates = system_.coordinates;
@@ -86,7 +89,7 @@ void Study::add(const std::string& name, const Config& config, const std::set<st
 bool Study::reads_finest_matrix() const {
   if (!system_.hierarchy || system_.hierarchy->num_levels() < 2) return true;
   for (const Entry& e : entries_)
-    if (system_.hierarchy->bind(*e.solver).reads_finest_matrix()) return true;
+    if (e.solver && system_.hierarchy->bind(*e.solver).reads_finest_matrix()) return true;
   return false;
 }
 
@@ -118,6 +121,8 @@ SolverRun Study::run_one(Entry& e, Vector& x) {
 }
 
 std::vector<SolverRun> Study::run(bool warm_up, std::vector<Vector>* solutions) {
+  for (const Entry& e : entries_)
+    if (!e.solver) throw InputError("study: the solver " + e.name + " has run already (a study runs once)");
   if (reads_finest_matrix() && !system_.matrix)
     throw InputError("study: a solver reads the finest matrix, which the system does not hold (assemble it)");
   std::vector<SolverRun> runs;
@@ -126,7 +131,6 @@ std::vector<SolverRun> Study::run(bool warm_up, std::vector<Vector>* solutions) 
   lower_levels_s_ = matrix_free_s_ = -1.0;
   for (size_t k = 0; k < entries_.size(); ++k) {
     Entry& e = entries_[k];
-    if (!e.solver) throw InputError("study: the solver " + e.name + " has run already (a study runs once)");
     if (warm_up) {
       Vector w = Vector::Zero(system_.b.size());
       run_one(e, w);

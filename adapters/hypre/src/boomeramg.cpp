@@ -15,7 +15,7 @@
 #include <sstream>
 #include <string>
 
-namespace pmg::mg {
+namespace pmg::hypre {
 
 namespace {
 
@@ -348,15 +348,12 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   }
 }
 
-}  // namespace pmg::mg
-
-namespace pmg::hypre {
 
 namespace {
 
 /// BoomerAMG with the context's node coordinates (for rigid-body interpolation vectors).
-std::unique_ptr<mg::BoomerAMG> make_boomeramg(const Config& c, const SolverContext& ctx) {
-  auto amg = std::make_unique<mg::BoomerAMG>(read_params<mg::BoomerAMGParams>(c));
+std::unique_ptr<BoomerAMG> make_boomeramg(const Config& c, const SolverContext& ctx) {
+  auto amg = std::make_unique<BoomerAMG>(read_params<BoomerAMGParams>(c));
   if (amg->params().interp_vectors > 0) {
     if (!ctx.coordinates)
       c.fail("interp_vectors", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
@@ -371,7 +368,7 @@ std::unique_ptr<mg::BoomerAMG> make_boomeramg(const Config& c, const SolverConte
 void register_solvers() {
   static std::once_flag once;
   std::call_once(once, [] {
-    const std::vector<KeyInfo> amg = list_params<mg::BoomerAMGParams>();
+    const std::vector<KeyInfo> amg = list_params<BoomerAMGParams>();
     auto start = [] { mpi::start(); };
     register_builtin_solver({"boomeramg-pcg", "CG preconditioned by hypre BoomerAMG V-cycles", krylov_keys() + amg, false,
                      false, "hypre", start},

@@ -12,7 +12,7 @@
 #include <limits>
 #include <sstream>
 
-namespace pmg::mg {
+namespace pmg::petsc {
 
 namespace {
 
@@ -77,13 +77,13 @@ void petsc() {
 }
 
 }  // namespace
-}  // namespace pmg::mg
+}  // namespace pmg::petsc
 
 namespace pmg::petsc::detail {
 
-void start() { mg::petsc(); }
-void check(PetscErrorCode err, const char* what) { mg::check(err, what); }
-void clear_error() { mg::last_error().clear(); }
+void start() { ::pmg::petsc::petsc(); }
+void check(PetscErrorCode err, const char* what) { ::pmg::petsc::check(err, what); }
+void clear_error() { ::pmg::petsc::last_error().clear(); }
 
 std::string prefixed(const std::string& options, const std::string& prefix) {
   std::istringstream in(options);
@@ -99,7 +99,7 @@ std::string prefixed(const std::string& options, const std::string& prefix) {
 
 }  // namespace pmg::petsc::detail
 
-namespace pmg::mg {
+namespace pmg::petsc {
 
 using petsc::detail::prefixed;
 
@@ -256,4 +256,4 @@ std::string PetscPreconditioner::describe() const {
   return s.str();
 }
 
-}  // namespace pmg::mg
+}  // namespace pmg::petsc

@@ -1,7 +1,7 @@
 // The PETSc adapter when pmgkit is built without PETSc: the methods exist and say what is missing.
 #include "pmg/petsc/petsc.hpp"
 
-namespace pmg::mg {
+namespace pmg::petsc {
 
 namespace {
 [[noreturn]] void missing() {
@@ -23,4 +23,4 @@ void PetscPreconditioner::update_impl() { missing(); }
 void PetscPreconditioner::apply_impl(const Vector&, Vector&) const { missing(); }
 std::string PetscPreconditioner::describe() const { return ""; }
 
-}  // namespace pmg::mg
+}  // namespace pmg::petsc

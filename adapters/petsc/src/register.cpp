@@ -4,7 +4,7 @@
 
 #include <mutex>
 
-namespace pmg::mg {
+namespace pmg::petsc {
 
 void PetscParams::visit(ParamVisitor& v) {
   if (type == "gamg")
@@ -15,28 +15,28 @@ void PetscParams::visit(ParamVisitor& v) {
   if (type != "gamg") check.visit(v);
 }
 
-}  // namespace pmg::mg
+}  // namespace pmg::petsc
 
 namespace pmg::petsc {
 
 namespace {
 
 /// A PETSc preconditioner (GAMG, or a Cholesky factorisation by MUMPS or CHOLMOD).
-std::unique_ptr<mg::PetscPreconditioner> make(const Config& c, const SolverContext& ctx, const std::string& type) {
-  mg::PetscParams p;
+std::unique_ptr<PetscPreconditioner> make(const Config& c, const SolverContext& ctx, const std::string& type) {
+  PetscParams p;
   p.type = type;
   p = read_params(c, p);
   if (p.near_null_space == "rigid" && !ctx.coordinates)
     c.fail("near_null_space", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
                               "them; a matrix read from a file does not (auto: rigid where known)");
   p.rigid_near_null_space = type == "gamg" && p.near_null_space != "none" && ctx.coordinates;
-  auto s = std::make_unique<mg::PetscPreconditioner>(p);
+  auto s = std::make_unique<PetscPreconditioner>(p);
   if (p.rigid_near_null_space) s->set_coordinates(*ctx.coordinates);
   return s;
 }
 
 std::vector<KeyInfo> keys(const std::string& type) {
-  mg::PetscParams p;
+  PetscParams p;
   p.type = type;
   return list_params(p);
 }
@@ -47,7 +47,7 @@ void register_solvers() {
   static std::once_flag once;
   std::call_once(once, [] {
     std::function<void()> start;
-    if (mg::petsc_available()) start = [] { mg::start_petsc(); };
+    if (petsc_available()) start = [] { start_petsc(); };
     register_builtin_solver({"gamg-pcg", "CG preconditioned by PETSc's GAMG (smoothed aggregation, rigid-body near-null space)",
                      krylov_keys() + keys("gamg"), false, false, "petsc", start},
                     [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {

@@ -10,9 +10,10 @@
 //                       matrix-free operator where the solver multiplies with that) brought to the
 //                       rotations R and the weights w = (m, s) of  m M + s K_R, in the same pass over
 //                       the elements that gives the elastic force f_el(u) and energy;
-//   refresh(R, w)       the levels below the finest that the solver reads, down to its lowest,
-//                       brought to the same R and w, then the solver set up (first call) or
-//                       updated (later calls): whatever the solver needs, nothing more;
+//   refresh(R, w)       the levels that the solver reads, down to its lowest, brought to the
+//                       same R and w (with `finest` false, those below the finest: evaluate()
+//                       brought that one), then the solver set up, or updated where it is set up
+//                       on that operator already: whatever the solver needs, nothing more;
 //   system(), mass()    the finest operator the solver is set up on and multiplies with, and the
 //                       finest consistent mass (an operator with weights (1, 0) on the matrix-free
 //                       route, so that no finest matrix is ever held there).
@@ -66,10 +67,13 @@ class BoundSystem {
   /// current) only force and energy are computed. force and energy may be nullptr.
   EvaluateSeconds evaluate(const Vector& u, const Rotations* R, SystemWeights w, Vector* force, double* energy,
                            bool update = true);
-  /// Brings the levels the solver reads below the finest (and the finest too when `finest`: a
-  /// caller that did not evaluate()) to R and w, then sets the solver up on system() (the first
-  /// call of this binding) or updates it (later calls). Set-up errors propagate as the solver throws them.
-  RefreshSeconds refresh(const Rotations* R, SystemWeights w, bool finest = false);
+  /// Brings the levels the solver reads to R and w — the finest too unless `finest` is false (a
+  /// caller whose evaluate() brought it there) — then set_up_solver(). Set-up errors propagate
+  /// as the solver throws them.
+  RefreshSeconds refresh(const Rotations* R, SystemWeights w, bool finest = true);
+  /// The solver set up on system(), or updated where it is set up on that very operator already
+  /// (same pattern, new values: numeric set-up only). Returns the seconds it took.
+  double set_up_solver();
   /// refresh()'s preparation alone, without touching the solver (a study that times the set-up
   /// itself, or a caller that sets the solver up on its own). Returns system().
   const LinearOperator& prepare(const Rotations* R = nullptr, SystemWeights w = {}, bool finest = true);
@@ -90,7 +94,8 @@ class BoundSystem {
   std::string preparation_key() const;
   /// What the binding prepares, in words, for reports (one sentence each; empty: nothing to say).
   std::vector<std::string> notes() const;
-  /// Where the last preparation spent its time, per level (DegreeHierarchy::prepare_seconds()).
+  /// Where the last prepare() or refresh() spent its time: ("matrix-free degree 2", s) or
+  /// ("assembly degree 1", s) per level it touched, finest first.
   const std::vector<std::pair<std::string, double>>& prepare_seconds() const;
 
   DegreeHierarchy& hierarchy() const { return *h_; }  ///< the bound hierarchy
@@ -100,7 +105,6 @@ class BoundSystem {
   DegreeHierarchy* h_;
   Solver* solver_;
   SolverNeeds needs_;
-  bool set_up_ = false;  ///< refresh() set the solver up (later refreshes update it)
   mutable std::unique_ptr<ElasticityOperator> mass_op_;
   std::vector<std::pair<std::string, double>> prepare_seconds_;
 };

@@ -47,8 +47,9 @@ StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, boo
                           const StaticOptions& options = {}, const Vector& prescribed = Vector());
 
 /// On the finest level of a degree hierarchy with any solver (multigrid methods built with `h` as
-/// their levels included): each iteration brings the levels the solver needs (Solver::needs) to
-/// the rotations (DegreeHierarchy::prepare). The solver is set up here on the first iteration.
+/// their levels included): each iteration brings the levels the solver reads to the rotations
+/// through the hierarchy's binding (fem::BoundSystem) and sets the solver up (first iteration) or
+/// updates it.
 StaticResult solve_static(DegreeHierarchy& h, const Vector& f_ext, bool corotational, Solver& solver,
                           const StaticOptions& options = {});
 

@@ -33,13 +33,11 @@
 
 namespace pmg {
 
-namespace mg {
 class LevelProvider;
-}
 
 /// What a solver may need besides its options.
 struct SolverContext {
-  const mg::LevelProvider* levels = nullptr;  ///< multigrid methods: the level hierarchy
+  const LevelProvider* levels = nullptr;  ///< multigrid methods: the level hierarchy
   /// x, y, z of each node of the system (3 unknowns per node, interleaved), where known (FEM
   /// scenes): rigid-body modes for BoomerAMG's interpolation vectors and PETSc GAMG's near-null
   /// space. Must outlive the solvers built with it.

@@ -26,7 +26,7 @@ namespace pmg::fem {
 class DegreeHierarchy;
 }
 
-namespace pmg::mg {
+namespace pmg {
 
 /// Where a multigrid cycle gets its levels from (see the file comment): level matrices coarsest
 /// first, scalar prolongations, and optionally matrix-free operators and node coordinates.
@@ -91,4 +91,9 @@ class LevelProvider {
   virtual const fem::DegreeHierarchy* partitionable_hierarchy() const { return nullptr; }
 };
 
+}  // namespace pmg
+
+namespace pmg::mg {
+/// The interface's name before it moved to the core's namespace (pmgkit 0.2); kept for callers.
+using pmg::LevelProvider;
 }  // namespace pmg::mg

@@ -89,7 +89,9 @@ class LinearOperator {
 
 /// An operator held as no matrix (a matrix-free FEM operator) that can still compute its 3x3
 /// diagonal blocks: what Jacobi, block-Jacobi and Chebyshev smoothing need. diagonal_of() and
-/// diagonal_blocks_of() (pmg/sparse/solver.hpp) read it like a matrix's.
+/// diagonal_blocks_of() (pmg/sparse/solver.hpp) read it like a matrix's. The operator says it
+/// offers this by overriding LinearOperator::diagonal_blocks_source() to return itself (the query
+/// is asked, never cast to).
 class DiagonalBlocksSource {
  public:
   virtual ~DiagonalBlocksSource() = default;
@@ -98,7 +100,8 @@ class DiagonalBlocksSource {
 };
 
 /// An operator that can also apply itself in single precision: what a multigrid cycle's float
-/// levels (precision=single) ask of a level's matrix-free operator.
+/// levels (precision=single) ask of a level's matrix-free operator. The operator says it offers
+/// this by overriding LinearOperator::single_precision_source() to return itself.
 class SinglePrecisionSource {
  public:
   virtual ~SinglePrecisionSource() = default;

@@ -122,8 +122,9 @@ class Solver : public LinearOperator {
   /// apply() is a symmetric map, so that it can precondition CG.
   virtual bool is_symmetric() const { return true; }
   /// What the solver needs from the code that owns the system (an FEM hierarchy), asked once after
-  /// it is built: fem::DegreeHierarchy::prepare() brings exactly those levels up to date and
-  /// returns the operator to set the solver up on. A Krylov method answers for its preconditioner.
+  /// it is built: the hierarchy's binding (fem::BoundSystem, DegreeHierarchy::bind) brings exactly
+  /// those levels up to date and sets the solver up on its operator. A Krylov method answers for
+  /// its preconditioner.
   virtual SolverNeeds needs() const { return {}; }
   /// Multiply with `op` instead of the set-up operator in the solver's own iterations (the same
   /// matrix in another format, e.g. BIN-BCSR while a preconditioner reads the BCSR entries);

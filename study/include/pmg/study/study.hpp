@@ -17,6 +17,7 @@
 #include "pmg/fem/bound_system.hpp"
 #include "pmg/sparse/config.hpp"
 #include "pmg/sparse/defaults.hpp"
+#include "pmg/sparse/level_provider.hpp"
 #include "pmg/sparse/monitor.hpp"
 #include "pmg/sparse/solver.hpp"
 
@@ -27,10 +28,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-namespace pmg::mg {
-class LevelProvider;
-}
 
 namespace pmg::study {
 
@@ -69,7 +66,7 @@ struct StudySystem {
   Vector b;          ///< the right-hand side
   Vector reference;  ///< the solution errors are measured against (empty: none known)
   /// Multigrid levels (user levels, or an FEM system's degree hierarchy); nullptr: none.
-  const mg::LevelProvider* levels = nullptr;
+  const LevelProvider* levels = nullptr;
   /// An FEM system's degree hierarchy: solvers are bound to it (fem::BoundSystem); nullptr: none.
   fem::DegreeHierarchy* hierarchy = nullptr;
   fem::SystemWeights weights;  ///< the FEM system's weights (mass M + stiffness K)
@@ -87,7 +84,8 @@ class Study {
   Study& operator=(const Study&) = delete;
 
   /// Builds the solver `config` names (method `fallback_method` where it names none), before any
-  /// runs: InputError names a key no part of it read, except those in `may_be_unused` (keys given
+  /// runs: InputError for a method of 3x3 blocks on a matrix whose size is not divisible by 3
+  /// (StudySystem::matrix set before add()), or naming a key no part of it read, except those in `may_be_unused` (keys given
   /// to every solver of a study). Starts MPI and PETSc where the method needs them, outside every
   /// clock. `config` is kept (Config::was_used tells which keys it read).
   void add(const std::string& name, const Config& config, const std::set<std::string>& may_be_unused = {},
@@ -103,7 +101,8 @@ class Study {
   /// Runs every solver in turn from x = 0: set-up timed (the levels it reads prepared first, once
   /// per kind of need, and charged to it), solve timed and monitored, error against the
   /// reference. With `warm_up` each runs once untimed first (the first touch of its memory). A
-  /// solver is released after its run. `solutions` (may be nullptr) receives each final iterate.
+  /// solver is released after its run, so a study runs once (InputError after). `solutions` (may
+  /// be nullptr) receives each final iterate.
   std::vector<SolverRun> run(bool warm_up = false, std::vector<Vector>* solutions = nullptr);
   /// Seconds the last run() spent assembling lower levels for solvers that read them (-1: none).
   double lower_levels_s() const { return lower_levels_s_; }

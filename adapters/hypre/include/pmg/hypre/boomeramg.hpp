@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-namespace pmg::mg {
+namespace pmg::hypre {
 
 /// BoomerAMG's options (hypre's numeric codes; see the file comment for the defaults).
 struct BoomerAMGParams {
@@ -99,12 +99,14 @@ class BoomerAMG final : public Solver {
   ScalarMatrix scalar_;
 };
 
-}  // namespace pmg::mg
-
-namespace pmg::hypre {
-
 /// Registers the methods boomeramg and boomeramg-pcg (idempotent; a name the user registered is kept); their
 /// start-up hook starts MPI (pmg::start_libraries).
 void register_solvers();
 
 }  // namespace pmg::hypre
+
+namespace pmg::mg {
+/// The adapter's names before it moved to its folder's namespace (pmgkit 0.2); kept for callers.
+using hypre::BoomerAMG;
+using hypre::BoomerAMGParams;
+}  // namespace pmg::mg

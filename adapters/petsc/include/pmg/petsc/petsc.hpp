@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-namespace pmg::mg {
+namespace pmg::petsc {
 
 /// The options of PetscPreconditioner (solver keys: see visit()).
 struct PetscParams {
@@ -85,13 +85,17 @@ class PetscPreconditioner final : public Solver {
   ScalarMatrix scalar_;
 };
 
-}  // namespace pmg::mg
-
-namespace pmg::petsc {
-
 /// Registers the methods gamg-pcg, gamg, mumps and petsc-cholmod (idempotent; a name the user
 /// registered is kept). Without PETSc in the build they are registered too, and building one throws
 /// InputError saying that PETSc is missing.
 void register_solvers();
 
 }  // namespace pmg::petsc
+
+namespace pmg::mg {
+/// The adapter's names before it moved to its folder's namespace (pmgkit 0.2); kept for callers.
+using petsc::petsc_available;
+using petsc::PetscParams;
+using petsc::PetscPreconditioner;
+using petsc::start_petsc;
+}  // namespace pmg::mg
