@@ -187,11 +187,7 @@ fem::StepStats DistributedEuler::step() {
   u_local_ += p_.dt * local.finest().expand(v_local_, Vector());
   u_owned_ += p_.dt * v_owned_;
   state_.valid = false;
-  t_ += p_.dt;
-  ++step_;
-  st.step = step_;
-  st.time = t_;
-  fem::record_solve(st, res, bn);
+  fem::finish_step(st, step_, t_, p_.dt, res, bn);
   return st;
 }
 

@@ -150,12 +150,8 @@ inline void element_apply(const Tables<P>& t, const double* d, const double (&u)
       const double w = t.q[c][b];
       for (int i = 0; i < 9; ++i) h[i] += w * H[b][i];
     }
-    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ)
-    const double tr = cl * (h[0] + h[4] + h[8]);
     double T[9];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) T[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
-    T[0] += tr, T[4] += tr, T[8] += tr;
+    isotropic_stress(h, cl, cm, T);  // 3.
     // 4. r_{γ+e_k} += T g_k
     for (int k = 0; k < 4; ++k) {
       double* ra = r[up.v[c][k]];

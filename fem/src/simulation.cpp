@@ -57,6 +57,14 @@ void record_solve(StepStats& st, const SolveResult& res, double b_norm) {
   st.residual = b_norm > 0 ? rel * res.initial_residual / b_norm : 0.0;
 }
 
+void finish_step(StepStats& st, int& step, double& t, double dt, const SolveResult& res, double b_norm) {
+  t += dt;
+  ++step;
+  st.step = step;
+  st.time = t;
+  record_solve(st, res, b_norm);
+}
+
 // ---- implicit Euler ------------------------------------------------------------------------------
 
 ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
@@ -159,11 +167,7 @@ StepStats ImplicitEuler::step() {
   v_ = m.expand(v_free_, Vector());
   u_ += p_.dt * v_;
   state_.valid = false;
-  t_ += p_.dt;
-  ++step_;
-  st.step = step_;
-  st.time = t_;
-  record_solve(st, res, bn);
+  finish_step(st, step_, t_, p_.dt, res, bn);
   return st;
 }
 

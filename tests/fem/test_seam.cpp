@@ -30,6 +30,19 @@ double norm(const std::vector<double>& v) {
   return std::sqrt(s);
 }
 
+/// The quadratic bar under gravity with CHOLMOD's static answer: the reference of the static
+/// solves through the seam.
+struct StaticCase {
+  DegreeHierarchy h = bar(2);
+  Vector g;
+  StaticOptions o;
+  StaticResult ref;
+  explicit StaticCase(bool corotational) : g(h.finest().gravity(Vec3(0, 0, -9.81))) {
+    o.corotational_tol = 1e-9;
+    ref = solve_static(h.finest(), g, corotational, o);
+  }
+};
+
 std::unique_ptr<Solver> solver_for(DegreeHierarchy& h, std::vector<std::string> pairs) {
   SolverContext ctx;
   ctx.levels = &h;
@@ -68,14 +81,11 @@ TEST_CASE("each solver says what it needs of the hierarchy, and its binding prep
 
 TEST_CASE("a static solve through the factory agrees with CHOLMOD for any method", "[fem][seam]") {
   for (const bool corotational : {false, true}) {
-    DegreeHierarchy h = bar(2);
-    const Vector g = h.finest().gravity(Vec3(0, 0, -9.81));
-    StaticOptions o;
-    o.corotational_tol = 1e-9;
-    const StaticResult ref = solve_static(h.finest(), g, corotational, o);
+    StaticCase c(corotational);
+    const StaticResult& ref = c.ref;
     for (const char* method : {"mgpcg", "pmg", "block-jacobi-pcg"}) {
-      auto s = solver_for(h, {std::string("method=") + method, "tol=1e-12", "max_iterations=20000"});
-      const StaticResult r = solve_static(h, g, corotational, *s, o);
+      auto s = solver_for(c.h, {std::string("method=") + method, "tol=1e-12", "max_iterations=20000"});
+      const StaticResult r = solve_static(c.h, c.g, corotational, *s, c.o);
       INFO(method << (corotational ? " corotational" : " linear"));
       CHECK((r.u - ref.u).norm() <= 1e-8 * ref.u.norm());
       CHECK(r.solver_iterations > 0);
@@ -188,14 +198,11 @@ TEST_CASE("a new solver method is one class and one registration: FEM callers us
           "[fem][seam]") {
   register_users_own_method();
   for (const bool corotational : {false, true}) {
-    DegreeHierarchy h = bar(2);
-    const Vector g = h.finest().gravity(Vec3(0, 0, -9.81));
-    StaticOptions o;
-    o.corotational_tol = 1e-9;
-    const StaticResult ref = solve_static(h.finest(), g, corotational, o);
+    StaticCase c(corotational);
+    const StaticResult& ref = c.ref;
     UsersOwnMethod::solves = 0;
-    auto s = solver_for(h, {"method=users-own", "tol=1e-12"});
-    const StaticResult r = solve_static(h, g, corotational, *s, o);
+    auto s = solver_for(c.h, {"method=users-own", "tol=1e-12"});
+    const StaticResult r = solve_static(c.h, c.g, corotational, *s, c.o);
     INFO((corotational ? "corotational" : "linear"));
     CHECK(UsersOwnMethod::solves == r.iterations);  // every linear solve went through it
     CHECK((r.u - ref.u).norm() <= 1e-8 * ref.u.norm());

@@ -41,6 +41,15 @@ struct ElementKernelTables {
 template <int P>
 const ElementKernelTables<P>& element_kernel_tables();
 
+/// Step 3 of the element product: the isotropic stress T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ) of a weighted
+/// displacement gradient Ĥ (3x3, row-major), cl and cm the element's scaled Lamé coefficients.
+PMG_HOST_DEVICE void isotropic_stress(const double h[9], double cl, double cm, double T[9]) {
+  const double tr = cl * (h[0] + h[4] + h[8]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) T[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
+  T[0] += tr, T[4] += tr, T[8] += tr;
+}
+
 /// Accumulates r_e = (m M_e + s K_R,e) u_e for one element: load(a, i) gives component i of local
 /// node a of u_e, add(a, i, v) adds v to component i of local node a of r_e (see the file comment).
 template <int P, class Load, class Add>
@@ -72,12 +81,8 @@ PMG_HOST_DEVICE void element_apply_lean(const ElementKernelTables<P>& t, const d
         }
       }
     }
-    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ)
-    const double tr = cl * (h[0] + h[4] + h[8]);
     double T[9];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) T[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
-    T[0] += tr, T[4] += tr, T[8] += tr;
+    isotropic_stress(h, cl, cm, T);  // 3.
     // 4. r_{γ+e_k} += T g_k
     for (int k = 0; k < 4; ++k) {
       const int a = t.up[c][k];

@@ -86,6 +86,9 @@ struct StepStats {
 /// A step's solve into its StepStats: iterations, rel_residual and residual = ‖b − A v‖ / ‖b‖ (from
 /// the true residual relative to the initial one; the recursive one for fixed-iteration runs).
 void record_solve(StepStats& st, const SolveResult& res, double b_norm);
+/// Closes a step of any stepper: the clock t advanced by dt, the step counted, and the step's
+/// StepStats given its number, time and solve (record_solve).
+void finish_step(StepStats& st, int& step, double& t, double dt, const SolveResult& res, double b_norm);
 /// Linearised implicit Euler time stepping of (corotational) elasticity on a degree hierarchy
 /// (see the file comment). Holds references to the hierarchy and the solver, which must outlive it.
 class ImplicitEuler {
