@@ -32,6 +32,26 @@ void agree_on(MPI_Comm comm, const std::string& error, const std::string& what) 
   if (first >= 0) throw Error(what + ": failed on rank " + std::to_string(first));
 }
 
+/// petsc::PMultigridCg on the rank's levels as the seam's Solver: it reads the rank's matrix-free
+/// levels above an assembled linear level, which fem::BoundSystem prepares; its set-up and update
+/// are the PETSc solver's setup() and refresh() (collective calls). A step solves through the
+/// PETSc solver itself, on owned unknowns, so this Solver is never applied.
+class RankLevels final : public Solver {
+ public:
+  RankLevels(petsc::PMultigridCg& solver, RankHierarchy& ranks) : solver_(solver), ranks_(ranks) {}
+  std::string name() const override { return "petsc-mgpcg (the rank's levels)"; }
+  SolverNeeds needs() const override { return {/*lower_levels=*/true, /*matrix_free=*/true, /*lowest_level=*/0}; }
+
+ private:
+  void setup_impl(const LinearOperator&) override { solver_.setup(ranks_.rank_levels()); }
+  void update_impl() override { solver_.refresh(); }
+  void apply_impl(const Vector&, Vector&) const override {
+    throw Error("petsc-mgpcg: the rank's levels are solved on owned unknowns (DistributedEuler::step)");
+  }
+  petsc::PMultigridCg& solver_;
+  RankHierarchy& ranks_;
+};
+
 }  // namespace
 
 DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vector& f_ext,
@@ -48,9 +68,9 @@ DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vec
   const int top = ranks_->num_levels() - 1;
   ghosts_ = std::make_unique<petsc::GhostExchange>(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
   f_ext_owned_ = ranks_->owned_part(top, m.restrict_to_free(f_ext));
-  mass_ = std::make_unique<fem::ElasticityOperator>(ranks_->local().finest());
-  mass_->set_weights(1.0, 0.0);
   solver_ = std::make_unique<petsc::PMultigridCg>(comm, to_pcmg(solver));
+  rank_solver_ = std::make_unique<RankLevels>(*solver_, *ranks_);
+  system_ = std::make_unique<fem::BoundSystem>(ranks_->local().bind(*rank_solver_));
   set_state(Vector::Zero(m.num_dofs()), Vector::Zero(m.num_dofs()));
 }
 
@@ -102,11 +122,11 @@ void DistributedEuler::evaluate_state() const {
   if (state_.valid) return;
   state_.seconds = {};
   fem::DegreeHierarchy& local = ranks_->local();
-  const int top = local.num_levels() - 1;
   const fem::StepWeights w = fem::step_weights(p_);
   const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
   Vector force;
   double energy = 0.0;
+  fem::EvaluateSeconds s;
   auto t0 = Clock::now();
   std::string error;  // the rank's own elements first; any rank's failure is every rank's
   try {
@@ -114,20 +134,18 @@ void DistributedEuler::evaluate_state() const {
       state_.R = local.finest().rotations(u_local_);
       state_.seconds[fem::kRotations] = seconds_since(t0);
     }
-    t0 = Clock::now();
-    if (p_.corotational || !set_up_) {  // linear material: the operators are final after the first step
-      local.update_matrix_free(top, R, w.mass, w.stiffness);
-      state_.seconds[fem::kAssembly] = seconds_since(t0);
-    }
-    t0 = Clock::now();
-    local.matrix_free(top).element_force(u_local_, R, force, &energy);
+    // The finest operator with the force and energy (linear material: final after the first step).
+    s = system_->evaluate(u_local_, R, {w.mass, w.stiffness}, &force, &energy,
+                          p_.corotational || !rank_solver_->is_set_up());
+    state_.seconds[fem::kAssembly] = s.finest;
   } catch (const std::exception& e) {
     error = e.what();
   }
+  t0 = Clock::now();
   agree_on(comm_, error, "step " + std::to_string(step_ + 1));
   ghosts_->add_to_owners(local.finest().restrict_to_free(force), state_.force_owned);
   state_.energy = sum(energy);
-  state_.seconds[fem::kForces] = seconds_since(t0);
+  state_.seconds[fem::kForces] = s.force + seconds_since(t0);
   state_.valid = true;
 }
 
@@ -139,30 +157,26 @@ fem::StepStats DistributedEuler::step() {
   fem::DegreeHierarchy& local = ranks_->local();
   const int top = local.num_levels() - 1;
   const fem::StepWeights w = fem::step_weights(p_);
-  if (p_.corotational || !set_up_) {
-    // The lower degrees get the same rotations and weights; the lowest level is assembled.
+  if (p_.corotational || !rank_solver_->is_set_up()) {
+    // The lower degrees get the same rotations and weights (the seam prepares what the rank's
+    // solver reads: matrix-free degrees, the linear level assembled); every rank agrees on the
+    // rank-local work before the collective set-up.
     const auto t0 = Clock::now();
     const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
     std::string error;
     try {
-      for (int l = 1; l < top; ++l) local.update_matrix_free(l, R, w.mass, w.stiffness);
-      local.assemble_level(0, R, nullptr, w.mass, w.stiffness);
+      system_->prepare(R, {w.mass, w.stiffness}, /*finest=*/false);
     } catch (const std::exception& e) {
       error = e.what();
     }
     agree_on(comm_, error, "step " + std::to_string(step_ + 1));
-    if (set_up_) {
-      solver_->refresh();
-    } else {
-      solver_->setup(ranks_->rank_levels());
-      set_up_ = true;
-    }
+    system_->set_up_solver();
     st.seconds[fem::kHierarchy] = seconds_since(t0);
   }
   // b = M v + Δt (f_ext + f_el(x)) on the owned unknowns.
   auto t0 = Clock::now();
-  Vector mv_local(mass_->rows()), b;
-  mass_->apply(v_local_, mv_local);
+  Vector mv_local(system_->mass().rows()), b;
+  system_->mass().apply(v_local_, mv_local);
   ghosts_->add_to_owners(mv_local, b);
   b += p_.dt * (f_ext_owned_ + state_.force_owned);
   st.seconds[fem::kForces] += seconds_since(t0);
@@ -192,8 +206,8 @@ fem::StepStats DistributedEuler::step() {
 }
 
 double DistributedEuler::kinetic_energy() const {
-  Vector mv(mass_->rows());
-  mass_->apply(v_local_, mv);
+  Vector mv(system_->mass().rows());
+  system_->mass().apply(v_local_, mv);
   return sum(0.5 * v_local_.dot(mv));
 }
 
@@ -244,7 +258,7 @@ std::string DistributedEuler::write_frame(const std::string& directory, const st
 }
 
 std::string DistributedEuler::describe() const {
-  return set_up_ ? solver_->describe() : "petsc-mgpcg (not set up: no step yet)";
+  return rank_solver_->is_set_up() ? solver_->describe() : "petsc-mgpcg (not set up: no step yet)";
 }
 
 }  // namespace pmg::dist

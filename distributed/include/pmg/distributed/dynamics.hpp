@@ -100,8 +100,11 @@ class DistributedEuler {
   std::unique_ptr<RankHierarchy> ranks_;
   std::unique_ptr<petsc::GhostExchange> ghosts_;
   std::unique_ptr<petsc::PMultigridCg> solver_;
-  std::unique_ptr<fem::ElasticityOperator> mass_;  // the rank's consistent mass (weights 1, 0)
-  bool set_up_ = false;
+  /// solver_ on the rank's levels as the seam's Solver (set up and refreshed through system_).
+  std::unique_ptr<Solver> rank_solver_;
+  /// The rank's hierarchy bound to rank_solver_ (fem::BoundSystem): what a step prepares, and the
+  /// rank's consistent mass.
+  std::unique_ptr<fem::BoundSystem> system_;
   Vector f_ext_owned_;
   Vector u_owned_, v_owned_;  // owned unknowns, global order
   Vector u_local_;            // the rank's full vector (its sub-mesh's nodes, fixed ones zero)
