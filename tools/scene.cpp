@@ -57,28 +57,6 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
   add_allow_option(sub, o.allow);
 }
 
-const Bcsr& FemSystem::matrix() const {
-  if (!finest_assembled) throw Error("internal: the finest matrix of the FEM system was not assembled");
-  return setup.hierarchy->matrix(setup.hierarchy->num_levels() - 1);
-}
-
-void FemSystem::assemble_finest() {
-  if (finest_assembled) return;
-  const auto t0 = Clock::now();
-  hierarchy().assemble_level(hierarchy().num_levels() - 1, nullptr, nullptr, mass_weight, stiffness_weight);
-  finest_assembly = seconds_since(t0);
-  finest_assembled = true;
-}
-
-void FemSystem::assemble_lower_levels() {
-  for (int l = 0; l + 1 < hierarchy().num_levels(); ++l)
-    hierarchy().assemble_level(l, nullptr, nullptr, mass_weight, stiffness_weight);
-}
-
-std::vector<double> FemSystem::free_coordinates() const {
-  return hierarchy().node_coordinates(hierarchy().num_levels() - 1);
-}
-
 index_t held_components(const fem::ElasticityModel& m) {
   index_t n = 0;
   for (char c : m.constrained_free_dofs()) n += c;
@@ -112,29 +90,17 @@ sim::Scene scene_of(const SceneOptions& o) {
 }
 
 FemSystem build_fem_system(const SceneOptions& o, bool assemble_finest) {
-  const sim::Scene scene = scene_of(o);
   FemSystem s;
-  s.setup = sim::set_up(scene);
+  static_cast<sim::SceneSystem&>(s) = sim::system_of(scene_of(o), o.dt, assemble_finest);
   for (const auto& w : s.setup.warnings) std::cerr << "warning: " << w << "\n";
-  s.description = o.mesh.empty() ? "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
-                                       std::to_string(o.box[2]) + " boxes"
-                                 : o.mesh;
   const fem::ElasticityModel& m = s.setup.finest();
-  Vector f = s.setup.f_ext;
-  if (o.dt > 0) {
-    fem::SimulationParams sp;  // the step system of an undamped implicit-Euler step
-    sp.dt = o.dt;
-    const fem::StepWeights w = fem::step_weights(sp);
-    s.mass_weight = w.mass;
-    s.stiffness_weight = w.stiffness;
-    f *= o.dt;
-  }
-  s.b = m.restrict_to_free(f);
-  if (assemble_finest) s.assemble_finest();
-  s.description += ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
-                   " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " +
-                   (o.symmetry.empty() ? "" : std::to_string(held_components(m)) + " components held by symmetry planes, ") + o.load +
-                   (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");
+  s.description = (o.mesh.empty() ? "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
+                                        std::to_string(o.box[2]) + " boxes"
+                                  : o.mesh) +
+                  ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
+                  " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " +
+                  (o.symmetry.empty() ? "" : std::to_string(held_components(m)) + " components held by symmetry planes, ") +
+                  o.load + (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");
   return s;
 }
 

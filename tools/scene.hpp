@@ -5,6 +5,7 @@
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/fem/mesh.hpp"
 #include "pmg/sim/setup.hpp"
+#include "pmg/sim/system.hpp"
 #include "pmg/sparse/config.hpp"
 
 #include <CLI/CLI.hpp>
@@ -37,28 +38,10 @@ index_t held_components(const fem::ElasticityModel& m);
 /// Registers the scene options on a subcommand.
 void add_scene_options(CLI::App* sub, SceneOptions& o);
 
-/// The FEM system of a tool: a sim::SceneSetup (mesh, hierarchy, clamp, load — the same code as
-/// pmg simulate's scenes) and the right-hand side of the static or one-step system.
-struct FemSystem {
-  sim::SceneSetup setup;
-  Vector b;                      ///< right-hand side over the free dofs of the finest level
+/// The FEM system of a tool: a scene's linear system (sim::SceneSystem, the type pmgkit.study
+/// uses too) and its description for reports.
+struct FemSystem : sim::SceneSystem {
   std::string description;
-  double finest_assembly = 0.0;  ///< seconds to assemble the finest level
-  bool finest_assembled = false;  ///< whether matrix() holds the finest level's entries
-  double mass_weight = 0.0, stiffness_weight = 1.0;
-  fem::DegreeHierarchy& hierarchy() const { return *setup.hierarchy; }
-  /// The finest level's matrix; Error when it was not assembled (assemble_finest()).
-  const Bcsr& matrix() const;
-  /// Assembles the finest level's matrix with the system's weights (once; timed in finest_assembly).
-  void assemble_finest();
-  /// The matrices of the levels below the finest with the system's weights (exports of every
-  /// level; solvers prepare what they read through fem::BoundSystem).
-  void assemble_lower_levels();
-  /// The system's weights (mass M + stiffness K) for fem::BoundSystem.
-  fem::SystemWeights weights() const { return {mass_weight, stiffness_weight}; }
-  /// x, y, z of the finest level's free nodes (rest positions), interleaved like the unknowns: the
-  /// rigid-body modes of AMG baselines (BoomerAMG interpolation vectors, GAMG near-null space).
-  std::vector<double> free_coordinates() const;
 };
 
 /// The sim::Scene these options describe (clamp, material, load); build_fem_system sets it up.

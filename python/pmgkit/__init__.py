@@ -25,7 +25,7 @@ from . import _core
 from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, ElasticModel,
                     DegreeHierarchy)
 
-__all__ = ["make_solver", "multigrid", "methods", "study", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
+__all__ = ["make_solver", "multigrid", "methods", "study", "study_scene", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
            "Material", "ElasticModel", "DegreeHierarchy", "simulate", "read_petsc", "write_petsc",
            "Error", "InputError",
            "SolveError"]
@@ -337,6 +337,19 @@ DegreeHierarchy.prolongations = _hierarchy_prolongations
 DegreeHierarchy.solver = _hierarchy_solver
 
 
+def _solvers_text(solvers, default_method):
+    """A study's named configurations ({"name": config} or a list of methods) as a JSON object."""
+    if isinstance(solvers, (list, tuple)):
+        names = [str(m) for m in solvers]
+        if len(set(names)) != len(names):
+            raise InputError("solvers: a method named twice in the list; name configurations in a dict instead")
+        solvers = {m: {"method": m} for m in names}
+    if not isinstance(solvers, dict) or not solvers:
+        raise InputError("solvers: expected a non-empty dict of named configurations or a list of methods")
+    return "{" + ",".join(json.dumps(str(name)) + ":" + _config_text(config, default_method)
+                          for name, config in solvers.items()) + "}"
+
+
 def study(system, b, solvers, reference=None, coordinates=None, format="auto", warm_up=False):
     """Several solvers on one system, as `pmg compare` runs them (the same C++ study layer): each
     is set up and solved from zero under a clock, in order, one at a time.
@@ -356,23 +369,43 @@ def study(system, b, solvers, reference=None, coordinates=None, format="auto", w
     solve_seconds, time_to_1e-3, time_to_1e-6 (set-up included; None when not reached),
     rel_residual, rel_error, settings, breakdown, setup_breakdown, history (relative residual per
     iteration) and history_seconds (from the start of the solve)."""
-    if isinstance(solvers, (list, tuple)):
-        names = [str(m) for m in solvers]
-        if len(set(names)) != len(names):
-            raise InputError("solvers: a method named twice in the list; name configurations in a dict instead")
-        solvers = {m: {"method": m} for m in names}
-    if not isinstance(solvers, dict) or not solvers:
-        raise InputError("solvers: expected a non-empty dict of named configurations or a list of methods")
     hierarchy = isinstance(system, DegreeHierarchy)
-    default = "mgpcg" if hierarchy else "cg"
-    text = "{" + ",".join(json.dumps(str(name)) + ":" + _config_text(config, default)
-                          for name, config in solvers.items()) + "}"
+    text = _solvers_text(solvers, "mgpcg" if hierarchy else "cg")
     b = np.ascontiguousarray(b, dtype=np.float64)
     ref = None if reference is None else np.ascontiguousarray(reference, dtype=np.float64)
     if hierarchy:
         return _core.study_hierarchy(system, b, text, ref, bool(warm_up))
     xyz = None if coordinates is None else np.ascontiguousarray(coordinates, dtype=np.float64)
     return _core.study_matrix(_csr_arrays(system), b, text, ref, xyz, str(format), bool(warm_up))
+
+
+def _scene_text(scene):
+    """A scene (a dict in the scene-file schema, a JSON string, or a path) as (JSON text, origin)."""
+    import os
+    if isinstance(scene, dict):
+        return json.dumps(scene), "scene"
+    if isinstance(scene, str) and scene.lstrip().startswith("{"):
+        return scene, "scene"
+    path = os.fspath(scene)
+    with open(path, "rb") as f:  # read no more than a scene may hold (a device never ends)
+        data = f.read(_core.max_config_bytes + 1)
+    if len(data) > _core.max_config_bytes:
+        raise InputError("scene: '%s' is longer than %d bytes: not a scene file" % (path, _core.max_config_bytes))
+    return data.decode("utf-8", errors="replace"), path
+
+
+def study_scene(scene, solvers, dt=0.0, reference="direct", warm_up=False):
+    """pmgkit.study on a scene's linear system, as `pmg compare` builds it from its scene options
+    (the same C++ type, sim::SceneSystem): the static stiffness system K u = f, or with dt > 0 the
+    system of one undamped implicit-Euler step (M + dt^2 K) v = dt f, over the free unknowns of
+    the scene's finest degree, multigrid methods on its degree hierarchy. scene: a dict in the
+    scene-file schema, a JSON string or a path. reference: "direct" (errors against a direct
+    solve of the assembled system) or None. Returns study()'s list of dicts."""
+    if reference not in ("direct", None):
+        raise InputError("reference: expected \"direct\" or None")
+    text, origin = _scene_text(scene)
+    configs = _solvers_text(solvers, "mgpcg")
+    return _core.study_scene(text, origin, configs, float(dt), reference == "direct", bool(warm_up))
 
 
 def simulate(scene, output_dir=""):
@@ -386,19 +419,7 @@ def simulate(scene, output_dir=""):
     A step that fails (its solve diverges, stagnates or misses the scene's tolerance) raises
     SolveError "simulation failed at step N: ...", as `pmg simulate` exits 1; the summary of the
     steps done before it is the exception's `summary` attribute."""
-    import os
-    if isinstance(scene, dict):
-        text, origin = json.dumps(scene), "scene"
-    elif isinstance(scene, str) and scene.lstrip().startswith("{"):
-        text, origin = scene, "scene"
-    else:
-        path = os.fspath(scene)
-        with open(path, "rb") as f:  # read no more than a scene may hold (a device never ends)
-            data = f.read(_core.max_config_bytes + 1)
-        if len(data) > _core.max_config_bytes:
-            raise InputError("scene: '%s' is longer than %d bytes: not a scene file"
-                             % (path, _core.max_config_bytes))
-        text, origin = data.decode("utf-8", errors="replace"), path
+    text, origin = _scene_text(scene)
     out = _core.simulate(text, origin, output_dir)
     if out["failure"]:
         err = SolveError("simulation failed at step %d: %s" % (out["failed_step"], out["failure"]))

@@ -21,6 +21,8 @@
 #include "pmg/sparse/petsc_binary.hpp"
 #include "pmg/sparse/timer.hpp"
 #include "pmg/study/study.hpp"
+#include "pmg/sim/scene.hpp"
+#include "pmg/sim/system.hpp"
 
 #include "common.hpp"
 
@@ -599,6 +601,36 @@ void register_study(py::module_& m) {
       ss.matrix = &H.matrix(L - 1);
     }, kDefaultLevelsMethod);
   }, py::arg("hierarchy"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("warm_up"));
+  m.def("study_scene", [](const std::string& scene_json, const std::string& origin, const std::string& solvers,
+                          double dt, bool direct_reference, bool warm_up) {
+    std::unique_ptr<sim::SceneSystem> sys;
+    {
+      py::gil_scoped_release nogil;
+      const sim::Scene scene = sim::parse_scene(scene_json, origin);
+      sys = std::make_unique<sim::SceneSystem>(sim::system_of(scene, dt, /*assemble_finest=*/direct_reference));
+    }
+    study::StudySystem ss;
+    ss.description = origin;
+    ss.b = sys->b;
+    ss.levels = &sys->hierarchy();
+    ss.hierarchy = &sys->hierarchy();
+    ss.weights = sys->weights();
+    const std::vector<double> xyz = sys->free_coordinates();
+    ss.coordinates = &xyz;
+    if (direct_reference) {  // the errors against a direct solve of the assembled system
+      py::gil_scoped_release nogil;
+      auto direct = make_solver(Config::from_pairs({std::string("method=") + kDefaultDirectMethod}, "the reference solve"));
+      direct->setup(sys->matrix());
+      direct->apply(sys->b, ss.reference);
+      ss.matrix = &sys->matrix();
+    }
+    return study_runs(ss, solvers, warm_up, [&](study::Study& st) {
+      if (!st.reads_finest_matrix() || ss.matrix) return;
+      sys->assemble_finest();
+      ss.matrix = &sys->matrix();
+    }, kDefaultLevelsMethod);
+  }, py::arg("scene"), py::arg("origin"), py::arg("solvers"), py::arg("dt"), py::arg("direct_reference"),
+     py::arg("warm_up"));
 }
 
 /// Error, InputError and SolveError as Python exceptions, with the same messages.
