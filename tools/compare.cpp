@@ -517,12 +517,12 @@ void run(const Options& given) {
     sys.fem->assemble_finest();
     figures.load_s += sys.fem->finest_assembly;
     sys.bcsr = borrow(sys.fem->matrix());
+    ss.matrix = sys.bcsr.get();
   }
   t0 = Clock::now();
   const Formats formats = sys.bcsr || !sys.fem ? select_format(o, sys) : Formats{};
   figures.convert_s = seconds_since(t0);
   // The Krylov methods multiply in the requested format (matrix-free ones: with the finest operator).
-  ss.matrix = sys.bcsr ? static_cast<const LinearOperator*>(sys.bcsr.get()) : sys.fem ? nullptr : &sys.csr;
   ss.product = formats.op;
   ss.reference = sys.x_true;
   print_header(o, sys, figures.load_s, figures.convert_s, configs, figures.mpi_s);

@@ -14,8 +14,6 @@ BoundSystem::~BoundSystem() = default;
 
 bool BoundSystem::matrix_free() const { return needs_.matrix_free && h_->num_levels() > 1; }
 
-bool BoundSystem::reads_finest_matrix() const { return !matrix_free(); }
-
 EvaluateSeconds BoundSystem::evaluate(const Vector& u, const Rotations* R, SystemWeights w, Vector* force,
                                       double* energy, bool update) {
   EvaluateSeconds s;

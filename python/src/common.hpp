@@ -6,6 +6,7 @@
 #include "pmg/fem/mesh.hpp"
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/csr_view.hpp"
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -60,5 +61,22 @@ struct PyHierarchy {
 
 /// Registers Material, Mesh, ElasticModel, DegreeHierarchy and simulate (fem.cpp).
 void register_fem(py::module_& m);
+/// Registers study_matrix, study_hierarchy and study_scene (study.cpp).
+void register_study(py::module_& m);
+
+/// A CSR matrix handed over as (indptr, indices, data, (rows, cols)): the arrays are read in place.
+/// The Python objects are held so that the view stays valid as long as this lives.
+struct ArrayCsr {
+  py::array indptr, indices, data;
+  CsrView view;
+};
+/// The arrays of `m` = (indptr, indices, data, shape) viewed in place, checked (InputError naming
+/// `who`: lengths, dtypes, byte order, index range).
+ArrayCsr array_csr(py::tuple m, const std::string& who);
+/// The format a user's matrix is multiplied in: auto (BCSR when the size is a multiple of 3) |
+/// csr | bcsr | bin-bcsr, the block formats only for sizes divisible by 3 (InputError otherwise).
+std::string matrix_format(const std::string& format, index_t rows);
+/// A user's matrix as CSR, refused (InputError) when not square or not symmetric.
+Csr symmetric_csr(const CsrView& view);
 
 }  // namespace pmg::python

@@ -20,9 +20,6 @@
 #include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/petsc_binary.hpp"
 #include "pmg/sparse/timer.hpp"
-#include "pmg/study/study.hpp"
-#include "pmg/sim/scene.hpp"
-#include "pmg/sim/system.hpp"
 
 #include "common.hpp"
 
@@ -31,7 +28,6 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
-#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -111,21 +107,9 @@ py::object csr_copy(const Csr& A) {
   return csr_arrays(*owner, c, true);
 }
 
-}  // namespace pmg::python
-
-
-namespace {
-
-
 // ---- arrays ------------------------------------------------------------------------------------
 
-/// A CSR matrix handed over as (indptr, indices, data, (rows, cols)): the arrays are read in place.
-/// The Python objects are held so that the view stays valid as long as this lives.
-struct ArrayCsr {
-  py::array indptr, indices, data;
-  CsrView view;
-};
-
+namespace {
 int index_bytes(const py::array& a, const std::string& who) {
   if (a.ndim() != 1 || !(a.flags() & py::array::c_style))
     throw InputError(who + ": expected a contiguous one-dimensional integer array");
@@ -138,6 +122,7 @@ int index_bytes(const py::array& a, const std::string& who) {
     return static_cast<int>(a.itemsize());
   throw InputError(who + ": indices must be int32 or int64, got " + std::string(py::str(a.dtype())));
 }
+}  // namespace
 
 ArrayCsr array_csr(py::tuple m, const std::string& who) {
   if (m.size() != 4) throw InputError(who + ": expected (indptr, indices, data, shape)");
@@ -164,6 +149,27 @@ ArrayCsr array_csr(py::tuple m, const std::string& who) {
   return a;
 }
 
+std::string matrix_format(const std::string& format, index_t rows) {
+  if (format != "auto" && format != "csr" && format != "bcsr" && format != "bin-bcsr")
+    throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
+  if (format == "auto") return rows % 3 == 0 ? "bcsr" : "csr";
+  if (format != "csr" && rows % 3 != 0)
+    throw InputError("format " + format + ": the size " + std::to_string(rows) + " is not divisible by 3 (3x3 blocks)");
+  return format;
+}
+
+Csr symmetric_csr(const CsrView& view) {
+  if (view.rows != view.cols)
+    throw InputError("matrix: must be square, is " + std::to_string(view.rows) + "x" + std::to_string(view.cols));
+  Csr csr = to_csr(view, "matrix");
+  if (!csr.is_symmetric(1e-12)) throw InputError("matrix: not symmetric (the solvers need a symmetric positive definite matrix)");
+  return csr;
+}
+
+}  // namespace pmg::python
+
+namespace {
+
 // ---- solvers -------------------------------------------------------------------------------------
 
 /// One solver from the factory on a user's matrix (or user levels), owning its operator.
@@ -176,19 +182,16 @@ class PySolver {
     ArrayCsr a = array_csr(A, "matrix");
     if (a.view.rows != a.view.cols) throw InputError("matrix: must be square, is " + std::to_string(a.view.rows) + "x" + std::to_string(a.view.cols));
     method_ = config_.get_string("method", kDefaultMethod);
-    std::string f = format;
-    if (f == "auto") f = a.view.rows % 3 == 0 ? "bcsr" : "csr";
-    if (f != "csr" && f != "bcsr" && f != "bin-bcsr") throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
     if (method_needs_blocks(method_) && a.view.rows % 3 != 0)
       throw InputError("method " + method_ + " reads 3x3 blocks, and the matrix's size " + std::to_string(a.view.rows) +
                        " is not divisible by 3: choose a method for scalar matrices (cg, jacobi-pcg, cholmod, "
                        "pmgkit.methods() lists each one's needs)");
+    const std::string f = matrix_format(format, a.view.rows);
     if (method_needs_blocks(method_) && f == "csr")
       throw InputError("method " + method_ + " reads 3x3 blocks: use format='bcsr' or 'auto'");
     {
       py::gil_scoped_release nogil;
-      csr_ = to_csr(a.view, "matrix");
-      if (!csr_.is_symmetric(1e-12)) throw InputError("matrix: not symmetric (the solvers need a symmetric positive definite matrix)");
+      csr_ = symmetric_csr(a.view);
       // Judged on the scalar matrix, before it becomes blocks (pmg/sparse/layout.hpp).
       if (method_needs_blocks(method_) && !config_.has("layout")) check_interleaved(csr_, "method " + method_);
       if (f != "csr") bcsr_ = std::make_unique<Bcsr>(Bcsr::from_csr(csr_));
@@ -514,124 +517,6 @@ py::array_t<double> matvec(const Op& A, const DoubleArray& x, std::optional<py::
 }  // namespace
 
 namespace {
-
-/// pmgkit.study's core: the solvers of `solvers_json` (an object of named configurations, in
-/// order) on one system through pmg::study, as pmg compare runs them; one dict per run.
-py::list study_runs(study::StudySystem& ss, const std::string& solvers_json, bool warm_up,
-                    const std::function<void(study::Study&)>& before_run, const char* fallback) {
-  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(solvers_json);
-  if (!j.is_object() || j.empty()) throw InputError("study: solvers: expected named solver configurations");
-  study::Study st(ss);
-  for (auto it = j.begin(); it != j.end(); ++it)
-    st.add(it.key(), Config::from_json(it.value().dump(), "study: " + it.key()), {}, fallback);
-  before_run(st);
-  std::vector<study::SolverRun> runs;
-  {
-    py::gil_scoped_release nogil;
-    runs = st.run(warm_up);
-  }
-  auto maybe = [](double v) { return std::isfinite(v) ? py::object(py::float_(v)) : py::object(py::none()); };
-  py::list out;
-  for (const study::SolverRun& r : runs) {
-    py::dict d;
-    d["name"] = r.name, d["config"] = r.config, d["status"] = r.status, d["message"] = r.message;
-    d["iterations"] = r.iterations, d["setup_seconds"] = r.setup_s, d["solve_seconds"] = r.solve_s;
-    d["time_to_1e-3"] = maybe(r.time_to(1e-3)), d["time_to_1e-6"] = maybe(r.time_to(1e-6));
-    d["rel_residual"] = maybe(r.rel_residual), d["rel_error"] = maybe(r.rel_error);
-    d["settings"] = r.settings, d["breakdown"] = r.breakdown, d["setup_breakdown"] = r.setup_breakdown;
-    Vector rel(static_cast<Eigen::Index>(r.history.size())), sec(rel.size());
-    for (size_t k = 0; k < r.history.size(); ++k) rel[k] = r.history[k].rel_residual, sec[k] = r.history[k].seconds;
-    d["history"] = to_numpy(std::move(rel));
-    d["history_seconds"] = to_numpy(std::move(sec));
-    out.append(d);
-  }
-  return out;
-}
-
-/// study_matrix (a user's matrix) and study_hierarchy (an FEM degree hierarchy).
-void register_study(py::module_& m) {
-  m.def("study_matrix", [](py::tuple A, const DoubleArray& b, const std::string& solvers, std::optional<DoubleArray> reference,
-                           std::optional<DoubleArray> coordinates, const std::string& format, bool warm_up) {
-    const ArrayCsr a = array_csr(A, "matrix");
-    if (a.view.rows != a.view.cols) throw InputError("matrix: must be square");
-    if (format != "auto" && format != "csr" && format != "bcsr" && format != "bin-bcsr")
-      throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
-    const Csr csr = to_csr(a.view, "matrix");
-    if (!csr.is_symmetric(1e-12)) throw InputError("matrix: not symmetric (the solvers need a symmetric positive definite matrix)");
-    const bool blocks = csr.rows() % 3 == 0 && format != "csr";
-    if (format != "auto" && format != "csr" && !blocks) throw InputError("format " + format + ": the size is not divisible by 3");
-    std::unique_ptr<Bcsr> bcsr = blocks ? std::make_unique<Bcsr>(Bcsr::from_csr(csr)) : nullptr;
-    std::unique_ptr<BinBcsr> bin = format == "bin-bcsr" ? std::make_unique<BinBcsr>(*bcsr) : nullptr;
-    study::StudySystem ss;
-    ss.description = "matrix " + std::to_string(csr.rows()) + "x" + std::to_string(csr.cols());
-    ss.matrix = bcsr ? static_cast<const LinearOperator*>(bcsr.get()) : &csr;
-    ss.product = bin ? static_cast<const LinearOperator*>(bin.get()) : nullptr;
-    ss.b = to_vector(b, csr.rows(), "b");
-    if (reference) ss.reference = to_vector(*reference, csr.rows(), "reference");
-    std::vector<double> xyz;
-    if (coordinates) {
-      const Vector c = to_vector(*coordinates, csr.rows(), "coordinates");
-      xyz.assign(c.data(), c.data() + c.size());
-      ss.coordinates = &xyz;
-    }
-    return study_runs(ss, solvers, warm_up, [](study::Study&) {}, kDefaultMethod);
-  }, py::arg("A"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("coordinates"), py::arg("format"),
-     py::arg("warm_up"));
-  m.def("study_hierarchy", [](PyHierarchy& h, const DoubleArray& b, const std::string& solvers,
-                              std::optional<DoubleArray> reference, bool warm_up) {
-    std::unique_lock<std::mutex> lock;  // its solvers share the hierarchy's operators
-    {
-      py::gil_scoped_release nogil;  // never wait for the lock holding the GIL
-      lock = std::unique_lock<std::mutex>(*h.lock);
-    }
-    fem::DegreeHierarchy& H = *h.h;
-    const int L = H.num_levels();
-    const index_t n = H.finest().num_free_dofs();
-    study::StudySystem ss;
-    ss.description = "degree " + std::to_string(L) + " hierarchy, " + std::to_string(n) + " free unknowns";
-    ss.b = to_vector(b, n, "b");
-    if (reference) ss.reference = to_vector(*reference, n, "reference");
-    ss.levels = &H;
-    ss.hierarchy = &H;
-    const std::vector<double> xyz = H.node_coordinates(L - 1);
-    ss.coordinates = &xyz;
-    return study_runs(ss, solvers, warm_up, [&](study::Study& st) {
-      if (!st.reads_finest_matrix()) return;
-      H.assemble_level(L - 1, nullptr);  // the finest matrix some solver reads (R = I, static weights)
-      ss.matrix = &H.matrix(L - 1);
-    }, kDefaultLevelsMethod);
-  }, py::arg("hierarchy"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("warm_up"));
-  m.def("study_scene", [](const std::string& scene_json, const std::string& origin, const std::string& solvers,
-                          double dt, bool direct_reference, bool warm_up) {
-    std::unique_ptr<sim::SceneSystem> sys;
-    {
-      py::gil_scoped_release nogil;
-      const sim::Scene scene = sim::parse_scene(scene_json, origin);
-      sys = std::make_unique<sim::SceneSystem>(sim::system_of(scene, dt, /*assemble_finest=*/direct_reference));
-    }
-    study::StudySystem ss;
-    ss.description = origin;
-    ss.b = sys->b;
-    ss.levels = &sys->hierarchy();
-    ss.hierarchy = &sys->hierarchy();
-    ss.weights = sys->weights();
-    const std::vector<double> xyz = sys->free_coordinates();
-    ss.coordinates = &xyz;
-    if (direct_reference) {  // the errors against a direct solve of the assembled system
-      py::gil_scoped_release nogil;
-      auto direct = make_solver(Config::from_pairs({std::string("method=") + kDefaultDirectMethod}, "the reference solve"));
-      direct->setup(sys->matrix());
-      direct->apply(sys->b, ss.reference);
-      ss.matrix = &sys->matrix();
-    }
-    return study_runs(ss, solvers, warm_up, [&](study::Study& st) {
-      if (!st.reads_finest_matrix() || ss.matrix) return;
-      sys->assemble_finest();
-      ss.matrix = &sys->matrix();
-    }, kDefaultLevelsMethod);
-  }, py::arg("scene"), py::arg("origin"), py::arg("solvers"), py::arg("dt"), py::arg("direct_reference"),
-     py::arg("warm_up"));
-}
 
 /// Error, InputError and SolveError as Python exceptions, with the same messages.
 void register_errors(py::module_& m) {

@@ -89,7 +89,7 @@ void Study::add(const std::string& name, const Config& config, const std::set<st
 bool Study::reads_finest_matrix() const {
   if (!system_.hierarchy || system_.hierarchy->num_levels() < 2) return true;
   for (const Entry& e : entries_)
-    if (e.solver && system_.hierarchy->bind(*e.solver).reads_finest_matrix()) return true;
+    if (e.solver && !system_.hierarchy->bind(*e.solver).matrix_free()) return true;
   return false;
 }
 
@@ -108,7 +108,7 @@ SolverRun Study::run_one(Entry& e, Vector& x) {
       // The finest matrix comes assembled with the system; a matrix-free binding prepares its
       // finest operator here.
       const auto t0 = Clock::now();
-      bound.prepare(nullptr, system_.weights, /*finest=*/!bound.reads_finest_matrix());
+      bound.prepare(nullptr, system_.weights, /*finest=*/bound.matrix_free());
       prepared_[key] = {seconds_since(t0), bound.prepare_seconds()};
     }
     extra = prepared_[key];

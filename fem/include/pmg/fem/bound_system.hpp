@@ -84,10 +84,8 @@ class BoundSystem {
   /// The finest consistent mass over the free nodes (matrix or, on the matrix-free route, an
   /// operator built on first use and kept by this object).
   const LinearOperator& mass() const;
-  /// Whether the finest level's assembled matrix is read (false on the matrix-free route, which
-  /// never assembles it).
-  bool reads_finest_matrix() const;
-  /// True on the matrix-free route: system() is an operator, not an assembled matrix.
+  /// True on the matrix-free route: system() is an operator, not an assembled matrix, and the
+  /// finest level's matrix is never read (nor assembled).
   bool matrix_free() const;
   /// Equal for two bindings of the same hierarchy that prepare the same levels the same way, empty
   /// when there is nothing to prepare beyond the finest matrix (a study prepares once per key).
