@@ -8,6 +8,7 @@
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
 //   4. Write the per-iteration history as CSV and print the summary table.
 #include "process.hpp"
+#include "ranks.hpp"
 #include "pmg/sparse/defaults.hpp"
 #include "checks.hpp"
 #include "commands.hpp"
@@ -303,6 +304,29 @@ void check_outputs(Options& o) {
     if (!o.fem) throw InputError("--export-petsc needs an FEM scene (--box or --mesh)");
     prepare_output_directory(o.export_petsc, "--export-petsc");
   }
+  // No output may be an input or another output (the same file through links or paths).
+  FilePlan plan;
+  plan.input(o.matrix, "--matrix");
+  plan.input(o.rhs, "--rhs");
+  plan.input(o.solution, "--solution");
+  for (const std::string& f : o.levels) plan.input(f, "--levels");
+  for (const std::string& f : o.prolongations) plan.input(f, "--prolongations");
+  plan.input(o.solver_config, "--solver-config");
+  plan.input(o.scene.mesh, "--mesh");
+  plan.output(o.history, "--history");
+  plan.output(o.solution_out, "--solution-out");
+  plan.output(o.plot, "--plot");
+  if (o.history.empty() && !o.plot.empty()) plan.output(o.plot + ".csv", "--plot's data");
+  plan.output(o.json_report, "--json");
+  plan.output_folder(o.export_levels, "--export-levels", [](const std::string& name) {
+    return name == "b.mtx" || ((name[0] == 'A' || name[0] == 'P') && name.size() > 5 &&
+                               name.compare(name.size() - 4, 4, ".mtx") == 0 &&
+                               name.find_first_not_of("0123456789", 1) == name.size() - 4);
+  });
+  plan.output_folder(o.export_petsc, "--export-petsc", [](const std::string& name) {
+    return name == "A.petsc" || name == "b.petsc" || name == "coordinates.petsc";
+  });
+  plan.check();
   if (mpi::launched_rank() != 0) {
     o.plot.clear(), o.json_report.clear(), o.history.clear(), o.export_levels.clear(), o.export_petsc.clear();
     o.solution_out.clear();
@@ -656,6 +680,10 @@ void register_compare(CLI::App& app) {
                          " (keys and defaults: pmg solvers)");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
+    std::vector<std::string> inputs = {opts->matrix, opts->rhs, opts->solution, opts->solver_config, opts->scene.mesh};
+    inputs.insert(inputs.end(), opts->levels.begin(), opts->levels.end());
+    inputs.insert(inputs.end(), opts->prolongations.begin(), opts->prolongations.end());
+    agree_across_ranks(*sub, inputs);
     run(*opts);
   });
 }

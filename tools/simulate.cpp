@@ -3,6 +3,7 @@
 // scene, its set-up and its run are pmg::sim's; this prints them (and --json writes them).
 #include "checks.hpp"
 #include "commands.hpp"
+#include "ranks.hpp"
 #include "scene.hpp"
 
 #include "pmg/mpi/session.hpp"
@@ -188,6 +189,10 @@ void run(const Cli& cli_in) {
   if (!cli.output.empty())
     prepare_output_directory(cli.output, output_from_cli ? "-o" : s.source + ": output.directory");
   if (!cli.json_report.empty()) check_output_file(cli.json_report, "--json");
+  FilePlan plan;  // no output may be an input or another output
+  sim::plan_files(s, cli.scene, cli.output, plan);
+  plan.output(cli.json_report, "--json");
+  plan.check();
   if (mpi::launched_rank() != 0) {  // under mpirun rank 0 writes; every rank its piece of a distributed frame
     cli.json_report.clear();
     if (!sim::runs_across_ranks(s)) cli.output.clear();
@@ -247,7 +252,10 @@ void register_simulate(CLI::App& app) {
   sub->add_flag("-q,--quiet", cli->quiet, "no progress lines");
   sub->add_option("--json", cli->json_report,
                   "also write every figure of the report to this JSON file (units in the key names)");
-  sub->callback([cli] { run(*cli); });
+  sub->callback([cli, sub] {
+    agree_across_ranks(*sub, {cli->scene});
+    run(*cli);
+  });
 }
 
 }  // namespace pmg::tools

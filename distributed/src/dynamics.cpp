@@ -1,8 +1,10 @@
 // Implicit Euler across MPI ranks (pmg/distributed/dynamics.hpp).
 #include "pmg/distributed/dynamics.hpp"
+#include "agreement.hpp"
 #include "pmg/sparse/threads.hpp"
 
 #include "pmg/fem/vtk_writer.hpp"
+#include "pmg/mpi/agreement.hpp"
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/sparse/timer.hpp"
@@ -16,20 +18,10 @@ namespace pmg::dist {
 
 namespace {
 
-/// Every rank learns whether any rank failed; the ranks that did not fail throw the same kind of
-/// error naming the failed rank, so that no rank waits in a collective call for one that left.
+/// Every rank learns whether any rank failed; every rank throws the lowest failed rank's error,
+/// so that no rank waits in a collective call for one that left.
 void agree_on(MPI_Comm comm, const std::string& error, const std::string& what) {
-  int rank = 0, failed = error.empty() ? -1 : 0, first = -1;
-  {
-    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-    MPI_Comm_rank(comm, &rank);
-    if (failed == 0) failed = rank;
-    int mine = failed < 0 ? INT32_MAX : failed, lowest = INT32_MAX;
-    MPI_Allreduce(&mine, &lowest, 1, MPI_INT, MPI_MIN, comm);
-    first = lowest == INT32_MAX ? -1 : lowest;
-  }
-  if (!error.empty()) throw Error(what + ": " + error);
-  if (first >= 0) throw Error(what + ": failed on rank " + std::to_string(first));
+  mpi::agree_on_error(comm, error.empty() ? error : what + ": " + error);
 }
 
 /// petsc::PMultigridCg on the rank's levels as the seam's Solver: it reads the rank's matrix-free
@@ -58,7 +50,16 @@ DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vec
                                    const fem::SimulationParams& p, DistributedMgpcgParams solver, MPI_Comm comm)
     : serial_(serial), p_(p), comm_(comm) {
   const fem::ElasticityModel& m = serial.finest();
-  fem::check_simulation(m, f_ext, p);
+  // Each rank was handed the whole model: the same on every rank, or a named error on all.
+  std::vector<mpi::Item> items = {{"dt", detail::exact(p.dt)},
+                                  {"rayleigh_alpha", detail::exact(p.rayleigh_alpha)},
+                                  {"rayleigh_beta", detail::exact(p.rayleigh_beta)},
+                                  {"the material model", p.corotational ? "corotational" : "linear"},
+                                  {"the external force", "digest " + mpi::digest(f_ext)}};
+  for (const std::vector<mpi::Item>& part : {detail::params_items(solver), detail::hierarchy_items(serial)})
+    items.insert(items.end(), part.begin(), part.end());
+  mpi::check_agreement(comm, items, "distributed time step");
+  mpi::together(comm, [&] { fem::check_simulation(m, f_ext, p); });
   if (serial.num_levels() < 2)
     throw InputError("distributed time step: needs at least two levels (an FEM scene of degree >= 2)");
   if (holds_components(serial))
@@ -108,7 +109,9 @@ bool DistributedEuler::any_rank(bool mine) const {
 
 void DistributedEuler::set_state(const Vector& u, const Vector& v) {
   const fem::ElasticityModel& m = serial_.finest();
-  fem::check_state(m, u, v);
+  mpi::check_agreement(comm_, {{"the displacement", "digest " + mpi::digest(u)}, {"the velocity", "digest " + mpi::digest(v)}},
+                       "distributed time step: set_state");
+  mpi::together(comm_, [&] { fem::check_state(m, u, v); });
   const int top = ranks_->num_levels() - 1;
   const fem::ElasticityModel& local = ranks_->local().finest();
   u_local_ = ranks_->local_part(serial_, top, u);

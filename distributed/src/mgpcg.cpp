@@ -1,8 +1,10 @@
 // petsc-mgpcg (pmg/distributed/mgpcg.hpp).
 #include "pmg/distributed/mgpcg.hpp"
+#include "agreement.hpp"
 #include "pmg/sparse/timer.hpp"
 #include "pmg/sparse/defaults.hpp"
 
+#include "pmg/mpi/agreement.hpp"
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/petsc/petsc.hpp"
@@ -35,6 +37,7 @@ petsc::PcmgParams to_pcmg(const DistributedMgpcgParams& params) {
   p.smoothing_steps = params.smoothing_steps;
   p.lowest_level = params.lowest_level;
   p.options = params.options;
+  p.allow_unused_options = params.allow_unused_options;
   return p;
 }
 
@@ -54,6 +57,16 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
   if (A.rows() != n)
     throw InputError("petsc-mgpcg: set up on an operator of " + std::to_string(A.rows()) +
                      " rows; the scene's finest level has " + std::to_string(n) + " unknowns");
+  // Every rank partitions its own copy of the model: they must be the same model and keys, else
+  // the ranks' parts do not fit together (a hang or a wrong answer).
+  std::vector<mpi::Item> items = detail::params_items(params_);
+  const std::vector<mpi::Item> model = detail::hierarchy_items(*serial_);
+  items.insert(items.end(), model.begin(), model.end());
+  mpi::check_agreement(comm_, items, "petsc-mgpcg");
+  mpi::together(comm_, [&] { set_up_ranks(); });
+}
+
+void DistributedMgpcg::set_up_ranks() {
   partition_seconds_.clear();
   auto t0 = Clock::now();
   ranks_ = std::make_unique<RankHierarchy>(*serial_, comm_);
@@ -78,15 +91,22 @@ void DistributedMgpcg::setup_impl(const LinearOperator& A) {
 }
 
 void DistributedMgpcg::update_impl() {
-  ranks_->bring_to(*serial_);
-  solver_->refresh();
+  mpi::check_agreement(comm_, detail::hierarchy_items(*serial_), "petsc-mgpcg: update");
+  mpi::together(comm_, [&] {
+    ranks_->bring_to(*serial_);
+    solver_->refresh();
+  });
 }
 
 SolveResult DistributedMgpcg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  // Every rank holds the whole b and x0: they must be the same vectors.
+  mpi::check_agreement(comm_, {{"the right-hand side", "digest " + mpi::digest(b)}, {"the starting guess", "digest " + mpi::digest(x)}},
+                       "petsc-mgpcg: solve");
   const int top = ranks_->num_levels() - 1;
   const Vector b_owned = ranks_->owned_part(top, b);
   Vector x_owned = ranks_->owned_part(top, x);
-  SolveResult res = solver_->solve(b_owned, x_owned, monitor);
+  SolveResult res;
+  mpi::together(comm_, [&] { res = solver_->solve(b_owned, x_owned, monitor); });
   x = ranks_->gather(top, x_owned);
   if (!res.ok() && params_.throw_on_failure) throw SolveError(res);
   return res;
@@ -138,7 +158,9 @@ void register_solvers() {
             comm = MPI_Comm_f2c(static_cast<MPI_Fint>(ctx.communicator));
             if (comm == MPI_COMM_NULL) c.fail("method", "petsc-mgpcg: the communicator is MPI_COMM_NULL");
           }
-          return std::make_unique<DistributedMgpcg>(*h, read_params<DistributedMgpcgParams>(c), comm);
+          DistributedMgpcgParams p = read_params<DistributedMgpcgParams>(c);
+          p.allow_unused_options = unused_options_allowed(c);
+          return std::make_unique<DistributedMgpcg>(*h, p, comm);
         });
   });
 }

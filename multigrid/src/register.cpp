@@ -158,7 +158,12 @@ SmootherKind smoother_kind(Config& sc) {
       has_preconditioner ? sc.child("preconditioner").get_string("method", "block-jacobi") : "block-jacobi";
   SmootherKind k;
   if (sc.has("method")) {
-    k.chebyshev = sc.get_string("method", "") == "chebyshev";
+    const std::string method = sc.get_string("method", "");
+    k.chebyshev = method == "chebyshev";
+    if (has_preconditioner && !k.chebyshev)
+      sc.fail("preconditioner", "the smoother " + method +
+                                    " takes no preconditioner (only chebyshev does: Chebyshev in M^-1 A); "
+                                    "remove the key or use smoother=chebyshev");
   } else {
     std::set<std::string> keys;
     for (const auto& key : list_params<ChebyshevParams>()) keys.insert(key.key);

@@ -349,6 +349,9 @@ void register_simulation(py::module_& m) {
   // ---- simulation ----
   m.def("simulate", [](const std::string& scene_json, const std::string& origin, const std::string& output_dir) {
     const sim::Scene scene = sim::parse_scene(scene_json, origin);
+    FilePlan plan;  // the output folder may hold no input of the run
+    sim::plan_files(scene, origin, output_dir, plan);
+    plan.check();
     py::dict out;
     sim::RunSummary r;
     std::string method, settings;

@@ -116,8 +116,11 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
       setup.notes.push_back(text);
     }
     settings = c.to_string();
-    sim_ = std::make_unique<dist::DistributedEuler>(*setup.hierarchy, setup.f_ext, sp,
-                                                    read_params<dist::DistributedMgpcgParams>(c));
+    c.mark_used("method");
+    dist::DistributedMgpcgParams params = read_params<dist::DistributedMgpcgParams>(c);
+    params.allow_unused_options = unused_options_allowed(c);
+    check_keys_used(c);  // as make_solver does: a key petsc-mgpcg does not read is an error
+    sim_ = std::make_unique<dist::DistributedEuler>(*setup.hierarchy, setup.f_ext, sp, params);
     sim_->set_state(u0, v0);
     // A vertex probe becomes a corner of an element holding it: the value there is the vertex's.
     const Probe& p = setup.probe;
@@ -165,6 +168,20 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
 
 }  // namespace
 }  // namespace detail
+
+bool written_by_run(const std::string& name) {
+  if (name == "steps.csv" || name == "simulation.pvd" || name == "static.vtu") return true;
+  if (name.rfind("frame_", 0) != 0) return false;
+  const size_t dot = name.rfind('.');
+  const std::string ext = dot == std::string::npos ? "" : name.substr(dot);
+  return ext == ".vtu" || ext == ".pvtu";
+}
+
+void plan_files(const Scene& scene, const std::string& scene_file, const std::string& output_dir, FilePlan& plan) {
+  plan.input(scene_file, "the scene file");
+  plan.input(scene.mesh_file, "the scene's mesh file");
+  plan.output_folder(output_dir, "the output folder", written_by_run);
+}
 
 bool runs_across_ranks(const Scene& scene) {
 #ifdef PMG_HAVE_DISTRIBUTED

@@ -143,6 +143,19 @@ std::unique_ptr<Solver> build_solver(const Config& config, const SolverContext& 
   return build(config, context);
 }
 
+void check_keys_used(const Config& config) {
+  const std::string unused = config.get_choice("unused_keys", "error", {"error", "known", "ignore"});
+  std::set<std::string> allowed;
+  if (unused != "error")
+    for (const std::string& k : config.unused_keys())
+      if (unused == "ignore" || is_known_key(k.substr(config.full_key("").size()))) allowed.insert(k);
+  config.check_all_used(allowed);
+}
+
+bool unused_options_allowed(const Config& config) {
+  return config.root().get_choice("unused_keys", "error", {"error", "known", "ignore"}) != "error";
+}
+
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context,
                                     const std::string& fallback_method) {
   // layout=component: any method on a component-major matrix (pmg/sparse/layout.hpp).
@@ -151,13 +164,9 @@ std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& c
     config.fail("layout", "multigrid levels take their layout where they are built (mg::UserLevels with "
                           "DofLayout::component, Python multigrid(layout=\"component\")); the levels "
                           "the solver reads are interleaved");
-  const std::string unused = config.get_choice("unused_keys", "error", {"error", "known", "ignore"});
+  config.get_choice("unused_keys", "error", {"error", "known", "ignore"});  // refused before the build
   auto s = build_solver(config, context, fallback_method);
-  std::set<std::string> allowed;
-  if (unused != "error")
-    for (const std::string& k : config.unused_keys())
-      if (unused == "ignore" || is_known_key(k.substr(config.full_key("").size()))) allowed.insert(k);
-  config.check_all_used(allowed);
+  check_keys_used(config);
   if (layout == "component")
     return std::make_unique<ComponentLayout>(std::move(s), method_needs_blocks(config.get_string("method", fallback_method)));
   return s;

@@ -224,4 +224,69 @@ void require_memory(double bytes, const std::string& what) {
                      gigabytes(have));
 }
 
+namespace {
+
+/// The identity of a path for FilePlan: "inode:<dev>:<ino>" for an existing regular file or folder
+/// (through links), "" for a device, FIFO or socket (never a conflict), else the normalised
+/// absolute path.
+std::string identity(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    if (!S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) return "";
+    return "inode:" + std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino);
+  }
+  std::error_code ec;
+  fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  return "path:" + (ec ? fs::absolute(path).lexically_normal().string() : p.string());
+}
+
+/// The identity of the folder holding `path` and the file's name.
+std::pair<std::string, std::string> place(const std::string& path) {
+  fs::path p(path);
+  const fs::path parent = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  return {identity(parent.string()), p.filename().string()};
+}
+
+}  // namespace
+
+void FilePlan::input(const std::string& path, const std::string& what) {
+  if (!path.empty()) files_.push_back({path, what, false});
+}
+
+void FilePlan::output(const std::string& path, const std::string& what) {
+  if (!path.empty()) files_.push_back({path, what, true});
+}
+
+void FilePlan::output_folder(const std::string& path, const std::string& what,
+                             std::function<bool(const std::string&)> writes) {
+  if (!path.empty()) folders_.push_back({path, what, std::move(writes)});
+}
+
+void FilePlan::check() const {
+  std::vector<std::string> ids;
+  for (const Entry& e : files_) ids.push_back(identity(e.path));
+  for (size_t i = 0; i < files_.size(); ++i) {
+    if (!files_[i].output || ids[i].empty()) continue;
+    for (size_t j = 0; j < files_.size(); ++j) {
+      if (j == i || ids[j] != ids[i] || (files_[j].output && j > i)) continue;
+      const Entry& o = files_[i];
+      const Entry& other = files_[j];
+      throw InputError(o.what + " '" + o.path + "' is " +
+                       (other.output ? "also the output " + other.what + " '" + other.path + "': name two different files"
+                                     : other.what + (other.path == o.path ? "" : " '" + other.path + "'") + ", an input" +
+                                           ": an output would overwrite an input; name another file"));
+    }
+  }
+  for (const Folder& f : folders_) {
+    const std::string folder = identity(f.path);
+    for (size_t j = 0; j < files_.size(); ++j) {
+      const auto [parent, name] = place(files_[j].path);
+      if (ids[j].empty() || parent != folder || !f.writes(name)) continue;
+      throw InputError(files_[j].what + " '" + files_[j].path + "' is a file " + f.what + " '" + f.path + "' writes (" +
+                       name + "): " + (files_[j].output ? "two outputs would be one file" : "an output would overwrite an input") +
+                       "; name another file or folder");
+    }
+  }
+}
+
 }  // namespace pmg

@@ -2,6 +2,7 @@
 #include "pmg/petsc/pcmg.hpp"
 
 #include "common.hpp"
+#include "pmg/mpi/agreement.hpp"
 #include "pmg/mpi/session.hpp"
 #include "vectors.hpp"
 
@@ -30,12 +31,7 @@ namespace {
 
 /// Throws on every rank of comm when `error` is not empty on any: this rank's message, or one
 /// naming another rank's failure (no rank goes on into a collective call another has left).
-void agree_or_throw(MPI_Comm comm, const std::string& error) {
-  int mine = error.empty() ? 0 : 1, any = 0;
-  MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm);
-  if (!error.empty()) throw InputError(error);
-  if (any) throw InputError("ghost exchange: refused on another rank");
-}
+void agree_or_throw(MPI_Comm comm, const std::string& error) { mpi::agree_on_error(comm, error, /*input_error=*/true); }
 
 }  // namespace
 

@@ -4,6 +4,7 @@
 
 #include "common.hpp"
 #include "vectors.hpp"
+#include "pmg/mpi/agreement.hpp"
 #include "pmg/mpi/session.hpp"
 
 #include <petscksp.h>
@@ -231,6 +232,7 @@ PMultigridCg::PMultigridCg(MPI_Comm comm, PcmgParams params) : impl_(std::make_u
     throw InputError("distributed p-multigrid: tol must lie in [0, 1)");
   if (params_.max_iterations < 1 || params_.smoothing_steps < 1)
     throw InputError("distributed p-multigrid: max_iterations and smoothing steps must be at least 1");
+  detail::option_names(params_.options);  // a malformed option string fails here, on every rank alike
   impl_->comm = comm;
   static std::atomic<long> count{0};
   impl_->prefix = "pmgmg" + std::to_string(count++) + "_";
@@ -448,6 +450,7 @@ void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::stri
   check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions");
   check(KSPMonitorSet(d.ksp, record_iteration, &d.monitor, nullptr), "KSPMonitorSet");
   check(KSPSetUp(d.ksp), "KSPSetUp");
+  detail::refuse_unused(params.options, d.prefix, params.allow_unused_options, "petsc-mgpcg");
   check(MatCreateVecs(d.ops[nl - 1], &d.x, &d.b), "MatCreateVecs");
   check(VecDuplicate(d.b, &d.r), "VecDuplicate");
 }
@@ -455,6 +458,11 @@ void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::stri
 void PMultigridCg::setup(std::vector<RankLevel> levels) {
   detail::start();
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  // A failure on one rank (its options, its levels) ends the set-up on every rank.
+  mpi::together(impl_->comm, [&] { set_up(std::move(levels)); });
+}
+
+void PMultigridCg::set_up(std::vector<RankLevel> levels) {
   const SerialBlas serial_blas;
   Impl& d = *impl_;
   d.ready = false;

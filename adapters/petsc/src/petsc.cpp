@@ -97,6 +97,48 @@ std::string prefixed(const std::string& options, const std::string& prefix) {
   return out.str();
 }
 
+std::vector<std::string> option_names(const std::string& options) {
+  std::istringstream in(options);
+  std::vector<std::string> names;
+  std::string token;
+  bool value_allowed = false;  // the previous token was an option name
+  while (in >> token) {
+    if (token.size() > 1 && token[0] == '-' && std::isalpha(static_cast<unsigned char>(token[1]))) {
+      names.push_back(token.substr(1));
+      value_allowed = true;
+    } else if (value_allowed) {
+      value_allowed = false;
+    } else {
+      throw InputError("PETSc options: '" + token + "' is " +
+                       (names.empty() ? std::string("not an option (an option starts with '-': '-") + token + "')"
+                                      : "a second value after '-" + names.back() + "' (each option takes at most one value)"));
+    }
+  }
+  return names;
+}
+
+void refuse_unused(const std::string& options, const std::string& prefix, bool allow_unused, const std::string& who) {
+  if (allow_unused) return;
+  std::string unused;
+  // Options PETSc reads only while solving (viewers, the converged reason) are not asked for.
+  const auto read_when_solving = [](const std::string& name) {
+    const auto ends = [&](const std::string& tail) {
+      return name.size() >= tail.size() && name.compare(name.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    return name.find("view") != std::string::npos || ends("converged_reason") || ends("converged_rate");
+  };
+  for (const std::string& name : option_names(options)) {
+    if (read_when_solving(name)) continue;
+    PetscBool used = PETSC_FALSE;
+    check(PetscOptionsUsed(nullptr, (prefix + name).c_str(), &used), "PetscOptionsUsed");  // stored without the dash
+    if (!used) unused += (unused.empty() ? "'-" : ", '-") + name + "'";
+  }
+  if (!unused.empty())
+    throw InputError(who + ": PETSc read none of the options " + unused +
+                     " (misspelt, or for another type of solver or preconditioner; unused_keys=known "
+                     "accepts options PETSc does not read)");
+}
+
 }  // namespace pmg::petsc::detail
 
 namespace pmg::petsc {
@@ -132,6 +174,7 @@ PetscPreconditioner::PetscPreconditioner(const PetscParams& params)
     : impl_(std::make_unique<Impl>()), params_(params) {
   if (params.type != "gamg" && params.type != "mumps" && params.type != "cholmod")
     throw InputError("PETSc: unknown preconditioner type '" + params.type + "' (gamg, mumps, cholmod)");
+  detail::option_names(params.options);  // refuses a malformed option string
   static std::atomic<long> count{0};
   impl_->prefix = "pmg" + std::to_string(count++) + "_";
   // GAMG: CG-estimated Chebyshev/Jacobi smoothing, as FEniCSx's elasticity demo sets it.
@@ -192,6 +235,7 @@ void PetscPreconditioner::setup_impl(const LinearOperator& A) {
         ("the options '" + params_.options + "'").c_str());
   check(PCSetFromOptions(d.pc), "PCSetFromOptions");
   check(PCSetUp(d.pc), "PCSetUp");
+  detail::refuse_unused(params_.options, d.prefix, params_.allow_unused_options, "PETSc " + params_.type);
   PCFailedReason reason;
   PCGetFailedReason(d.pc, &reason);
   if (reason != PC_NOERROR)

@@ -26,6 +26,7 @@ std::unique_ptr<PetscPreconditioner> make(const Config& c, const SolverContext& 
   PetscParams p;
   p.type = type;
   p = read_params(c, p);
+  p.allow_unused_options = unused_options_allowed(c);
   if (p.near_null_space == "rigid" && !ctx.coordinates)
     c.fail("near_null_space", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
                               "them; a matrix read from a file does not (auto: rigid where known)");

@@ -32,6 +32,8 @@ struct DistributedMgpcgParams {
   int smoothing_steps = 3;            ///< Chebyshev steps per pre- and post-smoothing
   std::string lowest_level = "auto";  ///< auto, mumps, gamg or hypre (pmg::petsc::PcmgParams)
   std::string options;                ///< further PETSc options, under the solver's prefix
+  /// Accept PETSc options nobody reads (not a key: the factory sets it from unused_keys).
+  bool allow_unused_options = false;
   /// The keys tol, max_iterations, rhs_floor, throw_on_failure, smoothing_steps, lowest_level,
   /// options.
   void visit(ParamVisitor& v);
@@ -44,6 +46,10 @@ petsc::PcmgParams to_pcmg(const DistributedMgpcgParams& params);
 class DistributedMgpcg final : public Solver {
  public:
   /// Over the ranks of comm; `serial` (the scene's hierarchy, on every rank) must outlive it.
+  /// setup(), update() and solve() are collective and check first that every rank holds the same
+  /// keys, model (mesh, material, fixed nodes), right-hand side and start (pmg::mpi::check_agreement:
+  /// an InputError on every rank names the first difference); a failure on any rank is thrown on
+  /// every rank (pmg::mpi::together).
   DistributedMgpcg(const fem::DegreeHierarchy& serial, DistributedMgpcgParams params = {},
                    MPI_Comm comm = MPI_COMM_WORLD);
   ~DistributedMgpcg() override;
@@ -67,6 +73,7 @@ class DistributedMgpcg final : public Solver {
   void update_impl() override;
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
   void apply_impl(const Vector& b, Vector& x) const override;
+  void set_up_ranks();
 
   const fem::DegreeHierarchy* serial_;
   DistributedMgpcgParams params_;

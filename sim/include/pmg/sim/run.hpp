@@ -13,6 +13,7 @@
 #include "pmg/fem/simulation.hpp"
 #include "pmg/fem/static_solve.hpp"
 #include "pmg/sim/setup.hpp"
+#include "pmg/sparse/file_io.hpp"
 
 #include <array>
 #include <csignal>
@@ -33,6 +34,13 @@ class Stepper;
 /// writes its own piece of each frame, rank 0 the rest. Otherwise every rank that runs the scene
 /// runs all of it, and only one should be given an output directory.
 bool runs_across_ranks(const Scene& scene);
+
+/// Adds a scene's files to a run's plan (pmg::FilePlan): the scene file `scene_file` (empty or not
+/// a file: none) and the scene's mesh as inputs, `output_dir` (may be empty) as the folder of steps.csv, simulation.pvd, static.vtu and the
+/// frames (frame_NNNNNN.vtu, .pvtu and its per-rank pieces).
+void plan_files(const Scene& scene, const std::string& scene_file, const std::string& output_dir, FilePlan& plan);
+/// Whether a file named `name` in a scene's output folder is one a run writes.
+bool written_by_run(const std::string& name);
 
 /// One row of steps.csv: the state after a step (step 0: the initial state).
 struct StepRecord {

@@ -50,6 +50,9 @@ class Config {
 
   /// The subtree under `key.`, sharing this tree's values and its record of used keys.
   Config child(const std::string& key) const;
+  /// The whole tree (the view without a prefix), sharing values and record: the keys that belong
+  /// to the solver tree as a whole (unused_keys) read from any view.
+  Config root() const { return Config(tree_, ""); }
   /// Full dotted name of a key of this view ("preconditioner.smoother.sweeps").
   std::string full_key(const std::string& key) const;
 

@@ -62,6 +62,14 @@ struct SolverContext {
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context = {},
                                     const std::string& fallback_method = kDefaultMethod);
 
+/// make_solver's check after its build, for a caller that reads a method's parameters itself
+/// (read_params): throws InputError naming every key of `config` nobody read, as `unused_keys`
+/// (read here) allows.
+void check_keys_used(const Config& config);
+/// Whether the tree's `unused_keys` (error, the default | known | ignore) accepts options that a
+/// library behind a method does not read (PETSc's options left unused).
+bool unused_options_allowed(const Config& config);
+
 /// The keys make_solver reads for every method (layout, unused_keys), as SolverInfo lists keys.
 std::vector<KeyInfo> factory_keys();
 

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
+#include <vector>
 
 namespace pmg {
 
@@ -24,6 +26,35 @@ void check_output_file(const std::string& path, const std::string& what);
 /// Creates the folder `path` (and its parents) if needed and checks that it is a writable folder,
 /// not a file. `what` names the option. Throws InputError.
 void prepare_output_directory(const std::string& path, const std::string& what);
+
+/// The files one run reads and writes, checked together before any work, so that no output
+/// destroys an input or another output: two paths are the same file when they name the same
+/// inode (links and relative paths resolved) or, where a file does not exist yet, the same
+/// normalised absolute path. Devices, FIFOs and sockets (/dev/null) are never a conflict.
+class FilePlan {
+ public:
+  /// A file the run reads; `what` names it in messages ("the scene file", "--matrix").
+  void input(const std::string& path, const std::string& what);
+  /// A file the run writes ("--json").
+  void output(const std::string& path, const std::string& what);
+  /// A folder the run writes into: `writes(name)` says whether a file of that name there is one
+  /// the run writes (steps.csv, frame_000010.vtu), which then may be no input or other output.
+  void output_folder(const std::string& path, const std::string& what, std::function<bool(const std::string&)> writes);
+  /// Throws InputError naming the first conflict ("--json 's.json' is the scene file: ...").
+  void check() const;
+
+ private:
+  struct Entry {
+    std::string path, what;
+    bool output = false;
+  };
+  struct Folder {
+    std::string path, what;
+    std::function<bool(const std::string&)> writes;
+  };
+  std::vector<Entry> files_;
+  std::vector<Folder> folders_;
+};
 
 /// The whole of a small text file (a scene, a solver configuration): at most max_bytes bytes, read
 /// without trusting the file's size (a device or a pipe is read up to max_bytes + 1 and refused

@@ -81,6 +81,8 @@ struct PcmgParams {
   long amg_threshold = kAmgLowestLevelUnknowns;
   /// Further PETSc options, under this solver's prefix, applied after the defaults.
   std::string options;
+  /// Accept options PETSc does not read (else setup() throws InputError naming them).
+  bool allow_unused_options = false;
 };
 
 /// The ghost exchange of one level's numbering (see the file comment): owned unknowns in global
@@ -122,7 +124,8 @@ class PMultigridCg {
   PMultigridCg& operator=(const PMultigridCg&) = delete;
 
   /// Builds the shell operators, the lowest-level matrix, the transfers and the KSP; levels[0] is
-  /// the lowest. Collective. Throws Error with PETSc's message when PETSc fails.
+  /// the lowest. Collective. Throws Error with PETSc's message when PETSc fails; a failure on any
+  /// rank is thrown on every rank (pmg::mpi::together), PETSc options left unused included.
   void setup(std::vector<RankLevel> levels);
   /// New values of the same operators (a time step's rotations and weights): the diagonals and the
   /// lowest-level matrix re-read, the smoothers' bounds and the lowest-level solver renewed.
@@ -149,6 +152,7 @@ class PMultigridCg {
   const PcmgParams& params() const { return params_; }
 
  private:
+  void set_up(std::vector<RankLevel> levels);
   struct Impl;
   std::unique_ptr<Impl> impl_;
   PcmgParams params_;

@@ -37,6 +37,9 @@ struct PetscParams {
   /// Further PETSc options ("-name value ..."; "-pc_" and "-mg_" options of the PC), applied
   /// after the defaults, so they override them.
   std::string options;
+  /// Accept options PETSc does not read (else setup() throws InputError naming them); the
+  /// factory sets it from unused_keys (known or ignore).
+  bool allow_unused_options = false;
   /// mumps and cholmod: how solve() checks (and refines) its answer.
   DirectSolveParams check;
   /// The keys near_null_space (gamg), options, and the check's (mumps, cholmod).
