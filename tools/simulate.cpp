@@ -123,6 +123,7 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
               << fmt("%.3e", E0 != 0 ? (r.energy_peak - E0) / std::abs(E0) : 0.0) << " above the start, largest one-step rise "
               << fmt("%.2e", r.energy_max_rise) << " J\n";
   for (const auto& note : b.notes) std::cout << "note:    " << note << "\n";
+  for (const auto& w : r.warnings) std::cerr << "warning: " << w << "\n";
   if (!r.outputs.empty()) {
     std::cout << "output:  " << r.outputs[0];
     if (r.outputs.size() > 1) std::cout << ", " << r.outputs[1] << " (" << r.frames << " frames)";
@@ -148,6 +149,7 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
     report["energy"] = {{"initial_J", E0}, {"final_J", E1}, {"peak_J", r.energy_peak}, {"largest_step_rise_J", r.energy_max_rise}};
   if (!r.outputs.empty()) report["outputs"] = r.outputs;
   report["notes"] = b.notes;
+  report["warnings"] = r.warnings;
   if (r.interrupted) {
     progress.interrupt();
     const std::string where = cli.output.empty() ? "nothing was written (no output folder)"

@@ -252,7 +252,7 @@ SolveResult Mcg::solve(const DeviceVector& b, DeviceVector& x, const KrylovParam
     return w.red.read();
   };
   Scalars s0 = restart();
-  if (!track.start(std::sqrt(s0.init_rr))) return track.finish(std::sqrt(s0.init_rr));
+  if (!track.start(std::sqrt(s0.init_rr), std::sqrt(dot_with(w.red, b, b)))) return track.finish(std::sqrt(s0.init_rr));
   if (!track.check_positive(s0.init_rz, "r^T M^{-1} r", 0)) return track.finish(std::sqrt(s0.init_rr));
 
   const int k = params.check_every;
@@ -306,7 +306,7 @@ SolveResult multigrid_solve(const VCycle& C, const DeviceVector& b, DeviceVector
   DeviceVector r(b.size());
   C.residual(b, x, r);
   double norm = std::sqrt(dot_with(red, r, r));
-  if (!track.start(norm)) return track.finish(norm);
+  if (!track.start(norm, std::sqrt(dot_with(red, b, b)))) return track.finish(norm);
   for (int it = 1; !track.done(); ++it) {
     C.cycle(b, x);
     C.residual(b, x, r);
@@ -332,7 +332,7 @@ SolveResult mgpcg_solve(const VCycle& C, const DeviceVector& b, DeviceVector& x,
   DeviceVector r(n), z(n), p(n), q(n);
   auto norm2 = [&](const DeviceVector& v) { return std::sqrt(dot_with(red, v, v)); };
   C.residual(b, x, r);
-  if (!track.start(norm2(r))) return track.finish(norm2(r));
+  if (!track.start(norm2(r), norm2(b))) return track.finish(norm2(r));
   double rho = 0.0;
   auto restart = [&](int it) {
     C.apply(r, z);

@@ -65,7 +65,7 @@ SolveResult LibraryPcg::solve(const DeviceVector& b, DeviceVector& x, const Kryl
   pmg::detail::ConvergenceTracker track("GPU library PCG", params, monitor);
   residual();
   double rr = dot(r_, r_);
-  if (!track.start(std::sqrt(rr))) return track.finish(std::sqrt(rr));
+  if (!track.start(std::sqrt(rr), std::sqrt(dot(b, b)))) return track.finish(std::sqrt(rr));
   double rho = 0.0;
   auto restart = [&](int it) {
     Dinv_.multiply(r_, z_);

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <cstdio>
 #include <limits>
 
 namespace pmg::mg {
@@ -228,6 +229,10 @@ void MultigridCycle::prepare_single(bool setup) {
         if (params_.single_where_possible) return;  // precision=auto: these levels stay in double
         throw InputError("multigrid: precision=single: " + why);
       }
+    if (const std::string why = float_range_obstacle(); !why.empty()) {
+      if (params_.single_where_possible) return;  // precision=auto: double, where float's range is the cause
+      throw InputError("multigrid: precision=single: " + why + "; use precision=double (or auto)");
+    }
     single_.assign(L, SingleLevel{});
     for (int l = 1; l < L; ++l) {
       SingleLevel& s = single_[l];
@@ -245,6 +250,34 @@ void MultigridCycle::prepare_single(bool setup) {
   for (int l = 1; l < L; ++l) refresh_single(l);
 }
 
+std::string MultigridCycle::float_range_obstacle() const {
+  // The cycle in float scales each residual to a largest entry of 1 (apply_impl), so what must fit
+  // float is the operators' scale, read off their inverse diagonal blocks: entries beyond
+  // [1e-30, 1e30] (float's normal range is about [1.2e-38, 3.4e38]) would overflow or flush the
+  // products to zero (a Young's modulus of 1e45 Pa, or of 1e-40).
+  constexpr double kLow = 1e-30, kHigh = 1e30;
+  for (int l = 1; l < num_levels(); ++l) {
+    const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
+    if (!chebyshev) continue;
+    double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
+    for (double v : chebyshev->inverse_diagonal()) {
+      const double a = std::abs(v);
+      if (a == 0.0) continue;
+      largest = std::max(largest, a);
+      smallest = std::min(smallest, a);
+    }
+    if (largest > kHigh || smallest < kLow) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "%s's inverse diagonal blocks reach %.3g, beyond what float holds with margin ([1e-30, 1e30]): "
+                    "the operator's scale (its Young's modulus) is outside float's range",
+                    levels_.level_name(l).c_str(), largest > kHigh ? largest : smallest);
+      return text;
+    }
+  }
+  return "";
+}
+
 void MultigridCycle::refresh_single(int l) {
   const std::vector<double>& d = single_[l].smoother->inverse_diagonal();
   single_[l].inv_diag.assign(d.begin(), d.end());
@@ -258,11 +291,15 @@ void MultigridCycle::refresh_galerkin() {
 void MultigridCycle::update_impl() {
   setup_timings_ = TimingBreakdown{{}, 1, "update"};
   if (params_.coarse_operator == CoarseOperator::galerkin) timed_stage("Galerkin products", [&] { refresh_galerkin(); });
-  for (int l = num_levels() - 1; l >= 1; --l)
-    timed_stage("smoother " + levels_.level_name(l), [&] {
-      smoothers_[l - 1]->update();
-      if (!single_.empty()) refresh_single(l);  // the float D⁻¹ with the smoother's own
-    });
+  for (int l = num_levels() - 1; l >= 1; --l) timed_stage("smoother " + levels_.level_name(l), [&] { smoothers_[l - 1]->update(); });
+  if (!single_.empty()) {
+    if (const std::string why = float_range_obstacle(); !why.empty()) {  // new values beyond float's range
+      if (!params_.single_where_possible)
+        throw InputError("multigrid: precision=single: " + why + "; use precision=double (or auto)");
+      single_.clear();  // precision=auto: the cycle in double from now on
+    }
+    for (int l = 1; l < static_cast<int>(single_.size()); ++l) refresh_single(l);  // the float D⁻¹ with the smoother's own
+  }
   timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
 }
 
@@ -441,7 +478,7 @@ SolveResult MultigridCycle::solve_impl(const Vector& b, Vector& x, SolveMonitor*
   detail::ConvergenceTracker track("PMG", with_rhs_floor(params_.iteration, b), monitor);
   Vector& r = solve_r_;
   A.residual(b, x, r);
-  if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
+  if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
   Vector correction;
   for (int it = 1; !track.done(); ++it) {
     if (!single_.empty()) {

@@ -53,6 +53,7 @@ def _csr_arrays(A, name="matrix", canonical=True):
         raise InputError(f"{name}: expected a scipy.sparse matrix, got {type(A).__name__}")
     if A.format != "csr":
         A = A.tocsr()
+    _check_indptr(A, name)
     if A.dtype != np.float64:
         if np.iscomplexobj(A.data):
             raise InputError(f"{name}: complex values are not supported")
@@ -63,6 +64,35 @@ def _csr_arrays(A, name="matrix", canonical=True):
     return (A.indptr, A.indices, A.data, A.shape)
 
 
+def _check_indptr(A, name):
+    """A CSR matrix's row pointers must start at 0, never decrease and end at the entries held:
+    SciPy's own routines (has_canonical_format, sum_duplicates) fail on them with a C++ error."""
+    indptr = np.asarray(A.indptr)
+    if indptr.ndim != 1 or indptr.size != A.shape[0] + 1:
+        raise InputError(f"{name}: indptr has {indptr.size} entries, expected rows + 1 = {A.shape[0] + 1}")
+    if indptr.size and indptr[0] != 0:
+        raise InputError(f"{name}: indptr[0] is {int(indptr[0])}, expected 0")
+    drops = np.flatnonzero(np.diff(indptr) < 0)
+    if drops.size:
+        raise InputError(f"{name}: indptr decreases at row {int(drops[0])} "
+                         f"({int(indptr[drops[0]])} then {int(indptr[drops[0] + 1])}): not a valid CSR matrix")
+    if indptr.size and (indptr[-1] > len(A.indices) or indptr[-1] > len(A.data)):
+        raise InputError(f"{name}: indptr ends at {int(indptr[-1])}, beyond the {min(len(A.indices), len(A.data))} "
+                         "entries held")
+
+
+def _real_vector(v, name):
+    """A right-hand side, guess or vector as float64; complex values are refused (not cast away),
+    an (n, 1) column is taken as a vector."""
+    a = np.asarray(v)
+    if np.iscomplexobj(a):
+        raise InputError(f"{name}: complex values are not supported (pmgkit solves real systems; "
+                         "solve the real and imaginary parts separately)")
+    if a.ndim == 2 and a.shape[1] == 1:
+        a = a[:, 0]
+    return np.asarray(a, dtype=np.float64)
+
+
 def _to_scipy_bsr(arrays):
     indptr, indices, data, shape = arrays
     return _scipy_sparse().bsr_matrix((data, indices, indptr), shape=tuple(shape), copy=False)
@@ -71,6 +101,9 @@ def _to_scipy_bsr(arrays):
 def _to_scipy_csr(arrays):
     indptr, indices, data, shape = arrays
     return _scipy_sparse().csr_matrix((data, indices, indptr), shape=tuple(shape), copy=False)
+
+
+_MAX_CONFIG_DEPTH = 32  # a solver tree deeper than this is a mistake (the deepest real one: 4)
 
 
 def _config_text(config, default_method):
@@ -85,6 +118,16 @@ def _config_text(config, default_method):
         raise InputError("config: expected a dict or a JSON object string")
     config = dict(config)
     config.setdefault("method", default_method)
+    # Depth first, without recursion: a config nested thousands deep is refused by name, not
+    # with Python's RecursionError.
+    stack = [(config, "", 1)]
+    while stack:
+        value, path, depth = stack.pop()
+        if depth > _MAX_CONFIG_DEPTH:
+            raise InputError(f"config: {path or 'the config'}: nested deeper than {_MAX_CONFIG_DEPTH} levels")
+        if isinstance(value, dict):
+            for k, v in value.items():
+                stack.append((v, f"{path}.{k}" if path else str(k), depth + 1))
 
     def non_finite(value, path):
         if isinstance(value, float) and not np.isfinite(value):
@@ -108,9 +151,12 @@ class Solver:
     """A solver from pmgkit's factory, set up on its matrix (or multigrid levels).
 
     solve(b, x0=None, tol=None, out=None) -> (x, info): info holds status, iterations, residual
-        (true ||b - A x|| / ||b||), rel_residual (relative to the initial residual), history
+        (true ||b - A x|| / ||b||), rel_residual (the solver's own, also relative to ||b||), history
         (relative residual per iteration), history_seconds, setup_seconds, solve_seconds, method.
-        A tol other than the config's rebuilds the solver with it (a new set-up). b and x0 are
+        tol, as in SciPy and PETSc, is relative to ||b||: a start x0 that meets it returns at once.
+        A tol other than the config's holds for that call only (the solver is set up with it for
+        the call, and again with the config's at the next call without it). Complex b or x0 are
+        refused. b and x0 are
         read in place when they are contiguous float64 (any buffer NumPy can view); out, a
         contiguous writeable float64 array of the system's size, receives the solution in place
         and is returned as x (with user levels: one gather of b, one scatter into out).
@@ -132,12 +178,23 @@ class Solver:
     def solve(self, b, x0=None, tol=None, out=None):
         if out is not None and not isinstance(out, np.ndarray):
             raise InputError("out: expected a NumPy array (it is written in place), got %s" % type(out).__name__)
-        return self._core.solve(np.asarray(b, dtype=np.float64), None if x0 is None else
-                                np.asarray(x0, dtype=np.float64), tol, out)
+        self._check_comm()
+        return self._core.solve(_real_vector(b, "b"), None if x0 is None else _real_vector(x0, "x0"), tol, out)
 
     def __call__(self, b):
         """x = M b (the solver applied once from x = 0)."""
-        return self._core.apply(np.asarray(b, dtype=np.float64))
+        self._check_comm()
+        return self._core.apply(_real_vector(b, "b"))
+
+    def _check_comm(self):
+        """A solver across ranks must not outlive its mpi4py communicator: a freed one (Free()
+        sets it to MPI.COMM_NULL) is refused here, before MPI would read freed memory."""
+        comm = self._keep[1] if len(self._keep) > 1 else None
+        if comm is not None and hasattr(comm, "py2f"):
+            from mpi4py import MPI
+            if comm == MPI.COMM_NULL:
+                raise InputError("comm: the communicator this solver runs on was freed (Free()); "
+                                 "build a new solver on a live communicator")
 
     def update(self, A):
         if isinstance(A, (list, tuple)):
@@ -147,8 +204,18 @@ class Solver:
             self._core.update(_csr_arrays(A))
 
     def aspreconditioner(self):
+        """M as a scipy.sparse.linalg.LinearOperator: M @ x for a vector (n,) or (n, 1), and
+        M @ X for a block (n, k), one application per column (SciPy's contract)."""
         from scipy.sparse.linalg import LinearOperator
-        return LinearOperator(self.shape, matvec=self._core.apply, dtype=np.float64)
+
+        def matmat(X):
+            X = np.asarray(X)
+            if np.iscomplexobj(X):
+                raise InputError("x: complex values are not supported")
+            return np.column_stack([self(X[:, j]) for j in range(X.shape[1])]) if X.shape[1] else \
+                np.zeros((self.shape[0], 0))
+
+        return LinearOperator(self.shape, matvec=self, matmat=matmat, dtype=np.float64)
 
     @property
     def name(self):

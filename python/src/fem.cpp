@@ -376,6 +376,7 @@ void register_simulation(py::module_& m) {
     out["notes"] = notes;
     out["failed_step"] = r.failed_step;
     out["failure"] = r.failure;
+    out["warnings"] = r.warnings;
     return out;
   }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "");
 }

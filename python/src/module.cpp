@@ -283,13 +283,19 @@ class PySolver {
       std::lock_guard<std::mutex> lock(mutex_);  // after the GIL is released: no lock-order cycle
       check_usable("solve");
       const auto shared = lock_hierarchy();
-      if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) {
-        char text[32];
-        std::snprintf(text, sizeof text, "%.17g", *tol);
-        Config with_tol = config_.clone();
-        with_tol.set("tol", text);  // a new stopping rule: a new solver, kept only if it sets up
-        build_locked(with_tol);
-        config_ = std::move(with_tol);
+      // A tol for this call only (SciPy's contract): a solver with it, set up for this call; the
+      // next call without tol goes back to the config's (one more set-up each way).
+      std::optional<double> wanted;
+      if (tol && (!config_.has("tol") || config_.get_double("tol", 0, 0, 1) != *tol)) wanted = tol;
+      if (wanted != built_tol_) {
+        Config c = config_.clone();
+        if (wanted) {
+          char text[32];
+          std::snprintf(text, sizeof text, "%.17g", *wanted);
+          c.set("tol", text);  // a new stopping rule: a new solver, kept only if it sets up
+        }
+        build_locked(c);
+        built_tol_ = wanted;
       }
       Vector b(x.size());
       if (levels_) levels_->reduce(b_full, b);
@@ -463,6 +469,7 @@ class PySolver {
   }
 
   Config config_;
+  std::optional<double> built_tol_;  // the per-call tol solver_ was built with (none: the config's)
   std::string method_;
   fem::DegreeHierarchy* hierarchy_ = nullptr;
   std::shared_ptr<std::mutex> hierarchy_lock_;

@@ -264,6 +264,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   double kin = 0, el = 0;
   energies(kin, el, r.energy_initial);
   double E_prev = r.energy_initial;
+  double energy_scale = std::abs(r.energy_initial);
   r.energy_peak = r.energy_initial;
   const fem::Vec3 d0 = sim.probe();
   r.probe_z_min = r.probe_z_max = d0.z();
@@ -311,7 +312,8 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
     r.probe_z_min = std::min(r.probe_z_min, d.z()), r.probe_z_max = std::max(r.probe_z_max, d.z());
     last_probe = d;
     if (scene_.energy) {
-      r.energy_max_rise = std::max(r.energy_max_rise, tot - E_prev);
+      if (tot - E_prev > r.energy_max_rise) r.energy_max_rise = tot - E_prev, r.energy_rise_step = n;
+      energy_scale = std::max(energy_scale, std::abs(kin) + std::abs(el));
       r.energy_peak = std::max(r.energy_peak, tot);
       E_prev = tot;
     }
@@ -328,6 +330,19 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   if (!output_.empty()) write_outputs(false);
   r.steps_done = rejected ? sim.steps() - 1 : sim.steps();
   r.energy_final = E_prev;
+  if (scene_.energy && r.energy_max_rise > kEnergyRiseTolerance * energy_scale) {
+    char text[640];
+    std::snprintf(text, sizeof text,
+                  "the total energy rose by %.3g J in step %d (%.2g%% of the energies' scale %.4g J); implicit "
+                  "Euler%s dissipates energy: the time step does not resolve the motion for this material%s, or "
+                  "the steps' solves are too inexact (solver tol)",
+                  r.energy_max_rise, r.energy_rise_step, 100 * r.energy_max_rise / energy_scale, energy_scale,
+                  scene_.rayleigh_alpha > 0 || scene_.rayleigh_beta > 0 ? " with damping" : "",
+                  scene_.poisson > 0.49 ? " (nearly incompressible: the displacement-only elements lock and each "
+                                          "step's corotational linearisation is least accurate there)"
+                                        : "");
+    r.warnings.emplace_back(text);
+  }
   r.probe = rejected ? last_probe : sim.probe();
   r.frames = static_cast<int>(pvd.size());
   if (run_files) {

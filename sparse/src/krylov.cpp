@@ -43,7 +43,7 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
   Vector &r = w.r, &q = w.q, &p = w.p;
   Vector& z = M ? w.z : r;
   A.residual(b, x, r);
-  if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
+  if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
 
   // (Re)starts the search direction from the current residual; returns false on breakdown.
   double rho = 0.0;
@@ -83,7 +83,7 @@ SolveResult pcg(const LinearOperator& A, const LinearOperator* M, const Vector& 
 
 void visit_stopping_keys(ParamVisitor& v, double& tol, double& rhs_floor, int& max_iterations,
                          bool& throw_on_failure) {
-  v.real("tol", tol, 0.0, 1.0, "relative residual ||r|| / ||r0|| to reach (< 1)");
+  v.real("tol", tol, 0.0, 1.0, "relative residual ||b - A x|| / ||b|| to reach (< 1; ||r0|| is the reference where b = 0)");
   if (v.reading() && !(tol < 1.0)) v.fail("tol", "must be < 1");
   v.real("rhs_floor", rhs_floor, 0.0, 1.0,
          "also converged when ||r|| <= rhs_floor ||b||: the rounding floor of warm-started solves");

@@ -61,7 +61,7 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
   w.r.resize(n), w.z.resize(n), w.p.resize(n), w.q.resize(n);
   Vector &r = w.r, &z = w.z, &s = w.p, &q = w.q;
   A.residual(b, x, r);
-  if (!track.start(ops::norm2(r))) return track.finish(ops::norm2(r));
+  if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
 
   double rho = 0.0;
   auto restart = [&](int it) {

@@ -1,11 +1,14 @@
 #include "pmg/sparse/solver.hpp"
 
+#include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/bin_bcsr.hpp"
+#include "pmg/sparse/csr.hpp"
 #include "pmg/sparse/params.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 #include "pmg/sparse/timer.hpp"
 #include "pmg/sparse/threads.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -65,6 +68,58 @@ const LinearOperator& Solver::system() const {
   return *A_;
 }
 
+namespace {
+
+/// ||A||_inf from the entries where the operator has them (CSR, BCSR); else the lower bound
+/// ||A x||_inf / ||x||_inf of the answer x (which only makes the backward error larger).
+double infinity_norm(const LinearOperator& A, const Vector& x) {
+  double norm = 0.0;
+  if (const Csr* S = A.csr_matrix()) {
+    const auto& rp = S->pattern().row_ptr;
+    for (index_t i = 0; i < S->rows(); ++i) {
+      double sum = 0.0;
+      for (auto k = rp[i]; k < rp[i + 1]; ++k) sum += std::abs(S->values()[k]);
+      norm = std::max(norm, sum);
+    }
+    return norm;
+  }
+  if (const Bcsr* B = A.bcsr_matrix()) {  // symmetric or not: rows of 3 x 3 blocks, row-major
+    const auto& rp = B->pattern().row_ptr;
+    for (index_t I = 0; I < B->pattern().rows; ++I)
+      for (int r = 0; r < 3; ++r) {
+        double sum = 0.0;
+        for (auto k = rp[I]; k < rp[I + 1]; ++k)
+          for (int c = 0; c < 3; ++c) sum += std::abs(B->values()[9 * k + 3 * r + c]);
+        norm = std::max(norm, sum);
+      }
+    return norm;
+  }
+  const double xn = x.lpNorm<Eigen::Infinity>();
+  if (!(xn > 0)) return 0.0;
+  Vector y(x.size());
+  A.apply(x, y);
+  return y.lpNorm<Eigen::Infinity>() / xn;
+}
+
+}  // namespace
+
+DirectVerdict judge_direct_answer(const LinearOperator& A, const Vector& b, const Vector& x, const Vector& r,
+                                  double tol) {
+  DirectVerdict v;
+  const double bn = ops::norm2(b);
+  v.rel_residual = bn > 0 ? ops::norm2(r) / bn : 0.0;
+  if (v.rel_residual <= tol) {
+    v.ok = true;
+    return v;
+  }
+  const double a = infinity_norm(A, x);
+  const double xi = x.lpNorm<Eigen::Infinity>(), bi = b.lpNorm<Eigen::Infinity>();
+  v.backward_error = r.lpNorm<Eigen::Infinity>() / (a * xi + bi);
+  v.growth = bi > 0 ? a * xi / bi : 0.0;
+  v.ok = std::isfinite(v.backward_error) && v.backward_error <= kDirectBackwardError && v.growth <= kDirectGrowth;
+  return v;
+}
+
 SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   std::lock_guard<std::recursive_mutex> lock(lock_);
   const LinearOperator& A = system();
@@ -78,6 +133,25 @@ SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) con
   if (!ops::all_finite(b)) throw InputError(name() + ": right-hand side has NaN/Inf");
   if (!ops::all_finite(x)) throw InputError(name() + ": initial guess has NaN/Inf");
   const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
+  // Scale invariance over double's range: a right-hand side far from 1 is solved as b / s, s a power
+  // of two near ||b|| (exact, barring subnormal entries), so that products such as r^T M^-1 r
+  // neither underflow nor overflow; the answer is scaled back.
+  const double bn = ops::norm2(b);
+  if (bn > 0 && (bn < kScaleBelow || bn > kScaleAbove)) {
+    const double s = std::ldexp(1.0, std::ilogb(bn));
+    const Vector bs = b / s;
+    Vector xs = x / s;
+    SolveResult res;
+    try {
+      res = solve_impl(bs, xs, monitor);
+    } catch (const SolveError&) {
+      x = xs * s;
+      throw;
+    }
+    x = xs * s;
+    res.initial_residual *= s;
+    return res;
+  }
   return solve_impl(b, x, monitor);
 }
 
@@ -112,12 +186,15 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
     if (monitor) monitor->record(k + 1, next);
     if (k > 0 && !(next < rel)) {
       x = kept;  // a refinement step that did not help is undone (a NaN one included)
+      A.residual(b, x, r);
       break;
     }
     rel = next;
     res.iterations = k + 1;
     if (!std::isfinite(rel) || !check || rel <= check->tol) break;
   }
+  DirectVerdict verdict;
+  if (check && std::isfinite(rel)) verdict = judge_direct_answer(A, b, x, r, check->tol);
   res.rel_residual = res.true_rel_residual = rel;
   res.seconds = seconds_since(t0);
   if (!std::isfinite(rel) || !ops::all_finite(x)) {
@@ -131,16 +208,18 @@ SolveResult Solver::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor
     res.status = SolveStatus::completed;  // one correction, no tolerance asked
     return res;
   }
-  if (rel <= check->tol) {
+  if (verdict.ok) {
     res.status = SolveStatus::converged;
     return res;
   }
-  char text[320];
+  char text[480];
   std::snprintf(text, sizeof text,
                 "%s: the true relative residual ||b - A x|| / ||b|| = %.3g is above the tolerance "
-                "%.3g after the solve and %d refinement step%s: the matrix is singular (are the "
-                "boundary conditions missing?) or too ill-conditioned for a direct solve",
-                name().c_str(), rel, check->tol, res.iterations - 1, res.iterations == 2 ? "" : "s");
+                "%.3g after the solve and %d refinement step%s, and the answer is no rounding-level "
+                "solution either (backward error %.3g, growth ||A|| ||x|| / ||b|| = %.3g): the matrix "
+                "is singular (are the boundary conditions missing?) or too ill-conditioned for a direct solve",
+                name().c_str(), rel, check->tol, res.iterations - 1, res.iterations == 2 ? "" : "s",
+                verdict.backward_error, verdict.growth);
   res.status = SolveStatus::stagnated;
   res.message = text;
   if (check->throw_on_failure) throw SolveError(res);

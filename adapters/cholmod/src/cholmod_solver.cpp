@@ -3,6 +3,7 @@
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/timer.hpp"
 
+#include <algorithm>
 #include <cholmod.h>
 #include <dlfcn.h>
 #include <omp.h>
@@ -184,8 +185,51 @@ CholmodSolver::CholmodSolver(const std::string& ordering, int blas_threads, int 
 }
 CholmodSolver::~CholmodSolver() = default;
 
+namespace {
+
+/// CHOLMOD's status code in words.
+std::string status_text(int status) {
+  switch (status) {
+    case CHOLMOD_OK: return "status 0, ok";
+    case CHOLMOD_NOT_INSTALLED: return "status -1: a CHOLMOD module is not installed";
+    case CHOLMOD_OUT_OF_MEMORY: return "status -2: out of memory";
+    case CHOLMOD_TOO_LARGE: return "status -3: the problem is too large for CHOLMOD's integers";
+    case CHOLMOD_INVALID: return "status -4: CHOLMOD found its input invalid";
+    case CHOLMOD_NOT_POSDEF: return "status 1: the matrix is not positive definite";
+    case CHOLMOD_DSMALL: return "status 2: a diagonal entry of the factor is tiny (nearly singular)";
+    default: return "status " + std::to_string(status);
+  }
+}
+
+/// A symmetric positive definite matrix has a positive diagonal: a zero, negative or missing
+/// diagonal entry is named before CHOLMOD sees the matrix (an all-zero matrix included).
+void check_positive_diagonal(const Csr& A) {
+  const auto& rp = A.pattern().row_ptr;
+  const auto& ci = A.pattern().col_idx;
+  for (index_t i = 0; i < A.rows(); ++i) {
+    double d = 0.0;
+    bool found = false;
+    for (auto k = rp[i]; k < rp[i + 1]; ++k)
+      if (ci[k] == i) d += A.values()[k], found = true;
+    if (!(d > 0.0))
+      throw InputError("CHOLMOD: the matrix is not positive definite: its diagonal entry at row " + std::to_string(i) +
+                       (found ? " is " + std::to_string(d) : " is missing (zero)") +
+                       (A.nnz() == 0 ? " (the matrix has no nonzero entries)" : ""));
+  }
+}
+
+}  // namespace
+
 void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   if (A.rows() != A.cols()) throw InputError("CHOLMOD: matrix is not square");
+  {  // a row without a diagonal entry in the pattern (an empty matrix): named, not "status -4"
+    const auto& rp = A.pattern().row_ptr;
+    const auto& ci = A.pattern().col_idx;
+    for (index_t i = 0; i < A.rows(); ++i)
+      if (std::find(ci.begin() + rp[i], ci.begin() + rp[i + 1], i) == ci.begin() + rp[i + 1])
+        throw InputError("CHOLMOD: the matrix is not positive definite: row " + std::to_string(i) +
+                         " has no diagonal entry" + (A.nnz() == 0 ? " (the matrix has no nonzero entries)" : ""));
+  }
   Impl& d = *impl_;
   if (d.factor) cholmod_l_free_factor(&d.factor, &d.common);
   d.factorized = false;
@@ -207,7 +251,7 @@ void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
     cholmod_sparse B = upper_view(bp, bi, nullptr);
     std::vector<SuiteSparse_long> node_perm(static_cast<std::size_t>(nb)), perm(static_cast<std::size_t>(n_));
     if (!cholmod_l_metis(&B, nullptr, 0, 0, node_perm.data(), &d.common))
-      throw Error("CHOLMOD: METIS ordering of the blocks failed (status " + std::to_string(d.common.status) + ")");
+      throw Error("CHOLMOD: METIS ordering of the blocks failed (" + status_text(d.common.status) + ")");
     for (index_t k = 0; k < nb; ++k)
       for (int c = 0; c < Bcsr::kBlock; ++c) perm[Bcsr::kBlock * k + c] = Bcsr::kBlock * node_perm[k] + c;
     d.common.method[0].ordering = CHOLMOD_GIVEN;
@@ -219,7 +263,7 @@ void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   d.analyze_seconds = seconds_since(t0);
   d.flops = d.common.fl;
   if (!d.factor || d.common.status < CHOLMOD_OK)
-    throw Error("CHOLMOD: symbolic analysis failed (status " + std::to_string(d.common.status) + ")");
+    throw Error("CHOLMOD: symbolic analysis failed (" + status_text(d.common.status) + ")");
 }
 
 void CholmodSolver::factorize(const Csr& A) {
@@ -230,6 +274,7 @@ void CholmodSolver::factorize(const Csr& A) {
     throw InputError("CHOLMOD: factorize() with a pattern other than the analysed one");
   for (double v : A.values())
     if (!std::isfinite(v)) throw InputError("CHOLMOD: matrix has NaN/Inf entries");
+  check_positive_diagonal(A);
   d.factorized = false;
   const auto t0 = Clock::now();
   const double* values = A.values().data();
@@ -259,8 +304,7 @@ void CholmodSolver::factorize(const Csr& A) {
                              "were replaced by identity rows, zero their columns too (a symmetric elimination)"));
   }
   if (d.common.status < CHOLMOD_OK)
-    throw Error("CHOLMOD: numeric factorisation failed (status " + std::to_string(d.common.status) +
-                ")");
+    throw Error("CHOLMOD: numeric factorisation failed (" + status_text(d.common.status) + ")");
   d.factorized = true;
 }
 
@@ -337,7 +381,7 @@ void CholmodSolver::apply_impl(const Vector& b, Vector& x) const {
     ScopedCholmodThreads scoped(blas_threads_);
     ok = cholmod_l_solve2(CHOLMOD_A, d.factor, &B, nullptr, &d.X, nullptr, &d.Y, &d.E, &d.common);
   }
-  if (!ok || !d.X) throw Error("CHOLMOD: solve failed (status " + std::to_string(d.common.status) + ")");
+  if (!ok || !d.X) throw Error("CHOLMOD: solve failed (" + status_text(d.common.status) + ")");
   x = Eigen::Map<const Vector>(static_cast<const double*>(d.X->x), b.size());
 }
 

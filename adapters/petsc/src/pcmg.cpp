@@ -157,16 +157,17 @@ long sum_over(MPI_Comm comm, long owned) {
   return total;
 }
 
-/// One monitor call per CG iteration: ||r_i|| / ||r_0|| into the caller's SolveMonitor.
+/// One monitor call per CG iteration: ||r_i|| / ||b|| (the solvers' reference) into the caller's
+/// SolveMonitor; `scale` = ||r_0|| / ||b|| turns PETSc's ratios (to its first residual) into it.
 struct MonitorContext {
   SolveMonitor* monitor = nullptr;
-  double r0 = 0;
+  double r0 = 0, scale = 1;
 };
 
 PetscErrorCode record_iteration(KSP, PetscInt it, PetscReal rnorm, void* ctx) {
   auto* m = static_cast<MonitorContext*>(ctx);
   if (it == 0) m->r0 = rnorm;
-  if (m->monitor) m->monitor->record(static_cast<int>(it), m->r0 > 0 ? rnorm / m->r0 : 0.0);
+  if (m->monitor) m->monitor->record(static_cast<int>(it), m->r0 > 0 ? m->scale * rnorm / m->r0 : 0.0);
   return 0;
 }
 
@@ -579,7 +580,10 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   check(MatMult(d.ops.back(), d.x, d.r), "MatMult");
   check(VecAYPX(d.r, -1.0, d.b), "VecAYPX");
   const double r0 = safe_norm(d.r, d.comm);
-  const double floor = params_.rhs_floor > 0 ? params_.rhs_floor * safe_norm(d.b, d.comm) : 0.0;
+  const double bnorm = safe_norm(d.b, d.comm);
+  // The reference of tol: ||b|| (as every pmgkit solver, SciPy and PETSc), ||r0|| where b = 0.
+  const double ref = bnorm > 0 ? bnorm : r0;
+  const double floor = params_.rhs_floor > 0 ? params_.rhs_floor * bnorm : 0.0;
   res.initial_residual = r0;
   if (!std::isfinite(r0)) {
     res.status = SolveStatus::non_finite;
@@ -587,14 +591,16 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
                   "guess overflows)";
     return res;
   }
-  if (r0 == 0 || r0 <= floor) {  // x is the solution already (to the floor)
+  if (r0 == 0 || r0 <= floor || r0 <= params_.rel_tol * ref) {  // x is the solution already
     res.status = SolveStatus::converged;
-    res.rel_residual = res.true_rel_residual = r0 > 0 ? 1.0 : 0.0;
+    res.rel_residual = res.true_rel_residual = r0 > 0 ? r0 / ref : 0.0;
     res.seconds = seconds_since(t0);
     return res;
   }
-  // The floor in the units of the scaled system.
-  check(KSPSetTolerances(d.ksp, params_.rel_tol, floor / r0, 1e6, params_.max_iterations), "KSPSetTolerances");
+  // The tolerance and the floor in the units of the scaled system (its first residual is 1).
+  check(KSPSetTolerances(d.ksp, params_.rel_tol * ref / r0, floor / r0, 1e6 * ref / r0, params_.max_iterations),
+        "KSPSetTolerances");
+  d.monitor.scale = r0 / ref;
   OwnedVec x0;
   check(VecDuplicate(d.x, &x0.object), "VecDuplicate");
   check(VecCopy(d.x, x0.object), "VecCopy");
@@ -617,16 +623,21 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
   const double rtrue = safe_norm(d.r, d.comm);
   copy_out(d.x, x);
   res.iterations = static_cast<int>(its);
-  res.rel_residual = rnorm;
-  res.true_rel_residual = rtrue / r0;
+  res.rel_residual = rnorm * r0 / ref;
+  res.true_rel_residual = rtrue / ref;
   res.status = status_of(reason);
-  if (res.status == SolveStatus::converged && !(rtrue <= 2 * std::max(params_.rel_tol * r0, floor))) {
+  char text[320];
+  if (res.status == SolveStatus::converged && !(rtrue <= 2 * std::max(params_.rel_tol * ref, floor))) {
     res.status = SolveStatus::stagnated;
-    res.message = "distributed p-multigrid: the recursive residual converged but the true residual is " +
-                  std::to_string(res.true_rel_residual);
+    std::snprintf(text, sizeof text,
+                  "distributed p-multigrid: the recursive residual converged but the true relative residual "
+                  "||b - A x|| / ||b|| is %.3e, above twice the tolerance %.3e (limit of attainable accuracy)",
+                  res.true_rel_residual, params_.rel_tol);
+    res.message = text;
   } else if (!res.ok()) {
-    res.message = std::string("distributed p-multigrid: CG ended with ") + KSPConvergedReasons[reason] + " after " +
-                  std::to_string(its) + " iterations (relative residual " + std::to_string(res.rel_residual) + ")";
+    std::snprintf(text, sizeof text, "distributed p-multigrid: CG ended with %s after %d iterations (relative residual %.3e)",
+                  KSPConvergedReasons[reason], static_cast<int>(its), res.rel_residual);
+    res.message = text;
   }
   res.seconds = seconds_since(t0);
   return res;

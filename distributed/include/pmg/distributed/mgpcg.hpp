@@ -25,7 +25,7 @@ namespace pmg::dist {
 
 /// The options of petsc-mgpcg (solver keys: see visit()).
 struct DistributedMgpcgParams {
-  double tol = 1e-8;                  ///< converged when ||r|| <= tol ||r_0||
+  double tol = 1e-8;                  ///< converged when ||r|| <= tol ||b|| (||r_0|| where b = 0)
   int max_iterations = 10000;         ///< CG iteration limit (a failure)
   double rhs_floor = 0.0;             ///< also converged when ||r|| <= rhs_floor ||b|| (0: off)
   bool throw_on_failure = true;       ///< a failed solve throws SolveError

@@ -178,6 +178,8 @@ class MultigridCycle final : public Solver {
   void prepare_single(bool setup);
   /// Level l's float D⁻¹ from its smoother's.
   void refresh_single(int l);
+  /// Why the levels' scale does not fit float ("" if it does).
+  std::string float_range_obstacle() const;
   /// cycle() in float on levels >= 1 (the lowest level in double).
   void cycle_single(int level, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const;
   /// The level's Chebyshev smoothing in float (Chebyshev::smooth's recurrence).

@@ -42,6 +42,12 @@ void plan_files(const Scene& scene, const std::string& scene_file, const std::st
 /// Whether a file named `name` in a scene's output folder is one a run writes.
 bool written_by_run(const std::string& name);
 
+/// A one-step rise of the total energy above this fraction of the energies' scale (the largest
+/// kinetic + elastic energy of any state, or |E0|) is a warning: implicit Euler dissipates, and
+/// the steps' inexact solves (tol 1e-3) and the corotational linearisation of fast rotations stay
+/// far below it (the spinning scene: 5e-5).
+inline constexpr double kEnergyRiseTolerance = 1e-3;
+
 /// One row of steps.csv: the state after a step (step 0: the initial state).
 struct StepRecord {
   /// Step number (0: the initial state).
@@ -90,6 +96,11 @@ struct RunSummary {
 
   /// Total energy (kinetic + elastic - external work) of the initial state.
   double energy_initial = 0.0, energy_final = 0.0, energy_peak = 0.0, energy_max_rise = 0.0;
+  /// Step of the largest one-step rise (0 when the energy never rose).
+  int energy_rise_step = 0;
+  /// What the run should flag, in words: a one-step rise of the total energy above
+  /// kEnergyRiseTolerance, which implicit Euler, undamped or damped, never has in exact arithmetic.
+  std::vector<std::string> warnings;
   /// Number of .vtu frames written (listed in simulation.pvd).
   int frames = 0;
   std::vector<std::string> outputs;  ///< files written

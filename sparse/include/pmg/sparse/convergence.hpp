@@ -23,9 +23,12 @@ class ConvergenceTracker {
     if (monitor_) monitor_->start();
   }
 
-  /// Initial residual norm; returns false if there is nothing to do (r0 = 0).
-  bool start(double r0_norm) {
-    r0_ = r0_norm;
+  /// Initial residual norm r0_norm = ||b - A x0|| and b_norm = ||b||; returns false if there is
+  /// nothing to do: r0 = 0, or the start meets the request already. The reference of every
+  /// relative residual (tol, the monitor, the result) is ||b||, as in SciPy and PETSc, or ||r0||
+  /// where b = 0 (or b_norm < 0: not given), so that a warm start at an answer succeeds at once.
+  bool start(double r0_norm, double b_norm = -1.0) {
+    r0_ = b_norm > 0.0 && std::isfinite(b_norm) ? b_norm : r0_norm;
     result_.initial_residual = r0_norm;
     if (!std::isfinite(r0_norm)) {
       fail(SolveStatus::non_finite, "initial residual norm is not finite: NaN/Inf in A, or ||b - A x0|| beyond "
@@ -33,14 +36,15 @@ class ConvergenceTracker {
                                     "system towards 1)");
       return false;
     }
-    if (monitor_) monitor_->record(0, r0_norm > 0 ? 1.0 : 0.0);
-    if (r0_norm == 0.0 || (!p_.fixed_iterations && r0_norm <= p_.abs_tol)) {
+    const double rel0 = r0_norm > 0 ? r0_norm / r0_ : 0.0;
+    if (monitor_) monitor_->record(0, rel0);
+    if (r0_norm == 0.0 || (!p_.fixed_iterations && (r0_norm <= p_.abs_tol || rel0 <= p_.rel_tol))) {
       result_.status = SolveStatus::converged;
-      result_.rel_residual = result_.true_rel_residual = r0_norm > 0 ? 1.0 : 0.0;
+      result_.rel_residual = result_.true_rel_residual = rel0;
       done_ = true;
       return false;
     }
-    result_.rel_residual = 1.0;
+    result_.rel_residual = rel0;
     return true;
   }
 

@@ -1,7 +1,7 @@
 // pmg/sparse/krylov.hpp — conjugate gradients: CG, PCG with any Preconditioner, and the merged CG
 // (MCG) of Weber et al. 2013, whose three fused steps are the CPU reference of the GPU version.
 //
-// Stopping: relative residual ||r_i||/||r_0|| <= rel_tol. When the recursive residual says so, the
+// Stopping: relative residual ||r_i||/||b|| <= rel_tol (||r_0|| where b = 0). When the recursive residual says so, the
 // true residual b - A x is computed; if it disagrees (lost accuracy) the residual is replaced and
 // the iteration goes on, and a second disagreement is reported as stagnation. Breakdown (non-
 // positive curvature: the operator or preconditioner is not SPD), divergence, NaN/Inf, and
@@ -26,8 +26,9 @@ void visit_stopping_keys(ParamVisitor& v, double& tol, double& rhs_floor, int& m
 /// Stopping and failure rules of the CG-type methods (and the stationary multigrid iteration);
 /// solver keys: see visit().
 struct KrylovParams {
-  /// Converged when ||r_i|| <= rel_tol ||r_0|| (key `tol`, in [0, 1)); the true residual must then
-  /// be within 2 rel_tol.
+  /// Converged when ||r_i|| <= rel_tol ||b|| (||r_0|| where b = 0; key `tol`, in [0, 1)), as in
+  /// SciPy and PETSc: a start that meets it ends at once. The true residual must then be within
+  /// 2 rel_tol.
   double rel_tol = 1e-8;
   /// Also converged when ||r|| <= abs_tol (0: off). A warm-started time step can begin so close to
   /// its solution that rel_tol ||r_0|| lies below rounding; a floor such as 1e-12 ||b|| ends it.

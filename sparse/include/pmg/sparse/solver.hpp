@@ -47,15 +47,40 @@ class ParamVisitor;
 /// naming the residual, and SolveError unless throw_on_failure is false. The initial guess is not
 /// used, and the residuals are reported relative to ||b||.
 struct DirectSolveParams {
-  /// Relative residual ||b - A x|| / ||b|| the solve must reach. The default accepts what a sound
-  /// factorisation gives on an ill-conditioned system (the residual's rounding floor, about
-  /// eps ||A|| ||x|| / ||b||, reaches 1e-7 on stiff FEM systems) and refuses a singular one.
+  /// Relative residual ||b - A x|| / ||b|| the solve must reach, or else an answer at rounding
+  /// level (judge_direct_answer): what a sound factorisation gives on an ill-conditioned system
+  /// (the residual's floor, about eps ||A|| ||x|| / ||b||, passes 1e-6 on thin plates) is accepted,
+  /// a singular system refused.
   double tol = 1e-6;
   int refinement_steps = 2;   ///< refinement steps taken while above tol
   bool throw_on_failure = true;  ///< a failed check throws SolveError
   /// The keys tol, refinement_steps and throw_on_failure.
   void visit(ParamVisitor& v);
 };
+
+/// Below and above these norms of b, Solver::solve() solves the system scaled by a power of two
+/// (scale invariance over double's range: no product of the iteration underflows or overflows).
+inline constexpr double kScaleBelow = 1e-100, kScaleAbove = 1e100;
+/// A direct answer x whose residual misses DirectSolveParams::tol is still accepted when its
+/// normwise backward error ||r||_inf / (||A||_inf ||x||_inf + ||b||_inf) is at most this (about
+/// 4500 eps: x solves a system within rounding of A x = b, as LAPACK's refinement judges) ...
+inline constexpr double kDirectBackwardError = 1e-12;
+/// ... and its growth ||A||_inf ||x||_inf / ||b||_inf (a lower bound of the condition number)
+/// is at most this (1e-3 / eps): a singular system's answer, whose null-space component grows
+/// to 1 / eps, is refused.
+inline constexpr double kDirectGrowth = 4.5e12;
+/// The verdict on a direct answer (see kDirectBackwardError).
+struct DirectVerdict {
+  bool ok = false;                 ///< accepted
+  double rel_residual = 0.0;       ///< ||b - A x||_2 / ||b||_2
+  double backward_error = 0.0;     ///< ||r||_inf / (||A||_inf ||x||_inf + ||b||_inf); 0 when not needed
+  double growth = 0.0;             ///< ||A||_inf ||x||_inf / ||b||_inf; 0 when not needed
+};
+/// Judges a direct solve's answer x of A x = b with residual r = b - A x: accepted when
+/// ||r|| / ||b|| <= tol, else when the backward error and growth are within the constants above.
+/// ||A||_inf comes from the operator's entries (csr_matrix, bcsr_matrix), else from ||A x|| / ||x||.
+DirectVerdict judge_direct_answer(const LinearOperator& A, const Vector& b, const Vector& x, const Vector& r,
+                                  double tol);
 
 /// What a solver needs of a system's owner besides the finest matrix (the seam between an FEM
 /// discretisation and the solvers: one record, prepared by one call on the FEM side).

@@ -67,7 +67,7 @@ struct RankLevel {
 
 /// The options of PMultigridCg.
 struct PcmgParams {
-  double rel_tol = 1e-8;       ///< converged when ||r|| <= rel_tol ||r_0||
+  double rel_tol = 1e-8;       ///< converged when ||r|| <= rel_tol ||b|| (||r_0|| where b = 0)
   /// Also converged when ||r|| <= rhs_floor ||b|| (0: off): the rounding floor of a start near the
   /// solution (a warm-started time step), as KrylovParams::rhs_floor.
   double rhs_floor = 0.0;
