@@ -109,7 +109,7 @@ TetMesh read_gmsh(std::istream& in, const std::string& path, std::vector<std::st
   std::string line;
   // The fewest bytes a node or element line takes ("1 0 0 0\n", "1 4 0 1 2 3 4\n"): every count
   // is checked against what the rest of the file could hold before anything is read or reserved.
-  auto most = [&](long long bytes_per_item) { return rd.remaining_bytes() / bytes_per_item; };
+  auto most = [&](long long bytes_per_item) { return (rd.remaining_bytes() + 1) / bytes_per_item; };
   while (rd.next_data_line(line)) {
     const std::string section = split_tokens(line).front();  // a data line has a token
     if (section == "$MeshFormat") {
@@ -217,7 +217,7 @@ TetMesh read_tetgen(std::istream& node_in, const std::string& node_name, std::is
     TextReader rd(node_in, node_name, '#');
     const auto h = rd.next_tokens("the header");
     if (h.size() < 2) rd.fail("header must read '<#points> <dimension> [<#attributes> <markers>]'");
-    const long long n = rd.to_count(h[0], "point count", rd.remaining_bytes() / 8);
+    const long long n = rd.to_count(h[0], "point count", (rd.remaining_bytes() + 1) / 8);
     if (rd.to_integer(h[1], "dimension") != 3) rd.fail("dimension must be 3");
     for (long long k = 0; k < n; ++k) {
       const auto t = rd.next_tokens("a point line");
@@ -230,7 +230,7 @@ TetMesh read_tetgen(std::istream& node_in, const std::string& node_name, std::is
     TextReader rd(ele_in, ele_name, '#');
     const auto h = rd.next_tokens("the header");
     if (h.size() < 2) rd.fail("header must read '<#tetrahedra> <nodes per tetrahedron> [<#attributes>]'");
-    const long long n = rd.to_count(h[0], "tetrahedron count", rd.remaining_bytes() / 10);
+    const long long n = rd.to_count(h[0], "tetrahedron count", (rd.remaining_bytes() + 1) / 10);
     const long long per = rd.to_integer(h[1], "nodes per tetrahedron");
     if (per != 4 && per != 10) rd.fail("nodes per tetrahedron must be 4 or 10");
     for (long long k = 0; k < n; ++k) {
@@ -294,8 +294,8 @@ Surface read_off_text(std::istream& in, const std::string& path) {
   else t.erase(t.begin());
   if (t.size() < 2) rd.fail("counts line must read '<#vertices> <#faces> <#edges>'");
   // "0 0 0\n" and "3 0 0 0\n": the fewest bytes of a vertex and a face line.
-  const long long nv = rd.to_count(t[0], "vertex count", rd.remaining_bytes() / 6);
-  const long long nf = rd.to_count(t[1], "face count", rd.remaining_bytes() / 8);
+  const long long nv = rd.to_count(t[0], "vertex count", (rd.remaining_bytes() + 1) / 6);
+  const long long nf = rd.to_count(t[1], "face count", (rd.remaining_bytes() + 1) / 8);
   Surface s;
   for (long long k = 0; k < nv; ++k) {
     const auto v = rd.next_tokens("a vertex line");

@@ -259,10 +259,13 @@ std::string MultigridCycle::float_range_obstacle() const {
   for (int l = 1; l < num_levels(); ++l) {
     const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
     if (!chebyshev) continue;
+    // Each 3x3 block's scale is its largest entry (off-diagonal ones may be rounding-small).
     double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
-    for (double v : chebyshev->inverse_diagonal()) {
-      const double a = std::abs(v);
-      if (a == 0.0) continue;
+    const std::vector<double>& inv = chebyshev->inverse_diagonal();
+    for (size_t k = 0; k + 9 <= inv.size(); k += 9) {
+      double a = 0.0;
+      for (size_t j = 0; j < 9; ++j) a = std::max(a, std::abs(inv[k + j]));
+      if (a == 0.0) continue;  // a held node
       largest = std::max(largest, a);
       smallest = std::min(smallest, a);
     }

@@ -74,8 +74,8 @@ def _check_indptr(A, name):
         raise InputError(f"{name}: indptr[0] is {int(indptr[0])}, expected 0")
     drops = np.flatnonzero(np.diff(indptr) < 0)
     if drops.size:
-        raise InputError(f"{name}: indptr decreases at row {int(drops[0])} "
-                         f"({int(indptr[drops[0]])} then {int(indptr[drops[0] + 1])}): not a valid CSR matrix")
+        raise InputError(f"{name}: row pointers decrease at row {int(drops[0])} "
+                         f"(indptr {int(indptr[drops[0]])} then {int(indptr[drops[0] + 1])}): not a valid CSR matrix")
     if indptr.size and (indptr[-1] > len(A.indices) or indptr[-1] > len(A.data)):
         raise InputError(f"{name}: indptr ends at {int(indptr[-1])}, beyond the {min(len(A.indices), len(A.data))} "
                          "entries held")

@@ -226,6 +226,27 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
 
 DynamicRun::~DynamicRun() = default;
 
+namespace {
+
+/// A one-step rise of the total energy above kEnergyRiseTolerance of the energies' scale: a warning
+/// naming the step, the rise and the likely cause.
+void warn_of_energy_rise(const Scene& scene, double energy_scale, RunSummary& r) {
+  if (!(r.energy_max_rise > kEnergyRiseTolerance * energy_scale)) return;
+  char text[640];
+  std::snprintf(text, sizeof text,
+                "the total energy rose by %.3g J in step %d (%.2g%% of the energies' scale %.4g J); implicit "
+                "Euler%s dissipates energy: the time step does not resolve the motion for this material%s, or "
+                "the steps' solves are too inexact (solver tol)",
+                r.energy_max_rise, r.energy_rise_step, 100 * r.energy_max_rise / energy_scale, energy_scale,
+                scene.rayleigh_alpha > 0 || scene.rayleigh_beta > 0 ? " with damping" : "",
+                scene.poisson > 0.49 ? " (nearly incompressible: the displacement-only elements lock and each "
+                                       "step's corotational linearisation is least accurate there)"
+                                     : "");
+  r.warnings.emplace_back(text);
+}
+
+}  // namespace
+
 RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   detail::Stepper& sim = *stepper_;
   const bool frames = !output_.empty() && scene_.frame_every > 0;
@@ -330,19 +351,7 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   if (!output_.empty()) write_outputs(false);
   r.steps_done = rejected ? sim.steps() - 1 : sim.steps();
   r.energy_final = E_prev;
-  if (scene_.energy && r.energy_max_rise > kEnergyRiseTolerance * energy_scale) {
-    char text[640];
-    std::snprintf(text, sizeof text,
-                  "the total energy rose by %.3g J in step %d (%.2g%% of the energies' scale %.4g J); implicit "
-                  "Euler%s dissipates energy: the time step does not resolve the motion for this material%s, or "
-                  "the steps' solves are too inexact (solver tol)",
-                  r.energy_max_rise, r.energy_rise_step, 100 * r.energy_max_rise / energy_scale, energy_scale,
-                  scene_.rayleigh_alpha > 0 || scene_.rayleigh_beta > 0 ? " with damping" : "",
-                  scene_.poisson > 0.49 ? " (nearly incompressible: the displacement-only elements lock and each "
-                                          "step's corotational linearisation is least accurate there)"
-                                        : "");
-    r.warnings.emplace_back(text);
-  }
+  if (scene_.energy) warn_of_energy_rise(scene_, energy_scale, r);
   r.probe = rejected ? last_probe : sim.probe();
   r.frames = static_cast<int>(pvd.size());
   if (run_files) {

@@ -82,7 +82,8 @@ Parsed parse(std::istream& in, const std::string& name) {
   // Every entry line holds at least `fields` one-character tokens and their separators, so the
   // rest of the file bounds the entry count before anything is allocated.
   const size_t fields = h.coordinate ? (h.pattern ? 2 : 3) : 1;
-  const long long most_entries = rd.remaining_bytes() / static_cast<long long>(2 * fields);
+  // + 1: the last line may lack its line break and still hold a whole entry.
+  const long long most_entries = (rd.remaining_bytes() + 1) / static_cast<long long>(2 * fields);
   long long count;
   if (h.coordinate) {
     count = rd.to_count(t[2], "entry count", most_entries);

@@ -125,9 +125,7 @@ long long TextReader::remaining_bytes() const {
   if (size_ < 0) return static_cast<long long>(std::min<double>(static_cast<double>(physical_memory_bytes()), 9e18));
   const auto pos = in_.tellg();
   if (pos < 0) return 0;
-  // + 1: the last line may lack its line break (a file written without a final newline) and
-  // still hold as many items as one that has it.
-  return std::max<long long>(0, size_ - static_cast<long long>(pos)) + 1;
+  return std::max<long long>(0, size_ - static_cast<long long>(pos));
 }
 
 double TextReader::to_real(const std::string& tok, const char* what) const {

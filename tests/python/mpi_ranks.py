@@ -6,7 +6,9 @@
 - pmgkit.simulate of a petsc-mgpcg scene steps across the ranks: its probe and energies equal the
   serial run's to 1e-8 over 10 corotational steps; rank 0 writes steps.csv, every rank its piece.
 - What is not a communicator, and ranks given different output directories, are a clear
-  InputError on every rank.
+  InputError on every rank; so are ranks given different right-hand sides, guesses, materials,
+  keys or time steps (the first difference named), PETSc options nobody reads and a freed
+  communicator.
 """
 import os
 import sys
@@ -98,6 +100,47 @@ try:
     check(size == 1, "different output directories refused")
 except pmgkit.InputError as e:
     check("same directory" in str(e), "the message says why: %s" % e)
+
+# ---- ranks that disagree: the same named error on every rank, never a wrong answer or a hang ----
+def refused(what, call, words):
+    """call() must raise pmgkit.InputError naming `words` on every rank (size > 1)."""
+    try:
+        call()
+        check(size == 1, "%s: accepted" % what)
+    except pmgkit.InputError as e:
+        check(words in str(e) and "disagree" in str(e), "%s: the message names it: %s" % (what, e))
+    messages = comm.allgather(None)  # still in step: nobody hangs
+    check(len(messages) == size, "%s: every rank returned" % what)
+
+
+refused("a right-hand side per rank", lambda: across.solve(b * (1 + rank)), "the right-hand side")
+refused("a starting guess per rank", lambda: across.solve(b, x0=np.full_like(b, rank)), "the starting guess")
+other = pmgkit.DegreeHierarchy(mesh, 2, pmgkit.Material(500e3, 0.3 if rank == 0 else 0.2, 1000.0),
+                               clamp=lambda X: X[0] < 1e-12)
+refused("a material per rank", lambda: other.solver({"method": "petsc-mgpcg"}, comm=comm), "Poisson's ratio")
+refused("keys per rank", lambda: h.solver({"method": "petsc-mgpcg", "smoothing_steps": 2 + rank}, comm=comm),
+        "smoothing_steps")
+step_scene = dict(scene, time={"dt": 0.01 * (1 + rank), "duration": 0.04})
+refused("a time step per rank", lambda: pmgkit.simulate(step_scene), "dt")
+# The solver still works after the refusals (they end before any PETSc work).
+x_again, info_again = across.solve(b)
+check(info_again["status"] == "converged" and np.abs(x_again - x).max() <= 1e-8 * np.abs(x).max(),
+      "the solver answers as before after refused calls")
+# PETSc options nobody reads are refused, on every rank alike.
+try:
+    h.solver({"method": "petsc-mgpcg", "options": "-bogus_option 3"}, comm=comm)
+    check(False, "an unused PETSc option accepted")
+except pmgkit.InputError as e:
+    check("-bogus_option" in str(e), "the unused option is named: %s" % e)
+# A freed communicator: an InputError, not a crash.
+mine = comm.Dup()
+on_mine = h.solver({"method": "petsc-mgpcg", "tol": 1e-8}, comm=mine)
+mine.Free()
+try:
+    on_mine.solve(b)
+    check(False, "a freed communicator accepted")
+except pmgkit.InputError as e:
+    check("freed" in str(e), "the message says the communicator was freed: %s" % e)
 
 all_failures = comm.allreduce(len(failures), op=MPI.SUM)
 if rank == 0:

@@ -220,3 +220,8 @@ add_test(NAME "hostile: a load beyond double range fails its step instead of wri
 get_property(all_tests DIRECTORY PROPERTY TESTS)
 list(FILTER all_tests INCLUDE REGEX "^hostile: ")
 set_tests_properties(${all_tests} PROPERTIES LABELS "tools;hostile")
+
+# Issue #48: a Matrix Market file whose last line lacks its line break is complete, not truncated.
+add_test(NAME "hostile: #48 a Matrix Market file without a final newline is read"
+  COMMAND ${EXPECT} 0 "cg  *converged" ${PMG} compare --matrix ${CORPUS}/matrix_market/no-final-newline.mtx
+          --format csr --solvers cg)

@@ -114,9 +114,17 @@ void check_agreement(MPI_Comm comm, const std::vector<Item>& items, const std::s
       const Item* z = i < zero.size() ? &zero[i] : nullptr;
       const Item* m = i < items.size() ? &items[i] : nullptr;
       if (z && m && z->name == m->name && z->value == m->value) continue;
-      if (z && m && z->name != m->name)
-        mismatch = "the ranks disagree on what is given: rank 0 has " + z->name + " where " + me + " has " + m->name;
-      else
+      const auto holds = [](const std::vector<Item>& list, const std::string& name) {
+        return std::any_of(list.begin(), list.end(), [&](const Item& it) { return it.name == name; });
+      };
+      if (z && m && z->name != m->name) {
+        if (!holds(zero, m->name))  // given on this rank only
+          mismatch = "the ranks disagree on " + m->name + ": rank 0 lacks it, " + me + " has " + shown(m->value);
+        else if (!holds(items, z->name))  // given on rank 0 only
+          mismatch = "the ranks disagree on " + z->name + ": rank 0 has " + shown(z->value) + ", " + me + " lacks it";
+        else
+          mismatch = "the ranks disagree on what is given: rank 0 has " + z->name + " where " + me + " has " + m->name;
+      } else
         mismatch = "the ranks disagree on " + (z ? z->name : m->name) + ": rank 0 " +
                    (z ? "has " + shown(z->value) : std::string("lacks it")) + ", " + me + " " +
                    (m ? "has " + shown(m->value) : std::string("lacks it"));

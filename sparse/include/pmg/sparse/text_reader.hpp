@@ -43,8 +43,7 @@ class TextReader {
   /// `limit_is` says what sets the limit in the message.
   long long to_count(const std::string& token, const char* what, long long limit,
                      const char* limit_is = "the rest of the file could hold") const;
-  /// Bytes left after the current position, plus one for a last line without its line break (for
-  /// an unseekable stream: this machine's memory).
+  /// Bytes left after the current position (for an unseekable stream: this machine's memory).
   long long remaining_bytes() const;
   /// Whether the input's size is known (a file, not a pipe): only then does remaining_bytes()
   /// back a declared count, so a reader reserves for it in full.

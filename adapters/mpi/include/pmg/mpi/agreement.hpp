@@ -31,8 +31,8 @@ namespace pmg::mpi {
 /// right-hand side") and its value, shown in the error when shorter than 80 characters (use
 /// digest() for arrays).
 struct Item {
-  std::string name;
-  std::string value;
+  std::string name;   ///< what it is, as the user knows it ("--poisson", "the right-hand side")
+  std::string value;  ///< its value on this rank (a digest for arrays)
 };
 
 /// 64-bit FNV-1a digest of `bytes` bytes, written as 16 hex digits: a short value for an array.
