@@ -122,6 +122,31 @@ refused("keys per rank", lambda: h.solver({"method": "petsc-mgpcg", "smoothing_s
         "smoothing_steps")
 step_scene = dict(scene, time={"dt": 0.01 * (1 + rank), "duration": 0.04})
 refused("a time step per rank", lambda: pmgkit.simulate(step_scene), "dt")
+# Property: random per-rank perturbations of the inputs (the same seed on every rank; one rank,
+# chosen at random, perturbs one input). Every case ends in the same answer on every rank (no
+# perturbation) or the same named InputError on every rank, and the ranks stay in step.
+rng = np.random.default_rng(48)
+for case in range(8):
+    what = ["nothing", "b", "x0", "tol"][case % 4]
+    victim = int(rng.integers(size)) if size > 1 else 0
+    delta = float(rng.uniform(1e-12, 1e-3))
+    bb = b * (1 + delta) if (what == "b" and rank == victim) else b
+    x0 = np.full_like(b, delta) if (what == "x0" and rank == victim) else np.zeros_like(b)
+    config = {"method": "petsc-mgpcg", "tol": 1e-10 * (1 + delta) if (what == "tol" and rank == victim) else 1e-10}
+    try:
+        got, outcome = h.solver(config, comm=comm).solve(bb, x0=x0)[0], "answer"
+    except pmgkit.InputError as e:
+        got, outcome = str(e), "error"
+    outcomes = comm.allgather((outcome, got if outcome == "error" else None))
+    check(len({o for o, _ in outcomes}) == 1, "case %d (%s on rank %d): every rank ends alike: %s"
+          % (case, what, victim, [o for o, _ in outcomes]))
+    if what == "nothing" or size == 1:
+        check(outcome == "answer" and np.abs(got - x).max() <= 1e-8 * np.abs(x).max(),
+              "case %d: unperturbed, the same answer" % case)
+    else:
+        check(outcome == "error" and len({m for _, m in outcomes}) == 1 and "disagree" in outcomes[0][1],
+              "case %d (%s): the same named error on every rank: %s" % (case, what, outcomes[0][1]))
+
 # The solver still works after the refusals (they end before any PETSc work).
 x_again, info_again = across.solve(b)
 check(info_again["status"] == "converged" and np.abs(x_again - x).max() <= 1e-8 * np.abs(x).max(),
