@@ -666,6 +666,11 @@ void register_compare(CLI::App& app) {
   auto retired_values = std::make_shared<std::vector<std::string>>(std::size(retired));
   for (size_t k = 0; k < std::size(retired); ++k) sub->add_option(retired[k].first, (*retired_values)[k])->group("");
   sub->callback([opts, sub, retired_values] {
+    // Ranks given different commands stop here, together, before any rank refuses its own.
+    std::vector<std::string> inputs = {opts->matrix, opts->rhs, opts->solution, opts->solver_config, opts->scene.mesh};
+    inputs.insert(inputs.end(), opts->levels.begin(), opts->levels.end());
+    inputs.insert(inputs.end(), opts->prolongations.begin(), opts->prolongations.end());
+    agree_across_ranks(*sub, inputs);
     for (const char* flag : {"--tol", "--max-iter", "--fixed-iterations", "--check-every"})
       if (sub->count(flag)) opts->given.insert(flag);
     opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
@@ -680,10 +685,6 @@ void register_compare(CLI::App& app) {
                          " (keys and defaults: pmg solvers)");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
-    std::vector<std::string> inputs = {opts->matrix, opts->rhs, opts->solution, opts->solver_config, opts->scene.mesh};
-    inputs.insert(inputs.end(), opts->levels.begin(), opts->levels.end());
-    inputs.insert(inputs.end(), opts->prolongations.begin(), opts->prolongations.end());
-    agree_across_ranks(*sub, inputs);
     run(*opts);
   });
 }

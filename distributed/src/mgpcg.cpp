@@ -53,16 +53,18 @@ DistributedMgpcg::DistributedMgpcg(const fem::DegreeHierarchy& serial, Distribut
 DistributedMgpcg::~DistributedMgpcg() = default;
 
 void DistributedMgpcg::setup_impl(const LinearOperator& A) {
-  const index_t n = 3 * serial_->finest().assembler().num_free();
-  if (A.rows() != n)
-    throw InputError("petsc-mgpcg: set up on an operator of " + std::to_string(A.rows()) +
-                     " rows; the scene's finest level has " + std::to_string(n) + " unknowns");
   // Every rank partitions its own copy of the model: they must be the same model and keys, else
   // the ranks' parts do not fit together (a hang or a wrong answer).
   std::vector<mpi::Item> items = detail::params_items(params_);
   const std::vector<mpi::Item> model = detail::hierarchy_items(*serial_);
   items.insert(items.end(), model.begin(), model.end());
   mpi::check_agreement(comm_, items, "petsc-mgpcg");
+  mpi::together(comm_, [&] {
+    const index_t n = 3 * serial_->finest().assembler().num_free();
+    if (A.rows() != n)
+      throw InputError("petsc-mgpcg: set up on an operator of " + std::to_string(A.rows()) +
+                       " rows; the scene's finest level has " + std::to_string(n) + " unknowns");
+  });
   mpi::together(comm_, [&] { set_up_ranks(); });
 }
 

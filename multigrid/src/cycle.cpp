@@ -297,9 +297,11 @@ void MultigridCycle::update_impl() {
   for (int l = num_levels() - 1; l >= 1; --l) timed_stage("smoother " + levels_.level_name(l), [&] { smoothers_[l - 1]->update(); });
   if (!single_.empty()) {
     if (const std::string why = float_range_obstacle(); !why.empty()) {  // new values beyond float's range
-      if (!params_.single_where_possible)
+      single_.clear();  // the cycle in double from now on (precision=auto), or after the error below
+      if (!params_.single_where_possible) {
+        timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });  // consistent
         throw InputError("multigrid: precision=single: " + why + "; use precision=double (or auto)");
-      single_.clear();  // precision=auto: the cycle in double from now on
+      }
     }
     for (int l = 1; l < static_cast<int>(single_.size()); ++l) refresh_single(l);  // the float D⁻¹ with the smoother's own
   }

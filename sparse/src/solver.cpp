@@ -138,14 +138,16 @@ SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) con
   // neither underflow nor overflow; the answer is scaled back.
   const double bn = ops::norm2(b);
   if (bn > 0 && (bn < kScaleBelow || bn > kScaleAbove)) {
-    const double s = std::ldexp(1.0, std::ilogb(bn));
+    // The exponent of the largest entry (finite even where ||b|| itself overflows).
+    const double s = std::ldexp(1.0, std::ilogb(b.lpNorm<Eigen::Infinity>()));
     const Vector bs = b / s;
     Vector xs = x / s;
     SolveResult res;
     try {
       res = solve_impl(bs, xs, monitor);
-    } catch (const SolveError&) {
+    } catch (SolveError& e) {
       x = xs * s;
+      e.result.initial_residual *= s;
       throw;
     }
     x = xs * s;

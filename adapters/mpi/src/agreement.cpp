@@ -156,7 +156,8 @@ void agree_on_error(MPI_Comm comm, const std::string& error, bool input_error) {
     kind = input_error ? 1 : 0;
     MPI_Bcast(&kind, 1, MPI_INT, culprit, comm);
   }
-  if (rank != culprit) message = "rank " + std::to_string(culprit) + ": " + message;
+  // (Named once: a message that names its rank already, from a nested together(), stays.)
+  if (rank != culprit && message.rfind("rank ", 0) != 0) message = "rank " + std::to_string(culprit) + ": " + message;
   if (kind == 1) throw InputError(message);
   throw Error(message);
 }

@@ -598,7 +598,7 @@ SolveResult PMultigridCg::solve(const Vector& b, Vector& x, SolveMonitor* monito
     return res;
   }
   // The tolerance and the floor in the units of the scaled system (its first residual is 1).
-  check(KSPSetTolerances(d.ksp, params_.rel_tol * ref / r0, floor / r0, 1e6 * ref / r0, params_.max_iterations),
+  check(KSPSetTolerances(d.ksp, params_.rel_tol * ref / r0, floor / r0, 1e6 * std::max(1.0, ref / r0), params_.max_iterations),
         "KSPSetTolerances");
   d.monitor.scale = r0 / ref;
   OwnedVec x0;

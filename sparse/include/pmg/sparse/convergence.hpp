@@ -37,6 +37,9 @@ class ConvergenceTracker {
       return false;
     }
     const double rel0 = r0_norm > 0 ? r0_norm / r0_ : 0.0;
+    // Divergence and stagnation are judged against the start (a guess far off: rel0 > 1).
+    start_rel_ = std::max(1.0, rel0);
+    reference_ = start_rel_;
     if (monitor_) monitor_->record(0, rel0);
     if (r0_norm == 0.0 || (!p_.fixed_iterations && (r0_norm <= p_.abs_tol || rel0 <= p_.rel_tol))) {
       result_.status = SolveStatus::converged;
@@ -96,7 +99,7 @@ class ConvergenceTracker {
       fail(SolveStatus::non_finite, "residual became NaN/Inf at iteration " + std::to_string(it));
       return false;
     }
-    if (rel > p_.divergence_limit) {
+    if (rel > p_.divergence_limit * start_rel_) {
       fail(SolveStatus::diverged, "relative residual " + fmt(rel) + " exceeds the divergence limit " +
                                       fmt(p_.divergence_limit) + " at iteration " +
                                       std::to_string(it));
@@ -204,6 +207,7 @@ class ConvergenceTracker {
   SolveResult result_;
   double r0_ = 0.0;
   double reference_ = 1.0;
+  double start_rel_ = 1.0;  // max(1, ||r0|| / reference norm)
   int last_progress_ = 0;
   int replacements_ = 0;
   std::vector<double> energy_;
