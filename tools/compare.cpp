@@ -287,15 +287,11 @@ void plot_history(const std::string& csv, const std::string& png, const std::str
 /// Every output path checked before any work (a run must not fail at its end for a bad path);
 /// under mpirun only rank 0 writes (every rank checked the paths).
 void check_outputs(Options& o) {
-  if (!o.history.empty()) check_output_file(o.history, "--history");
-  if (!o.solution_out.empty()) check_output_file(o.solution_out, "--solution-out");
   if (!o.plot.empty()) {
-    check_output_file(o.plot, "--plot");
     std::error_code ec;  // through links: a device, FIFO or folder would be replaced by the PNG's rename
     if (std::filesystem::exists(o.plot, ec) && !std::filesystem::is_regular_file(o.plot, ec))
       throw InputError("--plot: " + o.plot + " is not a regular file (the PNG is written there)");
   }
-  if (!o.json_report.empty()) check_output_file(o.json_report, "--json");
   if (!o.export_levels.empty()) {
     if (!o.fem) throw InputError("--export-levels needs an FEM scene (--box or --mesh)");
     prepare_output_directory(o.export_levels, "--export-levels");

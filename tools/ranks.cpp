@@ -5,18 +5,25 @@
 #include "pmg/sparse/types.hpp"
 
 #include <fstream>
-#include <iterator>
+#include <vector>
 
 namespace pmg::tools {
 
 namespace {
 
-/// The digest of a file's bytes ("missing" when it cannot be read: another rank may read it).
+/// The digest of a file's bytes, read in blocks ("missing" when it cannot be read: another rank
+/// may read it).
 std::string file_digest(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return "missing or unreadable";
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return std::to_string(bytes.size()) + " bytes, digest " + mpi::digest(bytes.data(), bytes.size());
+  mpi::Digest d;
+  std::vector<char> block(1 << 20);
+  std::size_t total = 0;
+  while (in.read(block.data(), static_cast<std::streamsize>(block.size())) || in.gcount() > 0) {
+    d.add(block.data(), static_cast<std::size_t>(in.gcount()));
+    total += static_cast<std::size_t>(in.gcount());
+  }
+  return std::to_string(total) + " bytes, digest " + d.hex();
 }
 
 }  // namespace

@@ -190,7 +190,6 @@ void run(const Cli& cli_in) {
   // Output paths are checked before any work: a run must not fail at its end for a bad path.
   if (!cli.output.empty())
     prepare_output_directory(cli.output, output_from_cli ? "-o" : s.source + ": output.directory");
-  if (!cli.json_report.empty()) check_output_file(cli.json_report, "--json");
   FilePlan plan;  // no output may be an input or another output
   sim::plan_files(s, cli.scene, cli.output, plan);
   plan.output(cli.json_report, "--json");

@@ -88,16 +88,8 @@ void DistributedEuler::agree(const std::string& error, const std::string& what) 
   agree_on(comm_, error, what);
 }
 
-bool DistributedEuler::same_on_every_rank(const std::string& text) const {
-  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  int length = static_cast<int>(text.size());
-  MPI_Bcast(&length, 1, MPI_INT, 0, comm_);
-  std::string first(static_cast<size_t>(length), '\0');
-  if (ranks_->rank() == 0) first = text;
-  MPI_Bcast(first.data(), length, MPI_CHAR, 0, comm_);
-  int same = first == text ? 1 : 0, all = 0;
-  MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
-  return all == 1;
+void DistributedEuler::require_same_on_every_rank(const std::string& name, const std::string& value) const {
+  mpi::check_agreement(comm_, {{name, value}}, "distributed time step");
 }
 
 bool DistributedEuler::any_rank(bool mine) const {

@@ -155,9 +155,8 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
     sim_->agree(error, "output");
   }
   void check_output(const std::string& directory) const override {
-    if (!sim_->same_on_every_rank(directory))
-      throw InputError("output directory: every rank must write its frame pieces to the same directory "
-                       "(the one rank 0 was given)");
+    // Every rank writes its frame pieces into the one directory rank 0 lists them in.
+    sim_->require_same_on_every_rank("the output directory", directory);
   }
 
  private:

@@ -254,7 +254,9 @@ void FilePlan::input(const std::string& path, const std::string& what) {
 }
 
 void FilePlan::output(const std::string& path, const std::string& what) {
-  if (!path.empty()) files_.push_back({path, what, true});
+  if (path.empty()) return;
+  check_output_file(path, what);
+  files_.push_back({path, what, true});
 }
 
 void FilePlan::output_folder(const std::string& path, const std::string& what,

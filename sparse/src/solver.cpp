@@ -133,13 +133,12 @@ SolveResult Solver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) con
   if (!ops::all_finite(b)) throw InputError(name() + ": right-hand side has NaN/Inf");
   if (!ops::all_finite(x)) throw InputError(name() + ": initial guess has NaN/Inf");
   const ThreadBudget budget;  // the cores free now (pmg/sparse/threads.hpp)
-  // Scale invariance over double's range: a right-hand side far from 1 is solved as b / s, s a power
-  // of two near ||b|| (exact, barring subnormal entries), so that products such as r^T M^-1 r
-  // neither underflow nor overflow; the answer is scaled back.
-  const double bn = ops::norm2(b);
-  if (bn > 0 && (bn < kScaleBelow || bn > kScaleAbove)) {
-    // The exponent of the largest entry (finite even where ||b|| itself overflows).
-    const double s = std::ldexp(1.0, std::ilogb(b.lpNorm<Eigen::Infinity>()));
+  // Scale invariance over double's range: a right-hand side far from 1 is solved as b / s, s the
+  // power of two of its largest entry (exact, barring subnormal entries), so that products such as
+  // r^T M^-1 r neither underflow nor overflow; the answer is scaled back.
+  const double bmax = b.lpNorm<Eigen::Infinity>();
+  if (bmax > 0 && (bmax < kScaleBelow || bmax > kScaleAbove)) {
+    const double s = std::ldexp(1.0, std::ilogb(bmax));
     const Vector bs = b / s;
     Vector xs = x / s;
     SolveResult res;

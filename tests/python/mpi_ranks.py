@@ -99,7 +99,7 @@ try:
     pmgkit.simulate(scene, out_dir if rank == 0 else "")
     check(size == 1, "different output directories refused")
 except pmgkit.InputError as e:
-    check("same directory" in str(e), "the message says why: %s" % e)
+    check("disagree on the output directory" in str(e), "the message says why: %s" % e)
 
 # ---- ranks that disagree: the same named error on every rank, never a wrong answer or a hang ----
 def refused(what, call, words):

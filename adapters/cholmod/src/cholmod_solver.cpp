@@ -3,7 +3,6 @@
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/timer.hpp"
 
-#include <algorithm>
 #include <cholmod.h>
 #include <dlfcn.h>
 #include <omp.h>
@@ -201,9 +200,10 @@ std::string status_text(int status) {
   }
 }
 
-/// A symmetric positive definite matrix has a positive diagonal: a zero, negative or missing
-/// diagonal entry is named before CHOLMOD sees the matrix (an all-zero matrix included).
-void check_positive_diagonal(const Csr& A) {
+/// A symmetric positive definite matrix has a diagonal entry in every row (checked on the pattern
+/// at analysis) and a positive one (checked with `values` at factorisation): a missing, zero or
+/// negative one, an all-zero matrix included, is named before CHOLMOD sees it ("status -4").
+void check_diagonal(const Csr& A, bool values) {
   const auto& rp = A.pattern().row_ptr;
   const auto& ci = A.pattern().col_idx;
   for (index_t i = 0; i < A.rows(); ++i) {
@@ -211,9 +211,9 @@ void check_positive_diagonal(const Csr& A) {
     bool found = false;
     for (auto k = rp[i]; k < rp[i + 1]; ++k)
       if (ci[k] == i) d += A.values()[k], found = true;
-    if (!(d > 0.0))
+    if (!found || (values && !(d > 0.0)))
       throw InputError("CHOLMOD: the matrix is not positive definite: its diagonal entry at row " + std::to_string(i) +
-                       (found ? " is " + std::to_string(d) : " is missing (zero)") +
+                       (found ? " is " + std::to_string(d) : " is missing") +
                        (A.nnz() == 0 ? " (the matrix has no nonzero entries)" : ""));
   }
 }
@@ -222,14 +222,7 @@ void check_positive_diagonal(const Csr& A) {
 
 void CholmodSolver::analyze(const Csr& A, const CsrPattern* blocks) {
   if (A.rows() != A.cols()) throw InputError("CHOLMOD: matrix is not square");
-  {  // a row without a diagonal entry in the pattern (an empty matrix): named, not "status -4"
-    const auto& rp = A.pattern().row_ptr;
-    const auto& ci = A.pattern().col_idx;
-    for (index_t i = 0; i < A.rows(); ++i)
-      if (std::find(ci.begin() + rp[i], ci.begin() + rp[i + 1], i) == ci.begin() + rp[i + 1])
-        throw InputError("CHOLMOD: the matrix is not positive definite: row " + std::to_string(i) +
-                         " has no diagonal entry" + (A.nnz() == 0 ? " (the matrix has no nonzero entries)" : ""));
-  }
+  check_diagonal(A, /*values=*/false);
   Impl& d = *impl_;
   if (d.factor) cholmod_l_free_factor(&d.factor, &d.common);
   d.factorized = false;
@@ -274,7 +267,7 @@ void CholmodSolver::factorize(const Csr& A) {
     throw InputError("CHOLMOD: factorize() with a pattern other than the analysed one");
   for (double v : A.values())
     if (!std::isfinite(v)) throw InputError("CHOLMOD: matrix has NaN/Inf entries");
-  check_positive_diagonal(A);
+  check_diagonal(A, /*values=*/true);
   d.factorized = false;
   const auto t0 = Clock::now();
   const double* values = A.values().data();

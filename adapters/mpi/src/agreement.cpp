@@ -11,21 +11,6 @@ namespace pmg::mpi {
 
 namespace {
 
-std::uint64_t fnv1a(const void* data, std::size_t bytes, std::uint64_t h = 1469598103934665603ull) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < bytes; ++i) {
-    h ^= p[i];
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
-std::string hex(std::uint64_t h) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
 /// The items as one byte string: name and value, each with its length, so that no two different
 /// lists serialise alike.
 std::string serialise(const std::vector<Item>& items) {
@@ -72,11 +57,32 @@ int lowest_rank(MPI_Comm comm, bool mine) {
 
 }  // namespace
 
-std::string digest(const void* data, std::size_t bytes) { return hex(fnv1a(data, bytes)); }
+void Digest::add(const void* data, std::size_t bytes) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < bytes; ++i) {
+    h_ ^= p[i];
+    h_ *= 1099511628211ull;
+  }
+}
+
+std::string Digest::hex() const {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h_));
+  return buf;
+}
+
+std::string digest(const void* data, std::size_t bytes) {
+  Digest d;
+  d.add(data, bytes);
+  return d.hex();
+}
 
 std::string digest(const Vector& v) {
   const auto n = static_cast<std::uint64_t>(v.size());
-  return hex(fnv1a(v.data(), sizeof(double) * static_cast<std::size_t>(v.size()), fnv1a(&n, sizeof n)));
+  Digest d;
+  d.add(&n, sizeof n);
+  d.add(v.data(), sizeof(double) * static_cast<std::size_t>(v.size()));
+  return d.hex();
 }
 
 void check_agreement(MPI_Comm comm, const std::vector<Item>& items, const std::string& context) {
@@ -87,7 +93,9 @@ void check_agreement(MPI_Comm comm, const std::vector<Item>& items, const std::s
     MPI_Comm_size(comm, &size);
     if (size < 2) return;
     const std::string mine = serialise(items);
-    const std::uint64_t h = fnv1a(mine.data(), mine.size());
+    Digest d;
+    d.add(mine.data(), mine.size());
+    const unsigned long long h = d.value();
     // Equal digests on every rank: min(h) == max(h), the max read as ~min(~h).
     unsigned long long local[2] = {h, ~h}, reduced[2] = {0, 0};
     MPI_Allreduce(local, reduced, 2, MPI_UNSIGNED_LONG_LONG, MPI_MIN, comm);

@@ -27,31 +27,25 @@ struct GhostExchange::Impl {
   }
 };
 
-namespace {
-
-/// Throws on every rank of comm when `error` is not empty on any: this rank's message, or one
-/// naming another rank's failure (no rank goes on into a collective call another has left).
-void agree_or_throw(MPI_Comm comm, const std::string& error) { mpi::agree_on_error(comm, error, /*input_error=*/true); }
-
-}  // namespace
-
 GhostExchange::GhostExchange(MPI_Comm comm, index_t first, index_t owned, const std::vector<index_t>& global)
     : impl_(std::make_unique<Impl>()), owned_(owned), local_(static_cast<index_t>(global.size())) {
   detail::start();
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  agree_or_throw(comm, owned < 0 || owned > local_ || first < 0
+  mpi::agree_on_error(comm, owned < 0 || owned > local_ || first < 0
                            ? "ghost exchange: " + std::to_string(owned) + " owned nodes of " + std::to_string(local_) +
                                  " local nodes (first " + std::to_string(first) + ")"
-                           : "");
+                           : "",
+                      /*input_error=*/true);
   Impl& d = *impl_;
   check(VecCreateMPI(comm, 3 * owned, PETSC_DETERMINE, &d.global), "VecCreateMPI");
   check(VecSetBlockSize(d.global, 3), "VecSetBlockSize");
   PetscInt start = 0;
   check(VecGetOwnershipRange(d.global, &start, nullptr), "VecGetOwnershipRange");
-  agree_or_throw(comm, start != 3 * first ? "ghost exchange: the rank's first owned node " + std::to_string(first) +
+  mpi::agree_on_error(comm, start != 3 * first ? "ghost exchange: the rank's first owned node " + std::to_string(first) +
                                                 " is not where its ranks' owned counts put it (" +
                                                 std::to_string(start / 3) + ")"
-                                          : "");
+                                          : "",
+                      /*input_error=*/true);
   check(VecCreateSeq(PETSC_COMM_SELF, 3 * local_, &d.local), "VecCreateSeq");
   OwnedIS is;
   check(ISCreateBlock(PETSC_COMM_SELF, 3, local_, global.data(), PETSC_COPY_VALUES, &is.object), "ISCreateBlock");

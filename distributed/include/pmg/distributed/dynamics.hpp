@@ -81,8 +81,9 @@ class DistributedEuler {
   /// or the lowest failed rank named): a caller's own per-rank work (writing a file) made
   /// collective, so that no rank goes on into a step another has left.
   void agree(const std::string& error, const std::string& what) const;
-  /// True on every rank when every rank gives rank 0's text (an output directory, say).
-  bool same_on_every_rank(const std::string& text) const;
+  /// Collective: throws the same InputError on every rank unless every rank gives the same `value`
+  /// of what `name` says (an output directory, say): pmg::mpi::check_agreement.
+  void require_same_on_every_rank(const std::string& name, const std::string& value) const;
   /// The rank's share of the hierarchy.
   const RankHierarchy& ranks() const { return *ranks_; }
   /// The PETSc solver (set up at the first step).

@@ -35,7 +35,7 @@ class FilePlan {
  public:
   /// A file the run reads; `what` names it in messages ("the scene file", "--matrix").
   void input(const std::string& path, const std::string& what);
-  /// A file the run writes ("--json").
+  /// A file the run writes ("--json"); checked at once as check_output_file() checks it.
   void output(const std::string& path, const std::string& what);
   /// A folder the run writes into: `writes(name)` says whether a file of that name there is one
   /// the run writes (steps.csv, frame_000010.vtu), which then may be no input or other output.

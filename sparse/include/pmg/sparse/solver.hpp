@@ -58,10 +58,10 @@ struct DirectSolveParams {
   void visit(ParamVisitor& v);
 };
 
-/// Below this norm of b, Solver::solve() solves the system scaled by a power of two (scale
-/// invariance over double's range: no product of the iteration underflows).
+/// Below this largest entry of b, Solver::solve() solves the system scaled by a power of two
+/// (scale invariance over double's range: no product of the iteration underflows).
 inline constexpr double kScaleBelow = 1e-100;
-/// Above this norm of b, likewise (no product of the iteration overflows).
+/// Above this largest entry of b, likewise (no product of the iteration overflows).
 inline constexpr double kScaleAbove = 1e100;
 /// A direct answer x whose residual misses DirectSolveParams::tol is still accepted when its
 /// normwise backward error ||r||_inf / (||A||_inf ||x||_inf + ||b||_inf) is at most this (about

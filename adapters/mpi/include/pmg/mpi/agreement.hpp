@@ -35,7 +35,20 @@ struct Item {
   std::string value;  ///< its value on this rank (a digest for arrays)
 };
 
-/// 64-bit FNV-1a digest of `bytes` bytes, written as 16 hex digits: a short value for an array.
+/// A 64-bit FNV-1a digest built piece by piece (a file read in blocks), written as 16 hex digits.
+class Digest {
+ public:
+  /// Adds `bytes` bytes.
+  void add(const void* data, std::size_t bytes);
+  /// The digest so far.
+  std::uint64_t value() const { return h_; }
+  /// The digest so far, as 16 hex digits.
+  std::string hex() const;
+
+ private:
+  std::uint64_t h_ = 1469598103934665603ull;
+};
+/// The Digest of `bytes` bytes: a short value for an array.
 std::string digest(const void* data, std::size_t bytes);
 /// digest() of a vector's entries; empty vectors and vectors of different length differ.
 std::string digest(const Vector& v);
