@@ -18,7 +18,8 @@ packages=(
   python3-vtk9             # tests read our .vtu output with a real VTK reader (Debian's python3)
   tetgen                   # pmg mesh: closed surface -> tetrahedral mesh
   libcgal-dev              # pmg mesh: surface decimation before TetGen (header-only)
-  python3-matplotlib       # pmg compare --plot (Debian's /usr/bin/python3)
+  python3-matplotlib       # pmg compare --plot and pmg render (Debian's /usr/bin/python3)
+  python3-pil              # pmg render: the animated GIF
   python3-dev pybind11-dev # the Python module pmgkit (python/)
   python3-numpy python3-scipy python3-pytest  # its arrays, SciPy matrices and its test suite
   python3-hypothesis       # property-based tests of the solver contract (tests/python/test_contract.py)

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <omp.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -44,6 +45,16 @@ inline CLI::Validator FiniteNonNegative() { return FiniteRange(0.0, 1e300); }
 inline CLI::Validator Tolerance() { return FiniteRange(0.0, 1.0, true, true); }
 /// An OpenMP thread count: 1 to 1024 (omit the option for OMP_NUM_THREADS).
 inline CLI::Validator ThreadCount() { return CLI::Range(1, 1024); }
+
+/// --threads N, the one definition for every subcommand that runs solves: the most OpenMP
+/// threads the run uses, set as the command line is read (before the subcommand's work; under
+/// mpirun it overrides the per-rank share). Omitted: OMP_NUM_THREADS.
+inline CLI::Option* add_threads_option(CLI::App* sub) {
+  return sub
+      ->add_option_function<int>(
+          "--threads", [](const int& n) { omp_set_num_threads(n); }, "OpenMP threads (default: OMP_NUM_THREADS)")
+      ->check(ThreadCount());
+}
 
 /// --allow tangled,cracked: mesh defects a user accepts on purpose (check_mesh refuses them).
 inline CLI::Option* add_allow_option(CLI::App* sub, std::vector<std::string>& allow) {

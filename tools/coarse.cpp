@@ -6,6 +6,7 @@
 //   2. For each variant, time the update of the lower levels for new rotations (geometric:
 //      re-assemble them with the same rotations; Galerkin: two sparse products per level), the
 //      time of one cycle, and the cycles needed to reduce the residual by 1e2 ... 1e5.
+#include "checks.hpp"
 #include "commands.hpp"
 #include "scene.hpp"
 #include "table.hpp"
@@ -14,6 +15,8 @@
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/fem/static_solve.hpp"
 #include "pmg/sparse/timer.hpp"
+
+#include <omp.h>
 
 #include <chrono>
 #include <cmath>
@@ -41,7 +44,8 @@ void run(const CoarseOptions& o) {
   Vector rhs = sys.b;
   h.assemble(&R, nullptr, sys.mass_weight, sys.stiffness_weight);
   std::cout << "scene: " << sys.description << "\n"
-            << "system: " << sys.b.size() << " unknowns; rotations from the linear static solution\n\n";
+            << "system: " << sys.b.size() << " unknowns; rotations from the linear static solution; "
+            << count_of(omp_get_max_threads(), "thread") << "\n\n";
 
   Table t({"coarse operator", "restriction", "update [ms]", "cycle [ms]", "1e2", "1e3", "1e4", "1e5"});
   for (const bool galerkin : {false, true})
@@ -107,6 +111,7 @@ void register_coarse(CLI::App& app) {
   sub->add_option("--repeats", o->repeats, "timing repeats of the update (best is reported)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  add_threads_option(sub);
   sub->callback([o] { run(*o); });
 }
 

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <csignal>
+#include <string>
 
 namespace pmg::tools {
 
@@ -20,6 +21,20 @@ void register_mesh(CLI::App& app);
 void register_coarse(CLI::App& app);
 /// pmg simulate: implicit-Euler simulation of a JSON scene (default: the built-in cantilever).
 void register_simulate(CLI::App& app);
+/// pmg render: PNG stills and an animated GIF of a simulation's frames (python/pmgkit/render.py).
+void register_render(CLI::App& app);
+
+/// What pmg render and pmg simulate --render pass to render.py.
+struct RenderOptions {
+  std::string field = "displacement";  ///< displacement | von_mises
+  int every = 0;                        ///< every k-th frame; 0: the renderer's (at most ~50 stills)
+  std::string size;                     ///< WxH pixels; empty: the script's default
+  bool gif = true;                      ///< also write OUTDIR/animation.gif
+};
+/// Runs `/usr/bin/python3 render.py SOURCE -o OUTDIR ...` (SOURCE: an output folder of pmg
+/// simulate, or one .pvd, .vtu or .pvtu file) and prints what it wrote. Throws Error with the
+/// script's last line when it fails (the caller's one error line, exit 1).
+void render_frames(const std::string& source, const std::string& outdir, const RenderOptions& o);
 
 /// Path of a data file shipped with the tools (installed share/pmgkit/, else the source tree).
 std::string find_data_file(const std::string& name);

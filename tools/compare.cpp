@@ -6,7 +6,8 @@
 //      with a manufactured solution.
 //   2. Convert once to the formats the solvers need (CSR, BCSR 3x3, BIN-BCSR).
 //   3. For each solver: set up (timed), solve from x = 0 (timed, monitored), compute the true error.
-//   4. Write the per-iteration history as CSV and print the summary table.
+//   4. Print the summary table; write the per-iteration history as CSV (--history) and draw the
+//      plot (--plot: from the history and a per-solver summary, temporary files unless --history).
 #include "process.hpp"
 #include "ranks.hpp"
 #include "pmg/sparse/defaults.hpp"
@@ -24,6 +25,7 @@
 
 #include <filesystem>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include "pmg/sparse/bin_bcsr.hpp"
@@ -68,12 +70,12 @@ struct Options {
   std::vector<std::string> solvers;  // default depends on the system
   std::vector<std::string> overrides;  // --set key=value, for every solver of the run
   std::string solver_config;           // --solver-config FILE.json: named configurations
-  std::string format = "bcsr";
+  std::string format = "bcsr";      // csr where --matrix reads as a scalar system and --format is not given
+  std::string block_size = "auto";  // --matrix: auto (from the pattern) | 1 | 3
   double tol = 1e-8;
   int max_iterations = 20000;
   int fixed_iterations = 0;
   int check_every = 1;
-  int threads = 0;
   bool warm_up = false;
   std::set<std::string> given;  // the stopping flags given on the command line
 };
@@ -217,12 +219,18 @@ System load_system(const Options& o) {
     if (s.csr.rows() % 3 == 0) {
       // Judged on the scalar matrix, before it becomes blocks (pmg/sparse/layout.hpp).
       const std::string reading = component_major_reading(s.csr);
-      if (!reading.empty() &&
-          std::none_of(o.overrides.begin(), o.overrides.end(), [](const std::string& kv) { return kv.rfind("layout=", 0) == 0; }))
+      const bool layout_given =
+          std::any_of(o.overrides.begin(), o.overrides.end(), [](const std::string& kv) { return kv.rfind("layout=", 0) == 0; });
+      if (!reading.empty() && !layout_given)
         std::cerr << "warning: " << reading << "; the block methods read 3x3 blocks of interleaved unknowns: add "
                   << "--set layout=component\n";
-      s.bcsr = std::make_shared<const Bcsr>(Bcsr::from_csr(s.csr));
     }
+    // 3x3 blocks where the data carries them (pmg::reads_as_blocks) or --block-size 3 says so; a
+    // scalar system stays CSR and runs the scalar methods.
+    if (o.block_size == "3" && s.csr.rows() % 3 != 0)
+      throw InputError("--block-size 3: the size " + std::to_string(s.csr.rows()) + " is not divisible by 3");
+    if (o.block_size == "3" || (o.block_size == "auto" && reads_as_blocks(s.csr)))
+      s.bcsr = std::make_shared<const Bcsr>(Bcsr::from_csr(s.csr));
   } else if (o.fem) {
     // The finest matrix is assembled here only where the options read it (a reference solve,
     // exports, another format); otherwise run() assembles it once a solver that is not
@@ -275,10 +283,45 @@ Formats select_format(const Options& o, const System& s) {
   return f;
 }
 
-/// Draws relative residual against time and against iterations (matplotlib, Debian's python3).
-void plot_history(const std::string& csv, const std::string& png, const std::string& title) {
+/// One CSV field: quoted (quotes doubled) where it holds a comma, a quote or a line break.
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string out = "\"";
+  for (char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+/// The plot's per-solver summary (a work-precision point each): `seconds` the time to the
+/// tolerance including set-up (the table's set-up + solve; empty for a failed solver), `error` the
+/// table's error against the reference (empty: none), `rel_residual` the true residual at the end.
+std::string summary_csv(const std::vector<study::SolverRun>& runs) {
+  auto number = [](double v) {
+    if (!std::isfinite(v)) return std::string();
+    std::ostringstream out;
+    out.precision(10);
+    out << v;
+    return out.str();
+  };
+  std::string csv = "solver,seconds,error,rel_residual,iterations\n";
+  for (const auto& r : runs)
+    csv += csv_field(r.name) + "," + (r.ok() ? number(r.setup_s + r.solve_s) : std::string()) + "," +
+           number(r.rel_error) + "," + number(r.rel_residual) + "," + std::to_string(r.iterations) + "\n";
+  return csv;
+}
+
+/// --plot: relative residual against time and iterations, and error against time
+/// (plot_history.py: matplotlib, Debian's python3). Its data is the --history file where one was
+/// given, else a temporary copy; the per-solver summary is always temporary: nothing but the PNG
+/// is left behind.
+void plot(const std::vector<study::SolverRun>& runs, const std::string& history, const std::string& png,
+          const std::string& title) {
   const std::string script = find_data_file("plot_history.py");
-  const int rc = run_program({"/usr/bin/python3", script, csv, png, title});
+  const ScratchDir scratch(std::filesystem::temp_directory_path() / ("pmg_plot_" + std::to_string(::getpid())));
+  const std::string data = history.empty() ? (scratch.path / "history.csv").string() : history;
+  if (history.empty()) study::write_history(data, runs);
+  const std::string summary = (scratch.path / "summary.csv").string();
+  write_file_atomically(summary, summary_csv(runs));
+  const int rc = run_program({"/usr/bin/python3", script, data, png, title, "--summary", summary});
   if (!WIFEXITED(rc) || WEXITSTATUS(rc) != 0)
     throw Error("plotting failed (needs /usr/bin/python3 with matplotlib: apt install python3-matplotlib)");
   std::cout << "plot: " << png << "\n";
@@ -311,8 +354,7 @@ void check_outputs(Options& o) {
   plan.input(o.scene.mesh, "--mesh");
   plan.output(o.history, "--history");
   plan.output(o.solution_out, "--solution-out");
-  plan.output(o.plot, "--plot");
-  if (o.history.empty() && !o.plot.empty()) plan.output(o.plot + ".csv", "--plot's data");
+  plan.output(o.plot, "--plot");  // its data and summary are temporary files (plot())
   plan.output(o.json_report, "--json");
   plan.output_folder(o.export_levels, "--export-levels", [](const std::string& name) {
     return name == "b.mtx" || ((name[0] == 'A' || name[0] == 'P') && name.size() > 5 &&
@@ -331,8 +373,9 @@ void check_outputs(Options& o) {
 
 /// The methods run when --solvers and --solver-config name none: the Krylov methods, the direct
 /// solver and BoomerAMG-PCG, and where there are levels the two multigrid methods.
-std::vector<std::string> default_solver_names(bool levels) {
+std::vector<std::string> default_solver_names(bool levels, bool blocks = true) {
   std::vector<std::string> names = {"cg", "jacobi-pcg", "block-jacobi-pcg", "mcg", kDefaultDirectMethod, "boomeramg-pcg"};
+  if (!blocks) names = {"cg", "jacobi-pcg", kDefaultDirectMethod, "boomeramg-pcg"};  // a scalar system
   if (levels) names.insert(names.end(), {"pmg", "mgpcg"});  // mgpcg flexible where the lowest level iterates
   return names;
 }
@@ -341,7 +384,7 @@ std::vector<std::string> default_solver_names(bool levels) {
 std::string default_solver_help() {
   std::string text;
   for (const std::string& n : default_solver_names(false)) text += (text.empty() ? "" : ", ") + n;
-  return text + ", and pmg, mgpcg where there are levels";
+  return text + ", and pmg, mgpcg where there are levels; without the block methods on a scalar system";
 }
 
 /// A stopping flag given twice (as a flag and in --set), or to solvers that do not read it, is an
@@ -385,7 +428,7 @@ void print_header(const Options& o, const System& sys, double load_time, double 
             << (sys.nonzeros() >= 0 ? std::to_string(sys.nonzeros()) + " nonzeros" : "finest matrix not assembled (matrix-free solvers only)")
             << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "") << "\n"
             << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
-            << fmt("%.3f", convert_time) << " s), " << omp_get_max_threads() << " threads\n"
+            << fmt("%.3f", convert_time) << " s), " << count_of(omp_get_max_threads(), "thread") << "\n"
             << "stop:    "
             << (o.fixed_iterations > 0 ? std::to_string(o.fixed_iterations) + " fixed iterations"
                                        : "relative residual <= " + fmt("%.1e", o.tol))
@@ -440,13 +483,18 @@ bool print_runs(const System& sys, const std::vector<study::SolverRun>& runs) {
   Table table({"solver", "status", "iters", "setup [s]", "solve [s]", "t(1e-3) [s]", "t(1e-6) [s]", "rel. residual",
                "rel. error"});
   bool failed = false;
+  std::string repeated;
   for (const auto& r : runs) {
     failed |= !r.ok();
+    if (r.repetitions > 1) repeated += (repeated.empty() ? "" : ", ") + r.name;
     table.add({r.name, r.status, std::to_string(r.iterations), fmt("%.4f", r.setup_s), fmt("%.4f", r.solve_s),
                fmt("%.4f", r.time_to(1e-3)), fmt("%.4f", r.time_to(1e-6)), fmt("%.2e", r.rel_residual),
                fmt("%.2e", r.rel_error)});
   }
   table.print(std::cout);
+  if (!repeated.empty())
+    std::cout << "times: the run of median time of " << study::Study::kShortRepetitions << " for set-ups and solves under "
+              << study::Study::kShortRun << " s (" << repeated << "): a millisecond's run is otherwise at the mercy of the scheduler\n";
   for (const auto& r : runs)
     if (!r.ok()) std::cout << "\n" << r.name << " failed: " << r.message << "\n";
   for (const std::string study::SolverRun::*part :
@@ -499,10 +547,10 @@ void write_report(const Options& o, const System& sys, const std::vector<study::
 
 void run(const Options& given) {
   Options o = given;
-  if (o.threads > 0) omp_set_num_threads(o.threads);
   check_outputs(o);
   auto t0 = Clock::now();
   System sys = load_system(o);
+  if (!o.matrix.empty() && !sys.bcsr && !o.given.count("--format")) o.format = "csr";
   if (!o.export_levels.empty()) export_levels(*sys.fem, o.export_levels);
   if (!o.export_petsc.empty()) export_petsc(*sys.fem, o.export_petsc);
   RunFigures figures;
@@ -525,7 +573,7 @@ void run(const Options& given) {
   ss.matrix = sys.bcsr ? static_cast<const LinearOperator*>(sys.bcsr.get()) : sys.fem ? nullptr : &sys.csr;
   const Config set = Config::from_pairs(o.overrides, "--set");  // read once, for every solver
   std::vector<std::string> names = o.solvers;
-  if (names.empty()) names = default_solver_names(ss.levels && ss.levels->num_levels() > 1);
+  if (names.empty()) names = default_solver_names(ss.levels && ss.levels->num_levels() > 1, sys.bcsr || sys.fem);
   std::vector<std::pair<std::string, Config>> configs = solver_configs(o, names, set);
   check_stopping_flags(o, set, configs);
   study::Study st(ss);
@@ -557,23 +605,20 @@ void run(const Options& given) {
   }
   const bool failed = print_runs(sys, runs);
   figures.history = o.history;
-  if (!o.plot.empty() && figures.history.empty()) figures.history = o.plot + ".csv";
-  if (!figures.history.empty()) {
-    study::write_history(figures.history, runs);
-    std::cout << "history: " << figures.history << "\n";
+  if (!o.history.empty()) {
+    study::write_history(o.history, runs);
+    std::cout << "history: " << o.history << "\n";
   }
-  if (!o.plot.empty()) plot_history(figures.history, o.plot, sys.description);
+  if (!o.plot.empty()) plot(runs, o.history, o.plot, sys.description);
   if (!o.json_report.empty()) write_report(o, sys, runs, figures);
   if (failed) throw Exit{kSolveFailed};
 }
 
 }  // namespace
 
-void register_compare(CLI::App& app) {
-  auto opts = std::make_shared<Options>();
-  CLI::App* sub = app.add_subcommand(
-      "compare", "Run several solvers on one SPD system and report residual against time (methods and their "
-                 "keys: pmg solvers)");
+/// The options that name the system: a Matrix Market file (with its right-hand side, known
+/// solution and block size) or the built-in lattice.
+void add_system_options(CLI::App* sub, const std::shared_ptr<Options>& opts) {
   sub->add_option("-m,--matrix", opts->matrix, "Matrix Market file (symmetric positive definite)")
       ->check(CLI::ExistingFile);
   sub->add_option("-b,--rhs", opts->rhs, "right-hand side (Matrix Market array or n x 1)")
@@ -581,9 +626,23 @@ void register_compare(CLI::App& app) {
   sub->add_option("-x,--solution", opts->solution, "known solution, for the error column")
       ->check(CLI::ExistingFile)
       ->needs("--matrix");
+  sub->add_option("--block-size", opts->block_size,
+                  "--matrix: unknowns per node; auto: 3 (3x3 blocks, interleaved) where the three rows of each "
+                  "node couple to the same nodes, else 1 (a scalar system: the scalar methods run)")
+      ->check(CLI::IsMember({"auto", "1", "3"}))
+      ->needs("--matrix")
+      ->capture_default_str();
   sub->add_option("-n,--grid", opts->grid, "built-in lattice: nodes per edge (3 unknowns each)")
       ->check(CLI::Range(2, 400))
       ->capture_default_str();
+}
+
+void register_compare(CLI::App& app) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* sub = app.add_subcommand(
+      "compare", "Run several solvers on one SPD system and report residual against time (methods and their "
+                 "keys: pmg solvers)");
+  add_system_options(sub, opts);
   sub->add_option("-s,--solvers", opts->solvers,
                   "comma-separated methods: " + method_list() + " (default: " + default_solver_help() + ")")
       ->delimiter(',');
@@ -598,7 +657,8 @@ void register_compare(CLI::App& app) {
                   "({\"name\": {\"method\": \"mgpcg\", ...}, ...}); replaces --solvers")
       ->check(CLI::ExistingFile)
       ->excludes("--solvers");
-  sub->add_option("-f,--format", opts->format, "matrix format for the Krylov solvers")
+  sub->add_option("-f,--format", opts->format,
+                  "matrix format for the Krylov solvers (default: bcsr; csr for a scalar --matrix)")
       ->check(CLI::IsMember({"csr", "bcsr", "bin-bcsr"}))
       ->capture_default_str();
   sub->add_option("-t,--tol", opts->tol, "relative residual tolerance")
@@ -614,15 +674,20 @@ void register_compare(CLI::App& app) {
                   "merged CG: test convergence every k iterations")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  sub->add_option("-o,--history", opts->history,
+  sub->add_option("--history", opts->history,
                   "write the per-iteration history as CSV (solver,iteration,seconds,rel_residual)");
+  // -o names an output folder (pmg simulate, pmg render); here it is refused with --history named,
+  // not taken as the history file (hidden from the help).
+  auto dash_o = std::make_shared<std::string>();
+  sub->add_option("-o", *dash_o)->expected(0, 1)->group("");
   sub->add_option("--json", opts->json_report,
                   "also write every figure of the table to this JSON file (units in the key names)");
   sub->add_flag("--warm-up", opts->warm_up,
                 "run each solver once untimed first: warm timings, independent of the solvers' order");
-  sub->add_option("--threads", opts->threads, "OpenMP threads (default: OMP_NUM_THREADS)")
-      ->check(ThreadCount());
-  sub->add_option("--plot", opts->plot, "draw residual against time and iterations to this PNG");
+  add_threads_option(sub);
+  sub->add_option("--plot", opts->plot,
+                  "draw residual against time and iterations, and error against time, to this PNG (its data: "
+                  "temporary files, or the --history file)");
   sub->add_option("--levels", opts->levels,
                   "multigrid level matrices, coarsest first (Matrix Market or PETSc binary .petsc, 3 unknowns "
                   "per node; identity rows of clamped nodes are removed)")
@@ -661,13 +726,16 @@ void register_compare(CLI::App& app) {
       {"--mgpcg-cycles", "cycles"}};
   auto retired_values = std::make_shared<std::vector<std::string>>(std::size(retired));
   for (size_t k = 0; k < std::size(retired); ++k) sub->add_option(retired[k].first, (*retired_values)[k])->group("");
-  sub->callback([opts, sub, retired_values] {
+  sub->callback([opts, sub, retired_values, dash_o] {
     // Ranks given different commands stop here, together, before any rank refuses its own.
     std::vector<std::string> inputs = {opts->matrix, opts->rhs, opts->solution, opts->solver_config, opts->scene.mesh};
     inputs.insert(inputs.end(), opts->levels.begin(), opts->levels.end());
     inputs.insert(inputs.end(), opts->prolongations.begin(), opts->prolongations.end());
     agree_across_ranks(*sub, inputs);
-    for (const char* flag : {"--tol", "--max-iter", "--fixed-iterations", "--check-every"})
+    if (sub->count("-o"))
+      throw InputError("-o is not a pmg compare option (-o names an output folder in pmg simulate and pmg render): "
+                       "write the residual history CSV with --history FILE");
+    for (const char* flag : {"--tol", "--max-iter", "--fixed-iterations", "--check-every", "--format"})
       if (sub->count(flag)) opts->given.insert(flag);
     opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
                 sub->count("--load") || sub->count("--dt");

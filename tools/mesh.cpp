@@ -69,18 +69,6 @@ void stop_if_interrupted() {
   throw Exit{kInterrupted};
 }
 
-/// A temporary folder removed when it goes out of scope, on every way out (errors, Ctrl-C).
-struct ScratchDir {
-  fs::path path;
-  explicit ScratchDir(fs::path p) : path(std::move(p)) { fs::create_directories(path); }
-  ~ScratchDir() {
-    std::error_code ignored;
-    fs::remove_all(path, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-};
-
 fem::TetMesh run_tetgen(const MeshOptions& o, const fs::path& input, const fs::path& scratch,
                         double max_volume) {  for (const char* ext : {".1.node", ".1.ele", ".1.face", ".1.edge"})
     fs::remove(input.parent_path() / (input.stem().string() + ext));
@@ -209,6 +197,9 @@ void run(const MeshOptions& o) {
       fem::write_vtu(base + ".vtu", fem::BBSpace(mesh, 1), Vector());
       std::cout << "written: " << base << ".vtu\n";
     }
+  } else {
+    // As pmg simulate and pmg compare, no output unless one is named; the run says so.
+    std::cout << "not written: no -o given (pmg mesh " << o.input << " -o BASE writes BASE.node and BASE.ele)\n";
   }
 }
 
@@ -221,7 +212,9 @@ void register_mesh(CLI::App& app) {
   sub->add_option("input", o->input, "surface (.off, .stl) or mesh (.msh, .node, .ele)")
       ->required()
       ->check(CLI::ExistingFile);
-  sub->add_option("-o,--output", o->output, "output base name (writes BASE.node and BASE.ele)");
+  sub->add_option("-o,--output", o->output,
+                  "output base name (writes BASE.node and BASE.ele; without it the mesh is checked and "
+                  "nothing is written)");
   sub->add_option("-n,--tets", o->tets, "target number of tetrahedra (within 15%)")
       ->check(CLI::Range(10L, 100000000L))
       ->capture_default_str();
@@ -234,7 +227,7 @@ void register_mesh(CLI::App& app) {
   sub->add_option("--tetgen", o->tetgen, "TetGen executable")->capture_default_str();
   sub->add_option("--refine", o->refine, "then refine uniformly this many times (8x elements each)")
       ->check(CLI::Range(0, 4));
-  sub->add_flag("--vtu", o->vtu, "also write BASE.vtu for viewing");
+  sub->add_flag("--vtu", o->vtu, "also write BASE.vtu for viewing")->needs("--output");
   add_allow_option(sub, o->allow);
   sub->callback([o] { run(*o); });
 }

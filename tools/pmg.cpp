@@ -34,9 +34,43 @@ std::string find_data_file(const std::string& name) {
     const fs::path installed = exe.parent_path().parent_path() / "share" / "pmgkit" / name;
     if (fs::exists(installed)) return installed.string();
   }
-  const fs::path source = fs::path(PMG_TOOLS_SOURCE_DIR) / name;
-  if (fs::exists(source)) return source.string();
-  throw Error("data file " + name + " not found (looked in share/pmgkit and " PMG_TOOLS_SOURCE_DIR ")");
+  // The source tree: the tools' scripts, and the Python package's (_render.py).
+  for (const char* dir : {PMG_TOOLS_SOURCE_DIR, PMG_PYTHON_SOURCE_DIR}) {
+    const fs::path source = fs::path(dir) / name;
+    if (fs::exists(source)) return source.string();
+  }
+  throw Error("data file " + name +
+              " not found (looked in share/pmgkit, " PMG_TOOLS_SOURCE_DIR " and " PMG_PYTHON_SOURCE_DIR ")");
+}
+
+/// CLI11's help writes a flag that stores a value other than true (a "!"-negated one) with that
+/// value after its name ("--no-reference{false}"), which reads as a default of false. pmg's flags
+/// take no value, so their names are written bare.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  std::string make_option_name(const CLI::Option* opt, bool is_positional) const override {
+    std::string name = CLI::Formatter::make_option_name(opt, is_positional);
+    if (is_positional || opt->get_items_expected_max() != 0) return name;  // options that take values
+    for (size_t open = name.find('{'); open != std::string::npos; open = name.find('{', open)) {
+      const size_t close = name.find('}', open);
+      if (close == std::string::npos) break;
+      name.erase(open, close - open + 1);
+    }
+    return name;
+  }
+};
+
+/// An error message for the command line: the solver registry's unknown-method message ends with
+/// a hint for C++ callers (which function registers which methods); on the command line, `pmg
+/// solvers` is the list to look at.
+std::string for_the_command_line(std::string message) {
+  const size_t cpp = message.find("pmg::register_all_solvers()");
+  if (message.find("unknown method '") == std::string::npos || cpp == std::string::npos) return message;
+  const size_t from = message.rfind("; ", cpp);
+  const char* last = "register_solvers()";
+  const size_t to = message.find(last, cpp + 1);
+  if (from == std::string::npos || to == std::string::npos) return message;
+  return message.replace(from, to + std::strlen(last) - from, "; pmg solvers lists them with their keys");
 }
 
 /// Transparent huge pages for the process's heap, where the kernel offers them on request
@@ -151,6 +185,7 @@ int main(int argc, char** argv) {
     return fail(pmg::tools::kSolveFailed, std::string("pmg: error: ") + e.what() + "\n");
   }
   CLI::App app{"pmgkit: block-sparse formats, Krylov and direct solvers, p-multigrid"};
+  app.formatter(std::make_shared<pmg::tools::HelpFormatter>());  // before the subcommands: they copy it
   app.require_subcommand(1);
   app.set_version_flag("--version", "pmgkit " PMG_VERSION);
   // Every method of this build (the GPU ones where the CUDA module is built: they say so when there
@@ -161,21 +196,31 @@ int main(int argc, char** argv) {
   pmg::tools::register_mesh(app);
   pmg::tools::register_coarse(app);
   pmg::tools::register_simulate(app);
+  pmg::tools::register_render(app);
   // The one error path: every failure becomes one "pmg: error:" line and a non-zero exit, never
-  // an abort. Input errors (bad files, options, meshes) exit 2; failed solves and everything
-  // else exit 1.
+  // an abort. Input errors (bad files, options, meshes; every option CLI11 refuses while parsing)
+  // exit 2; failed solves and everything else exit 1.
   const std::string command = argc > 1 ? std::string("pmg ") + argv[1] : "pmg";
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    return fail(e.get_exit_code(), std::string("pmg: error: ") + e.what() + "\nRun with --help for more information.\n");
+    // CLI11's own codes (105-114) would say nothing a script can act on: a refused option is bad
+    // input like any other. The help to read is the subcommand's where one was named.
+    std::string help = "pmg --help";
+    if (argc > 1) {
+      try {
+        help = "pmg " + app.get_subcommand(std::string(argv[1]))->get_name() + " --help";
+      } catch (const CLI::Error&) {  // argv[1] is not a subcommand
+      }
+    }
+    return fail(pmg::tools::kBadInput, std::string("pmg: error: ") + e.what() + " (options: " + help + ")\n");
   } catch (const pmg::tools::Exit& e) {
     return e.code;
   } catch (const pmg::InputError& e) {
-    return fail(pmg::tools::kBadInput, std::string("pmg: error: ") + e.what() + "\n");
+    return fail(pmg::tools::kBadInput, "pmg: error: " + pmg::tools::for_the_command_line(e.what()) + "\n");
   } catch (const pmg::Error& e) {
-    return fail(pmg::tools::kSolveFailed, std::string("pmg: error: ") + e.what() + "\n");
+    return fail(pmg::tools::kSolveFailed, "pmg: error: " + pmg::tools::for_the_command_line(e.what()) + "\n");
   } catch (const std::bad_alloc&) {
     return fail(pmg::tools::kSolveFailed, "pmg: error: " + command +
                                               ": out of memory (the problem is larger than this machine can hold; try a smaller size)\n");

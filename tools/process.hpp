@@ -1,10 +1,27 @@
-// tools/process.hpp — running a helper program (TetGen, the plotting script) without a shell.
+// tools/process.hpp — running a helper program (TetGen, the plotting and rendering scripts) without
+// a shell, and the temporary folder it works in.
 #pragma once
 
+#include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pmg::tools {
+
+/// A temporary folder for a helper program's files (a plot's data, TetGen's runs, a log), created
+/// at once and removed with its contents when it goes out of scope, on every way out (errors,
+/// Ctrl-C).
+struct ScratchDir {
+  std::filesystem::path path;
+  explicit ScratchDir(std::filesystem::path p) : path(std::move(p)) { std::filesystem::create_directories(path); }
+  ~ScratchDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+};
 
 /// Runs argv[0] (searched on PATH when it has no '/') with the arguments argv[1..], no shell in
 /// between: paths and titles reach the program byte for byte, whatever quotes or ';' they hold.

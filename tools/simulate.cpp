@@ -15,6 +15,7 @@
 #include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/timer.hpp"
 
+#include <mpi.h>
 #include <nlohmann/json.hpp>
 #include <omp.h>
 #include <unistd.h>
@@ -24,7 +25,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <string>
 
 namespace pmg::tools {
@@ -38,12 +42,23 @@ struct Cli {
   std::string scene, output, json_report;
   double duration = 0, dt = 0;
   bool print_scene = false, quiet = false;
-  int threads = 0;
+  bool render = false;  // --render: the output folder's frames into <output>/render/ at the end
 };
 
+/// Whether the progress may redraw one line with '\r': standard output is a terminal and no MPI
+/// launcher started this process (mpirun hands its ranks a pseudo-terminal whatever its own output
+/// is, so a log file would collect every redraw).
+bool progress_on_terminal() {
+  for (const char* launcher : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "SLURM_STEP_NUM_TASKS"})
+    if (std::getenv(launcher)) return false;
+  return isatty(fileno(stdout)) == 1;
+}
+
+/// Progress of a dynamic run: on a terminal one line redrawn with '\r' (a bar, step, time, ETA);
+/// otherwise a plain line every 10% of the steps.
 class Progress {
  public:
-  Progress(int total, bool quiet) : total_(total), quiet_(quiet), tty_(isatty(fileno(stdout))), t0_(Clock::now()) {}
+  Progress(int total, bool quiet) : total_(total), quiet_(quiet), tty_(progress_on_terminal()), t0_(Clock::now()) {}
   void update(int step, double t) {
     if (quiet_) return;
     const double elapsed = seconds_since(t0_);
@@ -171,7 +186,6 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
 void run(const Cli& cli_in) {
   catch_interrupt();
   Cli cli = cli_in;
-  if (cli.threads > 0) omp_set_num_threads(cli.threads);
   sim::Scene s = cli.scene.empty() ? sim::Scene{} : sim::read_scene(cli.scene);
   if (cli.scene.empty()) s.initial = "deflected";  // the default scene: a released cantilever
   if (cli.duration > 0) s.duration = cli.duration;
@@ -187,6 +201,13 @@ void run(const Cli& cli_in) {
     std::cout << sim::scene_to_json(s);
     return;
   }
+  // --render needs frames to render: refused before any work, as a bad path is.
+  if (cli.render && cli.output.empty())
+    throw InputError("--render renders the run's frames, and this run writes none: give -o DIR (or "
+                     "output.directory in the scene)");
+  if (cli.render && s.dynamic && s.frame_every == 0)
+    throw InputError("--render: " + s.source + ": output.frame_every is 0, so the run writes no frames to render");
+  const std::string render_dir = cli.render ? (std::filesystem::path(cli.output) / "render").string() : std::string();
   // Output paths are checked before any work: a run must not fail at its end for a bad path.
   if (!cli.output.empty())
     prepare_output_directory(cli.output, output_from_cli ? "-o" : s.source + ": output.directory");
@@ -194,6 +215,7 @@ void run(const Cli& cli_in) {
   sim::plan_files(s, cli.scene, cli.output, plan);
   plan.output(cli.json_report, "--json");
   plan.check();
+  if (cli.render && mpi::launched_rank() == 0) prepare_output_directory(render_dir, "--render");
   if (mpi::launched_rank() != 0) {  // under mpirun rank 0 writes; every rank its piece of a distributed frame
     cli.json_report.clear();
     if (!sim::runs_across_ranks(s)) cli.output.clear();
@@ -211,7 +233,7 @@ void run(const Cli& cli_in) {
             << "\n"
             << "model:   " << (s.corotational ? "corotational" : "linear") << ", E = " << s.young << " Pa, nu = " << s.poisson
             << ", rho = " << s.density << " kg/m^3; initial state " << s.initial << "\n"
-            << "set-up:  " << fmt("%.3f", seconds_since(t0)) << " s, " << omp_get_max_threads() << " threads\n";
+            << "set-up:  " << fmt("%.3f", seconds_since(t0)) << " s, " << count_of(omp_get_max_threads(), "thread") << "\n";
   json report = {{"command", "pmg simulate"},
                  {"scene", s.source},
                  {"mesh", {{"source", s.mesh_file.empty() ? "box" : s.mesh_file},
@@ -237,6 +259,19 @@ void run(const Cli& cli_in) {
     throw;
   }
   write_report();
+  // Under mpirun rank 0 renders: a run across the ranks once every rank has written its pieces of
+  // the last frame (another run's frames are all rank 0's own).
+  if (cli.render && mpi::launched_ranks() > 1 && sim::runs_across_ranks(s)) {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Barrier(MPI_COMM_WORLD);
+  }
+  if (cli.render && mpi::launched_rank() == 0) {
+    try {
+      render_frames(cli.output, render_dir, RenderOptions{});
+    } catch (const Error& e) {  // the run itself succeeded: its outputs stay
+      throw Error(std::string("--render: ") + e.what() + " (the run's outputs in " + cli.output + " are complete)");
+    }
+  }
 }
 
 }  // namespace
@@ -246,9 +281,12 @@ void register_simulate(CLI::App& app) {
   auto* sub = app.add_subcommand("simulate", "run a simulation scene (JSON); no file: the built-in cantilever");
   sub->add_option("scene", cli->scene, "scene file (JSON)")->check(CLI::ExistingFile);
   sub->add_option("-o,--output", cli->output, "write steps.csv and .vtu frames here (overrides output.directory)");
+  sub->add_flag("--render", cli->render,
+                "at the end, render the frames to PNG stills and an animated GIF in OUTPUT/render/ (as pmg render "
+                "does; needs -o or output.directory)");
   sub->add_option("--duration", cli->duration, "override time.duration [s]")->check(FinitePositive());
   sub->add_option("--dt", cli->dt, "override time.dt [s]")->check(FinitePositive());
-  sub->add_option("--threads", cli->threads, "OpenMP threads (default: OMP_NUM_THREADS)")->check(ThreadCount());
+  add_threads_option(sub);
   sub->add_flag("--print-scene", cli->print_scene, "print the scene as JSON (a template to edit) and stop");
   sub->add_flag("-q,--quiet", cli->quiet, "no progress lines");
   sub->add_option("--json", cli->json_report,

@@ -69,7 +69,7 @@ def main():
             hist = os.path.join(d, "h.csv")
             cmd = [a.pmg, "compare", "--box", str(n), str(n), str(n), "--size", "1", "1", "1",
                    "-p", str(a.degree), "--fix", "z", "--load", "gravity", "--tol", str(min(tols)),
-                   "--no-reference", "--max-iter", str(a.max_iter), "-o", hist]
+                   "--no-reference", "--max-iter", str(a.max_iter), "--history", hist]
             if not a.no_warm_up:
                 cmd.append("--warm-up")
             cmd += extra if "--solvers" in extra else extra + ["--solvers", a.solvers]

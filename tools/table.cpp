@@ -34,4 +34,8 @@ std::string fmt(const char* format, double value) {
   return buf;
 }
 
+std::string count_of(long n, const std::string& noun) {
+  return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
 }  // namespace pmg::tools

@@ -21,4 +21,7 @@ class Table {
 /// printf-style formatting of one number ("%.3g" and friends); NaN prints as "-".
 std::string fmt(const char* format, double value);
 
+/// A count with its noun, singular for one: count_of(1, "thread") is "1 thread", 2 "2 threads".
+std::string count_of(long n, const std::string& noun);
+
 }  // namespace pmg::tools

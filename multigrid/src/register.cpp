@@ -81,9 +81,11 @@ struct CycleOptions {
               "levels left out below the lowest one used: 1 on an FEM scene's degree hierarchy makes degree 2 the "
               "factorised lowest level (p >= 3), which does not lock for thin parts and nearly incompressible "
               "material as degree 1 does");
-    v.solver("smoother", "gauss-seidel",
-             "one per level above the lowest (matrix-free route, and mgpcg on user levels: chebyshev, kind "
-             "opt-fourth, degree 3; on user levels with estimate lanczos)");
+    v.solver("smoother", "chebyshev",
+             "one per level above the lowest. Unset: chebyshev with kind opt-fourth and degree 3 (not the "
+             "chebyshev method's own defaults) on the matrix-free route and for mgpcg on user levels (there with "
+             "estimate lanczos); gauss-seidel, 2 sweeps, on the assembled route of an FEM hierarchy and for pmg "
+             "on user levels");
     const std::string lowest_help =
         "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
         " unknowns, BoomerAMG (one V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level "

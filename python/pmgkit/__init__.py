@@ -13,15 +13,64 @@ keys as ``pmg compare`` and scene files; ``pmgkit.methods()`` lists them), matri
     mg = pmgkit.multigrid(levels=[A1, A2, A3], prolongations=[P1, P2])   # coarsest first
     x, info = mg.solve(b)
 
-Errors raise pmgkit.InputError (a ValueError: bad shapes, unknown keys, bad layouts),
-pmgkit.SolveError (divergence, stagnation, a matrix that is not positive definite) or
-pmgkit.Error, with the C++ library's messages.
+Errors raise pmgkit.InputError (a ValueError: bad shapes, unknown keys, bad layouts, a matrix a
+method cannot take, such as a scalar system given to a block method or CHOLMOD's zero matrix),
+pmgkit.SolveError (breakdown, divergence, stagnation: a Krylov method on a matrix that is not
+positive definite) or pmgkit.Error (the base of both), with the C++ library's messages.
+
+pmgkit needs NumPy and SciPy (Debian's /usr/bin/python3 with python3-numpy and python3-scipy) and
+its compiled part, pmgkit._core, from the build tree (PYTHONPATH=<build>/python).
 """
+import importlib.util
 import json
+import os
+import sys
 
-import numpy as np
 
-from . import _core
+def _missing_numpy_or_scipy(missing):
+    """The ImportError for an interpreter without NumPy or SciPy: what pmgkit needs, where to get
+    them, and which interpreter this is."""
+    return ImportError(
+        f"pmgkit needs NumPy and SciPy, and this interpreter cannot import {missing} "
+        f"({sys.executable}, Python {sys.version.split()[0]}). Debian's /usr/bin/python3 has them "
+        "(apt install python3-numpy python3-scipy): run the script with it, e.g. "
+        "PYTHONPATH=<build>/python /usr/bin/python3 script.py")
+
+
+try:
+    import numpy as np
+except ImportError as _e:
+    raise _missing_numpy_or_scipy("numpy") from _e
+try:
+    # Found, not imported: scipy.sparse is imported where a matrix first needs it.
+    _scipy_found = importlib.util.find_spec("scipy") is not None
+except (ImportError, ValueError):  # a broken or stubbed scipy entry in sys.modules
+    _scipy_found = False
+if not _scipy_found:
+    raise _missing_numpy_or_scipy("scipy")
+
+
+def _missing_core(error):
+    """The ImportError for a pmgkit without its compiled part (pmgkit._core): not built, the source
+    tree's python/ on the path instead of the build tree's, or built for another Python."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    built = sorted(f for f in os.listdir(here) if f.startswith("_core") and f.endswith((".so", ".pyd")))
+    if built:
+        found = (f"{here} holds {', '.join(built)}, which this Python cannot load ({error}): it was built "
+                 "for another interpreter, or a library it links is missing")
+    else:
+        found = f"{here} has no _core extension (not built, or this is the source tree's copy of pmgkit)"
+    return ImportError(
+        f"pmgkit's compiled part, pmgkit._core, did not load: {found}. Build pmgkit (cmake) and put the build "
+        "tree's python folder first on the path: PYTHONPATH=<build>/python, e.g. PYTHONPATH=build/python "
+        f"/usr/bin/python3 script.py (the module is built for Debian's /usr/bin/python3; this is "
+        f"{sys.executable}, Python {sys.version.split()[0]}).")
+
+
+try:
+    from . import _core
+except ImportError as _e:
+    raise _missing_core(_e) from _e
 from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, ElasticModel,
                     DegreeHierarchy)
 
@@ -32,8 +81,10 @@ __all__ = ["make_solver", "multigrid", "methods", "study", "study_scene", "Solve
 
 
 def methods():
-    """Every solver method of the factory: name, description, component, keys (each a dict: key, type,
-    default, range, description), uses_levels, needs_blocks."""
+    """Every solver method of the factory, one dict each: name, description, component, keys (each
+    a dict: key, type, default, range, description), uses_levels (needs multigrid levels), and
+    needs_blocks (reads 3x3 blocks of interleaved unknowns: refuses a matrix that reads as a scalar
+    system; the others take any symmetric matrix)."""
     return _core.methods()
 
 
@@ -150,9 +201,8 @@ def _config_text(config, default_method):
 class Solver:
     """A solver from pmgkit's factory, set up on its matrix (or multigrid levels).
 
-    solve(b, x0=None, tol=None, out=None) -> (x, info): info holds status, iterations, residual
-        (true ||b - A x|| / ||b||), rel_residual (the solver's own, also relative to ||b||), history
-        (relative residual per iteration), history_seconds, setup_seconds, solve_seconds, method.
+    solve(b, x0=None, tol=None, out=None) -> (x, info): see solve's own docstring for info's
+        keys (residual is pmgkit's check of the answer, rel_residual the solver's own figure).
         tol, as in SciPy and PETSc, is relative to ||b||: a start x0 that meets it returns at once.
         A tol other than the config's holds for that call only (the solver is set up with it for
         the call, and again with the config's at the next call without it). Complex b or x0 are
@@ -164,6 +214,7 @@ class Solver:
         "ignore" in the config; an error otherwise).
     update(A_new): new values on the same pattern; numeric set-up only.
     aspreconditioner(): a scipy.sparse.linalg.LinearOperator applying the solver (M= of cg/gmres).
+    format: the format its matrix is multiplied in (csr, bcsr, bin-bcsr or matrix-free).
 
     Threads: the GIL is released while the solver works, so solvers on different threads run at
     once. One Solver may be shared by several threads: its calls (solve, update, applying it) run
@@ -176,6 +227,34 @@ class Solver:
         self._keep = keep  # arrays the solver was built from (read in place at set-up)
 
     def solve(self, b, x0=None, tol=None, out=None):
+        """Solves A x = b; returns (x, info).
+
+        b: the right-hand side (float64, the system's size; complex values are refused).
+        x0: the start (None: zero). tol: a tolerance relative to ||b|| for this call only (None:
+        the config's). out: a contiguous writeable float64 array that receives x and is returned.
+
+        info, a dict:
+          status: "converged" (the tolerance met) or "completed" (a preconditioner's one
+            correction, or fixed iterations); others only with "throw_on_failure": false.
+          iterations: iterations (cycles, corrections) done.
+          residual: ||b - A x|| / ||b|| for the x returned, measured by pmgkit after the solve
+            (||b - A x|| itself when b = 0). A relative residual despite its name, and the number to
+            check: the same measure for every method. With multigrid on user levels it is taken over
+            the reduced system (the removed Dirichlet rows are exact) and divided by the norm of
+            your whole b.
+          rel_residual: the solver's own final relative residual, as its convergence check saw it:
+            ||b - A x|| over ||b|| for iterative methods (over ||b - A x0|| when b = 0), over the
+            start's residual ||b - A x0|| for direct solvers and single corrections (||b|| from
+            x0 = 0); on the system the solver saw (with user levels, the reduced one). NaN where
+            the method measured none (an iterative method run for a fixed number of iterations).
+            Equal to residual up to rounding in the common case (an iterative method on one
+            matrix, b != 0).
+          history: the relative residual per iteration (entry 0 the start); history_seconds: the
+            time of each entry from the start of the solve; setup_seconds, solve_seconds; method;
+            message (empty when the solve succeeded).
+
+        Raises SolveError when the solve fails (breakdown, divergence, stagnation, the iteration
+        limit, a direct solve that misses its tol), InputError for bad vectors."""
         if out is not None and not isinstance(out, np.ndarray):
             raise InputError("out: expected a NumPy array (it is written in place), got %s" % type(out).__name__)
         self._check_comm()
@@ -197,6 +276,10 @@ class Solver:
                                  "build a new solver on a live communicator")
 
     def update(self, A):
+        """New values on the pattern the solver was set up on; numeric set-up only. A: a scipy
+        sparse matrix with the same indptr and indices (or, for multigrid on user levels, the list
+        of level matrices, coarsest first). Raises InputError for another pattern or a matrix the
+        solver refuses; the solver then stays as it was."""
         if isinstance(A, (list, tuple)):
             arrays = [_csr_arrays(M, f"level matrix {i}", canonical=False) for i, M in enumerate(A)]
             self._core.update_levels(arrays)
@@ -219,13 +302,23 @@ class Solver:
 
     @property
     def name(self):
+        """The method's name (cg, mgpcg, ...)."""
         return self._core.name
 
     @property
+    def format(self):
+        """The format the solver multiplies its matrix in: csr, bcsr or bin-bcsr (make_solver's
+        format; auto reads a matrix as 3x3 blocks only when its pattern fills them), bcsr for
+        multigrid levels, or matrix-free for a hierarchy's matrix-free operator."""
+        return self._core.format
+
+    @property
     def setup_seconds(self):
+        """Seconds of the last set-up (or update)."""
         return self._core.setup_seconds
 
     def describe(self):
+        """The solver's settings in words (preconditioner, smoother, levels, ...)."""
         return self._core.describe()
 
     @property
@@ -247,15 +340,26 @@ class Solver:
         return _to_scipy_csr(self._core.level_prolongation(level))
 
     def __repr__(self):
-        return f"pmgkit.Solver({self.name}, {self.shape[0]} unknowns)"
+        return repr(self._core)  # <pmgkit.Solver: method, unknowns, format[, levels]>
 
 
 def make_solver(A, config=None, format="auto", coordinates=None):
     """A solver for A (any scipy.sparse matrix, symmetric) from a config dict or JSON string in
     the factory's schema ({"method": "cg", "tol": 1e-8, "preconditioner": {...}}; default
-    method cg). format: auto (3x3 blocks when the size is a multiple of 3) | csr | bcsr |
-    bin-bcsr. coordinates: x, y, z per node (interleaved, 3 per node) for BoomerAMG's or GAMG's
-    rigid-body modes."""
+    method cg). Returns a Solver.
+
+    format: auto | csr | bcsr | bin-bcsr. auto reads A as 3x3 blocks (BCSR) when A reads as
+        blocks of interleaved unknowns (x0 y0 z0 x1 ...: the size a multiple of 3 and, for at least
+        90% of the nodes, the node's three rows coupling to the same nodes, as in elasticity,
+        exact zeros dropped or not), else as
+        CSR: a scalar matrix (a Poisson matrix of size 12, say) stays scalar. solver.format says
+        which was chosen.
+    coordinates: x, y, z per node (interleaved, 3 per node) for BoomerAMG's or GAMG's
+        rigid-body modes.
+
+    Raises InputError for a bad matrix or config, and when a method that reads 3x3 blocks
+    (pmgkit.methods()'s needs_blocks) gets a matrix that reads as a scalar system or as
+    component-major (give {"layout": "component"} for the latter)."""
     arrays = _csr_arrays(A)
     core = _core.Solver(arrays, _config_text(config, "cg"), format,
                         None if coordinates is None else np.asarray(coordinates, dtype=np.float64))
@@ -269,7 +373,9 @@ def multigrid(levels=None, prolongations=(), config=None, layout="interleaved", 
     prolongations, the lower levels then Galerkin products. config: the factory's schema (default
     method mgpcg; pmg for the stationary cycle). layout: interleaved (x0 y0 z0 x1 ...) or
     component (x0 x1 ... y0 ...). Dirichlet identity rows (whole nodes) are removed from the
-    levels and the prolongations; the solution's entries there are b / diagonal."""
+    levels and the prolongations; the solution's entries there are b / diagonal. Returns a Solver
+    (its format bcsr: the cycle's levels are 3x3 blocks). Raises InputError for levels and
+    prolongations that do not fit, or the wrong layout."""
     if (levels is None) == (finest is None):
         raise InputError("multigrid: give either levels=[...] (coarsest first) or finest=A")
     mats = [finest] if finest is not None else list(levels)
@@ -282,6 +388,8 @@ def multigrid(levels=None, prolongations=(), config=None, layout="interleaved", 
 # ---- formats -----------------------------------------------------------------------------------
 
 class _Format:
+    """What pmgkit's matrix formats share: products and their shape."""
+
     def matvec(self, x, out=None):
         """y = A x; with out= (a float64 array) written in place, no allocation."""
         return self._m.matvec(x, out)
@@ -291,7 +399,11 @@ class _Format:
 
     @property
     def shape(self):
+        """(rows, cols)"""
         return tuple(self._m.shape)
+
+    def __repr__(self):
+        return repr(self._m)  # <pmgkit.Csr: rows x cols, nonzeros> or the Bcsr's blocks
 
 
 class Csr(_Format):
@@ -313,6 +425,7 @@ class Bcsr(_Format):
 
     @property
     def num_blocks(self):
+        """3x3 blocks stored."""
         return self._m.num_blocks
 
     @property
@@ -429,7 +542,10 @@ def study(system, b, solvers, reference=None, coordinates=None, format="auto", w
     reference: the solution errors are measured against (None: no error column).
     coordinates: x, y, z per node (matrix systems; BoomerAMG's and GAMG's rigid-body modes).
     format: auto | csr | bcsr | bin-bcsr, the format the Krylov methods multiply in (matrix
-        systems; a hierarchy's solvers use its BCSR levels and matrix-free operators).
+        systems; auto: 3x3 blocks when the matrix reads as blocks, as in make_solver; a
+        hierarchy's solvers use its BCSR levels and matrix-free operators). A method that reads
+        3x3 blocks on a matrix that reads as a scalar system is an InputError before anything
+        runs.
     warm_up: run each solver once untimed first (the first touch of its memory).
 
     Returns one dict per solver: name, config, status, message, iterations, setup_seconds,
@@ -493,3 +609,21 @@ def simulate(scene, output_dir=""):
         err.summary = out
         raise err
     return out
+
+
+# ---- pictures ----------------------------------------------------------------------------------
+
+def render(source, outdir, field="displacement", every=None, size=(800, 600), gif=True, *, view=None):
+    """PNG stills and an animated GIF of a simulation, without ParaView (what `pmg render` and
+    `pmg simulate --render` run).
+
+    source: a `pmg simulate -o DIR` folder (or what `pmgkit.simulate(scene, output_dir)` wrote), a
+    .pvd, .vtu or .pvtu file. outdir: where frame_0000.png, ... and animation.gif go (created).
+    field: "displacement" (its magnitude) or "von_mises" (needs a stress array in the frames).
+    every: draw every every-th frame (default: at most about 50 stills). size: (width, height) in
+    pixels. gif: also write the animation. view: (elevation, azimuth) in degrees.
+    Returns the written paths, the stills in order and then the GIF. Raises ValueError or
+    FileNotFoundError naming the problem. Needs Debian's python3-vtk9, python3-matplotlib and
+    python3-pil (imported only here, not by `import pmgkit`)."""
+    from . import _render
+    return _render.render(source, outdir, field=field, every=every, size=size, gif=gif, view=view)

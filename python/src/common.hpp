@@ -73,10 +73,31 @@ struct ArrayCsr {
 /// The arrays of `m` = (indptr, indices, data, shape) viewed in place, checked (InputError naming
 /// `who`: lengths, dtypes, byte order, index range).
 ArrayCsr array_csr(py::tuple m, const std::string& who);
-/// The format a user's matrix is multiplied in: auto (BCSR when the size is a multiple of 3) |
-/// csr | bcsr | bin-bcsr, the block formats only for sizes divisible by 3 (InputError otherwise).
-std::string matrix_format(const std::string& format, index_t rows);
+/// InputError unless `format` is auto, csr, bcsr or bin-bcsr (checked before any conversion).
+void check_format_name(const std::string& format);
+/// The format a user's matrix A is multiplied in: auto (BCSR when A reads as 3x3 blocks of
+/// interleaved unknowns, reads_as_blocks() of pmg/sparse/layout.hpp; CSR otherwise, a scalar
+/// matrix whose size happens to be a multiple of 3 included) | csr | bcsr | bin-bcsr, the block
+/// formats only for sizes divisible by 3 (InputError otherwise, and for another name).
+std::string matrix_format(const std::string& format, const Csr& A);
+/// Refuses (InputError naming `who`) a matrix that a method reading 3x3 blocks of interleaved
+/// unknowns cannot take as it is: first one that reads as component-major (check_interleaved(),
+/// whose message names layout=component), then one that reads as a scalar system
+/// (reads_as_blocks() false: its pattern does not fill the 3x3 blocks of its nodes), naming this
+/// build's scalar methods and layout='component'. For sizes divisible by 3.
+void check_block_reading(const Csr& A, const std::string& who);
 /// A user's matrix as CSR, refused (InputError) when not square or not symmetric.
 Csr symmetric_csr(const CsrView& view);
+
+/// n with its thousands separated by commas (1,234,567), for the classes' reprs.
+inline std::string grouped(long long n) {
+  const std::string digits = std::to_string(n < 0 ? -n : n);
+  std::string out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return n < 0 ? "-" + out : out;
+}
 
 }  // namespace pmg::python

@@ -16,6 +16,7 @@
 #include <pybind11/stl.h>
 
 #include <array>
+#include <cstdio>
 #include <set>
 
 namespace pmg::python {
@@ -157,18 +158,29 @@ namespace {
 
 /// Material and Mesh.
 void register_mesh(py::module_& m) {
-  py::class_<fem::Material>(m, "Material")
+  py::class_<fem::Material>(m, "Material", "A linear elastic material: Young's modulus [Pa], Poisson's ratio, density [kg/m^3].")
       .def(py::init([](double young, double poisson, double density) {
              fem::Material mat{young, poisson, density};
              mat.check();
              return mat;
            }),
-           py::arg("young") = 500e3, py::arg("poisson") = 0.3, py::arg("density") = 1e3)
-      .def_readonly("young", &fem::Material::young)
-      .def_readonly("poisson", &fem::Material::poisson)
-      .def_readonly("density", &fem::Material::density);
+           py::arg("young") = 500e3, py::arg("poisson") = 0.3, py::arg("density") = 1e3,
+           "young: Young's modulus [Pa] (> 0); poisson: Poisson's ratio (in (-1, 0.5)); density [kg/m^3] "
+           "(>= 0). Raises InputError for values out of range.")
+      .def_readonly("young", &fem::Material::young, "Young's modulus [Pa].")
+      .def_readonly("poisson", &fem::Material::poisson, "Poisson's ratio.")
+      .def_readonly("density", &fem::Material::density, "Density [kg/m^3].")
+      .def("__repr__", [](const fem::Material& mat) {
+        char text[160];
+        std::snprintf(text, sizeof text, "<pmgkit.Material: young %g Pa, poisson %g, density %g kg/m^3>", mat.young,
+                      mat.poisson, mat.density);
+        return std::string(text);
+      });
 
-  py::class_<fem::TetMesh, std::shared_ptr<fem::TetMesh>>(m, "Mesh")
+  py::class_<fem::TetMesh, std::shared_ptr<fem::TetMesh>>(m, "Mesh",
+                                                          "A tetrahedral mesh (vertices and 4-vertex elements), "
+                                                          "checked when built: degenerate or inverted elements are "
+                                                          "refused.")
       .def(py::init([](const DoubleArray& vertices, const py::object& tets_obj, bool fix_orientation) {
              fem::TetMesh mesh;
              mesh.vertices = points_of(vertices, "vertices");
@@ -192,45 +204,75 @@ void register_mesh(py::module_& m) {
              }
              return std::make_shared<fem::TetMesh>(checked_mesh(std::move(mesh), fix_orientation));
            }),
-           py::arg("vertices"), py::arg("tets"), py::arg("fix_orientation") = false)
+           py::arg("vertices"), py::arg("tets"), py::arg("fix_orientation") = false,
+           "vertices: an (n, 3) array of positions; tets: an (m, 4) integer array of vertex numbers. "
+           "fix_orientation: reorder inverted elements instead of refusing them. Raises InputError for bad "
+           "shapes, vertex numbers out of range or invalid elements.")
       .def_static("read", [](const std::string& path) {
         return std::make_shared<fem::TetMesh>(checked_mesh(fem::read_mesh(path), false));
-      }, py::arg("path"))
+      }, py::arg("path"),
+         "A mesh from a Gmsh .msh file (format 2.2 or 4.1, ASCII) or TetGen's .node/.ele (either file or their "
+         "base name). Raises InputError naming the file when it is malformed.")
       .def_static("box", [](int nx, int ny, int nz, double lx, double ly, double lz) {
         return std::make_shared<fem::TetMesh>(fem::box_mesh_24(nx, ny, nz, lx, ly, lz));
-      }, py::arg("nx"), py::arg("ny"), py::arg("nz"), py::arg("lx") = 1.0, py::arg("ly") = 1.0, py::arg("lz") = 1.0)
-      .def_property_readonly("vertices", [](const fem::TetMesh& mesh) { return points_array(mesh.vertices); })
+      }, py::arg("nx"), py::arg("ny"), py::arg("nz"), py::arg("lx") = 1.0, py::arg("ly") = 1.0, py::arg("lz") = 1.0,
+         "A box [0, lx] x [0, ly] x [0, lz] of nx x ny x nz boxes, each split into 24 tetrahedra through its "
+         "face centres and its centre (conforming; every box face's centre is a vertex).")
+      .def_property_readonly("vertices", [](const fem::TetMesh& mesh) { return points_array(mesh.vertices); },
+                             "Vertex positions, an (n, 3) array (a copy).")
       .def_property_readonly("tets", [](const fem::TetMesh& mesh) {
         py::array_t<index_t> a({static_cast<py::ssize_t>(mesh.num_tets()), py::ssize_t(4)});
         auto w = a.mutable_unchecked<2>();
         for (index_t e = 0; e < mesh.num_tets(); ++e)
           for (int k = 0; k < 4; ++k) w(e, k) = mesh.tets[e][k];
         return a;
-      })
-      .def_property_readonly("num_vertices", &fem::TetMesh::num_vertices)
-      .def_property_readonly("num_tets", &fem::TetMesh::num_tets);
+      }, "Elements, an (m, 4) array of vertex numbers (a copy).")
+      .def_property_readonly("num_vertices", &fem::TetMesh::num_vertices, "Number of vertices.")
+      .def_property_readonly("num_tets", &fem::TetMesh::num_tets, "Number of tetrahedra.")
+      .def("__repr__", [](const fem::TetMesh& mesh) {
+        return "<pmgkit.Mesh: " + grouped(mesh.num_vertices()) + " vertices, " + grouped(mesh.num_tets()) +
+               " tetrahedra>";
+      });
 }
 
 /// ElasticModel: one degree's model, its matrices, loads and static solves.
 void register_model(py::module_& m) {
-  py::class_<PyModel>(m, "ElasticModel")
+  py::class_<PyModel>(m, "ElasticModel",
+                      "Linear elasticity of one Bernstein-Bezier degree (1, 2 or 3) on a mesh: its nodes, "
+                      "Dirichlet conditions, matrices over the free dofs, loads and static solves. Full vectors "
+                      "hold 3 entries per node (x, y, z interleaved), free vectors 3 per free node.")
       .def(py::init<std::shared_ptr<const fem::TetMesh>, int, const fem::Material&>(), py::arg("mesh"),
-           py::arg("degree"), py::arg("material") = fem::Material{})
-      .def_property_readonly("num_nodes", [](PyModel& s) { return s.m().num_nodes(); })
-      .def_property_readonly("num_dofs", [](PyModel& s) { return s.m().num_dofs(); })
-      .def_property_readonly("num_free_dofs", [](PyModel& s) { return s.m().num_free_dofs(); })
-      .def_property_readonly("degree", [](PyModel& s) { return s.m().space().degree(); })
-      .def("node_positions", [](PyModel& s) { return node_positions(s.m()); })
+           py::arg("degree"), py::arg("material") = fem::Material{},
+           "The model of `degree` (1, 2 or 3) on `mesh` with `material`; no node fixed yet. Raises InputError "
+           "for another degree or a material out of range.")
+      .def_property_readonly("num_nodes", [](PyModel& s) { return s.m().num_nodes(); }, "BB nodes (control points).")
+      .def_property_readonly("num_dofs", [](PyModel& s) { return s.m().num_dofs(); },
+                             "Unknowns of a full vector: 3 per node.")
+      // Counted, not read from the assembler: building it would freeze the Dirichlet set (fix_* refused after).
+      .def_property_readonly("num_free_dofs", [](PyModel& s) { return 3 * (s.m().num_nodes() - s.m().num_fixed()); },
+                             "Unknowns of a free vector: 3 per node not fixed (the matrices' size).")
+      .def_property_readonly("degree", [](PyModel& s) { return s.m().space().degree(); }, "The polynomial degree.")
+      .def("node_positions", [](PyModel& s) { return node_positions(s.m()); },
+           "Rest positions of every node, an (num_nodes, 3) array.")
       .def("fix_nodes", [](PyModel& s, std::vector<index_t> nodes) {
         for (index_t a : nodes)
           if (a < 0 || a >= s.m().num_nodes()) throw InputError("fix_nodes: node " + std::to_string(a) + " out of range");
         s.m().fix_nodes(nodes);
-      })
-      .def("fix_vertices", [](PyModel& s, py::object clamp) { s.m().fix_vertices(clamp_mask(s.m().space().mesh(), clamp)); })
+      }, py::arg("nodes"),
+         "Fixes the given nodes (numbers in [0, num_nodes)) at zero displacement. Call before the first "
+         "assembly; raises InputError for a node out of range.")
+      .def("fix_vertices", [](PyModel& s, py::object clamp) { s.m().fix_vertices(clamp_mask(s.m().space().mesh(), clamp)); },
+           py::arg("clamp"),
+           "Fixes every node whose support (vertex, edge, face or element) has only clamped vertices. clamp: one "
+           "boolean per mesh vertex, or a function of a vertex position (an array of 3) returning True or "
+           "False.")
       .def("constrain_components", [](PyModel& s, py::object masks) {
         s.m().constrain_components(component_masks(s.m().space().mesh(), masks));
-      })
-      .def_property_readonly("num_fixed", [](PyModel& s) { return s.m().num_fixed(); })
+      }, py::arg("components"),
+         "Holds single components at zero (symmetry planes, rollers): components is an (n_vertices, 3) boolean "
+         "array, column c set where component c is held; a node gets it where every vertex of its support has "
+         "it. Those components become identity rows of the matrices and zeros of free vectors.")
+      .def_property_readonly("num_fixed", [](PyModel& s) { return s.m().num_fixed(); }, "Nodes fixed.")
       .def("stiffness", [](PyModel& s) {
         Bcsr K = s.m().assembler().make_matrix();
         {
@@ -238,7 +280,7 @@ void register_model(py::module_& m) {
           s.m().assemble(nullptr, Vector(), K, nullptr);
         }
         return bsr_copy(K);
-      })
+      }, "The stiffness matrix over the free dofs (3x3 blocks, interleaved); pmgkit returns it as SciPy BSR.")
       .def("mass", [](PyModel& s) {
         Bcsr M = s.m().assembler().make_matrix();
         {
@@ -246,27 +288,35 @@ void register_model(py::module_& m) {
           s.m().assemble_mass(M);
         }
         return bsr_copy(M);
-      })
-      .def("gravity", [](PyModel& s, std::vector<double> g) { return to_numpy(s.m().gravity(vec3(g, "gravity"))); })
+      }, "The consistent mass matrix over the free dofs; pmgkit returns it as SciPy BSR.")
+      .def("gravity", [](PyModel& s, std::vector<double> g) { return to_numpy(s.m().gravity(vec3(g, "gravity"))); },
+           py::arg("g"),
+           "The load of gravity g (3 numbers, m/s^2) on the material's density, as a full vector.")
       .def("point_force", [](PyModel& s, std::vector<double> x, std::vector<double> F) {
         Vector f = Vector::Zero(s.m().num_dofs());
         s.m().add_point_force(f, vec3(x, "point"), vec3(F, "force"));
         return to_numpy(std::move(f));
-      })
+      }, py::arg("x"), py::arg("F"),
+         "The load of a force F (3 numbers, N) at the point x (3 numbers, inside the mesh), as a full vector. "
+         "Raises InputError when x lies outside the mesh.")
       .def("traction", [](PyModel& s, py::function on_face, std::vector<double> t) {
         Vector f = Vector::Zero(s.m().num_dofs());
         const double area = s.m().add_traction(f, [&](const fem::Vec3& X) {
           return predicate_answer(on_face(points_array({X})[py::make_tuple(0)]), "traction: on_face");
         }, vec3(t, "traction"));
         return py::make_tuple(to_numpy(std::move(f)), area);
-      })
+      }, py::arg("on_face"), py::arg("t"),
+         "A uniform traction t (3 numbers, N/m^2) on every boundary face whose three vertices satisfy on_face "
+         "(a function of a position returning True or False); returns (load as a full vector, area loaded).")
       .def("restrict_to_free", [](PyModel& s, const DoubleArray& u) {
         return to_numpy(s.m().restrict_to_free(to_vector(u, s.m().num_dofs(), "full vector")));
-      })
+      }, py::arg("u"), "The free nodes' entries of a full vector u (num_dofs entries): a free vector.")
       .def("expand", [](PyModel& s, const DoubleArray& u) {
         return to_numpy(s.m().expand(to_vector(u, s.m().num_free_dofs(), "free vector"), Vector()));
-      })
-      .def("free_positions", [](PyModel& s) { return to_numpy(s.m().free_positions()); })
+      }, py::arg("u"), "A full vector from a free vector u (num_free_dofs entries), zero at the fixed nodes.")
+      .def("free_positions", [](PyModel& s) { return to_numpy(s.m().free_positions()); },
+           "Rest positions of the free nodes, x, y, z interleaved like a free vector (rigid-body modes for "
+           "algebraic multigrid).")
       .def("displacement_at", [](PyModel& s, const DoubleArray& u, const DoubleArray& points) {
         if (points.ndim() != 2 || points.shape(1) != 3) throw InputError("points: expected an (n, 3) array");
         const Vector uu = to_vector(u, s.m().num_dofs(), "u (full vector)");
@@ -277,7 +327,9 @@ void register_model(py::module_& m) {
         py::gil_scoped_release nogil;
         loc.displacements(uu, p, static_cast<index_t>(points.shape(0)), o);
         return out;
-      }, py::arg("u"), py::arg("points"))
+      }, py::arg("u"), py::arg("points"),
+         "The displacement u (a full vector) at rest points (an (n, 3) array), as an (n, 3) array; points are "
+         "found through a grid over the elements.")
       .def("solve_static", [](PyModel& s, const DoubleArray& f, bool corotational) {
         const Vector ff = to_vector(f, s.m().num_dofs(), "force (full vector)");
         fem::StaticResult r;
@@ -286,12 +338,25 @@ void register_model(py::module_& m) {
           r = fem::solve_static(s.m(), ff, corotational);
         }
         return py::make_tuple(to_numpy(std::move(r.u)), r.iterations);
-      }, py::arg("f"), py::arg("corotational") = false);
+      }, py::arg("f"), py::arg("corotational") = false,
+         "The static displacement under the load f (a full vector) with the default direct solver; returns "
+         "(u as a full vector, iterations: 1 for linear, the fixed-point iterations when corotational). Raises "
+         "InputError when no node is fixed, Error when the system is not positive definite.")
+      .def("__repr__", [](PyModel& s) {
+        const fem::ElasticityModel& e = s.m();
+        return "<pmgkit.ElasticModel: degree " + std::to_string(e.space().degree()) + " on " +
+               grouped(e.space().mesh().num_tets()) + " tetrahedra, " + grouped(e.num_nodes()) + " nodes, " +
+               grouped(e.num_dofs()) + " dofs (" + grouped(3 * (e.num_nodes() - e.num_fixed())) + " free, " +
+               grouped(e.num_fixed()) + " nodes fixed)>";  // counted: the assembler would freeze the fixed set
+      });
 }
 
 /// DegreeHierarchy: the p-multigrid levels of a model.
 void register_hierarchy(py::module_& m) {
-  py::class_<PyHierarchy>(m, "DegreeHierarchy")
+  py::class_<PyHierarchy>(m, "DegreeHierarchy",
+                          "The p-multigrid levels of linear elasticity on one mesh: one model per degree 1..p "
+                          "(level l holds degree l + 1), the same clamp on every degree, their matrices over the "
+                          "free dofs (assembled at construction) and the degree-elevation prolongations.")
       .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material, py::object clamp,
                        py::object components) {
              if (degree < 1 || degree > 3) throw InputError("degree must be 1, 2 or 3, got " + std::to_string(degree));
@@ -310,14 +375,19 @@ void register_hierarchy(py::module_& m) {
              return out;
            }),
            py::arg("mesh"), py::arg("degree"), py::arg("material") = fem::Material{}, py::arg("clamp") = py::none(),
-           py::arg("components") = py::none())
+           py::arg("components") = py::none(),
+           "Levels of degrees 1..degree (degree 1, 2 or 3) on mesh with material. clamp: the clamped vertices, "
+           "one boolean per vertex or a function of a position (None: nothing clamped). components: an "
+           "(n_vertices, 3) boolean array holding single components at zero (symmetry planes, rollers), or "
+           "None. Raises InputError for another degree, a material out of range or masks of the wrong shape.")
       .def("constrained_dofs", [](const PyHierarchy& s) {
         const std::vector<char>* c = s.h->constrained_dofs(s.h->num_levels() - 1);
         py::array_t<bool> out(c ? static_cast<py::ssize_t>(c->size()) : 0);
         for (size_t i = 0; c && i < c->size(); ++i) out.mutable_data()[i] = (*c)[i] != 0;
         return out;
-      })
-      .def_property_readonly("num_levels", [](const PyHierarchy& s) { return s.h->num_levels(); })
+      }, "Per free dof of the finest level: True for a component held by `components` (empty without them).")
+      .def_property_readonly("num_levels", [](const PyHierarchy& s) { return s.h->num_levels(); },
+                             "Levels (degrees 1..p): p.")
       // Copied under the hierarchy's lock (the GIL released first, as the solvers take it): a solver
       // being built on another thread re-assembles the levels.
       .def("matrix", [](const PyHierarchy& s, int l) {
@@ -331,17 +401,36 @@ void register_hierarchy(py::module_& m) {
         py::capsule owner(copy.get(), [](void* p) { delete static_cast<Bcsr*>(p); });
         const Bcsr& A = *copy.release();
         return bsr_arrays(A, owner, true);
-      })
+      }, py::arg("level"),
+         "Level `level`'s matrix (degree level + 1, free dofs) as BSR arrays (indptr, indices, blocks, shape) "
+         "owning a copy; levels() gives them all as SciPy BSR.")
       // The prolongations never change after construction: no lock.
-      .def("prolongation", [](const PyHierarchy& s, int l) { return csr_copy(s.h->prolongation(l)); })
-      .def("free_positions", [](const PyHierarchy& s) { return to_numpy(s.h->finest().free_positions()); })
+      .def("prolongation", [](const PyHierarchy& s, int l) { return csr_copy(s.h->prolongation(l)); }, py::arg("level"),
+           "The node prolongation from level - 1 to `level` (1 <= level < num_levels; fine free nodes x coarse free "
+           "nodes) as CSR arrays owning a copy; prolongations() gives them all as SciPy CSR.")
+      .def("free_positions", [](const PyHierarchy& s) { return to_numpy(s.h->finest().free_positions()); },
+           "Rest positions of the finest level's free nodes, x, y, z interleaved like a free vector.")
       .def("restrict_to_free", [](const PyHierarchy& s, const DoubleArray& u) {
         return to_numpy(s.h->finest().restrict_to_free(to_vector(u, s.h->finest().num_dofs(), "full vector")));
-      })
+      }, py::arg("u"), "The finest level's free entries of a full vector u: the b of solver() and study().")
       .def("expand", [](const PyHierarchy& s, const DoubleArray& u) {
         return to_numpy(s.h->finest().expand(to_vector(u, s.h->finest().num_free_dofs(), "free vector"), Vector()));
-      })
-      .def("gravity", [](const PyHierarchy& s, std::vector<double> g) { return to_numpy(s.h->finest().gravity(vec3(g, "gravity"))); });
+      }, py::arg("u"), "A full vector of the finest degree from a free vector u, zero at the fixed nodes.")
+      .def("gravity", [](const PyHierarchy& s, std::vector<double> g) { return to_numpy(s.h->finest().gravity(vec3(g, "gravity"))); },
+           py::arg("g"), "The load of gravity g (3 numbers, m/s^2) on the finest degree, as a full vector.")
+      .def("__repr__", [](const PyHierarchy& s) {
+        int levels = 0;
+        index_t free = 0;
+        {
+          py::gil_scoped_release nogil;  // as matrix(): a solver being built on another thread holds the lock
+          std::lock_guard<std::mutex> lock(*s.lock);
+          levels = s.h->num_levels();
+          free = s.h->finest().num_free_dofs();
+        }
+        return "<pmgkit.DegreeHierarchy: degrees 1-" + std::to_string(levels) + " (" + std::to_string(levels) +
+               " levels) on " + grouped(s.mesh->num_tets()) + " tetrahedra, " + grouped(free) +
+               " free unknowns at degree " + std::to_string(levels) + ">";
+      });
 }
 
 /// simulate(): a scene run from Python.
@@ -378,7 +467,12 @@ void register_simulation(py::module_& m) {
     out["failure"] = r.failure;
     out["warnings"] = r.warnings;
     return out;
-  }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "");
+  }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "",
+     "Runs a dynamic scene (scene_json: the scene file's JSON text; origin: its path or a name, for messages "
+     "and relative paths) and returns its summary: records (per-step NumPy arrays), steps_done, wall_seconds, "
+     "iterations, max_residual, method, solver_settings, outputs, notes, failed_step, failure, warnings. "
+     "output_dir: also write steps.csv and the .vtu frames there. pmgkit.simulate raises SolveError for a "
+     "failed step.");
 }
 
 }  // namespace

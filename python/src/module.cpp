@@ -149,13 +149,40 @@ ArrayCsr array_csr(py::tuple m, const std::string& who) {
   return a;
 }
 
-std::string matrix_format(const std::string& format, index_t rows) {
+void check_format_name(const std::string& format) {
   if (format != "auto" && format != "csr" && format != "bcsr" && format != "bin-bcsr")
     throw InputError("format: expected auto, csr, bcsr or bin-bcsr, got '" + format + "'");
-  if (format == "auto") return rows % 3 == 0 ? "bcsr" : "csr";
-  if (format != "csr" && rows % 3 != 0)
-    throw InputError("format " + format + ": the size " + std::to_string(rows) + " is not divisible by 3 (3x3 blocks)");
+}
+
+std::string matrix_format(const std::string& format, const Csr& A) {
+  check_format_name(format);
+  if (format == "auto") return reads_as_blocks(A) ? "bcsr" : "csr";
+  if (format != "csr" && A.rows() % 3 != 0)
+    throw InputError("format " + format + ": the size " + std::to_string(A.rows()) + " is not divisible by 3 (3x3 blocks)");
   return format;
+}
+
+namespace {
+/// This build's methods for a scalar matrix: neither reading 3x3 blocks nor needing multigrid
+/// levels or MPI ranks ("cg, jacobi-pcg, cholmod, ...").
+std::string scalar_methods() {
+  std::string out;
+  for (const SolverInfo& s : registered_solvers())
+    if (!s.needs_blocks && !s.uses_levels && !s.across_ranks) out += (out.empty() ? "" : ", ") + s.name;
+  return out;
+}
+}  // namespace
+
+void check_block_reading(const Csr& A, const std::string& who) {
+  check_interleaved(A, who);  // component-major first: its message names layout=component
+  if (reads_as_blocks(A)) return;
+  throw InputError(who + " reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...), and this " +
+                   std::to_string(A.rows()) + "x" + std::to_string(A.cols()) +
+                   " matrix reads as a scalar system (the three rows of its nodes do not couple to the same "
+                   "nodes). Choose a method for scalar matrices (" + scalar_methods() +
+                   "; pmgkit.methods() lists each one's needs); for component-major elasticity (x0 x1 ... y0 y1 "
+                   "... z0 ...) add layout='component' to the config; layout='interleaved' declares interleaved "
+                   "3-component unknowns whatever the pattern");
 }
 
 Csr symmetric_csr(const CsrView& view) {
@@ -175,25 +202,43 @@ namespace {
 /// One solver from the factory on a user's matrix (or user levels), owning its operator.
 class PySolver {
  public:
-  /// A single matrix; format auto (BCSR when the size is a multiple of 3) | csr | bcsr | bin-bcsr.
+  /// A single matrix; format auto (BCSR when the matrix reads as 3x3 blocks of interleaved
+  /// unknowns, reads_as_blocks(); CSR otherwise) | csr | bcsr | bin-bcsr. A method that reads 3x3
+  /// blocks is refused a matrix that reads as component-major or as a scalar system, unless the
+  /// config declares its layout.
   PySolver(py::tuple A, const std::string& config_json, const std::string& format,
            std::optional<DoubleArray> coordinates)
       : config_(Config::from_json(config_json, "config")) {
     ArrayCsr a = array_csr(A, "matrix");
     if (a.view.rows != a.view.cols) throw InputError("matrix: must be square, is " + std::to_string(a.view.rows) + "x" + std::to_string(a.view.cols));
     method_ = config_.get_string("method", kDefaultMethod);
-    if (method_needs_blocks(method_) && a.view.rows % 3 != 0)
+    check_format_name(format);
+    const bool blocks = method_needs_blocks(method_);
+    // A layout key declares the unknowns' order; with layout=component the factory wraps the method
+    // in ComponentLayout, which permutes the scalar matrix and builds its own blocks.
+    const bool declared = config_.has("layout");
+    const bool component = declared && config_.get_string("layout", "interleaved") == "component";
+    if (blocks && a.view.rows % 3 != 0)
       throw InputError("method " + method_ + " reads 3x3 blocks, and the matrix's size " + std::to_string(a.view.rows) +
-                       " is not divisible by 3: choose a method for scalar matrices (cg, jacobi-pcg, cholmod, "
-                       "pmgkit.methods() lists each one's needs)");
-    const std::string f = matrix_format(format, a.view.rows);
-    if (method_needs_blocks(method_) && f == "csr")
+                       " is not divisible by 3: choose a method for scalar matrices (" + scalar_methods() +
+                       "; pmgkit.methods() lists each one's needs)");
+    if (blocks && !component && format == "csr")
       throw InputError("method " + method_ + " reads 3x3 blocks: use format='bcsr' or 'auto'");
+    std::string f;
     {
       py::gil_scoped_release nogil;
       csr_ = symmetric_csr(a.view);
-      // Judged on the scalar matrix, before it becomes blocks (pmg/sparse/layout.hpp).
-      if (method_needs_blocks(method_) && !config_.has("layout")) check_interleaved(csr_, "method " + method_);
+      // Judged on the scalar matrix, before it becomes blocks (pmg/sparse/layout.hpp): one that
+      // reads as component-major is named with layout=component, then one that reads as a scalar
+      // system (its pattern does not fill 3x3 node blocks) with the scalar methods.
+      if (blocks && !declared) check_block_reading(csr_, "method " + method_);
+      // auto: a block method's matrix as blocks (it reads as blocks, checked above, or its config
+      // says interleaved); under layout=component as CSR (the wrapper makes the blocks of the
+      // permuted matrix); any other method's by reads_as_blocks().
+      if (format != "auto") f = matrix_format(format, csr_);
+      else if (component) f = "csr";
+      else if (blocks) f = "bcsr";
+      else f = matrix_format(format, csr_);
       if (f != "csr") bcsr_ = std::make_unique<Bcsr>(Bcsr::from_csr(csr_));
       if (f == "bin-bcsr") bin_ = std::make_unique<BinBcsr>(*bcsr_);
     }
@@ -411,6 +456,23 @@ class PySolver {
   }
 
   Eigen::Index full_size() const { return levels_ ? levels_->full_size() : op_->rows(); }
+  /// The format the solver's matrix is multiplied in: csr, bcsr, bin-bcsr, or matrix-free (a
+  /// hierarchy's matrix-free operator).
+  std::string format() const {
+    std::lock_guard<std::mutex> lock(mutex_);  // a hierarchy's solver rebuilt for a new tol moves op_
+    if (!op_) return "none";
+    if (op_->bin_bcsr_matrix()) return "bin-bcsr";
+    if (op_->bcsr_matrix()) return "bcsr";
+    if (op_->csr_matrix()) return "csr";
+    return "matrix-free";
+  }
+  /// What it is, in one line (the class's repr): method, unknowns, format, what it was built on.
+  std::string repr() const {
+    const std::string on = levels_ ? ", " + std::to_string(levels_->num_levels()) + " user levels"
+                           : hierarchy_ ? ", a degree hierarchy of " + std::to_string(hierarchy_->num_levels()) + " levels"
+                                        : std::string();
+    return "<pmgkit.Solver: " + name() + ", " + grouped(full_size()) + " unknowns, " + format() + on + ">";
+  }
   // These take the lock with the GIL held: no locked region ever waits for the GIL.
   std::string name() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -532,6 +594,18 @@ void register_errors(py::module_& m) {
   static py::object input_bases = py::make_tuple(error, py::handle(PyExc_ValueError));
   static py::exception<InputError> input_error(m, "InputError", input_bases.ptr());
   static py::exception<SolveError> solve_error(m, "SolveError", error.ptr());
+  error.attr("__doc__") =
+      "Any error of pmgkit's C++ library (a RuntimeError), with its message; InputError and SolveError "
+      "are the two kinds callers usually tell apart.";
+  input_error.attr("__doc__") =
+      "Input pmgkit refuses before it computes (an Error and a ValueError): bad shapes, unknown or "
+      "misspelt config keys, a wrong layout, a malformed or non-symmetric matrix, a matrix a method "
+      "cannot read (a direct solver's zero or missing diagonal entry, a scalar system given to a block "
+      "method), sizes beyond the machine.";
+  solve_error.attr("__doc__") =
+      "A solve that ended without a usable answer (an Error): breakdown, divergence, stagnation, the "
+      "iteration limit, NaN/Inf, a direct solve that misses its tol. The message names the method and "
+      "the relative residual reached.";
   // Messages may quote bytes of the caller's files: decoded with \xNN for bytes that are not UTF-8,
   // never lost (PyErr_SetString would replace an undecodable message by an empty exception).
   py::register_exception_translator([](std::exception_ptr p) {
@@ -560,33 +634,76 @@ void register_errors(py::module_& m) {
 /// Solver (matrices, user levels or an FEM hierarchy) and the registry's methods.
 void register_solver(py::module_& m) {
   // ---- solvers ----
-  py::class_<PySolver>(m, "Solver")
+  py::class_<PySolver>(m, "Solver",
+                       "A solver from pmgkit's factory, set up on a matrix, on user multigrid levels or on a "
+                       "DegreeHierarchy (the core of pmgkit.Solver: make_solver, multigrid and "
+                       "DegreeHierarchy.solver build it, with SciPy arrays turned into CSR tuples).")
       .def(py::init<py::tuple, const std::string&, const std::string&, std::optional<DoubleArray>>(),
-           py::arg("A"), py::arg("config"), py::arg("format"), py::arg("coordinates") = py::none())
+           py::arg("A"), py::arg("config"), py::arg("format") = "auto", py::arg("coordinates") = py::none(),
+           "A solver on one matrix.\n\n"
+           "A: (indptr, indices, data, (rows, cols)), CSR arrays read in place (symmetric, square).\n"
+           "config: the factory's config as JSON text.\n"
+           "format: auto (3x3 blocks when the matrix reads as blocks of interleaved unknowns) | csr | bcsr | "
+           "bin-bcsr.\n"
+           "coordinates: x, y, z per node for BoomerAMG's or GAMG's rigid-body modes, or None.\n"
+           "Raises InputError for a bad matrix or config, or a block method on a matrix that does not read "
+           "as 3x3 blocks.")
       .def(py::init<py::list, py::list, const std::string&, const std::string&, bool>(), py::arg("levels"),
-           py::arg("prolongations"), py::arg("config"), py::arg("layout"), py::arg("galerkin_only"))
+           py::arg("prolongations"), py::arg("config"), py::arg("layout") = "interleaved",
+           py::arg("galerkin_only") = false,
+           "Multigrid on user levels.\n\n"
+           "levels: CSR tuples, coarsest first (just the finest with galerkin_only).\n"
+           "prolongations: CSR tuples P_1 .. P_L-1 (level l-1 -> l; per node or per dof).\n"
+           "config: the factory's config as JSON text (default method mgpcg).\n"
+           "layout: interleaved (x0 y0 z0 x1 ...) or component (x0 x1 ... y0 ...).\n"
+           "galerkin_only: the lower levels are Galerkin products of the finest.")
       .def(py::init<PyHierarchy&, const std::string&, long>(), py::arg("hierarchy"), py::arg("config"),
-           py::arg("communicator"), py::keep_alive<1, 2>())
+           py::arg("communicator") = -1, py::keep_alive<1, 2>(),
+           "A factory method on a DegreeHierarchy's finest free unknowns (multigrid methods on its degrees).\n\n"
+           "config: the factory's config as JSON text (default method mgpcg).\n"
+           "communicator: an MPI communicator's Fortran handle for petsc-mgpcg (-1: MPI_COMM_WORLD).")
       .def("solve", &PySolver::solve, py::arg("b"), py::arg("x0") = py::none(), py::arg("tol") = py::none(),
-           py::arg("out") = py::none())
-      .def("apply", &PySolver::apply, py::arg("b"))
-      .def("update", &PySolver::update, py::arg("A"))
-      .def("update_levels", &PySolver::update_levels, py::arg("levels"))
-      .def_property_readonly("size", &PySolver::full_size)
-      .def_property_readonly("name", &PySolver::name)
-      .def_property_readonly("setup_seconds", &PySolver::setup_seconds)
-      .def("describe", &PySolver::describe)
-      .def_property_readonly("unused_keys", [](const PySolver& s) { return s.unused_keys(); })
+           py::arg("out") = py::none(),
+           "Solves A x = b; returns (x, info).\n\n"
+           "b, x0: float64 vectors of the system's size (read in place when contiguous); x0 None: zero.\n"
+           "tol: a tolerance relative to ||b|| for this call only (None: the config's).\n"
+           "out: a contiguous writeable float64 array that receives x (and is returned as x).\n"
+           "info: status, iterations, residual (||b - A x|| / ||b|| measured by pmgkit after the solve), "
+           "rel_residual (the solver's own final relative residual; NaN where it measured none), history, "
+           "history_seconds, setup_seconds, solve_seconds, method, message. See pmgkit.Solver.solve.\n"
+           "Raises SolveError when the solve fails, InputError for bad vectors.")
+      .def("apply", &PySolver::apply, py::arg("b"),
+           "x = M b: the solver applied once from x = 0 (as a preconditioner); returns x.")
+      .def("update", &PySolver::update, py::arg("A"),
+           "New values on the same pattern (A: a CSR tuple with the set-up's indptr and indices); numeric "
+           "set-up only. Raises InputError for another pattern or a non-symmetric matrix (the solver then "
+           "stays as it was).")
+      .def("update_levels", &PySolver::update_levels, py::arg("levels"),
+           "New values for every user level (CSR tuples, coarsest first, their patterns unchanged); "
+           "numeric set-up only.")
+      .def_property_readonly("size", &PySolver::full_size, "Unknowns of the system it solves (b's length).")
+      .def_property_readonly("name", &PySolver::name, "The method's name (cg, mgpcg, ...).")
+      .def_property_readonly("format", &PySolver::format,
+                             "The format its matrix is multiplied in: csr, bcsr, bin-bcsr, or matrix-free.")
+      .def_property_readonly("setup_seconds", &PySolver::setup_seconds, "Seconds of the last set-up or update.")
+      .def("describe", &PySolver::describe, "The solver's settings in words (preconditioner, smoother, ...).")
+      .def_property_readonly("unused_keys", [](const PySolver& s) { return s.unused_keys(); },
+                             "The config's keys no part of the solver read.")
       .def_property_readonly("removed_nodes", [](const PySolver& s) {
         if (!s.has_levels()) return std::vector<index_t>{};
         return s.with_levels("removed_nodes", [](const mg::UserLevels& lv) { return lv.removed_nodes(); });
-      })
+      }, "Clamped nodes (identity rows) removed from each user level, coarsest first (empty without levels).")
       .def("level_matrix", [](const PySolver& s, int l) {
         return s.with_levels("level_matrix", [l](const mg::UserLevels& lv) { return bsr_copy(lv.matrix(l)); });
-      })
+      }, py::arg("level"),
+         "User level `level`'s matrix as the cycle sees it (free nodes, interleaved), as a copy in BSR arrays "
+         "(indptr, indices, blocks, shape). Raises InputError without user levels.")
       .def("level_prolongation", [](const PySolver& s, int l) {
         return s.with_levels("level_prolongation", [l](const mg::UserLevels& lv) { return csr_copy(lv.prolongation(l)); });
-      });
+      }, py::arg("level"),
+         "The node prolongation from level-1 to `level` as the cycle sees it, as a copy in CSR arrays. Raises "
+         "InputError without user levels.")
+      .def("__repr__", &PySolver::repr);
 
   m.def("methods", [] {
     py::list out;
@@ -605,45 +722,80 @@ void register_solver(py::module_& m) {
       out.append(d);
     }
     return out;
-  });
+  }, "Every solver method of this build, one dict each: name, description, component, keys (each a dict: "
+     "key, type, default, range, description), uses_levels, needs_blocks (reads 3x3 blocks: refuses a "
+     "scalar system).");
   m.def("_view_addresses", [](py::tuple A) {
     ArrayCsr a = array_csr(A, "matrix");
     return py::make_tuple(reinterpret_cast<std::uintptr_t>(a.view.row_ptr), reinterpret_cast<std::uintptr_t>(a.view.col_idx),
                           reinterpret_cast<std::uintptr_t>(a.view.values));
-  }, "The addresses pmgkit reads a matrix's arrays at (for checking that nothing was copied).");
+  }, py::arg("A"), "The addresses pmgkit reads a matrix's arrays at (for checking that nothing was copied).");
 }
 
 /// Csr, Bcsr and BinBcsr.
 void register_formats(py::module_& m) {
   // ---- formats ----
-  py::class_<Csr>(m, "Csr")
-      .def(py::init([](py::tuple A) { return to_csr(array_csr(A, "matrix").view, "matrix"); }))
-      .def_property_readonly("shape", [](const Csr& A) { return py::make_tuple(A.rows(), A.cols()); })
-      .def_property_readonly("nnz", &Csr::nnz)
-      .def("matvec", &matvec<Csr>, py::arg("x"), py::arg("out") = py::none())
-      .def("arrays", [](py::object self) { return csr_arrays(self.cast<const Csr&>(), self); });
-  py::class_<Bcsr>(m, "Bcsr")
+  py::class_<Csr>(m, "Csr", "pmgkit's CSR matrix (64-bit row pointers), a copy of a user's CSR arrays.")
+      .def(py::init([](py::tuple A) { return to_csr(array_csr(A, "matrix").view, "matrix"); }), py::arg("A"),
+           "A copy of A = (indptr, indices, data, (rows, cols)), rows sorted and duplicates summed.")
+      .def_property_readonly("shape", [](const Csr& A) { return py::make_tuple(A.rows(), A.cols()); },
+                             "(rows, cols)")
+      .def_property_readonly("nnz", &Csr::nnz, "Entries stored.")
+      .def("matvec", &matvec<Csr>, py::arg("x"), py::arg("out") = py::none(),
+           "y = A x; with out= (a contiguous writeable float64 array of rows entries) written in place and "
+           "returned.")
+      .def("arrays", [](py::object self) { return csr_arrays(self.cast<const Csr&>(), self); },
+           "(indptr, indices, data, shape) viewing pmgkit's storage (no copy; the index arrays read-only).")
+      .def("__repr__", [](const Csr& A) {
+        return "<pmgkit.Csr: " + grouped(A.rows()) + "x" + grouped(A.cols()) + ", " + grouped(A.nnz()) + " nonzeros>";
+      });
+  py::class_<Bcsr>(m, "Bcsr", "3x3-block CSR (BCSR) of interleaved unknowns (x0 y0 z0 x1 ...), from a user's CSR arrays.")
       .def(py::init([](py::tuple A) {
         const Csr c = to_csr(array_csr(A, "matrix").view, "matrix");
         return Bcsr::from_csr(c);
-      }))
-      .def_property_readonly("shape", [](const Bcsr& A) { return py::make_tuple(A.rows(), A.cols()); })
-      .def_property_readonly("num_blocks", &Bcsr::num_blocks)
-      .def_property_readonly("bytes_per_spmv", &Bcsr::bytes_per_spmv)
-      .def("matvec", &matvec<Bcsr>, py::arg("x"), py::arg("out") = py::none())
-      .def("arrays", [](py::object self) { return bsr_arrays(self.cast<const Bcsr&>(), self); });
-  py::class_<BinBcsr>(m, "BinBcsr")
+      }), py::arg("A"),
+           "The 3x3 blocks of A = (indptr, indices, data, (rows, cols)); InputError unless the size is a "
+           "multiple of 3.")
+      .def_property_readonly("shape", [](const Bcsr& A) { return py::make_tuple(A.rows(), A.cols()); },
+                             "(rows, cols) in unknowns (3 per block row).")
+      .def_property_readonly("num_blocks", &Bcsr::num_blocks, "3x3 blocks stored.")
+      .def_property_readonly("bytes_per_spmv", &Bcsr::bytes_per_spmv,
+                             "The least bytes one SpMV moves (9 values and a block column per block, row "
+                             "pointers, x, y).")
+      .def("matvec", &matvec<Bcsr>, py::arg("x"), py::arg("out") = py::none(),
+           "y = A x; with out= (a contiguous writeable float64 array) written in place and returned.")
+      .def("arrays", [](py::object self) { return bsr_arrays(self.cast<const Bcsr&>(), self); },
+           "(indptr, indices, data as blocks x 3 x 3, shape) viewing pmgkit's storage (no copy).")
+      .def("__repr__", [](const Bcsr& A) {
+        return "<pmgkit.Bcsr: " + grouped(A.rows()) + "x" + grouped(A.cols()) + ", " + grouped(A.rows() / 3) +
+               " block rows, " + grouped(A.num_blocks()) + " 3x3 blocks>";
+      });
+  py::class_<BinBcsr>(m, "BinBcsr",
+                      "BIN-BCSR: a Bcsr's block rows sorted by length within windows and packed into 32-thread "
+                      "bins (one per warp), `lanes` threads per block row; its products equal the Bcsr's.")
       .def(py::init([](const Bcsr& A, int lanes, index_t sort_window) {
              return BinBcsr(A, BinBcsrOptions{lanes, sort_window});
            }),
-           py::arg("A"), py::arg("lanes") = 0, py::arg("sort_window") = 0)
-      .def_property_readonly("lanes", &BinBcsr::lanes)
-      .def_property_readonly("sort_window", &BinBcsr::sort_window)
-      .def_property_readonly("shape", [](const BinBcsr& A) { return py::make_tuple(A.rows(), A.cols()); })
-      .def_property_readonly("num_bins", &BinBcsr::num_bins)
-      .def_property_readonly("padding_ratio", &BinBcsr::padding_ratio)
-      .def_property_readonly("bytes_per_spmv", &BinBcsr::bytes_per_spmv)
-      .def("matvec", &matvec<BinBcsr>, py::arg("x"), py::arg("out") = py::none());
+           py::arg("A"), py::arg("lanes") = 0, py::arg("sort_window") = 0,
+           "The BIN-BCSR form of A (a pmgkit Bcsr). lanes: threads per block row (1, 2, 4, 8, 16 or 32; 0: "
+           "chosen from the pattern). sort_window: block rows sorted by length within windows of this many "
+           "(1: the original order; 0: 32 bins' worth; others rounded up to whole bins).")
+      .def_property_readonly("lanes", &BinBcsr::lanes, "Threads per block row.")
+      .def_property_readonly("sort_window", &BinBcsr::sort_window, "Block rows per sorting window.")
+      .def_property_readonly("shape", [](const BinBcsr& A) { return py::make_tuple(A.rows(), A.cols()); },
+                             "(rows, cols) in unknowns.")
+      .def_property_readonly("num_bins", &BinBcsr::num_bins, "Bins (warps of 32 threads).")
+      .def_property_readonly("padding_ratio", &BinBcsr::padding_ratio,
+                             "Values stored, padding included, over the source matrix's values (>= 1).")
+      .def_property_readonly("bytes_per_spmv", &BinBcsr::bytes_per_spmv, "The least bytes one SpMV moves.")
+      .def("matvec", &matvec<BinBcsr>, py::arg("x"), py::arg("out") = py::none(),
+           "y = A x; with out= (a contiguous writeable float64 array) written in place and returned.")
+      .def("__repr__", [](const BinBcsr& A) {
+        char padding[32];
+        std::snprintf(padding, sizeof padding, "%.2f", A.padding_ratio());
+        return "<pmgkit.BinBcsr: " + grouped(A.rows()) + "x" + grouped(A.cols()) + ", " + grouped(A.num_bins()) +
+               " bins, " + std::to_string(A.lanes()) + " lanes per block row, padding " + padding + ">";
+      });
 }
 
 /// PETSc's binary format (what MatView/VecView write; loads at disk speed).
@@ -656,7 +808,9 @@ void register_petsc_files(py::module_& m) {
       A = read_petsc_binary_matrix(path);
     }
     return csr_copy(A);
-  }, py::arg("path"));
+  }, py::arg("path"),
+  "A matrix from a PETSc binary file (what MatView writes) as CSR arrays (indptr, indices, data, shape) "
+  "owning their memory. Raises InputError naming the file when it is malformed.");
   m.def("read_petsc_vector", [](const std::string& path) {
     Vector v;
     {
@@ -664,24 +818,31 @@ void register_petsc_files(py::module_& m) {
       v = read_petsc_binary_vector(path);
     }
     return to_numpy(std::move(v));
-  }, py::arg("path"));
+  }, py::arg("path"),
+  "A vector from a PETSc binary file (what VecView writes) as a NumPy array. Raises InputError naming the "
+  "file when it is malformed.");
   m.def("write_petsc_matrix", [](const std::string& path, py::tuple A) {
     const Csr c = to_csr(array_csr(A, "matrix").view, "matrix");
     py::gil_scoped_release nogil;
     write_petsc_binary(path, c);
-  }, py::arg("path"), py::arg("A"));
+  }, py::arg("path"), py::arg("A"),
+  "Writes A (CSR arrays: indptr, indices, data, shape) in PETSc's binary format, to a temporary name and "
+  "then renamed.");
   m.def("write_petsc_vector", [](const std::string& path, const DoubleArray& v) {
     if (v.ndim() != 1) throw InputError("write_petsc_vector: expected a one-dimensional array");
     const Vector x = to_vector(v, v.shape(0), "vector");
     py::gil_scoped_release nogil;
     write_petsc_binary(path, x);
-  }, py::arg("path"), py::arg("v"));
+  }, py::arg("path"), py::arg("v"),
+  "Writes v (a one-dimensional float64 array) in PETSc's binary format, to a temporary name and then "
+  "renamed.");
 }
 
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
-  m.doc() = "pmgkit's compiled core; use the pmgkit package";
+  m.doc() = "pmgkit's compiled core (solvers, formats, PETSc files, studies, FEM); use the pmgkit package, "
+            "which takes SciPy matrices and dict configs.";
   register_all_solvers();  // every method of this build, as in pmg compare and scenes
   m.attr("max_config_bytes") = kMaxConfigBytes;  // the longest scene file read
 

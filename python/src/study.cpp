@@ -6,6 +6,7 @@
 #include "pmg/sparse/bin_bcsr.hpp"
 #include "pmg/sparse/defaults.hpp"
 #include "pmg/sparse/factory.hpp"
+#include "pmg/sparse/layout.hpp"
 #include "pmg/study/study.hpp"
 
 #include <nlohmann/json.hpp>
@@ -59,6 +60,23 @@ py::list study_runs(study::StudySystem& ss, const std::string& solvers_json, boo
   return out;
 }
 
+/// A study's methods that read 3x3 blocks, refused (before anything runs) on a matrix that does not
+/// read as blocks, as make_solver refuses them (check_block_reading()); configurations with a
+/// layout key declare the unknowns' order and are left to the method. Sizes not divisible by 3 are
+/// named by the study itself.
+void check_study_blocks(const std::string& solvers_json, const Csr& A) {
+  if (A.rows() % 3 != 0) return;
+  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(solvers_json, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object()) return;  // study_runs names what is wrong with it
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const nlohmann::ordered_json& c = it.value();
+    if (!c.is_object() || c.contains("layout")) continue;
+    const auto m = c.find("method");
+    const std::string method = m != c.end() && m->is_string() ? m->get<std::string>() : std::string(kDefaultMethod);
+    if (method_needs_blocks(method)) check_block_reading(A, "study: " + it.key() + " (method " + method + ")");
+  }
+}
+
 }  // namespace
 
 /// study_matrix (a user's matrix), study_hierarchy (an FEM degree hierarchy) and study_scene (a
@@ -67,8 +85,10 @@ void register_study(py::module_& m) {
   m.def("study_matrix", [](py::tuple A, const DoubleArray& b, const std::string& solvers, std::optional<DoubleArray> reference,
                            std::optional<DoubleArray> coordinates, const std::string& format, bool warm_up) {
     const ArrayCsr a = array_csr(A, "matrix");
-    const std::string f = matrix_format(format, a.view.rows);
+    check_format_name(format);
     const Csr csr = symmetric_csr(a.view);
+    const std::string f = matrix_format(format, csr);  // auto: blocks where the matrix reads as blocks
+    check_study_blocks(solvers, csr);
     std::unique_ptr<Bcsr> bcsr = f != "csr" ? std::make_unique<Bcsr>(Bcsr::from_csr(csr)) : nullptr;
     std::unique_ptr<BinBcsr> bin = f == "bin-bcsr" ? std::make_unique<BinBcsr>(*bcsr) : nullptr;
     study::StudySystem ss;
@@ -84,8 +104,14 @@ void register_study(py::module_& m) {
       ss.coordinates = &xyz;
     }
     return study_runs(ss, solvers, warm_up, [](study::Study&) {}, kDefaultMethod);
-  }, py::arg("A"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("coordinates"), py::arg("format"),
-     py::arg("warm_up"));
+  }, py::arg("A"), py::arg("b"), py::arg("solvers"), py::arg("reference") = py::none(),
+     py::arg("coordinates") = py::none(), py::arg("format") = "auto", py::arg("warm_up") = false,
+     "The core of pmgkit.study on a matrix: A as CSR arrays (indptr, indices, data, shape), b, solvers as a "
+     "JSON object of named configurations (in order), reference (the solution errors are measured against, "
+     "or None), coordinates (x, y, z per node, or None), format (auto | csr | bcsr | bin-bcsr: the format "
+     "the Krylov methods multiply in; auto: 3x3 blocks when the matrix reads as blocks), warm_up. Returns "
+     "one dict per solver. Raises InputError for a bad matrix or config, or a block method on a matrix that "
+     "does not read as 3x3 blocks.");
   m.def("study_hierarchy", [](PyHierarchy& h, const DoubleArray& b, const std::string& solvers,
                               std::optional<DoubleArray> reference, bool warm_up) {
     std::unique_lock<std::mutex> lock;  // its solvers share the hierarchy's operators
@@ -109,7 +135,11 @@ void register_study(py::module_& m) {
       H.assemble_level(L - 1, nullptr);  // the finest matrix some solver reads (R = I, static weights)
       ss.matrix = &H.matrix(L - 1);
     }, kDefaultLevelsMethod);
-  }, py::arg("hierarchy"), py::arg("b"), py::arg("solvers"), py::arg("reference"), py::arg("warm_up"));
+  }, py::arg("hierarchy"), py::arg("b"), py::arg("solvers"), py::arg("reference") = py::none(),
+     py::arg("warm_up") = false,
+     "The core of pmgkit.study on a DegreeHierarchy: b over its finest free unknowns, solvers as a JSON object "
+     "of named configurations (default method mgpcg), reference or None, warm_up. Returns one dict per "
+     "solver.");
   m.def("study_scene", [](const std::string& scene_json, const std::string& origin, const std::string& solvers,
                           double dt, bool direct_reference, bool warm_up) {
     std::unique_ptr<sim::SceneSystem> sys;
@@ -138,8 +168,11 @@ void register_study(py::module_& m) {
       sys->assemble_finest();
       ss.matrix = &sys->matrix();
     }, kDefaultLevelsMethod);
-  }, py::arg("scene"), py::arg("origin"), py::arg("solvers"), py::arg("dt"), py::arg("direct_reference"),
-     py::arg("warm_up"));
+  }, py::arg("scene"), py::arg("origin"), py::arg("solvers"), py::arg("dt") = 0.0, py::arg("direct_reference") = true,
+     py::arg("warm_up") = false,
+     "The core of pmgkit.study_scene: scene as the scene file's JSON text, origin (its path or a name), "
+     "solvers as a JSON object of named configurations, dt (0: the static system; > 0: one implicit-Euler "
+     "step's), direct_reference (errors against a direct solve), warm_up. Returns one dict per solver.");
 }
 
 }  // namespace pmg::python

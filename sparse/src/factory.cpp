@@ -44,9 +44,10 @@ Registry& registry() {
 Registry::Registry() {
   auto add = [&](SolverInfo info, SolverBuilder b) { entries.push_back({std::move(info), std::move(b)}); };
   ParamLister preconditioner;
-  preconditioner.solver("preconditioner", "block-jacobi",
+  preconditioner.solver("preconditioner", "none",
                         "a symmetric solver as preconditioner (one that varies, such as an inner "
-                        "solve, makes CG flexible; none: plain CG)");
+                        "solve, makes CG flexible); none: plain CG; keys preconditioner.* without a "
+                        "method: block-jacobi");
   add({"cg", "conjugate gradients, optionally preconditioned by any symmetric solver (flexible CG where it varies)",
        krylov_keys() + preconditioner.keys()},
       [](const Config& c, const SolverContext& ctx) {
@@ -167,8 +168,22 @@ std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& c
   config.get_choice("unused_keys", "error", {"error", "known", "ignore"});  // refused before the build
   auto s = build_solver(config, context, fallback_method);
   check_keys_used(config);
-  if (layout == "component")
-    return std::make_unique<ComponentLayout>(std::move(s), method_needs_blocks(config.get_string("method", fallback_method)));
+  const std::string method = config.get_string("method", fallback_method);
+  const bool blocks = method_needs_blocks(method);
+  if (layout == "component") return std::make_unique<ComponentLayout>(std::move(s), blocks);
+  if (context.levels) return s;
+  // A block method, or a Krylov method preconditioned by one, set up on a matrix (not on levels):
+  // a scalar Csr is read as blocks or refused (BlockInput).
+  std::string preconditioner;  // read without marking keys used (the builder's reads decide that)
+  const std::string prefix = config.full_key("");
+  for (const auto& [key, value] : config.items()) {
+    const std::string k = key.substr(prefix.size());
+    if (k == "preconditioner" || k == "preconditioner.method") preconditioner = value;
+    else if (preconditioner.empty() && k.rfind("preconditioner.", 0) == 0) preconditioner = "block-jacobi";
+  }
+  if (blocks) return std::make_unique<BlockInput>(std::move(s), "method " + method);
+  if (!preconditioner.empty() && method_needs_blocks(preconditioner))
+    return std::make_unique<BlockInput>(std::move(s), "method " + method + " with preconditioner " + preconditioner);
   return s;
 }
 

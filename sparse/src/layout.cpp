@@ -37,6 +37,18 @@ void ComponentLayout::setup_impl(const LinearOperator& A) {
   const index_t n = given.rows();
   if (n % 3 != 0)
     throw InputError("layout=component: " + std::to_string(n) + " unknowns are not 3 per node");
+  if (A.csr_matrix()) {  // a Bcsr stores whole blocks: its scalar pattern always reads interleaved
+    const LayoutFit f = layout_fit(given);
+    if (reads_as_blocks(given) && f.component < 0.9 && f.density <= 0.5) {
+      char text[300];
+      std::snprintf(text, sizeof text,
+                    "layout=component: the matrix reads as interleaved (x0 y0 z0 x1 ...), not component-major: "
+                    "the rows 3a, 3a+1, 3a+2 couple to the same nodes, and %.0f%% of the rows couple the three "
+                    "components of node i mod n/3; leave layout out (interleaved is the default)",
+                    100 * f.component);
+      throw InputError(text);
+    }
+  }
   nodes_ = n / 3;
   auto interleaved = [&](index_t i) { return 3 * (i % nodes_) + i / nodes_; };
   const CsrPattern& p = given.pattern();
@@ -164,6 +176,87 @@ void check_interleaved(const LinearOperator& A, const std::string& who) {
   if (!reading.empty())
     throw InputError(who + ": " + reading + "; this method reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 "
                      "...): give the key layout=component (the matrix is permuted once), or renumber the unknowns");
+}
+
+namespace {
+/// The nodes ⌊j/3⌋ of row i's columns, in order and without repeats (columns are sorted).
+void column_nodes(const CsrPattern& p, index_t i, std::vector<index_t>& out) {
+  out.clear();
+  for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k)
+    if (out.empty() || out.back() != p.col_idx[k] / 3) out.push_back(p.col_idx[k] / 3);
+}
+}  // namespace
+
+bool reads_as_blocks(const Csr& A) {
+  const index_t n = A.rows();
+  if (n % 3 != 0 || n == 0 || n != A.cols()) return false;
+  const CsrPattern& p = A.pattern();
+  std::vector<index_t> first, other;
+  index_t counted = 0, alike = 0;
+  for (index_t a = 0; a < n / 3; ++a) {
+    bool identity = false;  // a constrained component (diagonal only) says nothing of the coupling
+    for (int c = 0; c < 3; ++c) identity |= p.row_ptr[3 * a + c + 1] - p.row_ptr[3 * a + c] <= 1;
+    if (identity) continue;
+    ++counted;
+    column_nodes(p, 3 * a, first);
+    bool same = true;
+    for (int c = 1; c < 3 && same; ++c) {
+      column_nodes(p, 3 * a + c, other);
+      same = other == first;
+    }
+    alike += same;
+  }
+  return counted > 0 && alike >= 0.9 * static_cast<double>(counted);
+}
+
+BlockInput::BlockInput(std::unique_ptr<Solver> inner, std::string who)
+    : inner_(std::move(inner)), who_(std::move(who)) {
+  if (!inner_) throw InputError("BlockInput: no solver to wrap");
+}
+
+BlockInput::~BlockInput() = default;
+
+void BlockInput::setup_impl(const LinearOperator& A) {
+  blocks_.reset();
+  const Csr* c = A.csr_matrix();
+  if (!c) {
+    inner_->setup(A);
+    return;
+  }
+  const std::string& who = who_;
+  check_interleaved(*c, who);  // component-major: named with layout=component
+  if (!reads_as_blocks(*c))
+    throw InputError(who + " reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...), and this " +
+                     std::to_string(c->rows()) + "x" + std::to_string(c->rows()) +
+                     " matrix reads as a scalar system (" +
+                     (c->rows() % 3 ? std::string("its size is not divisible by 3")
+                                    : std::string("the three rows of its nodes do not couple to the same nodes")) +
+                     "): choose a method for scalar matrices (cg, jacobi-pcg, boomeramg-pcg, gamg-pcg, cholmod, "
+                     "mumps; `pmg solvers` marks the block methods), or layout=component for component-major "
+                     "3-component unknowns");
+  auto b = std::make_unique<Bcsr>(Bcsr::from_csr(*c));
+  inner_->setup(*b);
+  blocks_ = std::move(b);
+}
+
+void BlockInput::update_impl() {
+  if (blocks_) {
+    const Csr* c = system().csr_matrix();
+    blocks_->set_values(*c);
+  }
+  inner_->update();
+}
+
+SolveResult BlockInput::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  return inner_->solve(b, x, monitor);
+}
+
+void BlockInput::apply_impl(const Vector& b, Vector& x) const { inner_->apply(b, x); }
+
+std::string BlockInput::describe() const {
+  const std::string d = inner_->describe();
+  if (!blocks_) return d;
+  return "scalar CSR input read as 3x3 blocks" + (d.empty() ? std::string() : "; " + d);
 }
 
 std::string ComponentLayout::describe() const {

@@ -55,6 +55,42 @@ void Solver::setup(const LinearOperator& A) {
   setup_impl(A);
   A_ = &A;
   n_ = A.rows();
+  if (owned_.get() != &A) owned_.reset();  // a copy from an earlier setup(const CsrView&)
+}
+
+void Solver::setup(const CsrView& A) {
+  std::lock_guard<std::recursive_mutex> lock(lock_);
+  auto copy = std::make_unique<Csr>(to_csr(A, name() + ": matrix"));
+  setup(*copy);
+  owned_ = std::move(copy);
+}
+
+void Solver::update(const CsrView& A) {
+  std::lock_guard<std::recursive_mutex> lock(lock_);
+  if (!owned_ || A_ != owned_.get())
+    throw InputError(name() + ": update() with a view needs a set-up from a view (setup(const CsrView&))");
+  Csr fresh = to_csr(A, name() + ": matrix");
+  const CsrPattern &p = fresh.pattern(), &q = owned_->pattern();
+  if (p.rows != q.rows || p.cols != q.cols || p.row_ptr != q.row_ptr || p.col_idx != q.col_idx)
+    throw InputError(name() + ": update() with a view: the pattern differs from the set-up's (set the solver up again)");
+  owned_->values() = std::move(fresh.values());
+  update();
+}
+
+SolveResult Solver::solve(const double* b, double* x, SolveMonitor* monitor) const {
+  std::lock_guard<std::recursive_mutex> lock(lock_);
+  const index_t n = system().rows();
+  if (!b || !x) throw InputError(name() + ": solve() on arrays: b and x must not be null");
+  const Vector bv = Eigen::Map<const Vector>(b, n);
+  Vector xv = Eigen::Map<const Vector>(x, n);
+  try {
+    const SolveResult r = solve(bv, xv, monitor);
+    Eigen::Map<Vector>(x, n) = xv;
+    return r;
+  } catch (const SolveError&) {
+    Eigen::Map<Vector>(x, n) = xv;  // the state the solve left, as solve(Vector) leaves it
+    throw;
+  }
 }
 
 void Solver::update() {

@@ -7,6 +7,7 @@
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/csr_view.hpp"
+#include "pmg/sparse/generators.hpp"
 #include "pmg/cholmod/cholmod_solver.hpp"
 
 #include <catch2/catch.hpp>
@@ -267,4 +268,38 @@ TEST_CASE("bad AMG lowest levels: rigid modes without coordinates, a set-up fail
   } catch (const SolveError& e) {
     CHECK(e.result.status != SolveStatus::converged);  // an honest failure
   }
+}
+
+TEST_CASE("BoomerAMG's num_functions follows the matrix: 3 for 3x3 blocks, 1 for a scalar system",
+          "[hypre][amg]") {
+  // The 5-point Laplacian on a 30 x 30 grid: 900 unknowns, a multiple of 3, yet scalar.
+  const index_t m = 30;
+  std::vector<Triplet> t;
+  for (index_t i = 0; i < m; ++i)
+    for (index_t j = 0; j < m; ++j) {
+      const index_t r = i * m + j;
+      t.emplace_back(r, r, 4.0);
+      if (i > 0) t.emplace_back(r, r - m, -1.0);
+      if (i + 1 < m) t.emplace_back(r, r + m, -1.0);
+      if (j > 0) t.emplace_back(r, r - 1, -1.0);
+      if (j + 1 < m) t.emplace_back(r, r + 1, -1.0);
+    }
+  const Csr poisson = Csr::from_triplets(m * m, m * m, t);
+  const Csr lattice = spring_lattice(5).to_csr();
+  for (const auto& [A, functions] : {std::pair<const Csr*, const char*>{&poisson, "num_functions=1"},
+                                     {&lattice, "num_functions=3"}}) {
+    hypre::BoomerAMG amg;
+    amg.setup(*A);
+    CHECK_THAT(amg.describe(), Catch::Contains(functions));
+    Vector x;
+    const Vector b = Vector::Ones(A->rows());
+    amg.apply(b, x);
+    CHECK(x.allFinite());
+  }
+  // Rigid-body interpolation vectors need the blocks.
+  hypre::BoomerAMGParams p;
+  p.interp_vectors = 3;
+  p.nodal = 4;
+  hypre::BoomerAMG rigid(p);
+  CHECK_THROWS_WITH(rigid.setup(poisson), Catch::Contains("scalar system"));
 }

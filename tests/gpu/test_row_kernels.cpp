@@ -13,15 +13,15 @@
 
 using namespace pmg;
 using gpu::detail::BinBcsrView;
-using gpu::detail::CsrView;
+using KernelView = gpu::detail::CsrView;
 
 namespace {
 
-CsrView view_of(const Bcsr& A) {
+KernelView kernel_view(const Bcsr& A) {
   return {A.block_rows(), A.pattern().row_ptr.data(), A.pattern().col_idx.data(), A.values().data()};
 }
 
-CsrView view_of(const Csr& A) {
+KernelView kernel_view(const Csr& A) {
   return {A.rows(), A.pattern().row_ptr.data(), A.pattern().col_idx.data(), A.values().data()};
 }
 
@@ -77,7 +77,7 @@ TEST_CASE("BCSR row kernel, thread by thread, matches the host BCSR SpMV", "[gpu
     const Vector x = test::random_vector(A.cols(), 4);
     Vector y_ref, y(A.rows());
     A.apply(x, y_ref);
-    for (int row = 0; row < A.rows(); ++row) y[row] = gpu::detail::bcsr_row(view_of(A), x.data(), row);
+    for (int row = 0; row < A.rows(); ++row) y[row] = gpu::detail::bcsr_row(kernel_view(A), x.data(), row);
     CHECK(test::rel_diff(y, y_ref) < 1e-14);
   }
 }
@@ -90,7 +90,7 @@ TEST_CASE("transfer row kernel applies P ⊗ I₃ and R ⊗ I₃ like BlockTrans
     T->prolongate(xc, xf_ref);
     T->restrict_to_coarse(rf, rc_ref);
     Vector xf(T->fine_size()), rc(T->coarse_size());
-    const CsrView P = view_of(T->prolongation()), R = view_of(T->restriction());
+    const KernelView P = kernel_view(T->prolongation()), R = kernel_view(T->restriction());
     for (int i = 0; i < P.rows; ++i) gpu::detail::transfer_row(P, xc.data(), xf.data(), i, false);
     for (int i = 0; i < R.rows; ++i) gpu::detail::transfer_row(R, rf.data(), rc.data(), i, false);
     CHECK(test::rel_diff(xf, xf_ref) < 1e-14);

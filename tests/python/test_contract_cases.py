@@ -11,9 +11,12 @@ import pmgkit
 
 
 def _spd(n=30, seed=1):
-    """A well-conditioned SPD matrix of 3x3 blocks (symmetric, strictly diagonally dominant)."""
+    """A well-conditioned SPD matrix of 3x3 blocks (symmetric, strictly diagonally dominant): a
+    random node pattern with a dense 3x3 block at each entry, as a 3-component system has."""
     rng = np.random.default_rng(seed)
-    M = sp.random(n, n, density=0.2, random_state=seed, data_rvs=lambda k: rng.uniform(-1, 1, k))
+    S = sp.random(n // 3, n // 3, density=0.3, random_state=seed) + sp.identity(n // 3)
+    M = sp.kron((S != 0).astype(float), np.ones((3, 3))).tocsr()
+    M.data = rng.uniform(-1, 1, M.nnz)
     M = M + M.T
     return (M + sp.diags(np.abs(M).sum(axis=1).A1 + 1.0)).tocsr()
 

@@ -82,7 +82,9 @@ def test_a_refused_level_update_leaves_the_levels_as_they_were(quadratic):
 
 @pytest.mark.parametrize("method", ["chebyshev", "gauss-seidel", "richardson", "jacobi"])
 def test_a_refused_matrix_update_leaves_the_solver_as_it_was(method):
-    A = sp.diags([-1.0, 2.5, -1.0], [-1, 0, 1], shape=(6, 6), format="csr")
+    # Two nodes of three components (3x3 blocks, as the block smoothers read), SPD.
+    B = np.array([[2.0, 0.3, 0.1], [0.3, 2.0, 0.2], [0.1, 0.2, 2.0]])
+    A = sp.kron(np.array([[2.5, -1.0], [-1.0, 2.5]]), B, format="csr")
     b = np.ones(6)
     before, _ = pmgkit.make_solver(A, {"method": method}).solve(b)
     s = pmgkit.make_solver(A, {"method": method})

@@ -1,4 +1,5 @@
 #include "pmg/hypre/boomeramg.hpp"
+#include "pmg/sparse/layout.hpp"
 
 #include "pmg/mpi/session.hpp"
 #include "pmg/sparse/factory.hpp"
@@ -31,7 +32,8 @@ void check(HYPRE_Int err, const char* what) {
 }  // namespace
 
 struct BoomerAMG::Impl {
-  BoomerAMGParams params;
+  BoomerAMGParams params;  // num_functions as resolved by the last build (requested_functions: as given)
+  int requested_functions = 0;
   HYPRE_IJMatrix ij = nullptr;
   HYPRE_IJVector b = nullptr, x = nullptr;
   HYPRE_Solver solver = nullptr;
@@ -73,13 +75,14 @@ struct BoomerAMG::Impl {
 
 BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Impl>()) {
   impl_->params = params;
-  if (params.num_functions < 1) throw InputError("BoomerAMG: num_functions must be >= 1");
+  impl_->requested_functions = params.num_functions;
+  if (params.num_functions < 0) throw InputError("BoomerAMG: num_functions must be >= 0 (0: from the matrix)");
   if (params.cycles < 1) throw InputError("BoomerAMG: cycles must be >= 1");
   if (!(params.strong_threshold > 0 && params.strong_threshold < 1))
     throw InputError("BoomerAMG: strong_threshold must lie in (0, 1)");
   if (params.interp_vectors != 0 && params.interp_vectors != 3)
     throw InputError("BoomerAMG: interp_vectors must be 0 (none) or 3 (the rigid-body rotations)");
-  if (params.interp_vectors > 0 && params.num_functions != 3)
+  if (params.interp_vectors > 0 && params.num_functions != 3 && params.num_functions != 0)
     throw InputError("BoomerAMG: rigid-body interpolation vectors need num_functions=3");
   if (params.interp_vectors > 0 && params.nodal == 0)
     throw InputError("BoomerAMG: rigid-body interpolation vectors need nodal coarsening (hypre supports "
@@ -88,7 +91,9 @@ BoomerAMG::BoomerAMG(const BoomerAMGParams& params) : impl_(std::make_unique<Imp
 
 void BoomerAMGParams::visit(ParamVisitor& v) {
   v.integer("cycles", cycles, 1, 1000, "V-cycles per application");
-  v.integer("num_functions", num_functions, 1, 64, "unknowns per node (systems AMG), interleaved");
+  v.integer("num_functions", num_functions, 0, 64,
+            "unknowns per node (systems AMG), interleaved; 0: 3 where the matrix carries 3x3 blocks (BCSR, or a "
+            "CSR whose three rows per node couple to the same nodes), else 1");
   v.integer("nodal", nodal, 0, 6, "0: unknown-based coarsening; 1-6: nodal, on a norm of each node's block");
   v.integer("nodal_diag", nodal_diag, 0, 2, "nodal: 1 = the nodal matrix's diagonal is minus its row sum");
   v.real("strong_threshold", strong_threshold, 1e-6, 1 - 1e-6, "strength of connection");
@@ -284,8 +289,15 @@ void BoomerAMG::Impl::record_hierarchy(HYPRE_Solver s) {
 }
 
 void BoomerAMG::build(const Csr& A) {
-  if (A.rows() % impl_->params.num_functions != 0)
-    throw InputError("BoomerAMG: size is not a multiple of the number of functions");
+  const int requested = impl_->requested_functions;
+  const int functions = requested > 0 ? requested : reads_as_blocks(A) ? 3 : 1;
+  if (A.rows() % functions != 0)
+    throw InputError("BoomerAMG: the size " + std::to_string(A.rows()) + " is not a multiple of num_functions=" +
+                     std::to_string(functions));
+  if (impl_->params.interp_vectors > 0 && functions != 3)
+    throw InputError("BoomerAMG: rigid-body interpolation vectors need 3x3 blocks (num_functions=3); this matrix "
+                     "reads as a scalar system");
+  impl_->params.num_functions = functions;
   for (double v : A.values())
     if (!std::isfinite(v)) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
   Impl& d = *impl_;

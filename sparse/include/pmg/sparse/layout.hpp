@@ -39,6 +39,16 @@ LayoutFit layout_fit(const Csr& A);
 /// <= 0.5 (a dense matrix fits both readings). An interleaved elasticity matrix stores its nodes'
 /// 3x3 blocks (interleaved 1). The one criterion of check_interleaved() and pmg compare's warning.
 std::string component_major_reading(const Csr& A);
+/// Whether a scalar matrix carries 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...): its size
+/// is divisible by 3 and, for at least 90% of the nodes a = ⌊i/3⌋ (nodes with an identity row left
+/// out), the three rows 3a, 3a+1, 3a+2 couple to the same nodes ⌊j/3⌋. Elasticity and other
+/// 3-component systems do, also with exact zeros dropped from the pattern (an axis-aligned mesh
+/// has zero couplings inside its blocks); a scalar stencil whose size happens to be a multiple of 3
+/// does not (the 5-point Laplacian's rows 3a and 3a+1 reach different neighbours). O(nnz), no
+/// values read. The one rule by which pmgkit
+/// chooses blocks for a matrix that does not declare them (format auto in Python and `pmg
+/// compare`, block methods handed a Csr).
+bool reads_as_blocks(const Csr& A);
 /// Throws InputError naming `who`, the reading and the key layout=component when A is a Csr that
 /// reads as component-major (component_major_reading()); block methods call it at set-up (not at
 /// update(): the pattern is the same). A Bcsr is not judged: it declares its blocks, and its
@@ -46,6 +56,43 @@ std::string component_major_reading(const Csr& A);
 /// thin plate couples node a with a + N/3); judge scalar input before Bcsr::from_csr (Python's
 /// make_solver and pmg compare do).
 void check_interleaved(const LinearOperator& A, const std::string& who);
+
+/// A block method handed whatever the caller has (what make_solver() returns for a method that
+/// reads 3x3 blocks, set up without multigrid levels). A scalar Csr is judged once: one that reads
+/// as interleaved blocks (reads_as_blocks()) is copied into a Bcsr at set-up (its values refreshed
+/// at update()), so the method runs at its block speed on the matrix a user naturally passes; one
+/// that reads as component-major is refused naming layout=component (check_interleaved()); one
+/// that reads as a scalar system is refused naming the scalar methods. Any other operator (Bcsr,
+/// BIN-BCSR, matrix-free) is passed through unchanged. The copy costs the Bcsr's memory (about
+/// two thirds of the Csr's for elasticity: one column index per 3x3 block).
+class BlockInput final : public Solver {
+ public:
+  /// Wraps `inner` (not set up), which reads 3x3 blocks; `who` names it in messages ("method mcg").
+  BlockInput(std::unique_ptr<Solver> inner, std::string who);
+  ~BlockInput() override;
+  std::string name() const override { return inner_->name(); }
+  bool is_linear() const override { return inner_->is_linear(); }
+  bool is_symmetric() const override { return inner_->is_symmetric(); }
+  SolverNeeds needs() const override { return inner_->needs(); }
+  bool multiply_with(const LinearOperator* op) override { return inner_->multiply_with(op); }
+  TimingBreakdown timings() const override { return inner_->timings(); }
+  void reset_timings() const override { inner_->reset_timings(); }
+  TimingBreakdown setup_timings() const override { return inner_->setup_timings(); }
+  /// "scalar CSR input read as 3x3 blocks; " (when copied) and the inner solver's description.
+  std::string describe() const override;
+  /// The wrapped solver.
+  const Solver& inner() const { return *inner_; }
+
+ private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+  void apply_impl(const Vector& b, Vector& x) const override;
+
+  std::unique_ptr<Solver> inner_;
+  std::string who_;
+  std::unique_ptr<Bcsr> blocks_;  // the copy of a scalar input; null when passed through
+};
 
 /// A solver of interleaved systems applied to a component-major one (see the file comment).
 class ComponentLayout final : public Solver {

@@ -28,6 +28,7 @@
 
 #include "pmg/sparse/monitor.hpp"
 #include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/csr_view.hpp"
 #include "pmg/sparse/operator.hpp"
 
 #include <memory>
@@ -137,6 +138,21 @@ class Solver : public LinearOperator {
   /// parameters say otherwise.
   SolveResult solve(const Vector& b, Vector& x, SolveMonitor* monitor = nullptr) const;
 
+  /// setup() on a matrix held in the caller's arrays (SciPy's, PETSc's, a FEM code's CSR with 32-
+  /// or 64-bit indices; pmg/sparse/csr_view.hpp): copied once into a Csr that the solver keeps, so
+  /// the caller's arrays may go after the call. A block method then reads it as 3x3 blocks
+  /// (BlockInput) exactly as if the Csr had been passed. Throws InputError for an invalid view.
+  void setup(const CsrView& A);
+  /// update() with new values in the caller's arrays: the same pattern as the view given to
+  /// setup(const CsrView&) (the values are copied into the kept Csr, duplicates summed as at
+  /// set-up). Throws InputError when the solver was not set up from a view or the pattern differs.
+  void update(const CsrView& A);
+  /// solve() on the caller's arrays: b and x hold rows() doubles each (x the initial guess, then
+  /// the answer), e.g. a std::vector's data(), an Eigen::Map or a NumPy buffer. Each is copied once
+  /// (x back on return, also when a SolveError is thrown): 3n doubles moved, against the
+  /// iterations' many passes over the matrix.
+  SolveResult solve(const double* b, double* x, SolveMonitor* monitor = nullptr) const;
+
   /// True after a successful setup() (a setup() that threw leaves it false).
   bool is_set_up() const { return A_ != nullptr; }
   /// The operator of the last setup(). Throws Error before setup().
@@ -193,6 +209,7 @@ class Solver : public LinearOperator {
 
  private:
   mutable std::recursive_mutex lock_;
+  std::unique_ptr<Csr> owned_;  // the copy made by setup(const CsrView&)
   const LinearOperator* A_ = nullptr;
   index_t n_ = 0;
 };

@@ -43,6 +43,10 @@ struct SolverRun {
   int iterations = 0;           ///< iterations (or cycles) of the solve
   double setup_s = 0.0;         ///< set-up seconds, the levels it needed prepared included
   double solve_s = 0.0;         ///< solve seconds
+  /// Runs the times are the median of: a run shorter than Study::kShortRun seconds (set-up and
+  /// solve) is repeated, so that a scheduler's stall of a few milliseconds (a thread of an OpenMP
+  /// team descheduled at a barrier on a small VM) does not make its figure.
+  int repetitions = 1;
   /// True ‖b − Ax‖ / ‖b − Ax₀‖ at the end (the recursive one for fixed-iteration runs).
   double rel_residual = std::numeric_limits<double>::quiet_NaN();
   /// ‖x − x_ref‖ / ‖x_ref‖ against StudySystem::reference (NaN: no reference, or a failed run).
@@ -98,9 +102,16 @@ class Study {
   /// Seconds of MPI and PETSc start-up paid by add() (-1: none needed).
   double library_startup_s() const { return startup_s_; }
 
+  /// A run (set-up and solve) shorter than this many seconds is repeated, up to kShortRepetitions
+  /// runs in all, and reported by the run of median time (SolverRun::repetitions).
+  static constexpr double kShortRun = 0.1;
+  /// The runs of a short solver (odd: the median is one of them).
+  static constexpr int kShortRepetitions = 5;
+
   /// Runs every solver in turn from x = 0: set-up timed (the levels it reads prepared first, once
   /// per kind of need, and charged to it), solve timed and monitored, error against the
-  /// reference. With `warm_up` each runs once untimed first (the first touch of its memory). A
+  /// reference; a run shorter than kShortRun is repeated and reported by its median run. With
+  /// `warm_up` each runs once untimed first (the first touch of its memory). A
   /// solver is released after its run, so a study runs once (InputError after). `solutions` (may
   /// be nullptr) receives each final iterate.
   std::vector<SolverRun> run(bool warm_up = false, std::vector<Vector>* solutions = nullptr);
@@ -114,6 +125,7 @@ class Study {
     std::string name;
     Config config;
     std::unique_ptr<Solver> solver;
+    std::string method;  ///< the method it runs
   };
   struct Prepared {
     double seconds = 0.0;

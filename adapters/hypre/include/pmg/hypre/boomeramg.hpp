@@ -30,7 +30,9 @@ namespace pmg::hypre {
 
 /// BoomerAMG's options (hypre's numeric codes; see the file comment for the defaults).
 struct BoomerAMGParams {
-  int num_functions = 3;        ///< unknowns per node (systems AMG), interleaved
+  /// Unknowns per node (systems AMG), interleaved; 0 (the default): 3 where the matrix carries
+  /// 3x3 blocks (a Bcsr, or a Csr for which pmg::reads_as_blocks() holds), else 1.
+  int num_functions = 0;
   int nodal = 0;                ///< 0: unknown-based; 1-6: nodal coarsening on a norm of the blocks
   int nodal_diag = 1;           ///< nodal: 1 = diagonal of the nodal matrix is minus the row sum
   /// Strength-of-connection threshold, in (0, 1).
