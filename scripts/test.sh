@@ -21,13 +21,13 @@ if [ "${1:-}" = "--sanitize" ]; then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
   # The consumer check installs and links a plain build, and the validation runs are the same
   # code on larger meshes: under sanitizers they add time, not coverage.
-  ctest --test-dir build-asan --output-on-failure -j 2 -LE "install|validation|stress|studies|properties"
+  ctest --test-dir build-asan --output-on-failure -j 2 -LE "install|validation|stress|studies|properties|measurements|docs"
 else
   scripts/build.sh
   if [ "${1:-}" = "--validation" ]; then
-    ctest --test-dir build --output-on-failure -j 2 -LE "stress"
+    ctest --test-dir build --output-on-failure -j 2 -LE "stress|measurements"
     ctest --test-dir build --output-on-failure -L stress
   else
-    ctest --test-dir build --output-on-failure -j 2 -LE "validation|stress|properties"
+    ctest --test-dir build --output-on-failure -j 2 -LE "validation|stress|properties|measurements"
   fi
 fi

@@ -271,8 +271,9 @@ Formats select_format(const Options& o, const System& s) {
     f.op = &s.csr;
   } else {
     if (!s.bcsr)
-      throw InputError("format '" + o.format + "' needs a size divisible by 3 (3x3 blocks); use "
-                       "--format csr");
+      throw InputError("format '" + o.format + "' needs 3x3 blocks, and the matrix reads as a scalar system" +
+                       std::string(s.csr.rows() % 3 ? " (its size is not divisible by 3)" : "") +
+                       ": use --format csr, or --block-size 3 where its unknowns are interleaved 3-component ones");
     if (o.format == "bcsr") {
       f.op = s.bcsr.get();
     } else {
@@ -486,7 +487,9 @@ bool print_runs(const System& sys, const std::vector<study::SolverRun>& runs) {
   std::string repeated;
   for (const auto& r : runs) {
     failed |= !r.ok();
-    if (r.repetitions > 1) repeated += (repeated.empty() ? "" : ", ") + r.name;
+    if (r.repetitions > 1)
+      repeated += (repeated.empty() ? "" : ", ") + r.name +
+                  (r.repetitions != study::Study::kShortRepetitions ? " of " + std::to_string(r.repetitions) : "");
     table.add({r.name, r.status, std::to_string(r.iterations), fmt("%.4f", r.setup_s), fmt("%.4f", r.solve_s),
                fmt("%.4f", r.time_to(1e-3)), fmt("%.4f", r.time_to(1e-6)), fmt("%.2e", r.rel_residual),
                fmt("%.2e", r.rel_error)});
@@ -557,6 +560,7 @@ void run(const Options& given) {
   figures.load_s = seconds_since(t0);
 
   study::StudySystem ss;
+  ss.repeat_short_runs = mpi::launched_ranks() <= 1;  // every rank runs each solver alike
   ss.description = sys.description;
   ss.b = sys.b;
   ss.levels = sys.levels ? static_cast<const mg::LevelProvider*>(sys.levels.get())

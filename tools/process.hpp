@@ -2,6 +2,11 @@
 // a shell, and the temporary folder it works in.
 #pragma once
 
+#include "pmg/sparse/types.hpp"
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -14,7 +19,13 @@ namespace pmg::tools {
 /// Ctrl-C).
 struct ScratchDir {
   std::filesystem::path path;
-  explicit ScratchDir(std::filesystem::path p) : path(std::move(p)) { std::filesystem::create_directories(path); }
+  /// A new folder named `base` plus six random characters (mkdtemp: created with mode 0700, never
+  /// an existing folder or a link planted under that name). Throws Error when none can be made.
+  explicit ScratchDir(const std::filesystem::path& base) {
+    std::string name = base.string() + "_XXXXXX";
+    if (!::mkdtemp(name.data())) throw Error("cannot create a temporary folder " + name + ": " + std::strerror(errno));
+    path = name;
+  }
   ~ScratchDir() {
     std::error_code ignored;
     std::filesystem::remove_all(path, ignored);

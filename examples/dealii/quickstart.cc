@@ -156,7 +156,9 @@ int main() try {
   // pmgkit: the levels (coarsest first) and the prolongation, read from the arrays in place.
   timer.restart();
   const CsrArrays A1 = arrays_of(q1.A), A2 = arrays_of(q2.A), P = interpolation(q1, q2);
+  std::cout << "CSR arrays and the Q1 -> Q2 interpolation: " << timer.wall_time() << " s\n";
   pmg::register_all_solvers();
+  timer.restart();
   pmg::mg::UserLevels levels({A1.view(), A2.view()}, {P.view()}, {});
   pmg::SolverContext context;
   context.levels = &levels;

@@ -3,8 +3,12 @@
 # deal.II 9.4 is not installed. Arguments: BUILD_DIR SOURCE_DIR (examples/dealii).
 set -euo pipefail
 build=$(cd "$1" && pwd) src=$2
-if ! ls /usr/share/cmake/deal.II/deal.IIConfig.cmake /usr/lib/*/cmake/deal.II/deal.IIConfig.cmake \
-     /usr/local/lib/cmake/deal.II/deal.IIConfig.cmake > /dev/null 2>&1 && [ -z "${DEAL_II_DIR:-}" ]; then
+found=${DEAL_II_DIR:-}
+for f in /usr/share/cmake/deal.II/deal.IIConfig.cmake /usr/lib/*/cmake/deal.II/deal.IIConfig.cmake \
+         /usr/local/lib/cmake/deal.II/deal.IIConfig.cmake; do
+  [ -f "$f" ] && found=$f
+done
+if [ -z "$found" ]; then
   echo "skipped: deal.II is not installed (apt-get install libdeal.ii-dev)"
   exit 77
 fi

@@ -57,13 +57,31 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
   out << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
   for (index_t e = 0; e < ne; ++e) out << kVtkBezierTetrahedron << "\n";
   out << "</DataArray>\n</Cells>\n";
-  if (u.size() != 0) {
-    out << "<PointData Vectors=\"displacement\">\n"
-        << "<DataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\" "
-           "format=\"ascii\">\n";
-    for (index_t i = 0; i < nn; ++i)
-      out << u[3 * i] << " " << u[3 * i + 1] << " " << u[3 * i + 2] << "\n";
-    out << "</DataArray>\n</PointData>\n";
+  if (!options.fixed.empty() && options.fixed.size() != static_cast<size_t>(nn))
+    throw InputError("VTK output: " + std::to_string(options.fixed.size()) + " fixed flags, expected " + std::to_string(nn));
+  if (options.load.size() != 0 && options.load.size() != 3 * nn)
+    throw InputError("VTK output: the load has " + std::to_string(options.load.size()) + " entries, expected " +
+                     std::to_string(3 * nn));
+  const bool load = options.load.size() != 0 && options.load.cwiseAbs().maxCoeff() > 0;
+  if (u.size() != 0 || !options.fixed.empty() || load) {
+    out << "<PointData" << (u.size() != 0 ? " Vectors=\"displacement\"" : "") << ">\n";
+    if (u.size() != 0) {
+      out << "<DataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+      for (index_t i = 0; i < nn; ++i) out << u[3 * i] << " " << u[3 * i + 1] << " " << u[3 * i + 2] << "\n";
+      out << "</DataArray>\n";
+    }
+    if (!options.fixed.empty()) {
+      out << "<DataArray type=\"UInt8\" Name=\"fixed\" format=\"ascii\">\n";
+      for (index_t i = 0; i < nn; ++i) out << (options.fixed[i] ? 1 : 0) << (i + 1 < nn ? " " : "\n");
+      out << "</DataArray>\n";
+    }
+    if (load) {
+      out << "<DataArray type=\"Float64\" Name=\"load\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+      for (index_t i = 0; i < nn; ++i)
+        out << options.load[3 * i] << " " << options.load[3 * i + 1] << " " << options.load[3 * i + 2] << "\n";
+      out << "</DataArray>\n";
+    }
+    out << "</PointData>\n";
   }
   out << "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
   write_file_atomically(path, out.str());

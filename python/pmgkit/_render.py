@@ -300,9 +300,11 @@ def _load_frame(time, path, field, cache):
         v = vm[used][compact].mean(axis=1) if at_points else vm[owner]
 
     fixed = loads = None
+    clamped = np.zeros(len(points), dtype=bool)
     key = _find(pd, _FIXED_NAMES, (1, 2, 3))
     if key is not None:
         mask = np.asarray(pd[key]).reshape(len(points), -1).any(axis=1)
+        clamped = mask
         ids = np.flatnonzero(mask)
         if len(ids) > _MAX_MARKERS:
             ids = ids[np.linspace(0, len(ids) - 1, _MAX_MARKERS).astype(int)]
@@ -311,7 +313,14 @@ def _load_frame(time, path, field, cache):
     if key is not None:
         f = pd[key].astype(float)
         norm = np.linalg.norm(f, axis=1)
-        ids = np.flatnonzero(norm > 1e-12 * max(norm.max(), 1e-300))
+        loaded = norm > 1e-12 * max(norm.max(), 1e-300)
+        # Arrows where they can be seen and where the load acts: surface vertices that are not clamped
+        # (a body force also loads the interior control points, hidden inside the solid).
+        visible = np.zeros(len(points), dtype=bool)
+        visible[used] = True
+        ids = np.flatnonzero(loaded & visible & ~clamped)
+        if len(ids) == 0:
+            ids = np.flatnonzero(loaded)
         if len(ids) > _MAX_ARROWS:
             ids = ids[np.linspace(0, len(ids) - 1, _MAX_ARROWS).astype(int)]
         loads = (x[ids], f[ids]) if len(ids) else None

@@ -1,6 +1,7 @@
 // pmgkit.study and pmgkit.study_scene: pmg::study (the layer pmg compare runs on) from Python.
 #include "common.hpp"
 
+#include "pmg/mpi/session.hpp"
 #include "pmg/sim/scene.hpp"
 #include "pmg/sim/system.hpp"
 #include "pmg/sparse/bin_bcsr.hpp"
@@ -92,6 +93,7 @@ void register_study(py::module_& m) {
     std::unique_ptr<Bcsr> bcsr = f != "csr" ? std::make_unique<Bcsr>(Bcsr::from_csr(csr)) : nullptr;
     std::unique_ptr<BinBcsr> bin = f == "bin-bcsr" ? std::make_unique<BinBcsr>(*bcsr) : nullptr;
     study::StudySystem ss;
+    ss.repeat_short_runs = mpi::launched_ranks() <= 1;  // under mpirun every rank runs each solver alike
     ss.description = "matrix " + std::to_string(csr.rows()) + "x" + std::to_string(csr.cols());
     ss.matrix = bcsr ? static_cast<const LinearOperator*>(bcsr.get()) : &csr;
     ss.product = bin ? static_cast<const LinearOperator*>(bin.get()) : nullptr;
@@ -123,6 +125,7 @@ void register_study(py::module_& m) {
     const int L = H.num_levels();
     const index_t n = H.finest().num_free_dofs();
     study::StudySystem ss;
+    ss.repeat_short_runs = mpi::launched_ranks() <= 1;  // under mpirun every rank runs each solver alike
     ss.description = "degree " + std::to_string(L) + " hierarchy, " + std::to_string(n) + " free unknowns";
     ss.b = to_vector(b, n, "b");
     if (reference) ss.reference = to_vector(*reference, n, "reference");
@@ -149,6 +152,7 @@ void register_study(py::module_& m) {
       sys = std::make_unique<sim::SceneSystem>(sim::system_of(scene, dt, /*assemble_finest=*/direct_reference));
     }
     study::StudySystem ss;
+    ss.repeat_short_runs = mpi::launched_ranks() <= 1;  // under mpirun every rank runs each solver alike
     ss.description = origin;
     ss.b = sys->b;
     ss.levels = &sys->hierarchy();

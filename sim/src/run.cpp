@@ -93,11 +93,18 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
   }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
-    fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement());
+    if (frame_options_.fixed.empty()) {  // the clamp and the loads, for pictures (pmg render)
+      const fem::ElasticityModel& m = setup_.finest();
+      frame_options_.fixed.resize(static_cast<size_t>(m.num_nodes()));
+      for (index_t i = 0; i < m.num_nodes(); ++i) frame_options_.fixed[i] = m.is_fixed(i) ? 1 : 0;
+      frame_options_.load = setup_.f_ext;
+    }
+    fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement(), frame_options_);
     return stem + ".vtu";
   }
 
  private:
+  mutable fem::VtuOptions frame_options_;  // the clamp and loads of every frame, made with the first
   SceneSetup& setup_;
   std::unique_ptr<Solver> solver_;
 };
@@ -372,7 +379,11 @@ StaticOutcome solve_static(const Scene& scene, SceneSetup& setup, const std::str
   out.probe = setup.probe.displacement(m, out.result.u);
   if (!output_dir.empty()) {
     make_dir(output_dir);
-    fem::write_vtu(output_dir + "/static.vtu", m.space(), out.result.u);
+    fem::VtuOptions vo;  // the clamp and the loads, for pictures (pmg render)
+    vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
+    for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
+    vo.load = setup.f_ext;
+    fem::write_vtu(output_dir + "/static.vtu", m.space(), out.result.u, vo);
     out.outputs.push_back(output_dir + "/static.vtu");
   }
   return out;

@@ -181,9 +181,11 @@ std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& c
     if (k == "preconditioner" || k == "preconditioner.method") preconditioner = value;
     else if (preconditioner.empty() && k.rfind("preconditioner.", 0) == 0) preconditioner = "block-jacobi";
   }
-  if (blocks) return std::make_unique<BlockInput>(std::move(s), "method " + method);
+  const bool declared = config.has("layout");  // layout=interleaved given: the blocks are declared
+  if (blocks) return std::make_unique<BlockInput>(std::move(s), "method " + method, declared);
   if (!preconditioner.empty() && method_needs_blocks(preconditioner))
-    return std::make_unique<BlockInput>(std::move(s), "method " + method + " with preconditioner " + preconditioner);
+    return std::make_unique<BlockInput>(std::move(s), "method " + method + " with preconditioner " + preconditioner,
+                                        declared);
   return s;
 }
 

@@ -209,34 +209,39 @@ bool reads_as_blocks(const Csr& A) {
   return counted > 0 && alike >= 0.9 * static_cast<double>(counted);
 }
 
-BlockInput::BlockInput(std::unique_ptr<Solver> inner, std::string who)
-    : inner_(std::move(inner)), who_(std::move(who)) {
+BlockInput::BlockInput(std::unique_ptr<Solver> inner, std::string who, bool declared)
+    : inner_(std::move(inner)), who_(std::move(who)), declared_(declared) {
   if (!inner_) throw InputError("BlockInput: no solver to wrap");
 }
 
 BlockInput::~BlockInput() = default;
 
 void BlockInput::setup_impl(const LinearOperator& A) {
-  blocks_.reset();
   const Csr* c = A.csr_matrix();
   if (!c) {
     inner_->setup(A);
+    blocks_.reset();  // after the inner set-up: it no longer reads the old copy
     return;
   }
   const std::string& who = who_;
-  check_interleaved(*c, who);  // component-major: named with layout=component
-  if (!reads_as_blocks(*c))
-    throw InputError(who + " reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...), and this " +
-                     std::to_string(c->rows()) + "x" + std::to_string(c->rows()) +
-                     " matrix reads as a scalar system (" +
-                     (c->rows() % 3 ? std::string("its size is not divisible by 3")
-                                    : std::string("the three rows of its nodes do not couple to the same nodes")) +
-                     "): choose a method for scalar matrices (cg, jacobi-pcg, boomeramg-pcg, gamg-pcg, cholmod, "
-                     "mumps; `pmg solvers` marks the block methods), or layout=component for component-major "
-                     "3-component unknowns");
+  if (!declared_) {
+    check_interleaved(*c, who);  // component-major: named with layout=component
+    if (!reads_as_blocks(*c))
+      throw InputError(who + " reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...), and this " +
+                       std::to_string(c->rows()) + "x" + std::to_string(c->rows()) +
+                       " matrix reads as a scalar system (" +
+                       (c->rows() % 3 ? std::string("its size is not divisible by 3")
+                                      : std::string("the three rows of its nodes do not couple to the same nodes")) +
+                       "): choose a method for scalar matrices (cg, jacobi-pcg, boomeramg-pcg, gamg-pcg, cholmod, "
+                       "mumps; `pmg solvers` marks the block methods), layout=component for component-major "
+                       "3-component unknowns, or layout=interleaved to declare interleaved ones");
+  } else if (c->rows() % 3 != 0) {
+    throw InputError(who + ": layout=interleaved, but the size " + std::to_string(c->rows()) +
+                     " is not divisible by 3");
+  }
   auto b = std::make_unique<Bcsr>(Bcsr::from_csr(*c));
   inner_->setup(*b);
-  blocks_ = std::move(b);
+  blocks_ = std::move(b);  // the old copy goes only once the inner solver reads the new one
 }
 
 void BlockInput::update_impl() {

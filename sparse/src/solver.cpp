@@ -60,6 +60,8 @@ void Solver::setup(const LinearOperator& A) {
 
 void Solver::setup(const CsrView& A) {
   std::lock_guard<std::recursive_mutex> lock(lock_);
+  A_ = nullptr;  // a set-up that throws (an invalid view too) leaves the solver not set up
+  n_ = 0;
   auto copy = std::make_unique<Csr>(to_csr(A, name() + ": matrix"));
   setup(*copy);
   owned_ = std::move(copy);
@@ -73,8 +75,19 @@ void Solver::update(const CsrView& A) {
   const CsrPattern &p = fresh.pattern(), &q = owned_->pattern();
   if (p.rows != q.rows || p.cols != q.cols || p.row_ptr != q.row_ptr || p.col_idx != q.col_idx)
     throw InputError(name() + ": update() with a view: the pattern differs from the set-up's (set the solver up again)");
+  std::vector<double> before = std::move(owned_->values());
   owned_->values() = std::move(fresh.values());
-  update();
+  try {
+    update();
+  } catch (...) {
+    // Refused values (not positive definite, say): the kept matrix and the set-up as they were.
+    owned_->values() = std::move(before);
+    try {
+      update();
+    } catch (...) {
+    }
+    throw;
+  }
 }
 
 SolveResult Solver::solve(const double* b, double* x, SolveMonitor* monitor) const {

@@ -80,12 +80,12 @@ void Study::add(const std::string& name, const Config& config, const std::set<st
     config.fail("layout", "multigrid levels take their layout where they are built (--layout with --levels)");
   if (method_needs_blocks(method) && system_.matrix && system_.matrix->rows() % 3 != 0)
     throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
-  if (method_needs_blocks(method) && system_.matrix && !system_.levels && !component)
+  if (method_needs_blocks(method) && system_.matrix && !system_.levels && !config.has("layout"))
     if (const Csr* c = system_.matrix->csr_matrix(); c && !reads_as_blocks(*c))
       throw InputError(name + " reads 3x3 blocks of interleaved unknowns, and the matrix reads as a scalar system "
                        "(the three rows of its nodes do not couple to the same nodes): choose a method for scalar "
                        "matrices (cg, jacobi-pcg, boomeramg-pcg, gamg-pcg, cholmod, mumps), or layout=component for "
-                       "component-major 3-component unknowns");
+                       "component-major 3-component unknowns (layout=interleaved declares interleaved ones)");
   SolverContext ctx;
   ctx.levels = system_.levels;
   ctx.coordinates = system_.coordinates;
@@ -151,7 +151,7 @@ std::vector<SolverRun> Study::run(bool warm_up, std::vector<Vector>* solutions) 
     answers[k] = Vector::Zero(system_.b.size());
     SolverRun first = run_one(e, answers[k]);
     // Not across MPI ranks: the ranks' clocks differ, and every rank must run alike.
-    const bool across_ranks = solver_info(e.method).across_ranks;
+    const bool across_ranks = solver_info(e.method).across_ranks || !system_.repeat_short_runs;
     if (first.ok() && !across_ranks && first.setup_s + first.solve_s < kShortRun) {
       // Short runs again, each from zero, reported by the run of median time.
       std::vector<std::pair<SolverRun, Vector>> more;

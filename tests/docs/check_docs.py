@@ -6,7 +6,7 @@ A fenced block whose info string starts with `console`, `sh`, `bash` or `shell` 
 words after the language say how the test treats it:
 
     ```console              run by the `docs` test (quick: seconds, no downloads)
-    ```console long         run only with --long (ctest label `validation`): measurements behind the
+    ```console long         run only with --long (ctest label `measurements`): measurements behind the
                             tables, models fetched by scripts/get_models.sh, big meshes, benchmarks
     ```sh norun: REASON     never run; the reason is required (apt, a system prefix, a cluster,
                             a placeholder such as <model>, a file the reader edits)
@@ -213,7 +213,7 @@ def time_numbers(lines):
         if not line.strip() or re.match(r"\s*[\w.-]+:\s", line):  # a blank line or a report line ends a table
             header = None
         elif (len(cells) >= 3 and any(TIME_HEADER_RE.search(c[2]) for c in cells)
-              and 2 * sum(bool(NUM_RE.fullmatch(c[2])) for c in cells) <= len(cells)):
+              and 2 * sum(bool(re.fullmatch(NUM + r"[%x]?", c[2])) for c in cells) <= len(cells)):
             header = cells
         elif header and not re.fullmatch(r"\s*-+\s*", line):
             row_is_time = bool(cells) and TIME_HEADER_RE.search(cells[0][2])  # "solve [s], median  2.19  2.20"
@@ -429,6 +429,7 @@ def main():
     blocks, errors = collect(root)
     if args.only:
         blocks = [b for b in blocks if any(b.where == o or b.path == o for o in args.only)]
+        errors = [e for e in errors if any(e.startswith(o + ":") for o in args.only)]
     failed = []
     total = {"quick": 0.0, "long": 0.0}
     for b in blocks:
@@ -441,8 +442,10 @@ def main():
             continue
         if b.error:
             continue
-        if (b.long and not (args.long or args.only_long)) or (args.only_long and not b.long):
+        if b.long and not (args.long or args.only_long):
             print(f"long   {b.where} (not run; --long runs it)")
+            continue
+        if args.only_long and not b.long:
             continue
         start = time.time()
         status, detail = check_block(b, root, build, args.long or args.only_long, args.keep)

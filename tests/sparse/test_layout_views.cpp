@@ -102,6 +102,15 @@ TEST_CASE("A block method on a scalar Csr: blocks where the pattern has them, re
   CHECK_THROWS_WITH(make({"method=cg", "preconditioner=block-jacobi"})->setup(P),
                     Catch::Contains("preconditioner block-jacobi") && Catch::Contains("scalar system"));
   CHECK_THROWS_WITH(make({"method=mcg"})->setup(component_major(A)), Catch::Contains("layout=component"));
+  // layout=interleaved given explicitly declares the blocks: no judgement of the pattern.
+  auto declared = make({"method=block-jacobi-pcg", "layout=interleaved", "tol=1e-8"});
+  declared->setup(P);
+  CHECK_THAT(declared->describe(), Catch::StartsWith("scalar CSR input read as 3x3 blocks"));
+  // A refused second set-up leaves no inner solver reading a freed copy: the first one still solves.
+  auto twice = make({"method=block-jacobi-pcg", "tol=1e-10"});
+  twice->setup(A);
+  CHECK_THROWS_AS(twice->setup(P), InputError);
+  CHECK_FALSE(twice->is_set_up());
   // Scalar methods take the scalar system as it is.
   auto scalar = make({"method=jacobi-pcg", "tol=1e-8"});
   scalar->setup(P);
@@ -165,6 +174,19 @@ TEST_CASE("Solver entry points on the caller's arrays: setup and update from a v
   std::vector<double> y(A.rows(), 0.0);
   s->solve(b.data(), y.data());
   for (index_t i = 0; i < A.rows(); ++i) CHECK(y[i] == Approx(x[i] / 2).epsilon(1e-7));
+
+  // Refused values (negative definite) leave the kept matrix as it was: the next solve is unchanged.
+  std::vector<double> negated(doubled);
+  for (double& v : negated) v = -v;
+  auto chol = make({"method=block-jacobi-pcg", "tol=1e-10"});
+  view.values = doubled.data();
+  chol->setup(view);
+  view.values = negated.data();
+  CHECK_THROWS(chol->update(view));
+  std::vector<double> z(A.rows(), 0.0);
+  chol->solve(b.data(), z.data());
+  for (index_t i = 0; i < A.rows(); ++i) CHECK(z[i] == Approx(y[i]).epsilon(1e-7));
+  view.values = doubled.data();
 
   // A different pattern, and update(view) without a set-up from a view, are named.
   CsrView shorter = view;

@@ -10,6 +10,7 @@
 
 #include "pmg/fem/bb_space.hpp"
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,6 +21,12 @@ namespace pmg::fem {
 struct VtuOptions {
   /// Write the deformed control points X + u as the geometry (else the rest positions).
   bool deformed = false;
+  /// One flag per node (non-zero: the node is clamped), written as the point array "fixed"
+  /// (UInt8); empty: not written. What `pmg render` draws as the clamp.
+  std::vector<std::uint8_t> fixed;
+  /// The external force, 3 per node, written as the point array "load" (Float64, 3 components,
+  /// in N); empty or zero: not written. What `pmg render` draws as load arrows.
+  Vector load;
 };
 
 /// Writes the mesh of `space` with the displacement u (3 per node; may be empty).

@@ -62,13 +62,16 @@ void check_interleaved(const LinearOperator& A, const std::string& who);
 /// as interleaved blocks (reads_as_blocks()) is copied into a Bcsr at set-up (its values refreshed
 /// at update()), so the method runs at its block speed on the matrix a user naturally passes; one
 /// that reads as component-major is refused naming layout=component (check_interleaved()); one
-/// that reads as a scalar system is refused naming the scalar methods. Any other operator (Bcsr,
+/// that reads as a scalar system is refused naming the scalar methods (layout=interleaved, given
+/// explicitly, declares the blocks instead). Any other operator (Bcsr,
 /// BIN-BCSR, matrix-free) is passed through unchanged. The copy costs the Bcsr's memory (about
 /// two thirds of the Csr's for elasticity: one column index per 3x3 block).
 class BlockInput final : public Solver {
  public:
   /// Wraps `inner` (not set up), which reads 3x3 blocks; `who` names it in messages ("method mcg").
-  BlockInput(std::unique_ptr<Solver> inner, std::string who);
+  /// `declared`: the caller said the unknowns are interleaved (layout=interleaved given): a Csr is
+  /// read as blocks without judging its pattern.
+  BlockInput(std::unique_ptr<Solver> inner, std::string who, bool declared = false);
   ~BlockInput() override;
   std::string name() const override { return inner_->name(); }
   bool is_linear() const override { return inner_->is_linear(); }
@@ -91,6 +94,7 @@ class BlockInput final : public Solver {
 
   std::unique_ptr<Solver> inner_;
   std::string who_;
+  bool declared_ = false;
   std::unique_ptr<Bcsr> blocks_;  // the copy of a scalar input; null when passed through
 };
 

@@ -145,7 +145,9 @@ class Solver : public LinearOperator {
   void setup(const CsrView& A);
   /// update() with new values in the caller's arrays: the same pattern as the view given to
   /// setup(const CsrView&) (the values are copied into the kept Csr, duplicates summed as at
-  /// set-up). Throws InputError when the solver was not set up from a view or the pattern differs.
+  /// set-up). Throws InputError when the solver was not set up from a view or the pattern differs;
+  /// when update() refuses the new values, the kept ones are restored (and set up again) before
+  /// the exception propagates.
   void update(const CsrView& A);
   /// solve() on the caller's arrays: b and x hold rows() doubles each (x the initial guess, then
   /// the answer), e.g. a std::vector's data(), an Eigen::Map or a NumPy buffer. Each is copied once

@@ -76,6 +76,10 @@ struct StudySystem {
   fem::SystemWeights weights;  ///< the FEM system's weights (mass M + stiffness K)
   /// x, y, z per node of the system (AMG's rigid-body modes); nullptr: unknown.
   const std::vector<double>* coordinates = nullptr;
+  /// Repeat short runs (Study::kShortRun) and report the median. Set false where processes run
+  /// the study side by side under an MPI launcher: hypre's BoomerAMG, for one, solves across the
+  /// world's ranks, and each rank's own clock would choose its own number of runs.
+  bool repeat_short_runs = true;
 };
 
 /// Several solvers on one system (see the file comment).
