@@ -44,8 +44,10 @@ std::string component_major_reading(const Csr& A);
 /// out), the three rows 3a, 3a+1, 3a+2 couple to the same nodes ⌊j/3⌋. Elasticity and other
 /// 3-component systems do, also with exact zeros dropped from the pattern (an axis-aligned mesh
 /// has zero couplings inside its blocks); a scalar stencil whose size happens to be a multiple of 3
-/// does not (the 5-point Laplacian's rows 3a and 3a+1 reach different neighbours). O(nnz), no
-/// values read. The one rule by which pmgkit
+/// does not (the 5-point Laplacian's rows 3a and 3a+1 reach different neighbours), except where
+/// the stencil happens to align with triples of unknowns (a grid exactly 3 points wide): there the
+/// caller says so (`--block-size 1`, `format="csr"`). O(nnz), no values read. The one rule by
+/// which pmgkit
 /// chooses blocks for a matrix that does not declare them (format auto in Python and `pmg
 /// compare`, block methods handed a Csr).
 bool reads_as_blocks(const Csr& A);
