@@ -100,6 +100,9 @@ void render_frames(const std::string& source, const std::string& outdir, const R
   if (!WIFEXITED(rc) || WEXITSTATUS(rc) != 0) {
     std::string last = tail_of_file(log, 1);  // the renderer's one line: "render: error: ..."
     if (last.rfind("render: error: ", 0) == 0) last.erase(0, std::string("render: error: ").size());
+    // Exit 2 is the renderer's bad input (a frame it cannot read, a field the frames lack): bad
+    // input here too.
+    if (WIFEXITED(rc) && WEXITSTATUS(rc) == 2 && !last.empty()) throw InputError(source + ": " + one_line(last));
     throw Error("render failed" + (last.empty() ? std::string() : ": " + one_line(last)) + " (" +
                 script + ", " +
                 (WIFSIGNALED(rc) ? "killed by signal " + std::to_string(WTERMSIG(rc))

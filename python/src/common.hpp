@@ -63,6 +63,10 @@ struct PyHierarchy {
 void register_fem(py::module_& m);
 /// Registers study_matrix, study_hierarchy and study_scene (study.cpp).
 void register_study(py::module_& m);
+/// Registers Csr, Bcsr and BinBcsr (formats.cpp).
+void register_formats(py::module_& m);
+/// Registers read_petsc_matrix/vector and write_petsc_matrix/vector (formats.cpp).
+void register_petsc_files(py::module_& m);
 
 /// A CSR matrix handed over as (indptr, indices, data, (rows, cols)): the arrays are read in place.
 /// The Python objects are held so that the view stays valid as long as this lives.
@@ -80,12 +84,6 @@ void check_format_name(const std::string& format);
 /// matrix whose size happens to be a multiple of 3 included) | csr | bcsr | bin-bcsr, the block
 /// formats only for sizes divisible by 3 (InputError otherwise, and for another name).
 std::string matrix_format(const std::string& format, const Csr& A);
-/// Refuses (InputError naming `who`) a matrix that a method reading 3x3 blocks of interleaved
-/// unknowns cannot take as it is: first one that reads as component-major (check_interleaved(),
-/// whose message names layout=component), then one that reads as a scalar system
-/// (reads_as_blocks() false: its pattern does not fill the 3x3 blocks of its nodes), naming this
-/// build's scalar methods and layout='component'. For sizes divisible by 3.
-void check_block_reading(const Csr& A, const std::string& who);
 /// A user's matrix as CSR, refused (InputError) when not square or not symmetric.
 Csr symmetric_csr(const CsrView& view);
 

@@ -61,23 +61,6 @@ py::list study_runs(study::StudySystem& ss, const std::string& solvers_json, boo
   return out;
 }
 
-/// A study's methods that read 3x3 blocks, refused (before anything runs) on a matrix that does not
-/// read as blocks, as make_solver refuses them (check_block_reading()); configurations with a
-/// layout key declare the unknowns' order and are left to the method. Sizes not divisible by 3 are
-/// named by the study itself.
-void check_study_blocks(const std::string& solvers_json, const Csr& A) {
-  if (A.rows() % 3 != 0) return;
-  const nlohmann::ordered_json j = nlohmann::ordered_json::parse(solvers_json, nullptr, /*allow_exceptions=*/false);
-  if (!j.is_object()) return;  // study_runs names what is wrong with it
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    const nlohmann::ordered_json& c = it.value();
-    if (!c.is_object() || c.contains("layout")) continue;
-    const auto m = c.find("method");
-    const std::string method = m != c.end() && m->is_string() ? m->get<std::string>() : std::string(kDefaultMethod);
-    if (method_needs_blocks(method)) check_block_reading(A, "study: " + it.key() + " (method " + method + ")");
-  }
-}
-
 }  // namespace
 
 /// study_matrix (a user's matrix), study_hierarchy (an FEM degree hierarchy) and study_scene (a
@@ -89,7 +72,6 @@ void register_study(py::module_& m) {
     check_format_name(format);
     const Csr csr = symmetric_csr(a.view);
     const std::string f = matrix_format(format, csr);  // auto: blocks where the matrix reads as blocks
-    check_study_blocks(solvers, csr);
     std::unique_ptr<Bcsr> bcsr = f != "csr" ? std::make_unique<Bcsr>(Bcsr::from_csr(csr)) : nullptr;
     std::unique_ptr<BinBcsr> bin = f == "bin-bcsr" ? std::make_unique<BinBcsr>(*bcsr) : nullptr;
     study::StudySystem ss;

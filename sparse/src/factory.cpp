@@ -159,15 +159,20 @@ bool unused_options_allowed(const Config& config) {
 
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context,
                                     const std::string& fallback_method) {
+  config.get_choice("unused_keys", "error", {"error", "known", "ignore"});  // refused before the build
+  auto s = adapt_to_input(build_solver(config, context, fallback_method), config, context, fallback_method);
+  check_keys_used(config);
+  return s;
+}
+
+std::unique_ptr<Solver> adapt_to_input(std::unique_ptr<Solver> s, const Config& config, const SolverContext& context,
+                                       const std::string& fallback_method) {
   // layout=component: any method on a component-major matrix (pmg/sparse/layout.hpp).
   const std::string layout = config.get_choice("layout", "interleaved", {"interleaved", "component"});
   if (layout == "component" && context.levels)
     config.fail("layout", "multigrid levels take their layout where they are built (mg::UserLevels with "
                           "DofLayout::component, Python multigrid(layout=\"component\")); the levels "
                           "the solver reads are interleaved");
-  config.get_choice("unused_keys", "error", {"error", "known", "ignore"});  // refused before the build
-  auto s = build_solver(config, context, fallback_method);
-  check_keys_used(config);
   const std::string method = config.get_string("method", fallback_method);
   const bool blocks = method_needs_blocks(method);
   if (layout == "component") return std::make_unique<ComponentLayout>(std::move(s), blocks);

@@ -2,6 +2,7 @@
 #include "pmg/sparse/layout.hpp"
 
 #include "pmg/sparse/bcsr.hpp"
+#include "pmg/sparse/factory.hpp"
 #include "pmg/sparse/csr.hpp"
 
 #include <algorithm>
@@ -15,10 +16,12 @@ struct ComponentLayout::Copy {
   std::vector<offset_t> slot;   // given entry k -> entry of csr
 };
 
-ComponentLayout::ComponentLayout(std::unique_ptr<Solver> inner, bool blocks)
-    : inner_(std::move(inner)), blocks_(blocks) {
-  if (!inner_) throw InputError("layout=component: no solver to wrap");
+WrappingSolver::WrappingSolver(std::unique_ptr<Solver> inner, const std::string& who) : inner_(std::move(inner)) {
+  if (!inner_) throw InputError(who + ": no solver to wrap");
 }
+
+ComponentLayout::ComponentLayout(std::unique_ptr<Solver> inner, bool blocks)
+    : WrappingSolver(std::move(inner), "layout=component"), blocks_(blocks) {}
 
 ComponentLayout::~ComponentLayout() = default;
 
@@ -209,10 +212,23 @@ bool reads_as_blocks(const Csr& A) {
   return counted > 0 && alike >= 0.9 * static_cast<double>(counted);
 }
 
-BlockInput::BlockInput(std::unique_ptr<Solver> inner, std::string who, bool declared)
-    : inner_(std::move(inner)), who_(std::move(who)), declared_(declared) {
-  if (!inner_) throw InputError("BlockInput: no solver to wrap");
+void check_block_reading(const Csr& A, const std::string& who) {
+  check_interleaved(A, who);  // component-major first: its message names layout=component
+  if (reads_as_blocks(A)) return;
+  std::string scalar;  // this build's methods for a scalar matrix
+  for (const SolverInfo& s : registered_solvers())
+    if (!s.needs_blocks && !s.uses_levels && !s.across_ranks) scalar += (scalar.empty() ? "" : ", ") + s.name;
+  throw InputError(who + " reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...), and this " +
+                   std::to_string(A.rows()) + "x" + std::to_string(A.cols()) + " matrix reads as a scalar system (" +
+                   (A.rows() % 3 ? "its size " + std::to_string(A.rows()) + " is not divisible by 3"
+                                 : std::string("the three rows of its nodes do not couple to the same nodes")) +
+                   "): choose a method for scalar matrices (" + scalar +
+                   "), layout=component for component-major 3-component unknowns (x0 x1 ... y0 ...), or "
+                   "layout=interleaved to declare interleaved ones");
 }
+
+BlockInput::BlockInput(std::unique_ptr<Solver> inner, std::string who, bool declared)
+    : WrappingSolver(std::move(inner), who), who_(std::move(who)), declared_(declared) {}
 
 BlockInput::~BlockInput() = default;
 
@@ -223,20 +239,10 @@ void BlockInput::setup_impl(const LinearOperator& A) {
     blocks_.reset();  // after the inner set-up: it no longer reads the old copy
     return;
   }
-  const std::string& who = who_;
   if (!declared_) {
-    check_interleaved(*c, who);  // component-major: named with layout=component
-    if (!reads_as_blocks(*c))
-      throw InputError(who + " reads 3x3 blocks of interleaved unknowns (x0 y0 z0 x1 ...), and this " +
-                       std::to_string(c->rows()) + "x" + std::to_string(c->rows()) +
-                       " matrix reads as a scalar system (" +
-                       (c->rows() % 3 ? std::string("its size is not divisible by 3")
-                                      : std::string("the three rows of its nodes do not couple to the same nodes")) +
-                       "): choose a method for scalar matrices (cg, jacobi-pcg, boomeramg-pcg, gamg-pcg, cholmod, "
-                       "mumps; `pmg solvers` marks the block methods), layout=component for component-major "
-                       "3-component unknowns, or layout=interleaved to declare interleaved ones");
+    check_block_reading(*c, who_);
   } else if (c->rows() % 3 != 0) {
-    throw InputError(who + ": layout=interleaved, but the size " + std::to_string(c->rows()) +
+    throw InputError(who_ + ": layout=interleaved, but the size " + std::to_string(c->rows()) +
                      " is not divisible by 3");
   }
   auto b = std::make_unique<Bcsr>(Bcsr::from_csr(*c));

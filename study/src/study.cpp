@@ -74,24 +74,15 @@ Study::~Study() = default;
 void Study::add(const std::string& name, const Config& config, const std::set<std::string>& may_be_unused,
                 const std::string& fallback_method) {
   const std::string method = config.get_string("method", fallback_method);
-  // layout=component (pmg/sparse/layout.hpp) as make_solver() reads it: the method on the permuted matrix.
-  const bool component = config.get_choice("layout", "interleaved", {"interleaved", "component"}) == "component";
-  if (component && system_.levels)
-    config.fail("layout", "multigrid levels take their layout where they are built (--layout with --levels)");
-  if (method_needs_blocks(method) && system_.matrix && system_.matrix->rows() % 3 != 0)
-    throw InputError(name + " needs a size divisible by 3 (3x3 blocks)");
+  // A block method on a matrix that does not read as blocks: refused before anything runs (the
+  // set-up would refuse it too, BlockInput), unless its layout is declared.
   if (method_needs_blocks(method) && system_.matrix && !system_.levels && !config.has("layout"))
-    if (const Csr* c = system_.matrix->csr_matrix(); c && !reads_as_blocks(*c))
-      throw InputError(name + " reads 3x3 blocks of interleaved unknowns, and the matrix reads as a scalar system "
-                       "(the three rows of its nodes do not couple to the same nodes): choose a method for scalar "
-                       "matrices (cg, jacobi-pcg, boomeramg-pcg, gamg-pcg, cholmod, mumps), or layout=component for "
-                       "component-major 3-component unknowns (layout=interleaved declares interleaved ones)");
+    if (const Csr* c = system_.matrix->csr_matrix()) check_block_reading(*c, name);
   SolverContext ctx;
   ctx.levels = system_.levels;
   ctx.coordinates = system_.coordinates;
-  std::unique_ptr<Solver> solver = build_solver(config, ctx, fallback_method);
-  if (component) solver = std::make_unique<ComponentLayout>(std::move(solver), method_needs_blocks(method));
-  Entry e{name, config, std::move(solver), method};
+  // As make_solver() builds: the method, then what the matrix it is given needs (layout, blocks).
+  Entry e{name, config, adapt_to_input(build_solver(config, ctx, fallback_method), config, ctx, fallback_method), method};
   config.check_all_used(may_be_unused);
   // MPI's and PETSc's start-up is paid once per process: started here, before the clocks, so that
   // it is charged to no solver.

@@ -62,6 +62,14 @@ struct SolverContext {
 std::unique_ptr<Solver> make_solver(const Config& config, const SolverContext& context = {},
                                     const std::string& fallback_method = kDefaultMethod);
 
+/// What make_solver does to a built solver `s` for the matrix it will be set up on: under
+/// `layout=component` wraps it in ComponentLayout; without levels in `context`, a method reading 3x3
+/// blocks (or cg with a block preconditioner) in BlockInput, which reads a scalar Csr as blocks or
+/// refuses it (pmg/sparse/layout.hpp); anything else is returned as it is. For a caller that builds
+/// with build_solver() and checks its keys itself (a study).
+std::unique_ptr<Solver> adapt_to_input(std::unique_ptr<Solver> s, const Config& config, const SolverContext& context,
+                                       const std::string& fallback_method = kDefaultMethod);
+
 /// make_solver's check after its build, for a caller that reads a method's parameters itself
 /// (read_params): throws InputError naming every key of `config` nobody read, as `unused_keys`
 /// (read here) allows.

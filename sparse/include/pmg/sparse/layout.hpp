@@ -51,6 +51,11 @@ std::string component_major_reading(const Csr& A);
 /// chooses blocks for a matrix that does not declare them (format auto in Python and `pmg
 /// compare`, block methods handed a Csr).
 bool reads_as_blocks(const Csr& A);
+/// The one check before a block method reads a scalar matrix as 3x3 blocks (BlockInput, studies,
+/// Python): returns when A reads as blocks (reads_as_blocks()); throws InputError naming `who`
+/// and layout=component when A reads as component-major (check_interleaved()), else naming the
+/// scalar methods this build registers and layout=interleaved (which declares the blocks).
+void check_block_reading(const Csr& A, const std::string& who);
 /// Throws InputError naming `who`, the reading and the key layout=component when A is a Csr that
 /// reads as component-major (component_major_reading()); block methods call it at set-up (not at
 /// update(): the pattern is the same). A Bcsr is not judged: it declares its blocks, and its
@@ -58,6 +63,27 @@ bool reads_as_blocks(const Csr& A);
 /// thin plate couples node a with a + N/3); judge scalar input before Bcsr::from_csr (Python's
 /// make_solver and pmg compare do).
 void check_interleaved(const LinearOperator& A, const std::string& who);
+
+/// A solver that does its work through another one, set up on a converted form of the matrix it
+/// is given (BlockInput, ComponentLayout): what such a wrapper reports is the inner solver's.
+class WrappingSolver : public Solver {
+ public:
+  std::string name() const override { return inner_->name(); }
+  bool is_linear() const override { return inner_->is_linear(); }
+  bool is_symmetric() const override { return inner_->is_symmetric(); }
+  SolverNeeds needs() const override { return inner_->needs(); }
+  TimingBreakdown timings() const override { return inner_->timings(); }
+  void reset_timings() const override { inner_->reset_timings(); }
+  TimingBreakdown setup_timings() const override { return inner_->setup_timings(); }
+  /// The wrapped solver.
+  const Solver& inner() const { return *inner_; }
+
+ protected:
+  /// Takes `inner` (not set up); InputError naming `who` when it is null.
+  WrappingSolver(std::unique_ptr<Solver> inner, const std::string& who);
+  /// The wrapped solver, set up by the derived class on its converted matrix.
+  std::unique_ptr<Solver> inner_;
+};
 
 /// A block method handed whatever the caller has (what make_solver() returns for a method that
 /// reads 3x3 blocks, set up without multigrid levels). A scalar Csr is judged once: one that reads
@@ -68,25 +94,16 @@ void check_interleaved(const LinearOperator& A, const std::string& who);
 /// explicitly, declares the blocks instead). Any other operator (Bcsr,
 /// BIN-BCSR, matrix-free) is passed through unchanged. The copy costs the Bcsr's memory (about
 /// two thirds of the Csr's for elasticity: one column index per 3x3 block).
-class BlockInput final : public Solver {
+class BlockInput final : public WrappingSolver {
  public:
   /// Wraps `inner` (not set up), which reads 3x3 blocks; `who` names it in messages ("method mcg").
   /// `declared`: the caller said the unknowns are interleaved (layout=interleaved given): a Csr is
   /// read as blocks without judging its pattern.
   BlockInput(std::unique_ptr<Solver> inner, std::string who, bool declared = false);
   ~BlockInput() override;
-  std::string name() const override { return inner_->name(); }
-  bool is_linear() const override { return inner_->is_linear(); }
-  bool is_symmetric() const override { return inner_->is_symmetric(); }
-  SolverNeeds needs() const override { return inner_->needs(); }
   bool multiply_with(const LinearOperator* op) override { return inner_->multiply_with(op); }
-  TimingBreakdown timings() const override { return inner_->timings(); }
-  void reset_timings() const override { inner_->reset_timings(); }
-  TimingBreakdown setup_timings() const override { return inner_->setup_timings(); }
   /// "scalar CSR input read as 3x3 blocks; " (when copied) and the inner solver's description.
   std::string describe() const override;
-  /// The wrapped solver.
-  const Solver& inner() const { return *inner_; }
 
  private:
   void setup_impl(const LinearOperator& A) override;
@@ -94,30 +111,20 @@ class BlockInput final : public Solver {
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
   void apply_impl(const Vector& b, Vector& x) const override;
 
-  std::unique_ptr<Solver> inner_;
   std::string who_;
   bool declared_ = false;
   std::unique_ptr<Bcsr> blocks_;  // the copy of a scalar input; null when passed through
 };
 
 /// A solver of interleaved systems applied to a component-major one (see the file comment).
-class ComponentLayout final : public Solver {
+class ComponentLayout final : public WrappingSolver {
  public:
   /// Wraps `inner` (not set up); `blocks`: give it the permuted matrix as 3x3 BCSR (methods that
   /// read blocks), else as scalar CSR.
   ComponentLayout(std::unique_ptr<Solver> inner, bool blocks);
   ~ComponentLayout() override;
-  std::string name() const override { return inner_->name(); }
-  bool is_linear() const override { return inner_->is_linear(); }
-  bool is_symmetric() const override { return inner_->is_symmetric(); }
-  SolverNeeds needs() const override { return inner_->needs(); }
-  TimingBreakdown timings() const override { return inner_->timings(); }
-  void reset_timings() const override { inner_->reset_timings(); }
-  TimingBreakdown setup_timings() const override { return inner_->setup_timings(); }
   /// "component-major input, permuted to interleaved; " and the inner solver's description.
   std::string describe() const override;
-  /// The wrapped solver (set up on the interleaved matrix).
-  const Solver& inner() const { return *inner_; }
 
  private:
   void setup_impl(const LinearOperator& A) override;
@@ -129,7 +136,6 @@ class ComponentLayout final : public Solver {
   /// The given matrix's scalar CSR values into the interleaved copy (and its blocks).
   void refresh(const LinearOperator& A);
 
-  std::unique_ptr<Solver> inner_;
   bool blocks_;
   index_t nodes_ = 0;
   struct Copy;

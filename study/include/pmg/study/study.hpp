@@ -92,8 +92,9 @@ class Study {
   Study& operator=(const Study&) = delete;
 
   /// Builds the solver `config` names (method `fallback_method` where it names none), before any
-  /// runs: InputError for a method of 3x3 blocks on a matrix whose size is not divisible by 3
-  /// (StudySystem::matrix set before add()), or naming a key no part of it read, except those in `may_be_unused` (keys given
+  /// runs, as make_solver() builds (adapt_to_input: layout, blocks): InputError for a method of 3x3
+  /// blocks on a matrix that does not read as blocks (check_block_reading; StudySystem::matrix set
+  /// before add()), or naming a key no part of it read, except those in `may_be_unused` (keys given
   /// to every solver of a study). Starts MPI and PETSc where the method needs them, outside every
   /// clock. `config` is kept (Config::was_used tells which keys it read).
   void add(const std::string& name, const Config& config, const std::set<std::string>& may_be_unused = {},
