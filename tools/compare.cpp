@@ -9,6 +9,7 @@
 //   4. Print the summary table; write the per-iteration history as CSV (--history) and draw the
 //      plot (--plot: from the history and a per-solver summary, temporary files unless --history).
 #include "process.hpp"
+#include "compare_distributed.hpp"
 #include "ranks.hpp"
 #include "pmg/sparse/defaults.hpp"
 #include "checks.hpp"
@@ -67,6 +68,7 @@ struct Options {
   bool fem = false;  // set when a scene option is given
   SceneOptions scene;
   bool reference = true;
+  bool distributed_mesh = false;  // --distributed-mesh: the scene built on the ranks (DMPlex)
   std::vector<std::string> solvers;  // default depends on the system
   std::vector<std::string> overrides;  // --set key=value, for every solver of the run
   std::string solver_config;           // --solver-config FILE.json: named configurations
@@ -550,6 +552,11 @@ void write_report(const Options& o, const System& sys, const std::vector<study::
 
 void run(const Options& given) {
   Options o = given;
+  if (o.distributed_mesh) {
+    const Config set = Config::from_pairs(o.overrides, "--set");
+    run_distributed_mesh(o.scene, solver_configs(o, {"petsc-mgpcg"}, set).front().second, o.json_report);
+    return;
+  }
   check_outputs(o);
   auto t0 = Clock::now();
   System sys = load_system(o);
@@ -619,6 +626,23 @@ void run(const Options& given) {
 }
 
 }  // namespace
+
+/// --distributed-mesh takes an FEM scene and petsc-mgpcg only: the options it cannot honour are
+/// refused by name.
+void check_distributed_mesh(const CLI::App& sub, Options& o) {
+  for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--history", "--plot", "--solution-out",
+                           "--export-levels", "--export-petsc", "--solver-config", "--fixed-iterations", "--warm-up",
+                           "--allow", "--check-every", "--format"})
+    if (sub.count(flag))
+      throw InputError(std::string("--distributed-mesh does not take ") + flag +
+                       " (the scene is built on the ranks and solved by petsc-mgpcg only)");
+  for (const auto& s : o.solvers)
+    if (s != "petsc-mgpcg")
+      throw InputError("--distributed-mesh runs petsc-mgpcg only (the other methods need the whole model on one "
+                       "process), not " + s);
+  o.fem = true;
+  o.reference = false;
+}
 
 /// The options that name the system: a Matrix Market file (with its right-hand side, known
 /// solution and block size) or the built-in lattice.
@@ -721,6 +745,10 @@ void register_compare(CLI::App& app) {
                   "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc/petsc_reference read)");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
+  sub->add_flag("--distributed-mesh", opts->distributed_mesh,
+                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex, PT-Scotch; --refine after "
+                "distribution), no rank holding the whole model, and solve with petsc-mgpcg (box or mesh file, "
+                "degree 2-3, --fix, --load; no reference solve)");
   // Multigrid flags of earlier versions: each duplicated a --set key, so they are retired with a
   // message naming it (hidden from the help).
   static const std::pair<const char*, const char*> retired[] = {
@@ -741,7 +769,7 @@ void register_compare(CLI::App& app) {
                        "write the residual history CSV with --history FILE");
     for (const char* flag : {"--tol", "--max-iter", "--fixed-iterations", "--check-every", "--format"})
       if (sub->count(flag)) opts->given.insert(flag);
-    opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") ||
+    opts->fem = sub->count("--mesh") || sub->count("--box") || sub->count("--degree") || sub->count("--refine") ||
                 sub->count("--load") || sub->count("--dt");
     for (size_t k = 0; k < std::size(retired); ++k)
       if (sub->count(retired[k].first))
@@ -753,6 +781,7 @@ void register_compare(CLI::App& app) {
                          " (keys and defaults: pmg solvers)");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
+    if (opts->distributed_mesh) check_distributed_mesh(*sub, *opts);
     run(*opts);
   });
 }

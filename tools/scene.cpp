@@ -31,6 +31,11 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
       ->expected(3)
       ->check(FinitePositive())
       ->capture_default_str();
+  sub->add_option("--refine", o.refine,
+                  "refine the mesh uniformly this many times (8x elements each); with --distributed-mesh "
+                  "on the ranks after distribution")
+      ->check(CLI::Range(0, 6))
+      ->capture_default_str();
   sub->add_option("-p,--degree", o.degree, "element degree")->check(CLI::Range(1, 3))->capture_default_str();
   sub->add_option("--young", o.young, "Young's modulus [Pa]")->check(FinitePositive())->capture_default_str();
   sub->add_option("--poisson", o.poisson, "Poisson's ratio")
@@ -69,6 +74,7 @@ sim::Scene scene_of(const SceneOptions& o) {
   s.mesh_file = o.mesh;
   for (int d = 0; d < 3; ++d) s.box[d] = o.box[d], s.size[d] = o.size[d];
   s.degree = o.degree;
+  s.refine = o.refine;
   s.young = o.young, s.poisson = o.poisson, s.density = o.density;
   s.clamp_axis = o.fix[0] - 'x';
   s.clamp_fraction = o.fix_fraction;
@@ -97,7 +103,7 @@ FemSystem build_fem_system(const SceneOptions& o, bool assemble_finest) {
   s.description = (o.mesh.empty() ? "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
                                         std::to_string(o.box[2]) + " boxes"
                                   : o.mesh) +
-                  ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
+                  (o.refine > 0 ? ", refined " + std::to_string(o.refine) + "x" : "") + ", degree " + std::to_string(o.degree) + ", " + std::to_string(s.setup.mesh->num_tets()) +
                   " tets, " + std::to_string(m.num_fixed()) + " clamped nodes, " +
                   (o.symmetry.empty() ? "" : std::to_string(held_components(m)) + " components held by symmetry planes, ") +
                   o.load + (o.dt > 0 ? ", M + dt^2 K with dt = " + std::to_string(o.dt) : ", static K");

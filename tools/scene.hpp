@@ -22,6 +22,7 @@ struct SceneOptions {
   std::vector<int> box;             ///< boxes of 24 tets along x, y, z
   std::vector<double> size;         ///< side lengths [m]
   int degree = 3;
+  int refine = 0;                   ///< uniform refinements of the mesh (8x elements each)
   double young, poisson, density;
   std::string fix = "x";            ///< axis whose minimum face (plus fix_fraction) is clamped
   double fix_fraction = 0.0;        ///< of the extent along that axis

@@ -4,6 +4,7 @@
 #include "pmg/metis/partition.hpp"
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
+#include "pmg/petsc/plex.hpp"
 
 #include <algorithm>
 #include <climits>
@@ -125,9 +126,63 @@ RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) 
   }
 }
 
+RankHierarchy::RankHierarchy(const petsc::PlexMesh& plex, int degree, const fem::Material& material,
+                             std::vector<char> clamped, const std::vector<double>& stiffness_scale)
+    : comm_(plex.comm()) {
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Comm_rank(comm_, &rank_);
+    MPI_Comm_size(comm_, &size_);
+  }
+  mesh_ = std::make_unique<fem::TetMesh>();
+  const std::vector<double>& X = plex.local_vertices();
+  for (size_t v = 0; v < X.size() / 3; ++v) mesh_->vertices.emplace_back(X[3 * v], X[3 * v + 1], X[3 * v + 2]);
+  const std::vector<index_t>& C = plex.local_cells();
+  for (size_t e = 0; e < C.size() / 4; ++e) mesh_->tets.push_back({C[4 * e], C[4 * e + 1], C[4 * e + 2], C[4 * e + 3]});
+  local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, degree, material, std::move(clamped));
+  if (!stiffness_scale.empty()) local_->set_stiffness_scale(stiffness_scale);
+
+  // Per level: each local free node's entity and multiplicities, numbered by the plex.
+  levels_.resize(local_->num_levels());
+  for (int l = 0; l < local_->num_levels(); ++l) {
+    const fem::BBSpace& S = local_->model(l).space();
+    const std::vector<index_t>& free = local_->model(l).assembler().free_index();
+    const auto& alpha = fem::multi_indices(S.degree());
+    std::vector<petsc::PlexNode> nodes(local_->model(l).assembler().num_free());
+    std::vector<char> seen(nodes.size(), 0);
+    for (index_t e = 0; e < mesh_->num_tets(); ++e)
+      for (int a = 0; a < S.nodes_per_element(); ++a) {
+        const index_t f = free[S.node(e, a)];
+        if (f < 0 || seen[f]) continue;
+        seen[f] = 1;
+        int k = 0;
+        for (int i = 0; i < 4; ++i)
+          if (alpha[a][i] > 0) {
+            nodes[f].vertices[k] = mesh_->tets[e][i];
+            nodes[f].multiplicity[k++] = alpha[a][i];
+          }
+      }
+    const petsc::PlexNumbering numbering = plex.number(nodes);
+    Level& L = levels_[l];
+    L.first = numbering.first;
+    L.owned = numbering.owned;
+    L.total = numbering.total;
+    L.global = numbering.global;
+  }
+}
+
 RankHierarchy::~RankHierarchy() = default;
 
+namespace {
+void require_serial(bool from_serial, const char* what) {
+  if (!from_serial)
+    throw Error(std::string("rank hierarchy: ") + what + " needs the serial hierarchy (this share was built from a "
+                "distributed mesh)");
+}
+}  // namespace
+
 Vector RankHierarchy::owned_part(int level, const Vector& serial) const {
+  require_serial(from_serial(), "owned_part");
   const Level& L = levels_.at(level);
   if (serial.size() != 3 * static_cast<Eigen::Index>(L.owner.size()))
     throw InputError("rank hierarchy: a vector of " + std::to_string(serial.size()) + " entries for " +
@@ -139,6 +194,7 @@ Vector RankHierarchy::owned_part(int level, const Vector& serial) const {
 }
 
 Vector RankHierarchy::gather(int level, const Vector& owned) const {
+  require_serial(from_serial(), "gather");
   const Level& L = levels_.at(level);
   if (owned.size() != 3 * static_cast<Eigen::Index>(L.owned))
     throw InputError("rank hierarchy: " + std::to_string(owned.size()) + " owned entries for " +
@@ -153,6 +209,7 @@ Vector RankHierarchy::gather(int level, const Vector& owned) const {
 }
 
 Vector RankHierarchy::local_part(const fem::DegreeHierarchy& serial, int level, const Vector& serial_full) const {
+  require_serial(from_serial(), "local_part");
   const fem::BBSpace& S = serial.model(level).space();
   const fem::BBSpace& Sl = local_->model(level).space();
   if (serial_full.size() != 3 * static_cast<Eigen::Index>(S.num_nodes()))
@@ -173,6 +230,7 @@ index_t RankHierarchy::local_element(index_t serial_element) const {
 }
 
 void RankHierarchy::bring_to(const fem::DegreeHierarchy& serial) {
+  require_serial(from_serial(), "bring_to(serial)");
   const int top = serial.num_levels() - 1;
   const fem::Rotations* R = serial.last_rotations(top);
   const auto [mass_weight, stiffness_weight] = serial.last_weights(top);
@@ -180,9 +238,15 @@ void RankHierarchy::bring_to(const fem::DegreeHierarchy& serial) {
     rotations_.resize(elements_.size());
     for (size_t e = 0; e < elements_.size(); ++e) rotations_[e] = (*R)[elements_[e]];
   }
-  const fem::Rotations* mine = R ? &rotations_ : nullptr;
-  for (int l = 1; l < num_levels(); ++l) local_->update_matrix_free(l, mine, mass_weight, stiffness_weight);
-  local_->assemble_level(0, mine, nullptr, mass_weight, stiffness_weight);
+  bring_to(R ? &rotations_ : nullptr, mass_weight, stiffness_weight);
+}
+
+void RankHierarchy::bring_to(const fem::Rotations* rotations, double mass_weight, double stiffness_weight) {
+  if (rotations && rotations->size() != static_cast<size_t>(mesh_->num_tets()))
+    throw InputError("rank hierarchy: " + std::to_string(rotations->size()) + " rotations for " +
+                     std::to_string(mesh_->num_tets()) + " elements");
+  for (int l = 1; l < num_levels(); ++l) local_->update_matrix_free(l, rotations, mass_weight, stiffness_weight);
+  local_->assemble_level(0, rotations, nullptr, mass_weight, stiffness_weight);
 }
 
 std::vector<petsc::RankLevel> RankHierarchy::rank_levels() {

@@ -13,8 +13,13 @@
 // order), the same degree, material, clamp and per-element stiffness scale; its levels' free nodes
 // are the rank's local nodes (owned and ghost).
 //
-// Every rank holds the whole serial hierarchy's mesh and numbering (replicated set-up): the first
-// step of the route to a cluster, where each rank reads its own part (docs/distributed.md).
+// Two ways to build it. From a serial hierarchy that every rank holds (the replicated set-up of
+// petsc-mgpcg on a scene's solver seam). Or from a mesh that DMPlex distributed
+// (pmg/petsc/plex.hpp), where no rank holds more than its own cells and their closure: the
+// partition is PETSc's (PT-Scotch), the ownership of a shared node is its mesh entity's owner in
+// PETSc's point SF, and the global numbering that of a PetscSection (contiguous per rank); the
+// serial-only members (element_parts(), owned_part(), gather(), local_part(), bring_to(serial))
+// are then refused.
 #pragma once
 
 #include "pmg/fem/hierarchy.hpp"
@@ -26,6 +31,7 @@
 
 namespace pmg::petsc {
 struct RankLevel;
+class PlexMesh;
 }
 
 namespace pmg::dist {
@@ -40,7 +46,15 @@ class RankHierarchy {
   /// Partitions `serial`'s mesh over comm's ranks and builds this rank's share. Collective. Throws
   /// InputError when there are fewer elements than ranks, or a rank would hold no element.
   RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm);
+  /// This rank's share of a distributed mesh (see the file comment): degrees 1 to `degree` on the
+  /// rank's cells, `clamped` one flag per local vertex of `mesh` (every rank must flag a shared
+  /// vertex alike), the material's stiffness scaled per local cell by `stiffness_scale` (empty:
+  /// 1). Collective; `mesh` may be destroyed afterwards.
+  RankHierarchy(const petsc::PlexMesh& mesh, int degree, const fem::Material& material, std::vector<char> clamped,
+                const std::vector<double>& stiffness_scale = {});
   ~RankHierarchy();
+  /// Whether the share was built from a serial hierarchy (else from a distributed mesh).
+  bool from_serial() const { return !parts_.empty(); }
 
   /// This rank in the communicator.
   int rank() const { return rank_; }
@@ -95,6 +109,9 @@ class RankHierarchy {
   /// (DegreeHierarchy::last_rotations(), last_weights()): the matrix-free operators above the
   /// lowest level updated, the lowest level assembled. A time step's per-rank work.
   void bring_to(const fem::DegreeHierarchy& serial);
+  /// The same from the rank's own elements' rotations (nullptr: linear elasticity) and weights:
+  /// each level's operator mass_weight M + stiffness_weight K. A static solve is (nullptr, 0, 1).
+  void bring_to(const fem::Rotations* rotations, double mass_weight, double stiffness_weight);
   /// The levels for pmg::petsc::PMultigridCg: the rank's matrix-free operators above the lowest
   /// level, its lowest-level matrix (as the last bring_to() left it: call it first), coordinates and
   /// prolongations.

@@ -1,0 +1,110 @@
+// pmg/distributed/mesh_problem.hpp — a static elasticity problem whose mesh no rank holds whole:
+// rank 0 makes (or reads) the coarse mesh, DMPlex distributes it with PT-Scotch, every rank
+// refines its part (pmg/petsc/plex.hpp) and builds its share of the degree hierarchy
+// (RankHierarchy's distributed-mesh constructor), its clamp and its loads from its own cells; the
+// coarse mesh is freed once distributed. solve_on_ranks() solves it with petsc-mgpcg's PETSc
+// solver and reports the answer's invariants (compliance, largest displacement), the true
+// residual, each stage's time and each rank's memory.
+//
+// The clamp and loads mean what they mean for a serial scene (pmg/sim/setup.hpp): the vertices
+// within clamp_fraction of the extent from the minimum of clamp_axis (plus 1e-9 of the bounding
+// box's diagonal) are clamped; gravity ρ g on every element; end_force spread as a uniform
+// traction over the boundary faces at the maximum of clamp_axis. The bounding box is reduced over
+// the ranks.
+//
+// Refinement: PETSc's regular refinement (DMRefine), which cuts each inner octahedron along a
+// fixed diagonal; the serial route's mesh refinement (fem::refine_uniform) cuts it along the
+// shortest. The vertices are the same, the inner tetrahedra may differ.
+#pragma once
+
+#include "pmg/distributed/mgpcg.hpp"
+#include "pmg/distributed/rank_hierarchy.hpp"
+#include "pmg/fem/mesh.hpp"
+
+#include <mpi.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pmg::petsc {
+class PlexMesh;
+class GhostExchange;
+}
+
+namespace pmg::dist {
+
+/// What MeshProblem builds (see the file comment).
+struct MeshProblemOptions {
+  int refine = 0;                        ///< uniform refinements after distribution (8x cells each)
+  std::string partitioner = "ptscotch";  ///< PETSc's partitioner: ptscotch, parmetis (if built), simple
+  int degree = 2;                        ///< finest degree, 2 or 3 (the hierarchy holds 1 to it)
+  fem::Material material;                ///< E, ν, ρ
+  int clamp_axis = 0;                    ///< 0, 1, 2: the axis whose minimum is clamped
+  double clamp_fraction = 0.0;           ///< of the extent along clamp_axis, in [0, 1)
+  fem::Vec3 gravity = fem::Vec3::Zero();    ///< m/s²
+  fem::Vec3 end_force = fem::Vec3::Zero();  ///< total force on the far face (N)
+};
+
+/// One rank's part of a distributed static problem (see the file comment).
+class MeshProblem {
+ public:
+  /// `coarse` is called on rank 0 only and returns the mesh to distribute (a box, a file); it may
+  /// throw, and its exception becomes every rank's. Collective; throws InputError for bad options,
+  /// a clamp that holds nothing, an end force without a face to load.
+  MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse, const MeshProblemOptions& options);
+  ~MeshProblem();
+  MeshProblem(const MeshProblem&) = delete;
+  MeshProblem& operator=(const MeshProblem&) = delete;
+
+  /// The rank's share of the hierarchy.
+  RankHierarchy& ranks() { return *ranks_; }
+  /// The rank's share of the hierarchy.
+  const RankHierarchy& ranks() const { return *ranks_; }
+  /// The external force on the finest level's owned unknowns (global order).
+  const Vector& load() const { return load_; }
+  /// Cells of all ranks (after refinement).
+  long global_cells() const { return cells_; }
+  /// Clamped vertices of all ranks.
+  long clamped_vertices() const { return clamped_; }
+  /// Lower corner of the bounding box (all ranks).
+  const fem::Vec3& lo() const { return lo_; }
+  /// Upper corner of the bounding box (all ranks).
+  const fem::Vec3& hi() const { return hi_; }
+  /// Seconds of each stage on this rank, in order.
+  const std::vector<std::pair<std::string, double>>& stages() const { return stages_; }
+
+ private:
+  MPI_Comm comm_;
+  std::unique_ptr<RankHierarchy> ranks_;
+  Vector load_;
+  long cells_ = 0, clamped_ = 0;
+  fem::Vec3 lo_, hi_;
+  std::vector<std::pair<std::string, double>> stages_;
+};
+
+/// What solve_on_ranks() measured; every figure is the same on every rank.
+struct RankSolveReport {
+  SolveResult result;              ///< iterations, reason, the solver's residual
+  double true_residual = 0.0;      ///< ||b - A x|| / ||b|| with the finest shell operator
+  double compliance = 0.0;         ///< bᵀx: the external work, independent of the numbering
+  double max_displacement = 0.0;   ///< max over nodes of |x_node|
+  long unknowns = 0;               ///< finest level, all ranks
+  double setup_seconds = 0.0;      ///< the solver's set-up, the slowest rank's
+  double solve_seconds = 0.0;      ///< the solve, the slowest rank's
+  TimingBreakdown setup_stages;    ///< the solver's set-up by stage (this rank)
+  std::string description;         ///< the solver's levels and lowest level
+  /// Per level (finest first) and rank: (ghost nodes, owned nodes).
+  std::vector<std::vector<std::pair<long, long>>> ghosts;
+};
+
+/// Solves the problem from zero with petsc-mgpcg's PETSc solver (CG + PCMG); x gets the owned
+/// unknowns. Collective; a failed solve throws SolveError when params.throw_on_failure.
+RankSolveReport solve_on_ranks(MeshProblem& problem, const DistributedMgpcgParams& params, Vector& x);
+
+/// The peak resident memory of this process so far, in bytes (getrusage).
+double peak_resident_bytes();
+
+}  // namespace pmg::dist

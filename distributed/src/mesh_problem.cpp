@@ -1,0 +1,171 @@
+// A static problem on a mesh no rank holds whole (pmg/distributed/mesh_problem.hpp).
+#include "pmg/distributed/mesh_problem.hpp"
+
+#include "pmg/mpi/agreement.hpp"
+#include "pmg/mpi/session.hpp"
+#include "pmg/petsc/pcmg.hpp"
+#include "pmg/petsc/plex.hpp"
+#include "pmg/sparse/timer.hpp"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+namespace pmg::dist {
+
+namespace {
+
+/// The coarse mesh on rank 0 (nothing elsewhere), as PlexMesh takes it; an exception on rank 0
+/// reaches every rank.
+std::unique_ptr<petsc::PlexMesh> coarse_plex(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  std::vector<double> X;
+  std::vector<index_t> cells;
+  mpi::together(comm, [&] {
+    if (rank != 0) return;
+    const fem::TetMesh mesh = coarse();
+    X.reserve(3 * mesh.vertices.size());
+    for (const fem::Vec3& v : mesh.vertices) X.insert(X.end(), {v[0], v[1], v[2]});
+    cells.reserve(4 * mesh.tets.size());
+    for (const fem::Tet& t : mesh.tets) cells.insert(cells.end(), t.begin(), t.end());
+  });
+  return std::make_unique<petsc::PlexMesh>(comm, X, cells);
+}
+
+double reduce(MPI_Comm comm, double mine, MPI_Op op) {
+  double out = 0.0;
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Allreduce(&mine, &out, 1, MPI_DOUBLE, op, comm);
+  return out;
+}
+
+double dot(MPI_Comm comm, const Vector& a, const Vector& b) { return reduce(comm, a.dot(b), MPI_SUM); }
+
+}  // namespace
+
+MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse, const MeshProblemOptions& o)
+    : comm_(comm) {
+  mpi::start();
+  mpi::together(comm, [&] {
+    if (o.degree < 2 || o.degree > 3) throw InputError("distributed mesh: degree " + std::to_string(o.degree) + " (2 or 3)");
+    if (o.refine < 0 || o.refine > 6) throw InputError("distributed mesh: refine " + std::to_string(o.refine) + " (0 to 6)");
+    if (o.clamp_axis < 0 || o.clamp_axis > 2) throw InputError("distributed mesh: a static problem needs a clamp axis (0, 1, 2)");
+    if (!(o.clamp_fraction >= 0 && o.clamp_fraction < 1))
+      throw InputError("distributed mesh: clamp fraction " + std::to_string(o.clamp_fraction) + " (in [0, 1))");
+    o.material.check();
+  });
+  auto t0 = Clock::now();
+  std::unique_ptr<petsc::PlexMesh> plex = coarse_plex(comm, coarse);
+  stages_.emplace_back("coarse mesh (rank 0) into DMPlex", seconds_since(t0));
+  t0 = Clock::now();
+  plex->distribute(o.partitioner);
+  stages_.emplace_back("distribute (" + o.partitioner + ")", seconds_since(t0));
+  t0 = Clock::now();
+  plex->refine(o.refine);
+  stages_.emplace_back("refine x" + std::to_string(o.refine) + " on the ranks", seconds_since(t0));
+  cells_ = plex->global_cells();
+
+  // The bounding box over the ranks; the clamp as the serial scene's.
+  t0 = Clock::now();
+  const std::vector<double>& X = plex->local_vertices();
+  const size_t nv = X.size() / 3;
+  for (int d = 0; d < 3; ++d) {
+    double lo = 1e300, hi = -1e300;
+    for (size_t v = 0; v < nv; ++v) lo = std::min(lo, X[3 * v + d]), hi = std::max(hi, X[3 * v + d]);
+    lo_[d] = reduce(comm, lo, MPI_MIN);
+    hi_[d] = reduce(comm, hi, MPI_MAX);
+  }
+  const int axis = o.clamp_axis;
+  const double tol = 1e-9 * (hi_ - lo_).maxCoeff();
+  const double limit = lo_[axis] + o.clamp_fraction * (hi_[axis] - lo_[axis]) + tol;
+  std::vector<char> clamped(nv, 0);
+  long mine = 0;
+  for (size_t v = 0; v < nv; ++v) {
+    clamped[v] = X[3 * v + axis] <= limit ? 1 : 0;
+    if (clamped[v] && plex->owns_vertex()[v]) ++mine;
+  }
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Allreduce(&mine, &clamped_, 1, MPI_LONG, MPI_SUM, comm);
+  }
+  if (clamped_ < 3)
+    throw InputError("distributed mesh: " + std::to_string(clamped_) + " clamped vertices: the body could still move "
+                     "rigidly; clamp a larger fraction");
+  ranks_ = std::make_unique<RankHierarchy>(*plex, o.degree, o.material, std::move(clamped));
+  plex.reset();  // the rank's mesh lives on in its hierarchy
+  stages_.emplace_back("the rank's hierarchy and numbering", seconds_since(t0));
+
+  // Loads from the rank's own cells, summed into the owners.
+  t0 = Clock::now();
+  const int top = ranks_->num_levels() - 1;
+  const fem::ElasticityModel& m = ranks_->local().finest();
+  Vector f = Vector::Zero(m.num_dofs());
+  if (o.gravity.norm() > 0) f += m.gravity(o.gravity);
+  if (o.end_force.norm() > 0) {
+    Vector g = Vector::Zero(m.num_dofs());
+    const double hi = hi_[axis];
+    const double area = reduce(comm, m.add_traction(g, [=](const fem::Vec3& P) { return P[axis] >= hi - tol; }, o.end_force),
+                               MPI_SUM);
+    if (!(area > 0)) throw InputError("distributed mesh: no boundary face at the maximum of the clamp axis to load");
+    f += g / area;
+  }
+  const Vector local = m.restrict_to_free(f);
+  petsc::GhostExchange exchange(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
+  load_ = Vector::Zero(exchange.owned_size());
+  exchange.add_to_owners(local, load_);
+  stages_.emplace_back("loads", seconds_since(t0));
+}
+
+MeshProblem::~MeshProblem() = default;
+
+RankSolveReport solve_on_ranks(MeshProblem& problem, const DistributedMgpcgParams& params, Vector& x) {
+  RankHierarchy& R = problem.ranks();
+  MPI_Comm comm = R.comm();
+  RankSolveReport out;
+  auto t0 = Clock::now();
+  R.bring_to(nullptr, 0.0, 1.0);
+  petsc::PMultigridCg solver(comm, to_pcmg(params));
+  solver.setup(R.rank_levels());
+  out.setup_seconds = reduce(comm, seconds_since(t0), MPI_MAX);
+  out.setup_stages = solver.setup_timings();
+  out.description = solver.describe();
+  const int top = R.num_levels() - 1;
+  const Vector& b = problem.load();
+  x = Vector::Zero(b.size());
+  t0 = Clock::now();
+  mpi::together(comm, [&] { out.result = solver.solve(b, x); });
+  out.solve_seconds = reduce(comm, seconds_since(t0), MPI_MAX);
+  Vector Ax(b.size());
+  solver.multiply(top, x, Ax);
+  const double bb = dot(comm, b, b);
+  out.true_residual = std::sqrt(dot(comm, b - Ax, b - Ax) / (bb > 0 ? bb : 1.0));
+  out.result.true_rel_residual = out.true_residual;
+  out.compliance = dot(comm, b, x);
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < x.size() / 3; ++i) largest = std::max(largest, x.segment<3>(3 * i).norm());
+  out.max_displacement = reduce(comm, largest, MPI_MAX);
+  out.unknowns = solver.global_size(top);
+  for (int l = top; l >= 0; --l) {
+    const long mine[2] = {R.ghosts(l), R.owned(l)};
+    std::vector<long> all(2 * static_cast<size_t>(R.size()));
+    {
+      std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+      MPI_Allgather(mine, 2, MPI_LONG, all.data(), 2, MPI_LONG, comm);
+    }
+    out.ghosts.emplace_back();
+    for (int r = 0; r < R.size(); ++r) out.ghosts.back().emplace_back(all[2 * r], all[2 * r + 1]);
+  }
+  if (!out.result.ok() && params.throw_on_failure) throw SolveError(out.result);
+  return out;
+}
+
+double peak_resident_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return 1024.0 * static_cast<double>(u.ru_maxrss);  // kilobytes on Linux
+}
+
+}  // namespace pmg::dist

@@ -1,0 +1,254 @@
+// The distributed mesh (pmg/petsc/plex.hpp, DMPlex + PT-Scotch) and the static problem built on it
+// without any rank holding the whole mesh (pmg/distributed/mesh_problem.hpp): cell and vertex
+// counts, a numbering in which every rank sees a shared node under the same global number, and
+// solutions equal to pmgkit's serial MGPCG on the same mesh. The same executable runs on 1 rank
+// and under mpirun -np 2, 3 and 4 (oversubscribed: equality, not speed).
+#include "pmg/distributed/mesh_problem.hpp"
+#include "pmg/distributed/rank_hierarchy.hpp"
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/petsc/plex.hpp"
+#include "pmg/sparse/factory.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <map>
+
+using namespace pmg;
+using namespace pmg::fem;
+
+namespace {
+
+int world_rank() {
+  int r = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+
+/// The mesh as PlexMesh takes it: all of it on rank 0 (`comm`'s), nothing elsewhere.
+std::unique_ptr<petsc::PlexMesh> plex_of(const TetMesh& mesh, MPI_Comm comm) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  std::vector<double> X;
+  std::vector<index_t> cells;
+  if (rank == 0) {
+    for (const Vec3& v : mesh.vertices) X.insert(X.end(), {v[0], v[1], v[2]});
+    for (const Tet& t : mesh.tets) cells.insert(cells.end(), t.begin(), t.end());
+  }
+  return std::make_unique<petsc::PlexMesh>(comm, X, cells);
+}
+
+/// A position key rounded to 1e-9 (control points of the meshes below are 1e-3 apart or more).
+std::array<long long, 3> key(const Vec3& X) {
+  return {std::llround(X[0] * 1e9), std::llround(X[1] * 1e9), std::llround(X[2] * 1e9)};
+}
+
+/// pmgkit's serial MGPCG (CHOLMOD lowest level) on a hierarchy: the full displacement vector.
+Vector serial_displacement(DegreeHierarchy& h, const Vec3& g) {
+  const Vector b = h.finest().restrict_to_free(h.finest().gravity(g));
+  auto s = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-12", "lowest_level=cholmod"}, "test"),
+                       SolverContext{&h, nullptr});
+  const LinearOperator& A = h.bind(*s).prepare();
+  s->setup(A);
+  Vector x = Vector::Zero(b.size());
+  s->solve(b, x);
+  return h.finest().expand(x, Vector::Zero(h.finest().num_dofs()));
+}
+
+/// The largest difference between the distributed answer (owned unknowns) and a serial full
+/// displacement on the same nodes, matched by position, relative to the serial largest.
+double difference_to_serial(const dist::RankHierarchy& R, const Vector& x, const ElasticityModel& serial,
+                            const Vector& u) {
+  std::map<std::array<long long, 3>, index_t> node_at;
+  const auto& P = serial.space().positions();
+  for (size_t n = 0; n < P.size(); ++n) node_at[key(P[n])] = static_cast<index_t>(n);
+  const int top = R.num_levels() - 1;
+  const ElasticityModel& m = R.local().finest();
+  const auto& free = m.assembler().free_index();
+  const auto& Pl = m.space().positions();
+  double worst = 0.0, largest = 0.0;
+  for (size_t n = 0; n < Pl.size(); ++n) {
+    const index_t f = free[n];
+    if (f < 0) continue;
+    const index_t g = R.global(top)[f];
+    if (g < R.first(top) || g >= R.first(top) + R.owned(top)) continue;
+    const auto it = node_at.find(key(Pl[n]));
+    if (it == node_at.end()) return 1e300;  // a node the serial mesh lacks
+    const Vec3 mine = x.segment<3>(3 * (g - R.first(top)));
+    const Vec3 theirs = u.segment<3>(3 * it->second);
+    worst = std::max(worst, (mine - theirs).norm());
+  }
+  for (Eigen::Index i = 0; i < u.size() / 3; ++i) largest = std::max(largest, u.segment<3>(3 * i).norm());
+  double all = 0.0;
+  MPI_Allreduce(&worst, &all, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return all / largest;
+}
+
+}  // namespace
+
+TEST_CASE("a box on DMPlex: counts after distribution and refinement", "[plex]") {
+  const TetMesh box = box_mesh_24(4, 2, 2, 1.0, 0.5, 0.5);
+  auto plex = plex_of(box, MPI_COMM_WORLD);
+  CHECK(plex->global_cells() == box.num_tets());
+  CHECK(plex->global_vertices() == box.num_vertices());
+  plex->distribute();
+  CHECK(plex->global_cells() == box.num_tets());
+  CHECK(plex->global_vertices() == box.num_vertices());
+  CHECK(plex->local_cells().size() > 0);
+  plex->refine(1);
+  const BBSpace quadratic(box, 2);  // vertices + edges: the refined mesh's vertices
+  CHECK(plex->global_cells() == 8 * box.num_tets());
+  CHECK(plex->global_vertices() == quadratic.num_nodes());
+  // Every local cell is positively oriented and of the refined size.
+  const auto& X = plex->local_vertices();
+  const auto& C = plex->local_cells();
+  double volume = 0.0;
+  for (size_t e = 0; e < C.size() / 4; ++e) {
+    TetMesh one;
+    for (int k = 0; k < 4; ++k) one.vertices.emplace_back(X[3 * C[4 * e + k]], X[3 * C[4 * e + k] + 1], X[3 * C[4 * e + k] + 2]);
+    one.tets.push_back({0, 1, 2, 3});
+    CHECK(one.signed_volume(0) > 0);
+    volume += one.signed_volume(0);
+  }
+  double total = 0.0;
+  MPI_Allreduce(&volume, &total, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  CHECK(total == Approx(0.25).epsilon(1e-12));
+}
+
+TEST_CASE("the plex numbering: one global number per node on every rank that sees it", "[plex]") {
+  const TetMesh box = box_mesh_24(4, 2, 2, 1.0, 0.5, 0.5);
+  const DegreeHierarchy serial(box, 3, Material{}, [](const Vec3& X) { return X.x() < 1e-12; });
+  auto plex = plex_of(box, MPI_COMM_WORLD);
+  plex->distribute();
+  std::vector<char> clamped(plex->local_vertices().size() / 3);
+  for (size_t v = 0; v < clamped.size(); ++v) clamped[v] = plex->local_vertices()[3 * v] < 1e-12;
+  dist::RankHierarchy R(*plex, 3, Material{}, clamped);
+  CHECK_FALSE(R.from_serial());
+  CHECK_THROWS_AS(R.owned_part(0, Vector::Zero(3)), Error);
+  for (int l = 0; l < R.num_levels(); ++l) {
+    CAPTURE(l);
+    const long total = R.global_nodes(l);
+    CHECK(total == serial.model(l).assembler().num_free());
+    long owned = R.owned(l), sum = 0;
+    MPI_Allreduce(&owned, &sum, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+    CHECK(sum == total);
+    // The owners write their nodes' positions at their global numbers; every rank then finds its
+    // own (owned and ghost) nodes' positions there.
+    const ElasticityModel& m = R.local().model(l);
+    const auto& free = m.assembler().free_index();
+    const auto& P = m.space().positions();
+    std::vector<double> mine(3 * static_cast<size_t>(total), 0.0), all(mine.size());
+    for (size_t n = 0; n < P.size(); ++n) {
+      const index_t f = free[n];
+      if (f < 0) continue;
+      const index_t g = R.global(l)[f];
+      REQUIRE(g >= 0);
+      REQUIRE(g < total);
+      if (g >= R.first(l) && g < R.first(l) + R.owned(l))
+        for (int c = 0; c < 3; ++c) mine[3 * g + c] = P[n][c];
+    }
+    MPI_Allreduce(mine.data(), all.data(), static_cast<int>(all.size()), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    double worst = 0.0;
+    for (size_t n = 0; n < P.size(); ++n) {
+      const index_t f = free[n];
+      if (f < 0) continue;
+      const index_t g = R.global(l)[f];
+      worst = std::max(worst, (Vec3(all[3 * g], all[3 * g + 1], all[3 * g + 2]) - P[n]).norm());
+    }
+    CHECK(worst < 1e-14);
+  }
+}
+
+TEST_CASE("a static problem on a distributed mesh equals the serial MGPCG", "[plex]") {
+  const Vec3 g(0, 0, -9.81);
+  for (int p : {2, 3}) {
+    CAPTURE(p);
+    const TetMesh box = box_mesh_24(6, 2, 2, 1.0, 0.3, 0.3);
+    dist::MeshProblemOptions o;
+    o.degree = p;
+    o.material = Material{500e3, 0.3, 1000.0};
+    o.gravity = g;
+    dist::MeshProblem problem(MPI_COMM_WORLD, [&] { return box; }, o);
+    CHECK(problem.global_cells() == box.num_tets());
+    dist::DistributedMgpcgParams params;
+    params.tol = 1e-11;
+    Vector x;
+    const dist::RankSolveReport r = dist::solve_on_ranks(problem, params, x);
+    CHECK(r.result.ok());
+    CHECK(r.true_residual < 1e-10);
+    DegreeHierarchy serial(box, p, o.material, [](const Vec3& X) { return X.x() < 1e-9; });
+    const Vector u = serial_displacement(serial, g);
+    CHECK(difference_to_serial(problem.ranks(), x, serial.finest(), u) < 1e-8);
+    const Vector f = serial.finest().gravity(g);
+    CHECK(r.compliance == Approx(f.dot(u)).epsilon(1e-9));
+  }
+}
+
+TEST_CASE("refined after distribution: the same answer as the serial MGPCG on the mesh DMPlex refines", "[plex]") {
+  const TetMesh box = box_mesh_24(3, 1, 1, 1.0, 0.3, 0.3);
+  const Vec3 g(0, 0, -9.81);
+  dist::MeshProblemOptions o;
+  o.degree = 2;
+  o.refine = 1;
+  o.material = Material{500e3, 0.3, 1000.0};
+  o.gravity = g;
+  o.end_force = Vec3(0, 0, -1.0);
+  dist::MeshProblem problem(MPI_COMM_WORLD, [&] { return box; }, o);
+  CHECK(problem.global_cells() == 8 * box.num_tets());
+  dist::DistributedMgpcgParams params;
+  params.tol = 1e-11;
+  Vector x;
+  const dist::RankSolveReport r = dist::solve_on_ranks(problem, params, x);
+  REQUIRE(r.result.ok());
+  // The same refinement on one process: every rank makes the whole fine mesh on its own.
+  auto whole = plex_of(box, MPI_COMM_SELF);
+  whole->refine(1);
+  TetMesh fine;
+  const auto& X = whole->local_vertices();
+  for (size_t v = 0; v < X.size() / 3; ++v) fine.vertices.emplace_back(X[3 * v], X[3 * v + 1], X[3 * v + 2]);
+  const auto& C = whole->local_cells();
+  for (size_t e = 0; e < C.size() / 4; ++e) fine.tets.push_back({C[4 * e], C[4 * e + 1], C[4 * e + 2], C[4 * e + 3]});
+  DegreeHierarchy serial(fine, 2, o.material, [](const Vec3& P) { return P.x() < 1e-9; });
+  Vector f = serial.finest().gravity(g);
+  Vector t = Vector::Zero(f.size());
+  const double area = serial.finest().add_traction(t, [](const Vec3& P) { return P.x() > 1.0 - 1e-9; }, o.end_force);
+  f += t / area;
+  const Vector b = serial.finest().restrict_to_free(f);
+  auto s = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-12", "lowest_level=cholmod"}, "test"),
+                       SolverContext{&serial, nullptr});
+  s->setup(serial.bind(*s).prepare());
+  Vector y = Vector::Zero(b.size());
+  s->solve(b, y);
+  const Vector u = serial.finest().expand(y, Vector::Zero(serial.finest().num_dofs()));
+  CHECK(difference_to_serial(problem.ranks(), x, serial.finest(), u) < 1e-8);
+  CHECK(r.compliance == Approx(b.dot(y)).epsilon(1e-9));
+}
+
+TEST_CASE("bad input on a distributed mesh is the same error on every rank", "[plex]") {
+  dist::MeshProblemOptions o;
+  o.gravity = Vec3(0, 0, -9.81);
+  // The coarse mesh's maker fails on rank 0: every rank throws its message.
+  CHECK_THROWS_WITH(dist::MeshProblem(MPI_COMM_WORLD, []() -> TetMesh { throw InputError("no such mesh file"); }, o),
+                    Catch::Contains("no such mesh file"));
+  o.degree = 1;
+  CHECK_THROWS_AS(dist::MeshProblem(MPI_COMM_WORLD, [] { return box_mesh_24(1, 1, 1, 1, 1, 1); }, o), InputError);
+  o.degree = 2;
+  o.clamp_fraction = 1.5;
+  CHECK_THROWS_AS(dist::MeshProblem(MPI_COMM_WORLD, [] { return box_mesh_24(1, 1, 1, 1, 1, 1); }, o), InputError);
+  // Fewer cells than ranks.
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  if (size > 1) {
+    TetMesh one;
+    one.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+    one.tets = {{0, 1, 2, 3}};
+    auto plex = plex_of(one, MPI_COMM_WORLD);
+    CHECK_THROWS_WITH(plex->distribute(), Catch::Contains("cells for"));
+  }
+  // A cell naming a vertex that does not exist.
+  std::vector<double> X;
+  std::vector<index_t> cells;
+  if (world_rank() == 0) X = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, cells = {0, 1, 2, 7};
+  CHECK_THROWS_WITH(petsc::PlexMesh(MPI_COMM_WORLD, X, cells), Catch::Contains("names vertex 7"));
+}

@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# mpi_distributed_mesh.sh PMG DATA: `pmg compare --distributed-mesh` under mpirun as a user runs it.
+# A bar refined once on the ranks after distribution: 1, 2 and 3 ranks give one report each (rank
+# 0's), one JSON report, the same compliance bᵀu and largest displacement to 1e-8 and iterations
+# within one; the options the route cannot honour, too few cells for the ranks and a mesh file
+# missing end every rank with one clear error and a non-zero exit instead of a hang.
+# Oversubscribed ranks on small cases: equality, not speed.
+set -u
+pmg=$1 data=$2
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+mpi=(mpirun --allow-run-as-root --oversubscribe --bind-to none -x OMP_NUM_THREADS=1)
+[ -n "${ASAN_OPTIONS:-}" ] && mpi+=(-x ASAN_OPTIONS)  # the sanitizer build: Open MPI's own leaks off
+fail() { echo "mpi_distributed_mesh.sh: $*"; exit 1; }
+scene=(compare --box 4 2 2 --size 1 0.5 0.5 --degree 2 --fix x --load traction --refine 1 --tol 1e-11 --distributed-mesh)
+
+for np in 1 2 3; do
+  "${mpi[@]}" -np $np "$pmg" "${scene[@]}" --json "$work/np$np.json" > "$work/np$np.txt" 2>&1 ||
+    { cat "$work/np$np.txt"; fail "np $np failed"; }
+  [ "$(grep -c '^petsc-mgpcg: converged' "$work/np$np.txt")" = 1 ] || { cat "$work/np$np.txt"; fail "np $np: expected one report"; }
+  grep -q "over $np rank" "$work/np$np.txt" || fail "np $np: the report does not name the ranks"
+done
+cat "$work/np3.txt"
+/usr/bin/python3 - "$work"/np1.json "$work"/np2.json "$work"/np3.json <<'PY' || fail "the ranks' answers differ"
+import json, sys
+runs = [json.load(open(p)) for p in sys.argv[1:]]
+one = runs[0]
+assert one["tets"] == 4 * 2 * 2 * 24 * 8, one["tets"]  # 4x2x2 boxes of 24 tets, refined once
+for r in runs:
+    print(r["ranks"], "ranks:", r["iterations"], "iterations, compliance", r["compliance (J)"],
+          "largest displacement", r["largest displacement (m)"], "true residual", r["true_relative_residual"])
+    assert r["converged"] and r["true_relative_residual"] < 1e-10
+    assert r["unknowns"] == one["unknowns"] and r["tets"] == one["tets"]
+    assert abs(r["iterations"] - one["iterations"]) <= 1
+    assert abs(r["compliance (J)"] - one["compliance (J)"]) <= 1e-8 * abs(one["compliance (J)"])
+    assert abs(r["largest displacement (m)"] - one["largest displacement (m)"]) <= 1e-8 * one["largest displacement (m)"]
+    assert len(r["peak resident memory per rank (bytes)"]) == r["ranks"]
+    assert sum(g["owned"] for g in r["finest level ghost/owned nodes per rank"]) * 3 == r["unknowns"]
+PY
+
+# Options the route cannot honour: one error, exit 2, on every rank.
+expect_error() {  # expect_error NP PATTERN ARGS...: exit 2 (bad input), one error line matching
+  local np=$1 pattern=$2
+  shift 2
+  timeout 120 "${mpi[@]}" -np "$np" "$pmg" "$@" > "$work/err.txt" 2>&1
+  local rc=$?
+  cat "$work/err.txt"
+  [ $rc -eq 2 ] || fail "$*: exit code $rc, expected 2 (bad input; 124: a hang)"
+  [ "$(grep -c 'pmg: error' "$work/err.txt")" = 1 ] || fail "$*: expected one error line"
+  grep -q "$pattern" "$work/err.txt" || fail "$*: the error does not say '$pattern'"
+}
+expect_error 2 "runs petsc-mgpcg only" "${scene[@]}" --solvers mgpcg
+expect_error 2 "does not take --symmetry" "${scene[@]}" --symmetry y
+expect_error 2 "does not take --dt" "${scene[@]}" --dt 0.01
+expect_error 2 "degree 1 (2 or 3)" compare --box 4 2 2 --degree 1 --fix x --distributed-mesh
+expect_error 7 "6 cells for 7 ranks" compare --mesh "$data/kuhn_cube.ele" --degree 2 --fix x --distributed-mesh
+expect_error 2 "File does not exist" compare --mesh /nonexistent.ele --degree 2 --fix x --distributed-mesh
+echo "mpi_distributed_mesh.sh: ok"

@@ -1,0 +1,162 @@
+// pmg compare --distributed-mesh: the FEM scene built on the ranks (pmg/distributed/mesh_problem.hpp),
+// no rank holding the whole model, solved by petsc-mgpcg's PETSc solver; a report of each stage,
+// the answer's invariants, the memory of every rank and the ghost/owned ratios.
+#include "compare_distributed.hpp"
+
+#include "commands.hpp"
+
+#include "pmg/sim/setup.hpp"
+#include "pmg/sparse/factory.hpp"
+#include "pmg/sparse/file_io.hpp"
+#include "pmg/sparse/params.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#ifdef PMG_HAVE_DISTRIBUTED
+#include "pmg/distributed/mesh_problem.hpp"
+#include "pmg/mpi/session.hpp"
+#endif
+
+namespace pmg::tools {
+
+#ifdef PMG_HAVE_DISTRIBUTED
+namespace {
+
+std::string gib(double bytes) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%.2f GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+  return s;
+}
+
+std::string seconds(double s) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f s", s);
+  return b;
+}
+
+/// Per rank: the values gathered on every rank.
+std::vector<double> gathered(MPI_Comm comm, double mine) {
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  std::vector<double> all(size);
+  MPI_Allgather(&mine, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, comm);
+  return all;
+}
+
+}  // namespace
+
+void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std::string& json) {
+  mpi::start();
+  MPI_Comm comm = MPI_COMM_WORLD;
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  (void)solver.get_string("method", "petsc-mgpcg");  // the route's one method, chosen by the caller
+  dist::DistributedMgpcgParams params = read_params<dist::DistributedMgpcgParams>(solver);
+  params.allow_unused_options = unused_options_allowed(solver);
+  check_keys_used(solver);
+
+  const sim::Scene scene = scene_of(o);
+  dist::MeshProblemOptions mp;
+  mp.refine = o.refine;
+  mp.degree = o.degree;
+  mp.material = fem::Material{o.young, o.poisson, o.density};
+  mp.clamp_axis = scene.clamp_axis;
+  mp.clamp_fraction = scene.clamp_fraction;
+  mp.gravity = scene.gravity;
+  mp.end_force = scene.end_force;
+  long coarse_cells = 0;
+  const auto coarse = [&] {
+    std::vector<std::string> warnings;
+    fem::TetMesh m = sim::load_mesh_or_box(scene.mesh_file, scene.box.data(), scene.size.data(), &warnings, scene.mesh_checks);
+    for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
+    coarse_cells = m.num_tets();
+    return m;
+  };
+  dist::MeshProblem problem(comm, coarse, mp);
+  MPI_Bcast(&coarse_cells, 1, MPI_LONG, 0, comm);
+  Vector x;
+  const dist::RankSolveReport r = dist::solve_on_ranks(problem, params, x);
+  const std::vector<double> memory = gathered(comm, dist::peak_resident_bytes());
+
+  std::ostringstream sys;
+  sys << (o.mesh.empty() ? "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
+                               std::to_string(o.box[2]) + " boxes"
+                         : o.mesh)
+      << ", degree " << o.degree << ", distributed mesh (DMPlex): " << coarse_cells << " tets on rank 0, "
+      << "partitioned by PT-Scotch over " << size << (size == 1 ? " rank" : " ranks");
+  if (o.refine > 0) sys << ", refined " << o.refine << "x on the ranks";
+  sys << ": " << problem.global_cells() << " tets, " << r.unknowns << " unknowns, " << problem.clamped_vertices()
+      << " clamped vertices, " << o.load;
+  std::cout << "system: " << sys.str() << "\n";
+  std::cout << "stages (the slowest rank):\n";
+  nlohmann::ordered_json stages = nlohmann::ordered_json::object();
+  for (const auto& [name, s] : problem.stages()) {
+    double slowest = 0.0;
+    MPI_Allreduce(&s, &slowest, 1, MPI_DOUBLE, MPI_MAX, comm);
+    std::cout << "  " << name << ": " << seconds(slowest) << "\n";
+    stages[name + " (s)"] = slowest;
+  }
+  std::cout << "  petsc-mgpcg set-up: " << seconds(r.setup_seconds) << " (rank 0:";
+  for (const auto& [name, s] : r.setup_stages.parts) std::cout << " " << name << " " << seconds(s) << ";";
+  double building = 0.0;
+  for (const auto& [name, s] : stages.items()) building += s.get<double>();
+  std::cout << ")\n  solve: " << seconds(r.solve_seconds) << "\n";
+  char tol[32];
+  std::snprintf(tol, sizeof tol, "%g", params.tol);
+  std::cout << "t(" << tol << "): set-up + solve " << seconds(r.setup_seconds + r.solve_seconds)
+            << "; the whole job (mesh to answer) " << seconds(building + r.setup_seconds + r.solve_seconds) << "\n";
+  stages["petsc-mgpcg set-up (s)"] = r.setup_seconds;
+  stages["solve (s)"] = r.solve_seconds;
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "petsc-mgpcg: %s in %d iterations, true relative residual %.2e; compliance b.u = %.10e J, "
+                "largest displacement %.6e m\n",
+                r.result.ok() ? "converged" : "stopped", r.result.iterations, r.true_residual, r.compliance,
+                r.max_displacement);
+  std::cout << line;
+  std::cout << "levels: " << r.description << "\n";
+  double most = 0.0, least = 1e300, sum = 0.0;
+  for (double m : memory) most = std::max(most, m), least = std::min(least, m), sum += m;
+  std::cout << "peak resident memory per rank: " << gib(most) << " largest, " << gib(least) << " smallest, "
+            << gib(sum) << " in all\n";
+  std::cout << "ghost/owned nodes, finest level:";
+  for (const auto& [ghosts, owned] : r.ghosts.front()) std::cout << " " << ghosts << "/" << owned;
+  std::cout << "\n";
+  if (size > 2) std::cout << "(more ranks than cores measure overhead, not speed-up)\n";
+
+  if (!json.empty()) {
+    nlohmann::ordered_json j;
+    j["system"] = sys.str();
+    j["ranks"] = size;
+    j["tets"] = problem.global_cells();
+    j["unknowns"] = r.unknowns;
+    j["stages"] = stages;
+    j["iterations"] = r.result.iterations;
+    j["converged"] = r.result.ok();
+    j["true_relative_residual"] = r.true_residual;
+    j["compliance (J)"] = r.compliance;
+    j["largest displacement (m)"] = r.max_displacement;
+    j["peak resident memory per rank (bytes)"] = memory;
+    nlohmann::ordered_json ghosts = nlohmann::ordered_json::array();
+    for (const auto& [g, n] : r.ghosts.front()) ghosts.push_back({{"ghosts", g}, {"owned", n}});
+    j["finest level ghost/owned nodes per rank"] = ghosts;
+    int rank = 0;
+    MPI_Comm_rank(comm, &rank);
+    if (rank == 0) write_file_atomically(json, j.dump(2) + "\n");
+  }
+  if (!r.result.ok()) throw Exit{kSolveFailed};
+}
+
+#else
+
+void run_distributed_mesh(const SceneOptions&, const Config&, const std::string&) {
+  throw InputError("--distributed-mesh: this build has no PETSc (pmg::distributed is not built)");
+}
+
+#endif
+
+}  // namespace pmg::tools
