@@ -92,19 +92,28 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
   sys << ": " << problem.global_cells() << " tets, " << r.unknowns << " unknowns, " << problem.clamped_vertices()
       << " clamped vertices, " << o.load;
   std::cout << "system: " << sys.str() << "\n";
-  std::cout << "stages (the slowest rank):\n";
-  nlohmann::ordered_json stages = nlohmann::ordered_json::object();
-  for (const auto& [name, s] : problem.stages()) {
-    double slowest = 0.0;
-    MPI_Allreduce(&s, &slowest, 1, MPI_DOUBLE, MPI_MAX, comm);
-    std::cout << "  " << name << ": " << seconds(slowest) << "\n";
-    stages[name + " (s)"] = slowest;
-  }
-  std::cout << "  petsc-mgpcg set-up: " << seconds(r.setup_seconds) << " (rank 0:";
-  for (const auto& [name, s] : r.setup_stages.parts) std::cout << " " << name << " " << seconds(s) << ";";
+  std::cout << "stages (time of the slowest rank; peak resident memory of the largest rank so far):\n";
+  nlohmann::ordered_json stages = nlohmann::ordered_json::object(), peaks = nlohmann::ordered_json::object();
+  const auto largest = [&](double mine) {
+    double most = 0.0;
+    MPI_Allreduce(&mine, &most, 1, MPI_DOUBLE, MPI_MAX, comm);
+    return most;
+  };
   double building = 0.0;
-  for (const auto& [name, s] : stages.items()) building += s.get<double>();
-  std::cout << ")\n  solve: " << seconds(r.solve_seconds) << "\n";
+  for (size_t k = 0; k < problem.stages().size(); ++k) {
+    const auto& [name, s] = problem.stages()[k];
+    const double slowest = largest(s), peak = largest(problem.stage_peaks()[k]);
+    std::cout << "  " << name << ": " << seconds(slowest) << ", " << gib(peak) << "\n";
+    stages[name + " (s)"] = slowest;
+    peaks[name] = peak;
+    building += slowest;
+  }
+  const double after_setup = largest(r.peak_after_setup), after_solve = largest(r.peak_after_solve);
+  std::cout << "  petsc-mgpcg set-up: " << seconds(r.setup_seconds) << ", " << gib(after_setup) << " (rank 0:";
+  for (const auto& [name, s] : r.setup_stages.parts) std::cout << " " << name << " " << seconds(s) << ";";
+  std::cout << ")\n  solve: " << seconds(r.solve_seconds) << ", " << gib(after_solve) << "\n";
+  peaks["petsc-mgpcg set-up"] = after_setup;
+  peaks["solve"] = after_solve;
   char tol[32];
   std::snprintf(tol, sizeof tol, "%g", params.tol);
   std::cout << "t(" << tol << "): set-up + solve " << seconds(r.setup_seconds + r.solve_seconds)
@@ -141,6 +150,7 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
     j["compliance (J)"] = r.compliance;
     j["largest displacement (m)"] = r.max_displacement;
     j["peak resident memory per rank (bytes)"] = memory;
+    j["largest rank's peak resident memory after each stage (bytes)"] = peaks;
     nlohmann::ordered_json ghosts = nlohmann::ordered_json::array();
     for (const auto& [g, n] : r.ghosts.front()) ghosts.push_back({{"ghosts", g}, {"owned", n}});
     j["finest level ghost/owned nodes per rank"] = ghosts;

@@ -60,12 +60,15 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
   auto t0 = Clock::now();
   std::unique_ptr<petsc::PlexMesh> plex = coarse_plex(comm, coarse);
   stages_.emplace_back("coarse mesh (rank 0) into DMPlex", seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
   t0 = Clock::now();
   plex->distribute(o.partitioner);
   stages_.emplace_back("distribute (" + o.partitioner + ")", seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
   t0 = Clock::now();
   plex->refine(o.refine);
   stages_.emplace_back("refine x" + std::to_string(o.refine) + " on the ranks", seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
   cells_ = plex->global_cells();
 
   // The bounding box over the ranks; the clamp as the serial scene's.
@@ -97,6 +100,7 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
   ranks_ = std::make_unique<RankHierarchy>(*plex, o.degree, o.material, std::move(clamped));
   plex.reset();  // the rank's mesh lives on in its hierarchy
   stages_.emplace_back("the rank's hierarchy and numbering", seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
 
   // Loads from the rank's own cells, summed into the owners.
   t0 = Clock::now();
@@ -117,6 +121,7 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
   load_ = Vector::Zero(exchange.owned_size());
   exchange.add_to_owners(local, load_);
   stages_.emplace_back("loads", seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
 }
 
 MeshProblem::~MeshProblem() = default;
@@ -132,12 +137,14 @@ RankSolveReport solve_on_ranks(MeshProblem& problem, const DistributedMgpcgParam
   out.setup_seconds = reduce(comm, seconds_since(t0), MPI_MAX);
   out.setup_stages = solver.setup_timings();
   out.description = solver.describe();
+  out.peak_after_setup = peak_resident_bytes();
   const int top = R.num_levels() - 1;
   const Vector& b = problem.load();
   x = Vector::Zero(b.size());
   t0 = Clock::now();
   mpi::together(comm, [&] { out.result = solver.solve(b, x); });
   out.solve_seconds = reduce(comm, seconds_since(t0), MPI_MAX);
+  out.peak_after_solve = peak_resident_bytes();
   Vector Ax(b.size());
   solver.multiply(top, x, Ax);
   const double bb = dot(comm, b, b);

@@ -75,6 +75,8 @@ class MeshProblem {
   const fem::Vec3& hi() const { return hi_; }
   /// Seconds of each stage on this rank, in order.
   const std::vector<std::pair<std::string, double>>& stages() const { return stages_; }
+  /// This rank's peak resident memory (bytes, peak_resident_bytes()) at the end of each stage.
+  const std::vector<double>& stage_peaks() const { return peaks_; }
 
  private:
   MPI_Comm comm_;
@@ -83,6 +85,7 @@ class MeshProblem {
   long cells_ = 0, clamped_ = 0;
   fem::Vec3 lo_, hi_;
   std::vector<std::pair<std::string, double>> stages_;
+  std::vector<double> peaks_;
 };
 
 /// What solve_on_ranks() measured; every figure is the same on every rank.
@@ -94,6 +97,8 @@ struct RankSolveReport {
   long unknowns = 0;               ///< finest level, all ranks
   double setup_seconds = 0.0;      ///< the solver's set-up, the slowest rank's
   double solve_seconds = 0.0;      ///< the solve, the slowest rank's
+  double peak_after_setup = 0.0;   ///< this rank's peak resident memory (bytes) after the solver's set-up
+  double peak_after_solve = 0.0;   ///< and after the solve
   TimingBreakdown setup_stages;    ///< the solver's set-up by stage (this rank)
   std::string description;         ///< the solver's levels and lowest level
   /// Per level (finest first) and rank: (ghost nodes, owned nodes).

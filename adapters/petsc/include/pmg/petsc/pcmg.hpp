@@ -74,7 +74,7 @@ struct PcmgParams {
   int max_iterations = 10000;  ///< iteration limit (a failure)
   int smoothing_steps = 3;     ///< Chebyshev steps per pre- and post-smoothing
   /// "mumps" (Cholesky), "gamg" (one V-cycle, rigid-body near-null space), "hypre" (one
-  /// BoomerAMG V-cycle, Chebyshev relaxation) or "auto": MUMPS below amg_threshold global
+  /// BoomerAMG V-cycle: HMIS, extended+i interpolation, Chebyshev relaxation) or "auto": MUMPS below amg_threshold global
   /// unknowns on the lowest level, BoomerAMG from there.
   std::string lowest_level = "auto";
   /// "auto" takes BoomerAMG from this many global unknowns on the lowest level.
