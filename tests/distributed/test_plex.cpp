@@ -225,6 +225,37 @@ TEST_CASE("refined after distribution: the same answer as the serial MGPCG on th
   CHECK(r.compliance == Approx(b.dot(y)).epsilon(1e-9));
 }
 
+TEST_CASE("after distribution no rank holds more than its share of the mesh and the unknowns", "[plex]") {
+  // A box refined twice on the ranks: each rank's cells, vertices (its cells' closure) and the
+  // hierarchy's nodes on every level (owned and ghost) are its share of the global counts plus a
+  // layer at its partition surface, never the global mesh. Bounds: cells within 1.25x of an equal
+  // share (PT-Scotch's balance on the coarse cells), closures within 1.6x (the surface layer of a
+  // part of this size). Every array of the rank's hierarchy is sized by these counts.
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  dist::MeshProblemOptions o;
+  o.degree = 2;
+  o.refine = 2;
+  o.gravity = Vec3(0, 0, -9.81);
+  o.clamp_axis = 2;
+  const TetMesh box = box_mesh_24(4, 4, 4, 1.0, 1.0, 1.0);
+  dist::MeshProblem problem(MPI_COMM_WORLD, [&] { return box; }, o);
+  const dist::RankHierarchy& R = problem.ranks();
+  const double share = 1.0 / size;
+  CHECK(problem.global_cells() == 64 * box.num_tets());
+  const double cells = static_cast<double>(R.mesh().num_tets());
+  CHECK(cells <= 1.25 * share * static_cast<double>(problem.global_cells()));
+  const double vertices = static_cast<double>(R.mesh().num_vertices());
+  auto whole = plex_of(box, MPI_COMM_SELF);  // the whole fine mesh, for its vertex count only
+  whole->refine(2);
+  CHECK(vertices <= 1.6 * share * static_cast<double>(whole->global_vertices()));
+  for (int l = 0; l < R.num_levels(); ++l) {
+    CAPTURE(l);
+    const double local = static_cast<double>(R.owned(l) + R.ghosts(l));
+    CHECK(local <= 1.6 * share * static_cast<double>(R.global_nodes(l)));
+  }
+}
+
 TEST_CASE("bad input on a distributed mesh is the same error on every rank", "[plex]") {
   dist::MeshProblemOptions o;
   o.gravity = Vec3(0, 0, -9.81);
