@@ -69,6 +69,7 @@ struct Options {
   SceneOptions scene;
   bool reference = true;
   bool distributed_mesh = false;  // --distributed-mesh: the scene built on the ranks (DMPlex)
+  std::string save_mesh;          // --save-mesh FILE.h5: that route's refined mesh, in parallel
   std::vector<std::string> solvers;  // default depends on the system
   std::vector<std::string> overrides;  // --set key=value, for every solver of the run
   std::string solver_config;           // --solver-config FILE.json: named configurations
@@ -553,8 +554,13 @@ void write_report(const Options& o, const System& sys, const std::vector<study::
 void run(const Options& given) {
   Options o = given;
   if (o.distributed_mesh) {
+    FilePlan plan;  // no output may be the mesh read or the other output
+    plan.input(o.scene.mesh, "--mesh");
+    plan.output(o.json_report, "--json");
+    plan.output(o.save_mesh, "--save-mesh");
+    plan.check();
     const Config set = Config::from_pairs(o.overrides, "--set");
-    run_distributed_mesh(o.scene, solver_configs(o, {"petsc-mgpcg"}, set).front().second, o.json_report);
+    run_distributed_mesh(o.scene, solver_configs(o, {"petsc-mgpcg"}, set).front().second, o.json_report, o.save_mesh);
     return;
   }
   check_outputs(o);
@@ -640,8 +646,23 @@ void check_distributed_mesh(const CLI::App& sub, Options& o) {
     if (s != "petsc-mgpcg")
       throw InputError("--distributed-mesh runs petsc-mgpcg only (the other methods need the whole model on one "
                        "process), not " + s);
+  const auto h5 = [](const std::string& f) { return f.size() > 3 && f.compare(f.size() - 3, 3, ".h5") == 0; };
+  if (!o.save_mesh.empty() && !h5(o.save_mesh))
+    throw InputError("--save-mesh " + o.save_mesh + ": PETSc's HDF5 mesh format, a name ending in .h5");
   o.fem = true;
   o.reference = false;
+}
+
+/// --distributed-mesh and --save-mesh (compare_distributed.hpp).
+void add_distributed_mesh_options(CLI::App* sub, const std::shared_ptr<Options>& opts) {
+  sub->add_flag("--distributed-mesh", opts->distributed_mesh,
+                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex, PT-Scotch; --refine after "
+                "distribution), no rank holding the whole model, and solve with petsc-mgpcg (box or mesh file, "
+                "degree 2-3, --fix, --load; no reference solve; a --mesh FILE.h5 in PETSc's HDF5 format is read "
+                "in parallel)");
+  sub->add_option("--save-mesh", opts->save_mesh,
+                  "with --distributed-mesh: write the distributed mesh, after --refine, to FILE.h5 (PETSc's HDF5 "
+                  "format, every rank its part), for --mesh FILE.h5 to read in parallel");
 }
 
 /// The options that name the system: a Matrix Market file (with its right-hand side, known
@@ -745,10 +766,7 @@ void register_compare(CLI::App& app) {
                   "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc/petsc_reference read)");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
-  sub->add_flag("--distributed-mesh", opts->distributed_mesh,
-                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex, PT-Scotch; --refine after "
-                "distribution), no rank holding the whole model, and solve with petsc-mgpcg (box or mesh file, "
-                "degree 2-3, --fix, --load; no reference solve)");
+  add_distributed_mesh_options(sub, opts);
   // Multigrid flags of earlier versions: each duplicated a --set key, so they are retired with a
   // message naming it (hidden from the help).
   static const std::pair<const char*, const char*> retired[] = {
@@ -782,6 +800,7 @@ void register_compare(CLI::App& app) {
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
     if (opts->distributed_mesh) check_distributed_mesh(*sub, *opts);
+    else if (!opts->save_mesh.empty()) throw InputError("--save-mesh needs --distributed-mesh");
     run(*opts);
   });
 }

@@ -14,6 +14,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #ifdef PMG_HAVE_DISTRIBUTED
@@ -49,7 +50,8 @@ std::vector<double> gathered(MPI_Comm comm, double mine) {
 
 }  // namespace
 
-void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std::string& json) {
+void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std::string& json,
+                          const std::string& save_mesh) {
   mpi::start();
   MPI_Comm comm = MPI_COMM_WORLD;
   int size = 1;
@@ -68,6 +70,7 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
   mp.clamp_fraction = scene.clamp_fraction;
   mp.gravity = scene.gravity;
   mp.end_force = scene.end_force;
+  mp.save_mesh = save_mesh;
   long coarse_cells = 0;
   const auto coarse = [&] {
     std::vector<std::string> warnings;
@@ -76,7 +79,10 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
     coarse_cells = m.num_tets();
     return m;
   };
-  dist::MeshProblem problem(comm, coarse, mp);
+  const bool parallel_read = o.mesh.size() > 3 && o.mesh.compare(o.mesh.size() - 3, 3, ".h5") == 0;
+  std::unique_ptr<dist::MeshProblem> made = parallel_read ? std::make_unique<dist::MeshProblem>(comm, o.mesh, mp)
+                                                          : std::make_unique<dist::MeshProblem>(comm, coarse, mp);
+  dist::MeshProblem& problem = *made;
   MPI_Bcast(&coarse_cells, 1, MPI_LONG, 0, comm);
   Vector x;
   const dist::RankSolveReport r = dist::solve_on_ranks(problem, params, x);
@@ -86,7 +92,8 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
   sys << (o.mesh.empty() ? "box bar " + std::to_string(o.box[0]) + "x" + std::to_string(o.box[1]) + "x" +
                                std::to_string(o.box[2]) + " boxes"
                          : o.mesh)
-      << ", degree " << o.degree << ", distributed mesh (DMPlex): " << coarse_cells << " tets on rank 0, "
+      << ", degree " << o.degree << ", distributed mesh (DMPlex): "
+      << (parallel_read ? std::string("read in parallel, ") : std::to_string(coarse_cells) + " tets on rank 0, ")
       << "partitioned by PT-Scotch over " << size << (size == 1 ? " rank" : " ranks");
   if (o.refine > 0) sys << ", refined " << o.refine << "x on the ranks";
   sys << ": " << problem.global_cells() << " tets, " << r.unknowns << " unknowns, " << problem.clamped_vertices()
@@ -163,7 +170,7 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
 
 #else
 
-void run_distributed_mesh(const SceneOptions&, const Config&, const std::string&) {
+void run_distributed_mesh(const SceneOptions&, const Config&, const std::string&, const std::string&) {
   throw InputError("--distributed-mesh: this build has no PETSc (pmg::distributed is not built)");
 }
 

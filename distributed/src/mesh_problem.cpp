@@ -46,10 +46,8 @@ double dot(MPI_Comm comm, const Vector& a, const Vector& b) { return reduce(comm
 
 }  // namespace
 
-MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse, const MeshProblemOptions& o)
-    : comm_(comm) {
-  mpi::start();
-  mpi::together(comm, [&] {
+void MeshProblem::check(const MeshProblemOptions& o) const {
+  mpi::together(comm_, [&] {
     if (o.degree < 2 || o.degree > 3) throw InputError("distributed mesh: degree " + std::to_string(o.degree) + " (2 or 3)");
     if (o.refine < 0 || o.refine > 6) throw InputError("distributed mesh: refine " + std::to_string(o.refine) + " (0 to 6)");
     if (o.clamp_axis < 0 || o.clamp_axis > 2) throw InputError("distributed mesh: a static problem needs a clamp axis (0, 1, 2)");
@@ -57,11 +55,32 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
       throw InputError("distributed mesh: clamp fraction " + std::to_string(o.clamp_fraction) + " (in [0, 1))");
     o.material.check();
   });
-  auto t0 = Clock::now();
+}
+
+MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse, const MeshProblemOptions& o)
+    : comm_(comm) {
+  mpi::start();
+  check(o);
+  const auto t0 = Clock::now();
   std::unique_ptr<petsc::PlexMesh> plex = coarse_plex(comm, coarse);
   stages_.emplace_back("coarse mesh (rank 0) into DMPlex", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
-  t0 = Clock::now();
+  build(std::move(plex), o);
+}
+
+MeshProblem::MeshProblem(MPI_Comm comm, const std::string& plex_file, const MeshProblemOptions& o) : comm_(comm) {
+  mpi::start();
+  check(o);
+  const auto t0 = Clock::now();
+  std::unique_ptr<petsc::PlexMesh> plex = petsc::PlexMesh::load(comm, plex_file);
+  stages_.emplace_back("read the mesh in parallel (HDF5)", seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
+  build(std::move(plex), o);
+}
+
+void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o) {
+  MPI_Comm comm = comm_;
+  auto t0 = Clock::now();
   plex->distribute(o.partitioner);
   stages_.emplace_back("distribute (" + o.partitioner + ")", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
@@ -69,6 +88,12 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
   plex->refine(o.refine);
   stages_.emplace_back("refine x" + std::to_string(o.refine) + " on the ranks", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
+  if (!o.save_mesh.empty()) {
+    t0 = Clock::now();
+    plex->save(o.save_mesh);
+    stages_.emplace_back("save the mesh in parallel (HDF5)", seconds_since(t0));
+    peaks_.push_back(peak_resident_bytes());
+  }
   cells_ = plex->global_cells();
 
   // The bounding box over the ranks; the clamp as the serial scene's.

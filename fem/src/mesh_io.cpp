@@ -259,6 +259,9 @@ TetMesh read_mesh(const std::string& path, std::vector<std::string>* warnings,
                   const MeshCheckOptions& options) {
   if (ends_with(path, ".msh")) return read_gmsh(path, warnings, options);
   if (ends_with(path, ".node") || ends_with(path, ".ele")) return read_tetgen(path, warnings, options);
+  if (ends_with(path, ".h5"))
+    throw InputError(path + ": a mesh in PETSc's HDF5 format is read on the distributed route only (pmg compare "
+                     "--distributed-mesh under mpirun); here: .msh, .node or .ele");
   throw InputError(path + ": unknown mesh format (expected .msh, .node or .ele)");
 }
 

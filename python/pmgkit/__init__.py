@@ -550,7 +550,8 @@ def study(system, b, solvers, reference=None, coordinates=None, format="auto", w
 
     Returns one dict per solver: name, config, status, message, iterations, setup_seconds,
     solve_seconds, time_to_1e-3, time_to_1e-6 (set-up included; None when not reached),
-    rel_residual, rel_error, settings, breakdown, setup_breakdown, history (relative residual per
+    rel_residual, rel_error, b_dot_x (bᵀx: an FEM scene's compliance), settings, breakdown,
+    setup_breakdown, history (relative residual per
     iteration) and history_seconds (from the start of the solve)."""
     hierarchy = isinstance(system, DegreeHierarchy)
     text = _solvers_text(solvers, "mgpcg" if hierarchy else "cg")

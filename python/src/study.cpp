@@ -50,7 +50,7 @@ py::list study_runs(study::StudySystem& ss, const std::string& solvers_json, boo
     d["name"] = r.name, d["config"] = r.config, d["status"] = r.status, d["message"] = r.message;
     d["iterations"] = r.iterations, d["setup_seconds"] = r.setup_s, d["solve_seconds"] = r.solve_s;
     d["time_to_1e-3"] = maybe(r.time_to(1e-3)), d["time_to_1e-6"] = maybe(r.time_to(1e-6));
-    d["rel_residual"] = maybe(r.rel_residual), d["rel_error"] = maybe(r.rel_error);
+    d["rel_residual"] = maybe(r.rel_residual), d["rel_error"] = maybe(r.rel_error), d["b_dot_x"] = maybe(r.b_dot_x);
     d["settings"] = r.settings, d["breakdown"] = r.breakdown, d["setup_breakdown"] = r.setup_breakdown;
     Vector rel(static_cast<Eigen::Index>(r.history.size())), sec(rel.size());
     for (size_t k = 0; k < r.history.size(); ++k) rel[k] = r.history[k].rel_residual, sec[k] = r.history[k].seconds;

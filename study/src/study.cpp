@@ -165,6 +165,8 @@ std::vector<SolverRun> Study::run(bool warm_up, std::vector<Vector>* solutions) 
     runs.back().config = e.config.to_string();
     e.solver.reset();  // its factors and hierarchies are not held while the next one runs
   }
+  for (size_t k = 0; k < runs.size() && k < answers.size(); ++k)
+    if (runs[k].ok() && answers[k].size() == system_.b.size()) runs[k].b_dot_x = system_.b.dot(answers[k]);
   if (system_.reference.size()) measure_errors(runs, answers, system_.reference);
   if (solutions) *solutions = std::move(answers);
   return runs;
@@ -201,6 +203,7 @@ std::string runs_json(const std::vector<SolverRun>& runs) {
                    {"time_to_1e-6_s", num(r.time_to(1e-6))},
                    {"rel_residual", num(r.rel_residual)},
                    {"rel_error", num(r.rel_error)},
+                   {"b_dot_x", num(r.b_dot_x)},
                    {"settings", r.settings},
                    {"breakdown", r.breakdown},
                    {"setup_breakdown", r.setup_breakdown}});

@@ -12,7 +12,11 @@
 
 #include <catch2/catch.hpp>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <map>
 
 using namespace pmg;
@@ -254,6 +258,52 @@ TEST_CASE("after distribution no rank holds more than its share of the mesh and 
     const double local = static_cast<double>(R.owned(l) + R.ghosts(l));
     CHECK(local <= 1.6 * share * static_cast<double>(R.global_nodes(l)));
   }
+}
+
+TEST_CASE("a mesh saved in PETSc's HDF5 format is read back in parallel: the same problem", "[plex]") {
+  // Rank 0's temporary name, shared by every rank.
+  char name[256] = {0};
+  if (world_rank() == 0) std::snprintf(name, sizeof name, "%s/pmg_plex_%d.h5", std::getenv("TMPDIR") ? std::getenv("TMPDIR") : "/tmp", static_cast<int>(getpid()));
+  MPI_Bcast(name, sizeof name, MPI_CHAR, 0, MPI_COMM_WORLD);
+  const std::string path = name;
+  const TetMesh box = box_mesh_24(3, 1, 1, 1.0, 0.3, 0.3);
+  dist::MeshProblemOptions o;
+  o.degree = 2;
+  o.refine = 1;
+  o.material = Material{500e3, 0.3, 1000.0};
+  o.gravity = Vec3(0, 0, -9.81);
+  o.save_mesh = path;
+  dist::DistributedMgpcgParams params;
+  params.tol = 1e-11;
+  Vector x, y;
+  dist::MeshProblem made(MPI_COMM_WORLD, [&] { return box; }, o);
+  const dist::RankSolveReport a = dist::solve_on_ranks(made, params, x);
+  o.refine = 0;
+  o.save_mesh.clear();
+  dist::MeshProblem read(MPI_COMM_WORLD, path, o);
+  CHECK(read.stages().front().first == "read the mesh in parallel (HDF5)");
+  CHECK(read.global_cells() == made.global_cells());
+  CHECK(read.ranks().global_nodes(1) == made.ranks().global_nodes(1));
+  const dist::RankSolveReport b = dist::solve_on_ranks(read, params, y);
+  CHECK(b.result.ok());
+  CHECK(b.compliance == Approx(a.compliance).epsilon(1e-9));
+  CHECK(b.max_displacement == Approx(a.max_displacement).epsilon(1e-8));
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (world_rank() == 0) std::remove(path.c_str());
+  // A file that is not there, or not a PETSc mesh: the same InputError on every rank.
+  CHECK_THROWS_AS(dist::MeshProblem(MPI_COMM_WORLD, path + ".missing.h5", o), InputError);
+  CHECK_THROWS_WITH(petsc::PlexMesh::load(MPI_COMM_WORLD, "mesh.ele"), Catch::Contains("HDF5"));
+  char junk[256] = {0};
+  std::snprintf(junk, sizeof junk, "%s.junk.h5", path.c_str());
+  if (world_rank() == 0) {
+    FILE* f = std::fopen(junk, "w");
+    std::fputs("not HDF5", f);
+    std::fclose(f);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  CHECK_THROWS_AS(petsc::PlexMesh::load(MPI_COMM_WORLD, junk), InputError);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (world_rank() == 0) std::remove(junk);
 }
 
 TEST_CASE("bad input on a distributed mesh is the same error on every rank", "[plex]") {

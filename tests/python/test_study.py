@@ -27,6 +27,7 @@ def test_a_study_runs_each_solver_in_order_and_measures_time_residual_and_error(
         assert r["status"] in ("converged", "completed"), r
         assert r["message"] == ""
         assert r["rel_error"] <= 1e-8, r
+        assert r["b_dot_x"] == pytest.approx(b @ x_ref, rel=1e-8)  # bᵀx of the answer
         assert r["setup_seconds"] >= 0 and r["solve_seconds"] >= 0
         assert r["config"].startswith("method=")
     cg = runs[0]

@@ -2,8 +2,10 @@
 # mpi_distributed_mesh.sh PMG DATA: `pmg compare --distributed-mesh` under mpirun as a user runs it.
 # A bar refined once on the ranks after distribution: 1, 2 and 3 ranks give one report each (rank
 # 0's), one JSON report, the same compliance bᵀu and largest displacement to 1e-8 and iterations
-# within one; the options the route cannot honour, too few cells for the ranks and a mesh file
-# missing end every rank with one clear error and a non-zero exit instead of a hang.
+# within one; the refined mesh saved in PETSc's HDF5 format and read back in parallel gives the same
+# answer; the options the route cannot honour, too few cells for the ranks, a mesh file missing or
+# unreadable and an output that is an input end every rank with one clear error and exit code 2
+# instead of a hang.
 # Oversubscribed ranks on small cases: equality, not speed.
 set -u
 pmg=$1 data=$2
@@ -38,6 +40,23 @@ for r in runs:
     assert sum(g["owned"] for g in r["finest level ghost/owned nodes per rank"]) * 3 == r["unknowns"]
 PY
 
+# The refined mesh saved in PETSc's HDF5 format on 2 ranks, read back in parallel on 3: the same
+# problem, the same answer.
+"${mpi[@]}" -np 2 "$pmg" "${scene[@]}" --save-mesh "$work/fine.h5" > "$work/save.txt" 2>&1 ||
+  { cat "$work/save.txt"; fail "--save-mesh failed"; }
+[ -s "$work/fine.h5" ] && [ ! -e "$work/fine.h5.part" ] || fail "--save-mesh left no complete file"
+read_back=(compare --mesh "$work/fine.h5" --degree 2 --fix x --load traction --tol 1e-11 --distributed-mesh)
+"${mpi[@]}" -np 3 "$pmg" "${read_back[@]}" --json "$work/h5.json" > "$work/h5.txt" 2>&1 ||
+  { cat "$work/h5.txt"; fail "reading the .h5 mesh failed"; }
+grep -q "read in parallel" "$work/h5.txt" || fail "the .h5 mesh was not read in parallel"
+/usr/bin/python3 - "$work"/np1.json "$work"/h5.json <<'PY' || fail "the mesh read back gives another answer"
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+print("made and refined:", a["compliance (J)"], "read back:", b["compliance (J)"])
+assert a["tets"] == b["tets"] and a["unknowns"] == b["unknowns"]
+assert abs(a["compliance (J)"] - b["compliance (J)"]) <= 1e-8 * abs(a["compliance (J)"])
+PY
+
 # Options the route cannot honour: one error, exit 2, on every rank.
 expect_error() {  # expect_error NP PATTERN ARGS...: exit 2 (bad input), one error line matching
   local np=$1 pattern=$2
@@ -47,7 +66,8 @@ expect_error() {  # expect_error NP PATTERN ARGS...: exit 2 (bad input), one err
   cat "$work/err.txt"
   [ $rc -eq 2 ] || fail "$*: exit code $rc, expected 2 (bad input; 124: a hang)"
   [ "$(grep -c 'pmg: error' "$work/err.txt")" = 1 ] || fail "$*: expected one error line"
-  grep -q "$pattern" "$work/err.txt" || fail "$*: the error does not say '$pattern'"
+  grep -q -- "$pattern" "$work/err.txt" || fail "$*: the error does not say '$pattern'"
+  ! grep -q "HDF5-DIAG" "$work/err.txt" || fail "$*: HDF5's own error stack printed"
 }
 expect_error 2 "runs petsc-mgpcg only" "${scene[@]}" --solvers mgpcg
 expect_error 2 "does not take --symmetry" "${scene[@]}" --symmetry y
@@ -55,4 +75,9 @@ expect_error 2 "does not take --dt" "${scene[@]}" --dt 0.01
 expect_error 2 "degree 1 (2 or 3)" compare --box 4 2 2 --degree 1 --fix x --distributed-mesh
 expect_error 7 "6 cells for 7 ranks" compare --mesh "$data/kuhn_cube.ele" --degree 2 --fix x --distributed-mesh
 expect_error 2 "File does not exist" compare --mesh /nonexistent.ele --degree 2 --fix x --distributed-mesh
+expect_error 2 "a name ending in .h5" "${scene[@]}" --save-mesh "$work/fine.vtu"
+expect_error 2 "needs --distributed-mesh" compare --box 4 2 2 --degree 2 --save-mesh "$work/x.h5"
+expect_error 2 "--json" "${read_back[@]}" --json "$work/fine.h5"
+printf 'not HDF5' > "$work/junk.h5"
+expect_error 2 "not an HDF5 file" compare --mesh "$work/junk.h5" --degree 2 --fix x --distributed-mesh
 echo "mpi_distributed_mesh.sh: ok"

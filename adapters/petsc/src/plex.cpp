@@ -9,7 +9,10 @@
 #include <petscdmplex.h>
 #include <petscsf.h>
 
+#include <petscviewer.h>
+
 #include <algorithm>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -33,6 +36,16 @@ double signed_volume(const double* X0, const double* X1, const double* X2, const
   const double c[3] = {X3[0] - X0[0], X3[1] - X0[1], X3[2] - X0[2]};
   return (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])) /
          6.0;
+}
+
+/// PETSc's message for a failed call (its error is then forgotten).
+std::string petsc_message(PetscErrorCode code) {
+  try {
+    check(code, "reading");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace
@@ -85,6 +98,67 @@ PlexMesh::PlexMesh(MPI_Comm comm, const std::vector<double>& coordinates, const 
 }
 
 PlexMesh::~PlexMesh() = default;
+
+PlexMesh::PlexMesh(MPI_Comm comm) : impl_(std::make_unique<Impl>()), comm_(comm) {}
+
+std::unique_ptr<PlexMesh> PlexMesh::load(MPI_Comm comm, const std::string& path) {
+  detail::start();
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  // Checked on every rank first: PETSc's HDF5 errors name neither the file nor the cause plainly.
+  std::string error;
+  if (path.size() < 3 || path.compare(path.size() - 3, 3, ".h5") != 0)
+    error = "plex mesh: " + path + ": expected PETSc's HDF5 mesh format (.h5)";
+  else if (FILE* f = std::fopen(path.c_str(), "rb")) {
+    // HDF5's signature at offset 0, 512, 1024, 2048, ... (checked here: HDF5 itself would print
+    // its error stack on every rank before PETSc's message).
+    static const char signature[8] = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+    bool found = false;
+    char head[8];
+    for (long at = 0; !found; at = at == 0 ? 512 : 2 * at) {
+      if (std::fseek(f, at, SEEK_SET) != 0 || std::fread(head, 1, 8, f) != 8) break;
+      found = std::equal(head, head + 8, signature);
+    }
+    std::fclose(f);
+    if (!found) error = "plex mesh: " + path + ": not an HDF5 file (PETSc's HDF5 mesh format expected)";
+  } else {
+    error = "plex mesh: " + path + ": cannot be read";
+  }
+  mpi::agree_on_error(comm, error, /*input_error=*/true);
+  std::unique_ptr<PlexMesh> mesh(new PlexMesh(comm));
+  DM& dm = mesh->impl_->dm;
+  const PetscErrorCode code = DMPlexCreateFromFile(comm, path.c_str(), "pmgkit", PETSC_TRUE, &dm);
+  mpi::agree_on_error(comm, code ? "plex mesh: " + path + ": not a mesh PETSc can read (" + petsc_message(code) + ")" : "",
+                      /*input_error=*/true);
+  PetscInt dim = 0;
+  check(DMGetDimension(dm, &dim), "DMGetDimension");
+  if (dim != 3) throw InputError("plex mesh: " + path + ": a mesh of dimension " + std::to_string(dim) + " (3 expected)");
+  mpi::together(comm, [&] { mesh->extract(); });
+  return mesh;
+}
+
+void PlexMesh::save(const std::string& path) const {
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  const std::string part = path + ".part";
+  PetscViewer viewer = nullptr;
+  // PetscViewerHDF5Open's steps, without HDF5's own header.
+  PetscErrorCode code = PetscViewerCreate(comm_, &viewer);
+  if (!code) code = PetscViewerSetType(viewer, PETSCVIEWERHDF5);
+  if (!code) code = PetscViewerFileSetMode(viewer, FILE_MODE_WRITE);
+  if (!code) code = PetscViewerFileSetName(viewer, part.c_str());
+  if (code) PetscViewerDestroy(&viewer);
+  mpi::agree_on_error(comm_, code ? "plex mesh: cannot write " + path : "", /*input_error=*/true);
+  code = PetscViewerPushFormat(viewer, PETSC_VIEWER_HDF5_PETSC);
+  if (!code) code = DMView(impl_->dm, viewer);
+  PetscViewerDestroy(&viewer);
+  int rank = 0;
+  MPI_Comm_rank(comm_, &rank);
+  const std::string failed = code ? "plex mesh: writing " + path + " failed (" + petsc_message(code) + ")" : "";
+  if (!failed.empty() && rank == 0) std::remove(part.c_str());
+  mpi::agree_on_error(comm_, failed, /*input_error=*/true);
+  std::string renamed;
+  if (rank == 0 && std::rename(part.c_str(), path.c_str()) != 0) renamed = "plex mesh: cannot rename " + part + " to " + path;
+  mpi::agree_on_error(comm_, renamed, /*input_error=*/true);
+}
 
 void PlexMesh::distribute(const std::string& partitioner) {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
@@ -202,7 +276,7 @@ void PlexMesh::extract() {
       if (p >= v_start && p < v_end && k < 4) cells_[4 * (c - c_start) + k++] = local_of[p - v_start];
     }
     check(DMPlexRestoreTransitiveClosure(dm, c, PETSC_TRUE, &n, &points), "DMPlexRestoreTransitiveClosure");
-    if (k != 4) throw Error("plex mesh: a cell with " + std::to_string(k) + " vertices (tetrahedra only)");
+    if (k != 4) throw InputError("plex mesh: a cell with " + std::to_string(k) + " vertices (tetrahedra only)");
     index_t* t = &cells_[4 * (c - c_start)];
     if (signed_volume(&vertices_[3 * t[0]], &vertices_[3 * t[1]], &vertices_[3 * t[2]], &vertices_[3 * t[3]]) < 0)
       std::swap(t[1], t[2]);

@@ -1,5 +1,6 @@
 // pmg/distributed/mesh_problem.hpp — a static elasticity problem whose mesh no rank holds whole:
-// rank 0 makes (or reads) the coarse mesh, DMPlex distributes it with PT-Scotch, every rank
+// rank 0 makes (or reads) the coarse mesh, or every rank reads a share of a mesh file in PETSc's
+// HDF5 format; DMPlex distributes it with PT-Scotch, every rank
 // refines its part (pmg/petsc/plex.hpp) and builds its share of the degree hierarchy
 // (RankHierarchy's distributed-mesh constructor), its clamp and its loads from its own cells; the
 // coarse mesh is freed once distributed. solve_on_ranks() solves it with petsc-mgpcg's PETSc
@@ -46,6 +47,9 @@ struct MeshProblemOptions {
   double clamp_fraction = 0.0;           ///< of the extent along clamp_axis, in [0, 1)
   fem::Vec3 gravity = fem::Vec3::Zero();    ///< m/s²
   fem::Vec3 end_force = fem::Vec3::Zero();  ///< total force on the far face (N)
+  /// Where non-empty: the distributed mesh, after refinement, written there in PETSc's HDF5
+  /// format (pmg::petsc::PlexMesh::save), to be read in parallel by the file constructor.
+  std::string save_mesh;
 };
 
 /// One rank's part of a distributed static problem (see the file comment).
@@ -55,6 +59,10 @@ class MeshProblem {
   /// throw, and its exception becomes every rank's. Collective; throws InputError for bad options,
   /// a clamp that holds nothing, an end force without a face to load.
   MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse, const MeshProblemOptions& options);
+  /// The same from a mesh in PETSc's HDF5 format (`.h5`, what options.save_mesh writes), read in
+  /// parallel: every rank reads a share of the cells, then PT-Scotch repartitions them. Collective;
+  /// throws InputError for a file that cannot be read as a tetrahedral mesh.
+  MeshProblem(MPI_Comm comm, const std::string& plex_file, const MeshProblemOptions& options);
   ~MeshProblem();
   MeshProblem(const MeshProblem&) = delete;
   MeshProblem& operator=(const MeshProblem&) = delete;
@@ -79,6 +87,8 @@ class MeshProblem {
   const std::vector<double>& stage_peaks() const { return peaks_; }
 
  private:
+  void check(const MeshProblemOptions& o) const;
+  void build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o);
   MPI_Comm comm_;
   std::unique_ptr<RankHierarchy> ranks_;
   Vector load_;

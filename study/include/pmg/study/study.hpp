@@ -51,6 +51,9 @@ struct SolverRun {
   double rel_residual = std::numeric_limits<double>::quiet_NaN();
   /// ‖x − x_ref‖ / ‖x_ref‖ against StudySystem::reference (NaN: no reference, or a failed run).
   double rel_error = std::numeric_limits<double>::quiet_NaN();
+  /// bᵀx of the answer (NaN: a failed run): xᵀAx at the solution, independent of the numbering
+  /// of the unknowns; for an FEM scene the compliance (external work, J).
+  double b_dot_x = std::numeric_limits<double>::quiet_NaN();
   std::vector<IterationRecord> history;  ///< relative residual and seconds per iteration
 
   /// True when the run neither failed to set up nor threw.

@@ -1,7 +1,8 @@
 // pmg/petsc/plex.hpp — a tetrahedral mesh distributed over MPI ranks by PETSc's DMPlex: created
 // from cells handed in by any ranks (typically rank 0 with a coarse mesh), partitioned by
 // PT-Scotch (Pellegrini and Roman 1996) through PETSc's partitioner, refined uniformly on every
-// rank after distribution (DMRefine: each tetrahedron into 8), and numbered by PetscSections.
+// rank after distribution (DMRefine: each tetrahedron into 8), and numbered by PetscSections; read
+// and written in parallel in PETSc's HDF5 mesh format (load(), save()).
 // After distribute() no rank holds more than its own cells and their closure.
 //
 // The rank's part (local_vertices(), local_cells()): its cells (no overlap) and the vertices of
@@ -56,6 +57,15 @@ class PlexMesh {
   /// the usual call. Collective; throws InputError for ids out of range, Error with PETSc's
   /// message when PETSc fails.
   PlexMesh(MPI_Comm comm, const std::vector<double>& coordinates, const std::vector<index_t>& cells);
+  /// Reads a tetrahedral mesh in PETSc's HDF5 format (what save() writes; DMPlex's DMLoad) in
+  /// parallel: each rank reads a contiguous share of the cells, no rank the whole mesh;
+  /// distribute() then partitions it. Collective; throws InputError for a file that is missing,
+  /// unreadable, not a PETSc mesh or not of tetrahedra in 3-D.
+  static std::unique_ptr<PlexMesh> load(MPI_Comm comm, const std::string& path);
+  /// Writes the mesh (every rank its part, in parallel) in PETSc's HDF5 format to `path` through a
+  /// temporary name renamed once complete. Collective; throws InputError when the file cannot be
+  /// written.
+  void save(const std::string& path) const;
   ~PlexMesh();
   PlexMesh(const PlexMesh&) = delete;
   PlexMesh& operator=(const PlexMesh&) = delete;
@@ -88,6 +98,7 @@ class PlexMesh {
   PlexNumbering number(const std::vector<PlexNode>& nodes) const;
 
  private:
+  explicit PlexMesh(MPI_Comm comm);
   void extract();
   struct Impl;
   std::unique_ptr<Impl> impl_;
