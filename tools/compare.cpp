@@ -656,7 +656,7 @@ void check_distributed_mesh(const CLI::App& sub, Options& o) {
 /// --distributed-mesh and --save-mesh (compare_distributed.hpp).
 void add_distributed_mesh_options(CLI::App* sub, const std::shared_ptr<Options>& opts) {
   sub->add_flag("--distributed-mesh", opts->distributed_mesh,
-                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex, PT-Scotch; --refine after "
+                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex; METIS on rank 0, or PT-Scotch for a .h5 mesh; --refine after "
                 "distribution), no rank holding the whole model, and solve with petsc-mgpcg (box or mesh file, "
                 "degree 2-3, --fix, --load; no reference solve; a --mesh FILE.h5 in PETSc's HDF5 format is read "
                 "in parallel)");

@@ -1,6 +1,7 @@
 // A static problem on a mesh no rank holds whole (pmg/distributed/mesh_problem.hpp).
 #include "pmg/distributed/mesh_problem.hpp"
 
+#include "pmg/metis/partition.hpp"
 #include "pmg/mpi/agreement.hpp"
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
@@ -18,10 +19,14 @@ namespace pmg::dist {
 namespace {
 
 /// The coarse mesh on rank 0 (nothing elsewhere), as PlexMesh takes it; an exception on rank 0
-/// reaches every rank.
-std::unique_ptr<petsc::PlexMesh> coarse_plex(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse) {
-  int rank = 0;
+/// reaches every rank. With `metis`, `parts` gets rank 0's METIS partition of the cells (empty on
+/// the other ranks, which hold none; empty everywhere when there are fewer cells than ranks, which
+/// PlexMesh::distribute() then refuses).
+std::unique_ptr<petsc::PlexMesh> coarse_plex(MPI_Comm comm, const std::function<fem::TetMesh()>& coarse, bool metis,
+                                             std::vector<int>& parts) {
+  int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
   std::vector<double> X;
   std::vector<index_t> cells;
   mpi::together(comm, [&] {
@@ -31,6 +36,8 @@ std::unique_ptr<petsc::PlexMesh> coarse_plex(MPI_Comm comm, const std::function<
     for (const fem::Vec3& v : mesh.vertices) X.insert(X.end(), {v[0], v[1], v[2]});
     cells.reserve(4 * mesh.tets.size());
     for (const fem::Tet& t : mesh.tets) cells.insert(cells.end(), t.begin(), t.end());
+    if (metis && size > 1 && mesh.num_tets() >= size)
+      parts = metis::partition_elements(mesh.tets, static_cast<index_t>(mesh.num_vertices()), size);
   });
   return std::make_unique<petsc::PlexMesh>(comm, X, cells);
 }
@@ -61,28 +68,42 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
     : comm_(comm) {
   mpi::start();
   check(o);
+  if (o.partitioner != "auto" && o.partitioner != "metis" && o.partitioner != "ptscotch" && o.partitioner != "simple")
+    throw InputError("distributed mesh: partitioner '" + o.partitioner + "' (auto, metis, ptscotch, simple)");
+  const bool metis = o.partitioner == "auto" || o.partitioner == "metis";
   const auto t0 = Clock::now();
-  std::unique_ptr<petsc::PlexMesh> plex = coarse_plex(comm, coarse);
-  stages_.emplace_back("coarse mesh (rank 0) into DMPlex", seconds_since(t0));
+  std::vector<int> parts;
+  std::unique_ptr<petsc::PlexMesh> plex = coarse_plex(comm, coarse, metis, parts);
+  stages_.emplace_back(std::string("coarse mesh (rank 0) into DMPlex") + (metis ? ", METIS partition" : ""),
+                       seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
-  build(std::move(plex), o);
+  int partitioned = !parts.empty();
+  MPI_Bcast(&partitioned, 1, MPI_INT, 0, comm);
+  build(std::move(plex), o, partitioned ? &parts : nullptr);
 }
 
 MeshProblem::MeshProblem(MPI_Comm comm, const std::string& plex_file, const MeshProblemOptions& o) : comm_(comm) {
   mpi::start();
   check(o);
+  if (o.partitioner == "metis")
+    throw InputError("distributed mesh: METIS partitions a coarse mesh on rank 0; a mesh read in parallel takes "
+                     "ptscotch or simple");
   const auto t0 = Clock::now();
   std::unique_ptr<petsc::PlexMesh> plex = petsc::PlexMesh::load(comm, plex_file);
   stages_.emplace_back("read the mesh in parallel (HDF5)", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
-  build(std::move(plex), o);
+  build(std::move(plex), o, nullptr);
 }
 
-void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o) {
+void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o, const std::vector<int>* parts) {
   MPI_Comm comm = comm_;
   auto t0 = Clock::now();
-  plex->distribute(o.partitioner);
-  stages_.emplace_back("distribute (" + o.partitioner + ")", seconds_since(t0));
+  const std::string partitioner = parts ? "metis" : o.partitioner == "auto" || o.partitioner == "metis" ? "ptscotch" : o.partitioner;
+  if (parts)
+    plex->distribute(*parts);
+  else
+    plex->distribute(partitioner);
+  stages_.emplace_back("distribute (" + partitioner + ")", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
   t0 = Clock::now();
   plex->refine(o.refine);

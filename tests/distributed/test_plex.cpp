@@ -8,6 +8,7 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
 #include "pmg/petsc/plex.hpp"
+#include "pmg/petsc/pcmg.hpp"
 #include "pmg/sparse/factory.hpp"
 
 #include <catch2/catch.hpp>
@@ -332,4 +333,65 @@ TEST_CASE("bad input on a distributed mesh is the same error on every rank", "[p
   std::vector<index_t> cells;
   if (world_rank() == 0) X = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, cells = {0, 1, 2, 7};
   CHECK_THROWS_WITH(petsc::PlexMesh(MPI_COMM_WORLD, X, cells), Catch::Contains("names vertex 7"));
+}
+
+TEST_CASE("every level's product and the lowest level's matrix equal the serial ones by node position", "[plex]") {
+  // PETSc's level operators (the shell products across ranks, the degree-1 MPIAIJ) applied to a
+  // smooth field sampled at the nodes equal the serial hierarchy's assembled matrices applied to
+  // the same field, node by node (found by position), on every rank's owned nodes.
+  const TetMesh box = box_mesh_24(4, 2, 2, 1.0, 0.5, 0.5);
+  dist::MeshProblemOptions o;
+  o.degree = 3;
+  o.clamp_axis = 1;
+  o.clamp_fraction = 0.05;
+  o.gravity = Vec3(0, 0, -9.81);
+  dist::MeshProblem problem(MPI_COMM_WORLD, [&] { return box; }, o);
+  dist::RankHierarchy& R = problem.ranks();
+  R.bring_to(nullptr, 0.0, 1.0);
+  petsc::PMultigridCg solver(MPI_COMM_WORLD, petsc::PcmgParams{});
+  solver.setup(R.rank_levels());
+  Vec3 lo = problem.lo(), hi = problem.hi();
+  const double limit = lo[1] + 0.05 * (hi[1] - lo[1]) + 1e-9 * (hi - lo).maxCoeff();
+  DegreeHierarchy serial(box, 3, o.material, [&](const Vec3& X) { return X[1] <= limit; });
+  for (int l = 0; l < R.num_levels(); ++l) {
+    const ElasticityModel& sm = serial.model(l);
+    std::map<std::array<long long, 3>, index_t> at;
+    const auto& SP = sm.space().positions();
+    const auto& sfree = sm.assembler().free_index();
+    Vector us = Vector::Zero(3 * sm.assembler().num_free());
+    auto f = [](const Vec3& P) { return Vec3(std::sin(3 * P[0]) + P[1], std::cos(2 * P[1]) * P[2], P[0] * P[2] + 1); };
+    for (size_t n = 0; n < SP.size(); ++n)
+      if (sfree[n] >= 0) at[key(SP[n])] = sfree[n], us.segment<3>(3 * sfree[n]) = f(SP[n]);
+    Vector ys = Vector::Zero(us.size());
+    serial.assemble_level(l, nullptr, nullptr, 0.0, 1.0);
+    serial.matrix(l).multiply(us.data(), ys.data());
+    const ElasticityModel& m = R.local().model(l);
+    const auto& free = m.assembler().free_index();
+    const auto& P = m.space().positions();
+    Vector x = Vector::Zero(3 * R.owned(l)), y;
+    for (size_t n = 0; n < P.size(); ++n) {
+      const index_t fi = free[n];
+      if (fi < 0) continue;
+      const index_t g = R.global(l)[fi];
+      if (g >= R.first(l) && g < R.first(l) + R.owned(l)) x.segment<3>(3 * (g - R.first(l))) = f(P[n]);
+    }
+    solver.multiply(l, x, y);
+    double worst = 0, scale = ys.cwiseAbs().maxCoeff();
+    for (size_t n = 0; n < P.size(); ++n) {
+      const index_t fi = free[n];
+      if (fi < 0) continue;
+      const index_t g = R.global(l)[fi];
+      if (g < R.first(l) || g >= R.first(l) + R.owned(l)) continue;
+      const index_t s = at.at(key(P[n]));
+      worst = std::max(worst, (y.segment<3>(3 * (g - R.first(l))) - ys.segment<3>(3 * s)).norm() / scale);
+    }
+    CAPTURE(l);
+    CHECK(worst < 1e-13);
+  }
+  // METIS's partition on rank 0: the same ownership and numbering every time.
+  dist::MeshProblem again(MPI_COMM_WORLD, [&] { return box; }, o);
+  for (int l = 0; l < R.num_levels(); ++l) {
+    CHECK(again.ranks().owned(l) == R.owned(l));
+    CHECK(again.ranks().global(l) == R.global(l));
+  }
 }

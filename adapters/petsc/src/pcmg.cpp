@@ -442,6 +442,10 @@ void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::stri
   }
   // Defaults as options (so that the user's options, inserted after, override them).
   std::string defaults = "-mg_levels_esteig_ksp_type cg -mg_levels_esteig_ksp_max_it 10 ";
+  // MUMPS sizes its workspace from the analysis plus ICNTL(14) percent (20 by default); the
+  // numerical factorisation can still need more (INFOG(1) = -9, seen on 4 ranks of the quadratic
+  // bunny): 100 percent, on a level below amg_threshold unknowns.
+  if (lowest == "mumps") defaults += "-mg_coarse_mat_mumps_icntl_14 100 ";
   if (lowest == "gamg")
     defaults += "-mg_coarse_mg_levels_ksp_type chebyshev -mg_coarse_mg_levels_pc_type jacobi "
                 "-mg_coarse_mg_levels_esteig_ksp_type cg ";

@@ -160,20 +160,40 @@ void PlexMesh::save(const std::string& path) const {
   mpi::agree_on_error(comm_, renamed, /*input_error=*/true);
 }
 
-void PlexMesh::distribute(const std::string& partitioner) {
+void PlexMesh::distribute(const std::string& partitioner) { move_cells(partitioner, nullptr); }
+
+void PlexMesh::distribute(const std::vector<int>& to) { move_cells(PETSCPARTITIONERSHELL, &to); }
+
+void PlexMesh::move_cells(const std::string& partitioner, const std::vector<int>* to) {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   int size = 1;
   MPI_Comm_size(comm_, &size);
   const long cells = global_cells();
-  mpi::agree_on_error(comm_,
-                      cells < size ? "plex mesh: " + std::to_string(cells) + " cells for " + std::to_string(size) +
-                                         " ranks (each rank needs at least one)"
-                                   : "",
-                      /*input_error=*/true);
+  std::string error;
+  if (cells < size)
+    error = "plex mesh: " + std::to_string(cells) + " cells for " + std::to_string(size) + " ranks (each rank needs at least one)";
+  else if (to && to->size() != cells_.size() / 4)
+    error = "plex mesh: a partition of " + std::to_string(to->size()) + " cells for the rank's " +
+            std::to_string(cells_.size() / 4);
+  for (size_t c = 0; error.empty() && to && c < to->size(); ++c)
+    if ((*to)[c] < 0 || (*to)[c] >= size)
+      error = "plex mesh: cell " + std::to_string(c) + " sent to rank " + std::to_string((*to)[c]) + " of " + std::to_string(size);
+  mpi::agree_on_error(comm_, error, /*input_error=*/true);
   if (size == 1) return;
   PetscPartitioner part = nullptr;
   check(DMPlexGetPartitioner(impl_->dm, &part), "DMPlexGetPartitioner");
   check(PetscPartitionerSetType(part, partitioner.c_str()), ("PetscPartitionerSetType " + partitioner).c_str());
+  if (to) {
+    // The shell partitioner takes, on each rank, how many of its cells go to each rank and which
+    // (cell points grouped by target rank).
+    PetscInt c_start = 0, c_end = 0;
+    check(DMPlexGetHeightStratum(impl_->dm, 0, &c_start, &c_end), "DMPlexGetHeightStratum");
+    std::vector<PetscInt> sizes(size, 0), first(size, 0), points(to->size());
+    for (int r : *to) ++sizes[r];
+    for (int r = 1; r < size; ++r) first[r] = first[r - 1] + sizes[r - 1];
+    for (size_t c = 0; c < to->size(); ++c) points[first[(*to)[c]]++] = c_start + static_cast<PetscInt>(c);
+    check(PetscPartitionerShellSetPartition(part, size, sizes.data(), points.data()), "PetscPartitionerShellSetPartition");
+  }
   DM moved = nullptr;
   check(DMPlexDistribute(impl_->dm, 0, nullptr, &moved), "DMPlexDistribute");
   if (moved) {

@@ -1,6 +1,6 @@
 // pmg/distributed/mesh_problem.hpp — a static elasticity problem whose mesh no rank holds whole:
 // rank 0 makes (or reads) the coarse mesh, or every rank reads a share of a mesh file in PETSc's
-// HDF5 format; DMPlex distributes it with PT-Scotch, every rank
+// HDF5 format; DMPlex distributes it (METIS's partition made on rank 0, or PT-Scotch's), every rank
 // refines its part (pmg/petsc/plex.hpp) and builds its share of the degree hierarchy
 // (RankHierarchy's distributed-mesh constructor), its clamp and its loads from its own cells; the
 // coarse mesh is freed once distributed. solve_on_ranks() solves it with petsc-mgpcg's PETSc
@@ -40,7 +40,11 @@ namespace pmg::dist {
 /// What MeshProblem builds (see the file comment).
 struct MeshProblemOptions {
   int refine = 0;                        ///< uniform refinements after distribution (8x cells each)
-  std::string partitioner = "ptscotch";  ///< PETSc's partitioner: ptscotch, parmetis (if built), simple
+  /// "auto": METIS (pmg::metis, on rank 0, the same partition every run) for a coarse mesh made on
+  /// rank 0, PT-Scotch through PETSc for a mesh read in parallel (its parallel algorithms may
+  /// partition differently from run to run); or "metis", "ptscotch", "simple" (PETSc's contiguous
+  /// blocks).
+  std::string partitioner = "auto";
   int degree = 2;                        ///< finest degree, 2 or 3 (the hierarchy holds 1 to it)
   fem::Material material;                ///< E, ν, ρ
   int clamp_axis = 0;                    ///< 0, 1, 2: the axis whose minimum is clamped
@@ -88,7 +92,7 @@ class MeshProblem {
 
  private:
   void check(const MeshProblemOptions& o) const;
-  void build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o);
+  void build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o, const std::vector<int>* parts);
   MPI_Comm comm_;
   std::unique_ptr<RankHierarchy> ranks_;
   Vector load_;

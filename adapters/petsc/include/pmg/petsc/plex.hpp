@@ -73,6 +73,11 @@ class PlexMesh {
   /// Partitions the cells over the ranks ("ptscotch", "parmetis" where PETSc has it, "simple":
   /// contiguous blocks) and moves them. Throws InputError when a rank would hold no cell.
   void distribute(const std::string& partitioner = "ptscotch");
+  /// Moves each of the rank's cells (local_cells() order) to the rank `to` names (PETSc's shell
+  /// partitioner): a partition made elsewhere, such as METIS's on rank 0, which, unlike
+  /// PT-Scotch's parallel algorithms, is the same every run. Collective; throws InputError for a
+  /// partition of the wrong size, a rank out of range, or a rank left without cells.
+  void distribute(const std::vector<int>& to);
   /// Uniform refinement, `times` times, on every rank (each tetrahedron into 8; new vertices at
   /// edge midpoints).
   void refine(int times);
@@ -99,6 +104,7 @@ class PlexMesh {
 
  private:
   explicit PlexMesh(MPI_Comm comm);
+  void move_cells(const std::string& partitioner, const std::vector<int>* to);
   void extract();
   struct Impl;
   std::unique_ptr<Impl> impl_;
