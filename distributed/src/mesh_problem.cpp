@@ -98,11 +98,16 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::string& plex_file, const Mesh
 void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o, const std::vector<int>* parts) {
   MPI_Comm comm = comm_;
   auto t0 = Clock::now();
-  const std::string partitioner = parts ? "metis" : o.partitioner == "auto" || o.partitioner == "metis" ? "ptscotch" : o.partitioner;
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  const std::string partitioner = size == 1 ? "one rank: nothing to move"
+                                  : parts   ? "metis"
+                                  : o.partitioner == "auto" || o.partitioner == "metis" ? "ptscotch"
+                                                                                        : o.partitioner;
   if (parts)
     plex->distribute(*parts);
   else
-    plex->distribute(partitioner);
+    plex->distribute(size == 1 ? "simple" : partitioner);
   stages_.emplace_back("distribute (" + partitioner + ")", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
   t0 = Clock::now();
