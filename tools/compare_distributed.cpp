@@ -94,8 +94,7 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
                          : o.mesh)
       << ", degree " << o.degree << ", distributed mesh (DMPlex): "
       << (parallel_read ? std::string("read in parallel, ") : std::to_string(coarse_cells) + " tets on rank 0, ")
-      << (parallel_read ? "partitioned by PT-Scotch over " : "partitioned by METIS on rank 0 over ") << size
-      << (size == 1 ? " rank" : " ranks");
+      << (size == 1 ? "on 1 rank" : std::string(parallel_read ? "partitioned by PT-Scotch over " : "partitioned by METIS on rank 0 over ") + std::to_string(size) + " ranks");
   if (o.refine > 0) sys << ", refined " << o.refine << "x on the ranks";
   sys << ": " << problem.global_cells() << " tets, " << r.unknowns << " unknowns, " << problem.clamped_vertices()
       << " clamped vertices, " << o.load;

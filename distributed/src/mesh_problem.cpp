@@ -74,20 +74,20 @@ MeshProblem::MeshProblem(MPI_Comm comm, const std::function<fem::TetMesh()>& coa
   const auto t0 = Clock::now();
   std::vector<int> parts;
   std::unique_ptr<petsc::PlexMesh> plex = coarse_plex(comm, coarse, metis, parts);
-  stages_.emplace_back(std::string("coarse mesh (rank 0) into DMPlex") + (metis ? ", METIS partition" : ""),
-                       seconds_since(t0));
-  peaks_.push_back(peak_resident_bytes());
   int partitioned = !parts.empty();
   MPI_Bcast(&partitioned, 1, MPI_INT, 0, comm);
+  stages_.emplace_back(std::string("coarse mesh (rank 0) into DMPlex") + (partitioned ? ", METIS partition" : ""),
+                       seconds_since(t0));
+  peaks_.push_back(peak_resident_bytes());
   build(std::move(plex), o, partitioned ? &parts : nullptr);
 }
 
 MeshProblem::MeshProblem(MPI_Comm comm, const std::string& plex_file, const MeshProblemOptions& o) : comm_(comm) {
   mpi::start();
   check(o);
-  if (o.partitioner == "metis")
-    throw InputError("distributed mesh: METIS partitions a coarse mesh on rank 0; a mesh read in parallel takes "
-                     "ptscotch or simple");
+  if (o.partitioner != "auto" && o.partitioner != "ptscotch" && o.partitioner != "simple")
+    throw InputError("distributed mesh: partitioner '" + o.partitioner + "' for a mesh read in parallel (auto, ptscotch, "
+                     "simple; METIS partitions a coarse mesh on rank 0)");
   const auto t0 = Clock::now();
   std::unique_ptr<petsc::PlexMesh> plex = petsc::PlexMesh::load(comm, plex_file);
   stages_.emplace_back("read the mesh in parallel (HDF5)", seconds_since(t0));

@@ -2,6 +2,7 @@
 #include "pmg/distributed/rank_hierarchy.hpp"
 
 #include "pmg/metis/partition.hpp"
+#include "pmg/mpi/agreement.hpp"
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/petsc/plex.hpp"
@@ -134,13 +135,17 @@ RankHierarchy::RankHierarchy(const petsc::PlexMesh& plex, int degree, const fem:
     MPI_Comm_rank(comm_, &rank_);
     MPI_Comm_size(comm_, &size_);
   }
-  mesh_ = std::make_unique<fem::TetMesh>();
-  const std::vector<double>& X = plex.local_vertices();
-  for (size_t v = 0; v < X.size() / 3; ++v) mesh_->vertices.emplace_back(X[3 * v], X[3 * v + 1], X[3 * v + 2]);
-  const std::vector<index_t>& C = plex.local_cells();
-  for (size_t e = 0; e < C.size() / 4; ++e) mesh_->tets.push_back({C[4 * e], C[4 * e + 1], C[4 * e + 2], C[4 * e + 3]});
-  local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, degree, material, std::move(clamped));
-  if (!stiffness_scale.empty()) local_->set_stiffness_scale(stiffness_scale);
+  // A flat or inverted cell, or a bad flag count, fails on the rank that holds it: every rank
+  // throws it before the numbering's collective calls.
+  mpi::together(comm_, [&] {
+    mesh_ = std::make_unique<fem::TetMesh>();
+    const std::vector<double>& X = plex.local_vertices();
+    for (size_t v = 0; v < X.size() / 3; ++v) mesh_->vertices.emplace_back(X[3 * v], X[3 * v + 1], X[3 * v + 2]);
+    const std::vector<index_t>& C = plex.local_cells();
+    for (size_t e = 0; e < C.size() / 4; ++e) mesh_->tets.push_back({C[4 * e], C[4 * e + 1], C[4 * e + 2], C[4 * e + 3]});
+    local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, degree, material, std::move(clamped));
+    if (!stiffness_scale.empty()) local_->set_stiffness_scale(stiffness_scale);
+  });
 
   // Per level: each local free node's entity and multiplicities, numbered by the plex.
   levels_.resize(local_->num_levels());

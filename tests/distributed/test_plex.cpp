@@ -328,6 +328,23 @@ TEST_CASE("bad input on a distributed mesh is the same error on every rank", "[p
     auto plex = plex_of(one, MPI_COMM_WORLD);
     CHECK_THROWS_WITH(plex->distribute(), Catch::Contains("cells for"));
   }
+  // A flat cell, on whichever rank METIS sends it: every rank throws, none waits.
+  {
+    TetMesh flat = box_mesh_24(2, 1, 1, 1.0, 0.5, 0.5);
+    std::vector<index_t> bottom;
+    for (index_t v = 0; v < flat.num_vertices() && bottom.size() < 4; ++v)
+      if (std::abs(flat.vertices[v].z()) < 1e-12) bottom.push_back(v);
+    flat.tets.push_back({bottom[0], bottom[1], bottom[2], bottom[3]});
+    o.clamp_fraction = 0.0;
+    CHECK_THROWS(dist::MeshProblem(MPI_COMM_WORLD, [&] { return flat; }, o));
+  }
+  // A cell naming a vertex twice.
+  {
+    std::vector<double> X;
+    std::vector<index_t> cells;
+    if (world_rank() == 0) X = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, cells = {0, 1, 1, 2};
+    CHECK_THROWS_WITH(petsc::PlexMesh(MPI_COMM_WORLD, X, cells), Catch::Contains("names vertex 1 twice"));
+  }
   // A cell naming a vertex that does not exist.
   std::vector<double> X;
   std::vector<index_t> cells;

@@ -11,6 +11,8 @@
 
 #include <petscviewer.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -39,9 +41,9 @@ double signed_volume(const double* X0, const double* X1, const double* X2, const
 }
 
 /// PETSc's message for a failed call (its error is then forgotten).
-std::string petsc_message(PetscErrorCode code) {
+std::string petsc_message(PetscErrorCode code, const char* what) {
   try {
-    check(code, "reading");
+    check(code, what);
   } catch (const Error& e) {
     return e.what();
   }
@@ -76,6 +78,11 @@ PlexMesh::PlexMesh(MPI_Comm comm, const std::vector<double>& coordinates, const 
     if (cells[i] < 0 || cells[i] >= total)
       error = "plex mesh: cell " + std::to_string(i / 4) + " names vertex " + std::to_string(cells[i]) + " of " +
               std::to_string(total);
+  for (size_t e = 0; error.empty() && e < cells.size() / 4; ++e)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        if (cells[4 * e + a] == cells[4 * e + b])
+          error = "plex mesh: cell " + std::to_string(e) + " names vertex " + std::to_string(cells[4 * e + a]) + " twice";
   mpi::agree_on_error(comm, error, /*input_error=*/true);
   long my_cells = static_cast<long>(cells.size() / 4), all_cells = 0;
   MPI_Allreduce(&my_cells, &all_cells, 1, MPI_LONG, MPI_SUM, comm);
@@ -127,7 +134,7 @@ std::unique_ptr<PlexMesh> PlexMesh::load(MPI_Comm comm, const std::string& path)
   std::unique_ptr<PlexMesh> mesh(new PlexMesh(comm));
   DM& dm = mesh->impl_->dm;
   const PetscErrorCode code = DMPlexCreateFromFile(comm, path.c_str(), "pmgkit", PETSC_TRUE, &dm);
-  mpi::agree_on_error(comm, code ? "plex mesh: " + path + ": not a mesh PETSc can read (" + petsc_message(code) + ")" : "",
+  mpi::agree_on_error(comm, code ? "plex mesh: " + path + ": not a mesh PETSc can read (" + petsc_message(code, "reading") + ")" : "",
                       /*input_error=*/true);
   PetscInt dim = 0;
   check(DMGetDimension(dm, &dim), "DMGetDimension");
@@ -138,26 +145,39 @@ std::unique_ptr<PlexMesh> PlexMesh::load(MPI_Comm comm, const std::string& path)
 
 void PlexMesh::save(const std::string& path) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  const std::string part = path + ".part";
+  int rank = 0;
+  MPI_Comm_rank(comm_, &rank);
+  // A temporary name of rank 0's process, the same on every rank.
+  long pid = rank == 0 ? static_cast<long>(getpid()) : 0;
+  MPI_Bcast(&pid, 1, MPI_LONG, 0, comm_);
+  const std::string part = path + "." + std::to_string(pid) + ".part";
+  // PetscViewerHDF5Open's steps, without HDF5's own header; every rank agrees on any failure
+  // before the next collective call (a viewer is destroyed collectively).
   PetscViewer viewer = nullptr;
-  // PetscViewerHDF5Open's steps, without HDF5's own header.
   PetscErrorCode code = PetscViewerCreate(comm_, &viewer);
   if (!code) code = PetscViewerSetType(viewer, PETSCVIEWERHDF5);
   if (!code) code = PetscViewerFileSetMode(viewer, FILE_MODE_WRITE);
   if (!code) code = PetscViewerFileSetName(viewer, part.c_str());
-  if (code) PetscViewerDestroy(&viewer);
-  mpi::agree_on_error(comm_, code ? "plex mesh: cannot write " + path : "", /*input_error=*/true);
-  code = PetscViewerPushFormat(viewer, PETSC_VIEWER_HDF5_PETSC);
-  if (!code) code = DMView(impl_->dm, viewer);
-  PetscViewerDestroy(&viewer);
-  int rank = 0;
-  MPI_Comm_rank(comm_, &rank);
-  const std::string failed = code ? "plex mesh: writing " + path + " failed (" + petsc_message(code) + ")" : "";
-  if (!failed.empty() && rank == 0) std::remove(part.c_str());
-  mpi::agree_on_error(comm_, failed, /*input_error=*/true);
-  std::string renamed;
-  if (rank == 0 && std::rename(part.c_str(), path.c_str()) != 0) renamed = "plex mesh: cannot rename " + part + " to " + path;
-  mpi::agree_on_error(comm_, renamed, /*input_error=*/true);
+  int failed = code != 0, any = 0;
+  MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm_);
+  if (!any) {
+    code = PetscViewerPushFormat(viewer, PETSC_VIEWER_HDF5_PETSC);
+    if (!code) code = DMView(impl_->dm, viewer);
+    failed = code != 0;
+    MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm_);
+  }
+  const std::string mine = failed ? petsc_message(code, "writing") : "";
+  if (viewer) PetscViewerDestroy(&viewer);
+  detail::clear_error();
+  std::string error;
+  if (any) {
+    error = "plex mesh: writing " + path + " failed" + (mine.empty() ? std::string() : " (" + mine + ")");
+    if (rank == 0) std::remove(part.c_str());
+  } else if (rank == 0 && std::rename(part.c_str(), path.c_str()) != 0) {
+    error = "plex mesh: cannot rename " + part + " to " + path;
+    std::remove(part.c_str());
+  }
+  mpi::agree_on_error(comm_, error, /*input_error=*/true);
 }
 
 void PlexMesh::distribute(const std::string& partitioner) { move_cells(partitioner, nullptr); }
@@ -191,7 +211,7 @@ void PlexMesh::move_cells(const std::string& partitioner, const std::vector<int>
     std::vector<PetscInt> sizes(size, 0), first(size, 0), points(to->size());
     for (int r : *to) ++sizes[r];
     for (int r = 1; r < size; ++r) first[r] = first[r - 1] + sizes[r - 1];
-    for (size_t c = 0; c < to->size(); ++c) points[first[(*to)[c]]++] = c_start + static_cast<PetscInt>(c);
+    for (size_t c = 0; c < to->size(); ++c) points[first[(*to)[c]]++] = static_cast<PetscInt>(c);  // == c_start + c
     check(PetscPartitionerShellSetPartition(part, size, sizes.data(), points.data()), "PetscPartitionerShellSetPartition");
   }
   DM moved = nullptr;
@@ -293,7 +313,7 @@ void PlexMesh::extract() {
     int k = 0;
     for (PetscInt i = 0; i < n; ++i) {
       const PetscInt p = points[2 * i];
-      if (p >= v_start && p < v_end && k < 4) cells_[4 * (c - c_start) + k++] = local_of[p - v_start];
+      if (p >= v_start && p < v_end && k++ < 4) cells_[4 * (c - c_start) + k - 1] = local_of[p - v_start];
     }
     check(DMPlexRestoreTransitiveClosure(dm, c, PETSC_TRUE, &n, &points), "DMPlexRestoreTransitiveClosure");
     if (k != 4) throw InputError("plex mesh: a cell with " + std::to_string(k) + " vertices (tetrahedra only)");

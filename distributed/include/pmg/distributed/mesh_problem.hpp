@@ -9,7 +9,7 @@
 //
 // The clamp and loads mean what they mean for a serial scene (pmg/sim/setup.hpp): the vertices
 // within clamp_fraction of the extent from the minimum of clamp_axis (plus 1e-9 of the bounding
-// box's diagonal) are clamped; gravity ρ g on every element; end_force spread as a uniform
+// box's largest extent) are clamped; gravity ρ g on every element; end_force spread as a uniform
 // traction over the boundary faces at the maximum of clamp_axis. The bounding box is reduced over
 // the ranks.
 //

@@ -16,10 +16,11 @@
 // Two ways to build it. From a serial hierarchy that every rank holds (the replicated set-up of
 // petsc-mgpcg on a scene's solver seam). Or from a mesh that DMPlex distributed
 // (pmg/petsc/plex.hpp), where no rank holds more than its own cells and their closure: the
-// partition is PETSc's (PT-Scotch), the ownership of a shared node is its mesh entity's owner in
-// PETSc's point SF, and the global numbering that of a PetscSection (contiguous per rank); the
-// serial-only members (element_parts(), owned_part(), gather(), local_part(), bring_to(serial))
-// are then refused.
+// partition is the one the mesh was distributed with, the ownership of a shared node is its mesh
+// entity's owner in PETSc's point SF, and the global numbering that of a PetscSection (contiguous
+// per rank); the serial-only members (owned_part(), gather(), local_part(), bring_to(serial)) are
+// then refused, and element_parts(), elements(), serial_of_owned() and owner_of_serial() are
+// empty.
 #pragma once
 
 #include "pmg/fem/hierarchy.hpp"

@@ -1,6 +1,7 @@
 // pmg/petsc/plex.hpp — a tetrahedral mesh distributed over MPI ranks by PETSc's DMPlex: created
-// from cells handed in by any ranks (typically rank 0 with a coarse mesh), partitioned by
-// PT-Scotch (Pellegrini and Roman 1996) through PETSc's partitioner, refined uniformly on every
+// from cells handed in by any ranks (typically rank 0 with a coarse mesh), moved to the ranks by a
+// partition made elsewhere (METIS's on rank 0) or by PT-Scotch (Pellegrini and Roman 1996)
+// through PETSc's partitioner, refined uniformly on every
 // rank after distribution (DMRefine: each tetrahedron into 8), and numbered by PetscSections; read
 // and written in parallel in PETSc's HDF5 mesh format (load(), save()).
 // After distribute() no rank holds more than its own cells and their closure.
