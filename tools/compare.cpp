@@ -558,9 +558,11 @@ void run(const Options& given) {
     plan.input(o.scene.mesh, "--mesh");
     plan.output(o.json_report, "--json");
     plan.output(o.save_mesh, "--save-mesh");
+    plan.output(o.history, "--history");
     plan.check();
     const Config set = Config::from_pairs(o.overrides, "--set");
-    run_distributed_mesh(o.scene, solver_configs(o, {"petsc-mgpcg"}, set).front().second, o.json_report, o.save_mesh);
+    run_distributed_mesh(o.scene, solver_configs(o, {"petsc-mgpcg"}, set).front().second,
+                         {o.json_report, o.save_mesh, o.history});
     return;
   }
   check_outputs(o);
@@ -636,7 +638,7 @@ void run(const Options& given) {
 /// --distributed-mesh takes an FEM scene and petsc-mgpcg only: the options it cannot honour are
 /// refused by name.
 void check_distributed_mesh(const CLI::App& sub, Options& o) {
-  for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--history", "--plot", "--solution-out",
+  for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--plot", "--solution-out",
                            "--export-levels", "--export-petsc", "--solver-config", "--fixed-iterations", "--warm-up",
                            "--allow", "--check-every", "--format"})
     if (sub.count(flag))

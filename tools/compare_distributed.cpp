@@ -9,6 +9,7 @@
 #include "pmg/sparse/factory.hpp"
 #include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/params.hpp"
+#include "pmg/study/study.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -50,8 +51,7 @@ std::vector<double> gathered(MPI_Comm comm, double mine) {
 
 }  // namespace
 
-void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std::string& json,
-                          const std::string& save_mesh) {
+void run_distributed_mesh(const SceneOptions& o, const Config& solver, const DistributedMeshOutputs& out) {
   mpi::start();
   MPI_Comm comm = MPI_COMM_WORLD;
   int size = 1;
@@ -70,7 +70,7 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
   mp.clamp_fraction = scene.clamp_fraction;
   mp.gravity = scene.gravity;
   mp.end_force = scene.end_force;
-  mp.save_mesh = save_mesh;
+  mp.save_mesh = out.save_mesh;
   long coarse_cells = 0;
   const auto coarse = [&] {
     std::vector<std::string> warnings;
@@ -144,7 +144,16 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
   std::cout << "\n";
   if (size > 2) std::cout << "(more ranks than cores measure overhead, not speed-up)\n";
 
-  if (!json.empty()) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  if (!out.history.empty() && rank == 0) {
+    study::SolverRun run;  // the CSV of pmg compare --history: seconds from the start of the set-up
+    run.name = "petsc-mgpcg";
+    run.setup_s = r.setup_seconds;
+    run.history = r.history;
+    study::write_history(out.history, {run});
+  }
+  if (!out.json.empty()) {
     nlohmann::ordered_json j;
     j["system"] = sys.str();
     j["ranks"] = size;
@@ -161,16 +170,14 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std
     nlohmann::ordered_json ghosts = nlohmann::ordered_json::array();
     for (const auto& [g, n] : r.ghosts.front()) ghosts.push_back({{"ghosts", g}, {"owned", n}});
     j["finest level ghost/owned nodes per rank"] = ghosts;
-    int rank = 0;
-    MPI_Comm_rank(comm, &rank);
-    if (rank == 0) write_file_atomically(json, j.dump(2) + "\n");
+    if (rank == 0) write_file_atomically(out.json, j.dump(2) + "\n");
   }
   if (!r.result.ok()) throw Exit{kSolveFailed};
 }
 
 #else
 
-void run_distributed_mesh(const SceneOptions&, const Config&, const std::string&, const std::string&) {
+void run_distributed_mesh(const SceneOptions&, const Config&, const DistributedMeshOutputs&) {
   throw InputError("--distributed-mesh: this build has no PETSc (pmg::distributed is not built)");
 }
 

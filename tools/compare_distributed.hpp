@@ -12,12 +12,19 @@ namespace pmg::tools {
 
 /// Builds the scene of `o` on the ranks of MPI_COMM_WORLD (rank 0 makes the coarse mesh, or every
 /// rank reads a share of a `.h5` mesh in PETSc's HDF5 format; DMPlex distributes it, each rank
-/// refines its part `o.refine` times; `save_mesh`: written there), solves it from zero with
+/// refines its part `o.refine` times; `out.save_mesh`: written there), solves it from zero with
 /// petsc-mgpcg's keys in `solver` and prints each stage's time, the iterations, the true residual,
-/// the compliance, the largest displacement and each rank's peak memory (rank 0 prints; `json`:
-/// the same figures as JSON). Throws Exit{kSolveFailed} when the solve fails, InputError for bad
+/// the compliance, the largest displacement and each rank's peak memory (rank 0 prints;
+/// `out.json`: the same figures as JSON; `out.history`: the residual per iteration as
+/// `pmg compare --history` writes it). Throws Exit{kSolveFailed} when the solve fails, InputError for bad
 /// input (on every rank) or where the build has no PETSc.
-void run_distributed_mesh(const SceneOptions& o, const Config& solver, const std::string& json,
-                          const std::string& save_mesh);
+/// Where --distributed-mesh writes (empty: not written).
+struct DistributedMeshOutputs {
+  std::string json;       ///< --json: the report
+  std::string save_mesh;  ///< --save-mesh: the refined mesh in PETSc's HDF5 format
+  std::string history;    ///< --history: the residual per iteration, as CSV
+};
+
+void run_distributed_mesh(const SceneOptions& o, const Config& solver, const DistributedMeshOutputs& out);
 
 }  // namespace pmg::tools

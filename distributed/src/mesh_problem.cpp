@@ -193,7 +193,10 @@ RankSolveReport solve_on_ranks(MeshProblem& problem, const DistributedMgpcgParam
   const Vector& b = problem.load();
   x = Vector::Zero(b.size());
   t0 = Clock::now();
-  mpi::together(comm, [&] { out.result = solver.solve(b, x); });
+  SolveMonitor monitor;
+  monitor.start();
+  mpi::together(comm, [&] { out.result = solver.solve(b, x, &monitor); });
+  out.history = monitor.history();
   out.solve_seconds = reduce(comm, seconds_since(t0), MPI_MAX);
   out.peak_after_solve = peak_resident_bytes();
   Vector Ax(b.size());

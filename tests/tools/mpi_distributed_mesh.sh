@@ -2,10 +2,10 @@
 # mpi_distributed_mesh.sh PMG DATA: `pmg compare --distributed-mesh` under mpirun as a user runs it.
 # A bar refined once on the ranks after distribution: 1, 2 and 3 ranks give one report each (rank
 # 0's), one JSON report, the same compliance bᵀu and largest displacement to 1e-8 and iterations
-# within one; the refined mesh saved in PETSc's HDF5 format and read back in parallel gives the same
-# answer; the options the route cannot honour, too few cells for the ranks, a mesh file missing or
-# unreadable and an output that is an input end every rank with one clear error and exit code 2
-# instead of a hang.
+# within one; --history writes the residual per iteration; the refined mesh saved in PETSc's HDF5
+# format and read back in parallel gives the same answer; the options the route cannot honour, too
+# few cells for the ranks, a mesh file missing or unreadable and an output that is an input end
+# every rank with one clear error and exit code 2 instead of a hang.
 # Oversubscribed ranks on small cases: equality, not speed.
 set -u
 pmg=$1 data=$2
@@ -38,6 +38,21 @@ for r in runs:
     assert abs(r["largest displacement (m)"] - one["largest displacement (m)"]) <= 1e-8 * one["largest displacement (m)"]
     assert len(r["peak resident memory per rank (bytes)"]) == r["ranks"]
     assert sum(g["owned"] for g in r["finest level ghost/owned nodes per rank"]) * 3 == r["unknowns"]
+PY
+
+# --history: rank 0 writes the residual per iteration, as pmg compare does for every solver.
+"${mpi[@]}" -np 2 "$pmg" "${scene[@]}" --history "$work/h.csv" --json "$work/h.json" > "$work/h.txt" 2>&1 ||
+  { cat "$work/h.txt"; fail "--history failed"; }
+/usr/bin/python3 - "$work/h.csv" "$work/h.json" <<'PY' || fail "the history does not match the solve"
+import csv, json, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+report = json.load(open(sys.argv[2]))
+assert [r["iteration"] for r in rows] == [str(i) for i in range(report["iterations"] + 1)], rows
+assert all(r["solver"] == "petsc-mgpcg" for r in rows)
+assert float(rows[0]["rel_residual"]) == 1.0 and float(rows[-1]["rel_residual"]) <= 1e-11
+seconds = [float(r["seconds"]) for r in rows]
+assert seconds == sorted(seconds)
+print(len(rows), "history rows")
 PY
 
 # The refined mesh saved in PETSc's HDF5 format on 2 ranks, read back in parallel on 3: the same

@@ -21,6 +21,7 @@
 #include "pmg/distributed/mgpcg.hpp"
 #include "pmg/distributed/rank_hierarchy.hpp"
 #include "pmg/fem/mesh.hpp"
+#include "pmg/sparse/monitor.hpp"
 
 #include <mpi.h>
 
@@ -113,6 +114,8 @@ struct RankSolveReport {
   double solve_seconds = 0.0;      ///< the solve, the slowest rank's
   double peak_after_setup = 0.0;   ///< this rank's peak resident memory (bytes) after the solver's set-up
   double peak_after_solve = 0.0;   ///< and after the solve
+  /// ||r_i|| / ||b|| per CG iteration and the seconds since the solve began (every rank alike).
+  std::vector<IterationRecord> history;
   TimingBreakdown setup_stages;    ///< the solver's set-up by stage (this rank)
   std::string description;         ///< the solver's levels and lowest level
   /// Per level (finest first) and rank: (ghost nodes, owned nodes).
