@@ -49,6 +49,41 @@ std::vector<double> gathered(MPI_Comm comm, double mine) {
   return all;
 }
 
+/// Rank 0 writes --history and --json.
+void write_outputs(const DistributedMeshOutputs& out, MPI_Comm comm, const std::string& system,
+                   const dist::MeshProblem& problem, const dist::RankSolveReport& r, const nlohmann::ordered_json& stages,
+                   const nlohmann::ordered_json& peaks, const std::vector<double>& memory) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  if (rank != 0) return;
+  if (!out.history.empty()) {
+    study::SolverRun run;  // the CSV of pmg compare --history: seconds from the start of the set-up
+    run.name = "petsc-mgpcg";
+    run.setup_s = r.setup_seconds;
+    run.history = r.history;
+    study::write_history(out.history, {run});
+  }
+  if (out.json.empty()) return;
+  nlohmann::ordered_json j;
+  j["system"] = system;
+  j["ranks"] = size;
+  j["tets"] = problem.global_cells();
+  j["unknowns"] = r.unknowns;
+  j["stages"] = stages;
+  j["iterations"] = r.result.iterations;
+  j["converged"] = r.result.ok();
+  j["true_relative_residual"] = r.true_residual;
+  j["compliance (J)"] = r.compliance;
+  j["largest displacement (m)"] = r.max_displacement;
+  j["peak resident memory per rank (bytes)"] = memory;
+  j["largest rank's peak resident memory after each stage (bytes)"] = peaks;
+  nlohmann::ordered_json ghosts = nlohmann::ordered_json::array();
+  for (const auto& [g, n] : r.ghosts.front()) ghosts.push_back({{"ghosts", g}, {"owned", n}});
+  j["finest level ghost/owned nodes per rank"] = ghosts;
+  write_file_atomically(out.json, j.dump(2) + "\n");
+}
+
 }  // namespace
 
 void run_distributed_mesh(const SceneOptions& o, const Config& solver, const DistributedMeshOutputs& out) {
@@ -144,34 +179,7 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const Dis
   std::cout << "\n";
   if (size > 2) std::cout << "(more ranks than cores measure overhead, not speed-up)\n";
 
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  if (!out.history.empty() && rank == 0) {
-    study::SolverRun run;  // the CSV of pmg compare --history: seconds from the start of the set-up
-    run.name = "petsc-mgpcg";
-    run.setup_s = r.setup_seconds;
-    run.history = r.history;
-    study::write_history(out.history, {run});
-  }
-  if (!out.json.empty()) {
-    nlohmann::ordered_json j;
-    j["system"] = sys.str();
-    j["ranks"] = size;
-    j["tets"] = problem.global_cells();
-    j["unknowns"] = r.unknowns;
-    j["stages"] = stages;
-    j["iterations"] = r.result.iterations;
-    j["converged"] = r.result.ok();
-    j["true_relative_residual"] = r.true_residual;
-    j["compliance (J)"] = r.compliance;
-    j["largest displacement (m)"] = r.max_displacement;
-    j["peak resident memory per rank (bytes)"] = memory;
-    j["largest rank's peak resident memory after each stage (bytes)"] = peaks;
-    nlohmann::ordered_json ghosts = nlohmann::ordered_json::array();
-    for (const auto& [g, n] : r.ghosts.front()) ghosts.push_back({{"ghosts", g}, {"owned", n}});
-    j["finest level ghost/owned nodes per rank"] = ghosts;
-    if (rank == 0) write_file_atomically(out.json, j.dump(2) + "\n");
-  }
+  write_outputs(out, comm, sys.str(), problem, r, stages, peaks, memory);
   if (!r.result.ok()) throw Exit{kSolveFailed};
 }
 
