@@ -74,7 +74,7 @@ except ImportError as _e:
 from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, ElasticModel,
                     DegreeHierarchy)
 
-__all__ = ["make_solver", "multigrid", "methods", "study", "study_scene", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
+__all__ = ["make_solver", "multigrid", "methods", "study", "study_scene", "solve_distributed", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
            "Material", "ElasticModel", "DegreeHierarchy", "simulate", "read_petsc", "write_petsc",
            "Error", "InputError",
            "SolveError"]
@@ -610,6 +610,32 @@ def simulate(scene, output_dir=""):
         err.summary = out
         raise err
     return out
+
+
+def solve_distributed(scene, comm=None, solver=None, save_mesh=""):
+    """A static scene solved on a mesh no rank holds whole (what `pmg compare --distributed-mesh`
+    runs): rank 0 makes the box or reads the scene's mesh file (a .h5 file in PETSc's HDF5 format is
+    read by every rank in parallel), the mesh is partitioned and moved to the ranks of `comm` (an
+    mpi4py communicator; None: MPI.COMM_WORLD), each rank refines its part `mesh.refine` times and
+    builds its share of the degree hierarchy, clamp and loads; petsc-mgpcg solves K u = f. Every
+    rank of comm calls it with the same scene. scene: a dict in the scene-file schema, a JSON
+    string or a path (the scene's supports and inclusion are refused: not on this route yet).
+    solver: petsc-mgpcg's keys (default {"method": "petsc-mgpcg"}; its tol is 1e-8 unless given).
+    save_mesh: also write the refined mesh there (.h5) for a later parallel read.
+
+    Returns a dict: status, iterations, true_relative_residual, compliance (b.u, J),
+    max_displacement (m), unknowns, tets, setup_seconds, solve_seconds, description, stages (list of
+    (name, seconds) of this rank), history (||r_i|| / ||b|| per iteration) and owned_displacement
+    (this rank's owned unknowns, in its global numbering). A solve that fails is a status, not an
+    exception; bad input is an InputError on every rank."""
+    handle = -1
+    if comm is not None:
+        py2f = getattr(comm, "py2f", None)
+        if py2f is None:
+            raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
+        handle = int(py2f())
+    text, origin = _scene_text(scene)
+    return _core.solve_distributed(text, origin, handle, _config_text(solver, "petsc-mgpcg"), str(save_mesh))
 
 
 # ---- pictures ----------------------------------------------------------------------------------

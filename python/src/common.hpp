@@ -63,6 +63,8 @@ struct PyHierarchy {
 void register_fem(py::module_& m);
 /// Registers study_matrix, study_hierarchy and study_scene (study.cpp).
 void register_study(py::module_& m);
+/// pmgkit.solve_distributed (distributed.cpp).
+void register_distributed(py::module_& m);
 /// Registers Csr, Bcsr and BinBcsr (formats.cpp).
 void register_formats(py::module_& m);
 /// Registers read_petsc_matrix/vector and write_petsc_matrix/vector (formats.cpp).

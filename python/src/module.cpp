@@ -692,5 +692,6 @@ PYBIND11_MODULE(_core, m) {
   register_formats(m);
   register_petsc_files(m);
   register_study(m);
+  register_distributed(m);
   register_fem(m);  // meshes, models, hierarchies and scenes (fem.cpp)
 }

@@ -5,6 +5,8 @@
   communicator's (a split of the world) within one.
 - pmgkit.simulate of a petsc-mgpcg scene steps across the ranks: its probe and energies equal the
   serial run's to 1e-8 over 10 corotational steps; rank 0 writes steps.csv, every rank its piece.
+- pmgkit.solve_distributed builds a scene on the ranks (DMPlex, no rank holding the whole mesh):
+  its compliance equals the serial MGPCG's to 1e-9; symmetry planes and other methods are refused.
 - What is not a communicator, and ranks given different output directories, are a clear
   InputError on every rank; so are ranks given different right-hand sides, guesses, materials,
   keys or time steps (the first difference named), PETSc options nobody reads and a freed
@@ -166,6 +168,31 @@ try:
     check(False, "a freed communicator accepted")
 except pmgkit.InputError as e:
     check("freed" in str(e), "the message says the communicator was freed: %s" % e)
+
+# ---- a scene on a mesh no rank holds whole (pmgkit.solve_distributed) ----
+box_scene = {"mesh": {"box": [4, 2, 2], "size": [1.0, 0.5, 0.5]}, "degree": 2,
+             "material": {"young": 500e3, "poisson": 0.3, "density": 1000.0},
+             "clamp": {"axis": "x", "fraction": 0.0}, "loads": {"gravity": [0.0, 0.0, -9.81]}}
+r = pmgkit.solve_distributed(box_scene, comm, {"tol": 1e-11})
+serial_row = pmgkit.study_scene(box_scene, ["mgpcg"], reference=None)[0]  # the whole scene, on this rank
+check(r["status"] == "converged" and r["true_relative_residual"] < 1e-10, "solve_distributed converged: %s" % r["status"])
+check(abs(r["compliance"] - serial_row["b_dot_x"]) <= 1e-9 * abs(serial_row["b_dot_x"]),
+      "solve_distributed's compliance %r equals the serial MGPCG's %r" % (r["compliance"], serial_row["b_dot_x"]))
+check(len(r["history"]) == r["iterations"] + 1 and r["history"][0] == 1.0, "the residual history has one entry per iteration")
+owned = comm.allreduce(r["owned_displacement"].size, op=MPI.SUM)
+check(owned == r["unknowns"], "the ranks' owned unknowns add up to %d (got %d)" % (r["unknowns"], owned))
+check(comm.allgather(r["iterations"]) == [r["iterations"]] * size, "every rank reports the same solve")
+for bad, says in ((dict(box_scene, symmetry=[{"axis": "y"}]), "supports"),):
+    try:
+        pmgkit.solve_distributed(bad, comm)
+        check(False, "solve_distributed accepted a scene with %s" % says)
+    except pmgkit.InputError as e:
+        check(says in str(e), "solve_distributed refuses %s by name: %s" % (says, e))
+try:
+    pmgkit.solve_distributed(box_scene, comm, {"method": "mgpcg"})
+    check(False, "solve_distributed accepted another method")
+except pmgkit.InputError as e:
+    check("petsc-mgpcg" in str(e), "solve_distributed names its one method: %s" % e)
 
 all_failures = comm.allreduce(len(failures), op=MPI.SUM)
 if rank == 0:
