@@ -97,7 +97,10 @@ void register_distributed(py::module_& m) {
     out["history"] = py::array_t<double>(static_cast<py::ssize_t>(history.size()), history.data());
     out["owned_displacement"] = py::array_t<double>(static_cast<py::ssize_t>(x.size()), x.data());
     return out;
-  });
+  }, py::arg("scene_json"), py::arg("origin"), py::arg("communicator"), py::arg("solver_json"), py::arg("save_mesh"),
+     "The core of pmgkit.solve_distributed: a static scene (JSON text, its origin for messages) built on the "
+     "ranks of a communicator (Fortran handle, -1: MPI_COMM_WORLD) and solved by petsc-mgpcg (the solver's JSON "
+     "keys); save_mesh: also write the refined mesh there (.h5). Returns the report as a dict.");
 }
 
 #else
@@ -106,7 +109,7 @@ void register_distributed(py::module_& m) {
   m.def("solve_distributed", [](const std::string&, const std::string&, long, const std::string&, const std::string&) {
     throw InputError("solve_distributed: this build has no PETSc (pmg::distributed is not built)");
     return py::dict();
-  });
+  }, "The core of pmgkit.solve_distributed; this build has no PETSc, so it raises InputError.");
 }
 
 #endif
