@@ -635,38 +635,6 @@ void run(const Options& given) {
 
 }  // namespace
 
-/// --distributed-mesh takes an FEM scene and petsc-mgpcg only: the options it cannot honour are
-/// refused by name.
-void check_distributed_mesh(const CLI::App& sub, Options& o) {
-  for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--plot", "--solution-out",
-                           "--export-levels", "--export-petsc", "--solver-config", "--fixed-iterations", "--warm-up",
-                           "--allow", "--check-every", "--format"})
-    if (sub.count(flag))
-      throw InputError(std::string("--distributed-mesh does not take ") + flag +
-                       " (the scene is built on the ranks and solved by petsc-mgpcg only)");
-  for (const auto& s : o.solvers)
-    if (s != "petsc-mgpcg")
-      throw InputError("--distributed-mesh runs petsc-mgpcg only (the other methods need the whole model on one "
-                       "process), not " + s);
-  const auto h5 = [](const std::string& f) { return f.size() > 3 && f.compare(f.size() - 3, 3, ".h5") == 0; };
-  if (!o.save_mesh.empty() && !h5(o.save_mesh))
-    throw InputError("--save-mesh " + o.save_mesh + ": PETSc's HDF5 mesh format, a name ending in .h5");
-  o.fem = true;
-  o.reference = false;
-}
-
-/// --distributed-mesh and --save-mesh (compare_distributed.hpp).
-void add_distributed_mesh_options(CLI::App* sub, const std::shared_ptr<Options>& opts) {
-  sub->add_flag("--distributed-mesh", opts->distributed_mesh,
-                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex; METIS on rank 0, or PT-Scotch for a .h5 mesh; --refine after "
-                "distribution), no rank holding the whole model, and solve with petsc-mgpcg (box or mesh file, "
-                "degree 2-3, --fix, --load; no reference solve; a --mesh FILE.h5 in PETSc's HDF5 format is read "
-                "in parallel)");
-  sub->add_option("--save-mesh", opts->save_mesh,
-                  "with --distributed-mesh: write the distributed mesh, after --refine, to FILE.h5 (PETSc's HDF5 "
-                  "format, every rank its part), for --mesh FILE.h5 to read in parallel");
-}
-
 /// The options that name the system: a Matrix Market file (with its right-hand side, known
 /// solution and block size) or the built-in lattice.
 void add_system_options(CLI::App* sub, const std::shared_ptr<Options>& opts) {
@@ -768,7 +736,7 @@ void register_compare(CLI::App& app) {
                   "coordinates.petsc: what PETSc's MatLoad/VecLoad and bench/petsc/petsc_reference read)");
   add_scene_options(sub, opts->scene);
   sub->add_flag("!--no-reference", opts->reference, "FEM scenes: skip the direct reference solve");
-  add_distributed_mesh_options(sub, opts);
+  add_distributed_mesh_options(sub, opts->distributed_mesh, opts->save_mesh);
   // Multigrid flags of earlier versions: each duplicated a --set key, so they are retired with a
   // message naming it (hidden from the help).
   static const std::pair<const char*, const char*> retired[] = {
@@ -801,8 +769,12 @@ void register_compare(CLI::App& app) {
                          " (keys and defaults: pmg solvers)");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
-    if (opts->distributed_mesh) check_distributed_mesh(*sub, *opts);
-    else if (!opts->save_mesh.empty()) throw InputError("--save-mesh needs --distributed-mesh");
+    if (!opts->distributed_mesh && !opts->save_mesh.empty()) throw InputError("--save-mesh needs --distributed-mesh");
+    if (opts->distributed_mesh) {
+      check_distributed_mesh(*sub, opts->solvers, opts->save_mesh);
+      opts->fem = true;
+      opts->reference = false;
+    }
     run(*opts);
   });
 }

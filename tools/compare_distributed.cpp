@@ -20,10 +20,37 @@
 
 #ifdef PMG_HAVE_DISTRIBUTED
 #include "pmg/distributed/mesh_problem.hpp"
+#include "pmg/distributed/scene.hpp"
 #include "pmg/mpi/session.hpp"
 #endif
 
 namespace pmg::tools {
+
+void add_distributed_mesh_options(CLI::App* sub, bool& flag, std::string& save_mesh) {
+  sub->add_flag("--distributed-mesh", flag,
+                "FEM scenes under mpirun: build the mesh on the ranks (DMPlex; METIS on rank 0, or PT-Scotch for a "
+                ".h5 mesh; --refine after distribution), no rank holding the whole model, and solve with petsc-mgpcg "
+                "(box or mesh file, degree 2-3, --fix, --load; no reference solve; a --mesh FILE.h5 in PETSc's HDF5 "
+                "format is read in parallel)");
+  sub->add_option("--save-mesh", save_mesh,
+                  "with --distributed-mesh: write the distributed mesh, after --refine, to FILE.h5 (PETSc's HDF5 "
+                  "format, every rank its part), for --mesh FILE.h5 to read in parallel");
+}
+
+void check_distributed_mesh(const CLI::App& sub, const std::vector<std::string>& solvers, const std::string& save_mesh) {
+  for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--plot", "--solution-out",
+                           "--export-levels", "--export-petsc", "--solver-config", "--fixed-iterations", "--warm-up",
+                           "--allow", "--check-every", "--format"})
+    if (sub.count(flag))
+      throw InputError(std::string("--distributed-mesh does not take ") + flag +
+                       " (the scene is built on the ranks and solved by petsc-mgpcg only)");
+  for (const auto& s : solvers)
+    if (s != "petsc-mgpcg")
+      throw InputError("--distributed-mesh runs petsc-mgpcg only (the other methods need the whole model on one "
+                       "process), not " + s);
+  if (!save_mesh.empty() && (save_mesh.size() <= 3 || save_mesh.compare(save_mesh.size() - 3, 3, ".h5") != 0))
+    throw InputError("--save-mesh " + save_mesh + ": PETSc's HDF5 mesh format, a name ending in .h5");
+}
 
 #ifdef PMG_HAVE_DISTRIBUTED
 namespace {
@@ -97,28 +124,14 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const Dis
   check_keys_used(solver);
 
   const sim::Scene scene = scene_of(o);
-  dist::MeshProblemOptions mp;
-  mp.refine = o.refine;
-  mp.degree = o.degree;
-  mp.material = fem::Material{o.young, o.poisson, o.density};
-  mp.clamp_axis = scene.clamp_axis;
-  mp.clamp_fraction = scene.clamp_fraction;
-  mp.gravity = scene.gravity;
-  mp.end_force = scene.end_force;
+  dist::MeshProblemOptions mp = dist::mesh_problem_options(scene);
   mp.save_mesh = out.save_mesh;
   long coarse_cells = 0;
-  const auto coarse = [&] {
-    std::vector<std::string> warnings;
-    fem::TetMesh m = sim::load_mesh_or_box(scene.mesh_file, scene.box.data(), scene.size.data(), &warnings, scene.mesh_checks);
-    for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
-    coarse_cells = m.num_tets();
-    return m;
-  };
-  const bool parallel_read = o.mesh.size() > 3 && o.mesh.compare(o.mesh.size() - 3, 3, ".h5") == 0;
-  std::unique_ptr<dist::MeshProblem> made = parallel_read ? std::make_unique<dist::MeshProblem>(comm, o.mesh, mp)
-                                                          : std::make_unique<dist::MeshProblem>(comm, coarse, mp);
+  std::vector<std::string> warnings;
+  const std::unique_ptr<dist::MeshProblem> made = dist::mesh_problem(comm, scene, mp, &warnings, &coarse_cells);
+  for (const auto& w : warnings) std::cerr << "warning: " << w << "\n";
+  const bool parallel_read = dist::is_plex_file(o.mesh);
   dist::MeshProblem& problem = *made;
-  MPI_Bcast(&coarse_cells, 1, MPI_LONG, 0, comm);
   Vector x;
   const dist::RankSolveReport r = dist::solve_on_ranks(problem, params, x);
   const std::vector<double> memory = gathered(comm, dist::peak_resident_bytes());

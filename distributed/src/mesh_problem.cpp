@@ -223,6 +223,10 @@ RankSolveReport solve_on_ranks(MeshProblem& problem, const DistributedMgpcgParam
   return out;
 }
 
+bool is_plex_file(const std::string& path) {
+  return path.size() > 3 && path.compare(path.size() - 3, 3, ".h5") == 0;
+}
+
 double peak_resident_bytes() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);

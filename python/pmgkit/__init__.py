@@ -494,6 +494,16 @@ def _hierarchy_prolongations(self):
     return [_to_scipy_csr(self.prolongation(l)) for l in range(1, self.num_levels)]
 
 
+def _comm_handle(comm):
+    """An mpi4py communicator's Fortran handle for the C++ side (-1: None, MPI_COMM_WORLD)."""
+    if comm is None:
+        return -1
+    py2f = getattr(comm, "py2f", None)
+    if py2f is None:
+        raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
+    return int(py2f())
+
+
 def _hierarchy_solver(self, config=None, comm=None):
     """A solver of the factory on this hierarchy's finest level (its free unknowns, as
     restrict_to_free gives them), set up as `pmg compare` sets up an FEM scene: multigrid methods
@@ -502,13 +512,7 @@ def _hierarchy_solver(self, config=None, comm=None):
     communicator; None: MPI.COMM_WORLD): every rank of comm builds the same hierarchy, calls this
     and solve() together, gives the same b and gets all of x. The solver keeps a reference to
     comm; do not Free() it while the solver lives."""
-    handle = -1
-    if comm is not None:
-        py2f = getattr(comm, "py2f", None)
-        if py2f is None:
-            raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
-        handle = int(py2f())
-    core = _core.Solver(self, _config_text(config, "mgpcg"), handle)
+    core = _core.Solver(self, _config_text(config, "mgpcg"), _comm_handle(comm))
     return Solver(core, (core.size, core.size), keep=(self, comm))
 
 
@@ -628,14 +632,8 @@ def solve_distributed(scene, comm=None, solver=None, save_mesh=""):
     (name, seconds) of this rank), history (||r_i|| / ||b|| per iteration) and owned_displacement
     (this rank's owned unknowns, in its global numbering). A solve that fails is a status, not an
     exception; bad input is an InputError on every rank."""
-    handle = -1
-    if comm is not None:
-        py2f = getattr(comm, "py2f", None)
-        if py2f is None:
-            raise InputError("comm: expected an mpi4py communicator (MPI.Comm), got %s" % type(comm).__name__)
-        handle = int(py2f())
     text, origin = _scene_text(scene)
-    return _core.solve_distributed(text, origin, handle, _config_text(solver, "petsc-mgpcg"), str(save_mesh))
+    return _core.solve_distributed(text, origin, _comm_handle(comm), _config_text(solver, "petsc-mgpcg"), str(save_mesh))
 
 
 # ---- pictures ----------------------------------------------------------------------------------

@@ -4,7 +4,6 @@
 #include "common.hpp"
 
 #include "pmg/sim/scene.hpp"
-#include "pmg/sim/setup.hpp"
 #include "pmg/sparse/config.hpp"
 #include "pmg/sparse/factory.hpp"
 #include "pmg/sparse/params.hpp"
@@ -17,35 +16,13 @@
 #include <vector>
 
 #ifdef PMG_PY_HAVE_DISTRIBUTED
-#include "pmg/distributed/mesh_problem.hpp"
+#include "pmg/distributed/scene.hpp"
 #include "pmg/mpi/session.hpp"
 #endif
 
 namespace pmg::python {
 
 #ifdef PMG_PY_HAVE_DISTRIBUTED
-namespace {
-
-/// The distributed problem's options from a scene; InputError for what the route cannot honour.
-dist::MeshProblemOptions options_of(const sim::Scene& s) {
-  if (!s.supports.empty())
-    throw InputError("solve_distributed: the scene's supports (symmetry planes) are not taken on a distributed mesh yet");
-  if (s.inclusion) throw InputError("solve_distributed: material.inclusion is not taken on a distributed mesh yet");
-  dist::MeshProblemOptions o;
-  o.refine = s.refine;
-  o.degree = s.degree;
-  o.material = fem::Material{s.young, s.poisson, s.density};
-  o.clamp_axis = s.clamp_axis;
-  o.clamp_fraction = s.clamp_fraction;
-  o.gravity = s.gravity;
-  o.end_force = s.end_force;
-  return o;
-}
-
-bool is_h5(const std::string& f) { return f.size() > 3 && f.compare(f.size() - 3, 3, ".h5") == 0; }
-
-}  // namespace
-
 void register_distributed(py::module_& m) {
   m.def("solve_distributed", [](const std::string& scene_json, const std::string& origin, long handle,
                                 const std::string& solver_json, const std::string& save_mesh) {
@@ -53,7 +30,7 @@ void register_distributed(py::module_& m) {
     MPI_Comm comm = handle >= 0 ? MPI_Comm_f2c(static_cast<MPI_Fint>(handle)) : MPI_COMM_WORLD;
     if (comm == MPI_COMM_NULL) throw InputError("solve_distributed: comm is MPI_COMM_NULL");
     const sim::Scene scene = sim::parse_scene(scene_json, origin);
-    dist::MeshProblemOptions o = options_of(scene);
+    dist::MeshProblemOptions o = dist::mesh_problem_options(scene);
     o.save_mesh = save_mesh;
     Config c = Config::from_json(solver_json, "solve_distributed: solver");
     const std::string method = c.get_string("method", "petsc-mgpcg");
@@ -69,14 +46,7 @@ void register_distributed(py::module_& m) {
     std::unique_ptr<dist::MeshProblem> problem;
     {
       py::gil_scoped_release nogil;
-      if (is_h5(scene.mesh_file)) {
-        problem = std::make_unique<dist::MeshProblem>(comm, scene.mesh_file, o);
-      } else {
-        const auto coarse = [&] {
-          return sim::load_mesh_or_box(scene.mesh_file, scene.box.data(), scene.size.data(), nullptr, scene.mesh_checks);
-        };
-        problem = std::make_unique<dist::MeshProblem>(comm, coarse, o);
-      }
+      problem = dist::mesh_problem(comm, scene, o);
       r = dist::solve_on_ranks(*problem, params, x);
     }
     out["status"] = to_string(r.result.status);

@@ -49,6 +49,21 @@ std::array<long long, 3> key(const Vec3& X) {
   return {std::llround(X[0] * 1e9), std::llround(X[1] * 1e9), std::llround(X[2] * 1e9)};
 }
 
+/// The rank's owned nodes on a level: each one's position and its offset among the owned nodes
+/// (its unknowns are 3 offset .. 3 offset + 2 of an owned vector).
+std::vector<std::pair<Vec3, index_t>> owned_nodes(const dist::RankHierarchy& R, int l) {
+  const ElasticityModel& m = R.local().model(l);
+  const auto& free = m.assembler().free_index();
+  const auto& P = m.space().positions();
+  std::vector<std::pair<Vec3, index_t>> out;
+  for (size_t n = 0; n < P.size(); ++n) {
+    if (free[n] < 0) continue;
+    const index_t g = R.global(l)[free[n]];
+    if (g >= R.first(l) && g < R.first(l) + R.owned(l)) out.emplace_back(P[n], g - R.first(l));
+  }
+  return out;
+}
+
 /// pmgkit's serial MGPCG (CHOLMOD lowest level) on a hierarchy: the full displacement vector.
 Vector serial_displacement(DegreeHierarchy& h, const Vec3& g) {
   const Vector b = h.finest().restrict_to_free(h.finest().gravity(g));
@@ -68,19 +83,11 @@ double difference_to_serial(const dist::RankHierarchy& R, const Vector& x, const
   std::map<std::array<long long, 3>, index_t> node_at;
   const auto& P = serial.space().positions();
   for (size_t n = 0; n < P.size(); ++n) node_at[key(P[n])] = static_cast<index_t>(n);
-  const int top = R.num_levels() - 1;
-  const ElasticityModel& m = R.local().finest();
-  const auto& free = m.assembler().free_index();
-  const auto& Pl = m.space().positions();
   double worst = 0.0, largest = 0.0;
-  for (size_t n = 0; n < Pl.size(); ++n) {
-    const index_t f = free[n];
-    if (f < 0) continue;
-    const index_t g = R.global(top)[f];
-    if (g < R.first(top) || g >= R.first(top) + R.owned(top)) continue;
-    const auto it = node_at.find(key(Pl[n]));
+  for (const auto& [position, k] : owned_nodes(R, R.num_levels() - 1)) {
+    const auto it = node_at.find(key(position));
     if (it == node_at.end()) return 1e300;  // a node the serial mesh lacks
-    const Vec3 mine = x.segment<3>(3 * (g - R.first(top)));
+    const Vec3 mine = x.segment<3>(3 * k);
     const Vec3 theirs = u.segment<3>(3 * it->second);
     worst = std::max(worst, (mine - theirs).norm());
   }
@@ -382,26 +389,13 @@ TEST_CASE("every level's product and the lowest level's matrix equal the serial 
     Vector ys = Vector::Zero(us.size());
     serial.assemble_level(l, nullptr, nullptr, 0.0, 1.0);
     serial.matrix(l).multiply(us.data(), ys.data());
-    const ElasticityModel& m = R.local().model(l);
-    const auto& free = m.assembler().free_index();
-    const auto& P = m.space().positions();
+    const auto owned = owned_nodes(R, l);
     Vector x = Vector::Zero(3 * R.owned(l)), y;
-    for (size_t n = 0; n < P.size(); ++n) {
-      const index_t fi = free[n];
-      if (fi < 0) continue;
-      const index_t g = R.global(l)[fi];
-      if (g >= R.first(l) && g < R.first(l) + R.owned(l)) x.segment<3>(3 * (g - R.first(l))) = f(P[n]);
-    }
+    for (const auto& [position, k] : owned) x.segment<3>(3 * k) = f(position);
     solver.multiply(l, x, y);
     double worst = 0, scale = ys.cwiseAbs().maxCoeff();
-    for (size_t n = 0; n < P.size(); ++n) {
-      const index_t fi = free[n];
-      if (fi < 0) continue;
-      const index_t g = R.global(l)[fi];
-      if (g < R.first(l) || g >= R.first(l) + R.owned(l)) continue;
-      const index_t s = at.at(key(P[n]));
-      worst = std::max(worst, (y.segment<3>(3 * (g - R.first(l))) - ys.segment<3>(3 * s)).norm() / scale);
-    }
+    for (const auto& [position, k] : owned)
+      worst = std::max(worst, (y.segment<3>(3 * k) - ys.segment<3>(3 * at.at(key(position)))).norm() / scale);
     CAPTURE(l);
     CHECK(worst < 1e-13);
   }

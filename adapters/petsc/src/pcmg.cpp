@@ -453,8 +453,9 @@ void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::stri
   // coarsening (HMIS there: its first pass is per rank, so its iterations change with the
   // partition, by 2 on 3 ranks in tests/distributed), extended+i interpolation of at most 6 entries
   // per row, one level of aggressive coarsening, strength 0.5, Chebyshev relaxation. PCHYPRE's
-  // own defaults (Falgout, classical interpolation) cost 2.6x the set-up and 1.3x the memory for
-  // 0.57x the iterations on the quadratic cube of docs/distributed.md.
+  // own defaults (Falgout, classical interpolation) cost 2.4-2.7x BoomerAMG's set-up time (1.6x the
+  // whole solver set-up) and 1.3x the peak memory for 0.57x the iterations on the quadratic cube
+  // of docs/distributed.md.
   if (lowest == "hypre")
     defaults += "-mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev -mg_coarse_pc_hypre_boomeramg_coarsen_type PMIS "
                 "-mg_coarse_pc_hypre_boomeramg_interp_type ext+i -mg_coarse_pc_hypre_boomeramg_P_max 6 "

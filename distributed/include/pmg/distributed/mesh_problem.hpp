@@ -129,4 +129,8 @@ RankSolveReport solve_on_ranks(MeshProblem& problem, const DistributedMgpcgParam
 /// The peak resident memory of this process so far, in bytes (getrusage).
 double peak_resident_bytes();
 
+/// Whether `path` names a mesh in PETSc's HDF5 format (what the file constructor reads and
+/// MeshProblemOptions::save_mesh writes): a name ending in ".h5".
+bool is_plex_file(const std::string& path);
+
 }  // namespace pmg::dist
