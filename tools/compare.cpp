@@ -769,12 +769,8 @@ void register_compare(CLI::App& app) {
                          " (keys and defaults: pmg solvers)");
     if (opts->fem && (!opts->matrix.empty() || !opts->levels.empty()))
       throw InputError("give either an FEM scene or --matrix/--levels, not both");
-    if (!opts->distributed_mesh && !opts->save_mesh.empty()) throw InputError("--save-mesh needs --distributed-mesh");
-    if (opts->distributed_mesh) {
-      check_distributed_mesh(*sub, opts->solvers, opts->save_mesh);
-      opts->fem = true;
-      opts->reference = false;
-    }
+    check_distributed_mesh(*sub, opts->distributed_mesh, opts->solvers, opts->save_mesh);
+    if (opts->distributed_mesh) opts->fem = true, opts->reference = false;
     run(*opts);
   });
 }

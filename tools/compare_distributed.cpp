@@ -37,7 +37,12 @@ void add_distributed_mesh_options(CLI::App* sub, bool& flag, std::string& save_m
                   "format, every rank its part), for --mesh FILE.h5 to read in parallel");
 }
 
-void check_distributed_mesh(const CLI::App& sub, const std::vector<std::string>& solvers, const std::string& save_mesh) {
+void check_distributed_mesh(const CLI::App& sub, bool on, const std::vector<std::string>& solvers,
+                            const std::string& save_mesh) {
+  if (!on) {
+    if (!save_mesh.empty()) throw InputError("--save-mesh needs --distributed-mesh");
+    return;
+  }
   for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--plot", "--solution-out",
                            "--export-levels", "--export-petsc", "--solver-config", "--fixed-iterations", "--warm-up",
                            "--allow", "--check-every", "--format"})

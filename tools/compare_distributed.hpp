@@ -15,9 +15,11 @@ namespace pmg::tools {
 
 /// Adds --distributed-mesh (into `flag`) and --save-mesh (into `save_mesh`) to pmg compare.
 void add_distributed_mesh_options(CLI::App* sub, bool& flag, std::string& save_mesh);
-/// Refuses by name what --distributed-mesh cannot honour: the options of `sub` it does not take,
-/// methods other than petsc-mgpcg, a --save-mesh not in PETSc's HDF5 format (.h5).
-void check_distributed_mesh(const CLI::App& sub, const std::vector<std::string>& solvers, const std::string& save_mesh);
+/// With --distributed-mesh (`on`), refuses by name what it cannot honour: the options of `sub` it
+/// does not take, methods other than petsc-mgpcg, a --save-mesh not in PETSc's HDF5 format
+/// (.h5); without it, a --save-mesh.
+void check_distributed_mesh(const CLI::App& sub, bool on, const std::vector<std::string>& solvers,
+                            const std::string& save_mesh);
 
 /// Builds the scene of `o` on the ranks of MPI_COMM_WORLD (rank 0 makes the coarse mesh, or every
 /// rank reads a share of a `.h5` mesh in PETSc's HDF5 format; DMPlex distributes it, each rank
