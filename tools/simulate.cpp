@@ -43,6 +43,7 @@ struct Cli {
   double duration = 0, dt = 0;
   bool print_scene = false, quiet = false;
   bool render = false;  // --render: the output folder's frames into <output>/render/ at the end
+  bool distributed_mesh = false;  // --distributed-mesh: no rank holds the whole mesh
 };
 
 /// Whether the progress may redraw one line with '\r': standard output is a terminal and no MPI
@@ -183,6 +184,42 @@ void run_dynamic(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& 
   }
 }
 
+/// The scene's mesh in words: its source, size, degree and clamp.
+std::string mesh_line(const sim::Scene& s, const sim::SceneSetup& b) {
+  std::string line = (s.mesh_file.empty() ? "box bar " + std::to_string(s.box[0]) + "x" + std::to_string(s.box[1]) + "x" +
+                                                std::to_string(s.box[2]) + " boxes"
+                                          : s.mesh_file) +
+                     (s.refine > 0 ? " refined " + std::to_string(s.refine) + "x" : "");
+  if (b.on_ranks) {
+    const sim::RankMeshSummary& r = b.rank_mesh;
+    return line + (s.refine > 0 ? " on the ranks" : "") + ", " + std::to_string(r.cells) + " tets, degree " +
+           std::to_string(s.degree) + ", " + std::to_string(r.unknowns) + " unknowns, " +
+           std::to_string(r.clamped_vertices) + " clamped vertices; distributed over " + count_of(r.ranks, "rank") +
+           (r.coarse_cells > 0 ? " from " + std::to_string(r.coarse_cells) + " cells on rank 0"
+                               : " (read in parallel)");
+  }
+  const fem::ElasticityModel& m = b.finest();
+  return line + ", " + std::to_string(b.mesh->num_tets()) + " tets, degree " + std::to_string(s.degree) + ", " +
+         std::to_string(m.num_free_dofs()) + " unknowns, " + std::to_string(m.num_fixed()) + " clamped nodes" +
+         (s.supports.empty() ? std::string() : ", " + std::to_string(held_components(m)) + " components held by supports");
+}
+
+/// The report's "mesh" object.
+json mesh_report(const sim::Scene& s, const sim::SceneSetup& b) {
+  json j = {{"source", s.mesh_file.empty() ? "box" : s.mesh_file}, {"degree", s.degree}};
+  if (b.on_ranks) {
+    const sim::RankMeshSummary& r = b.rank_mesh;
+    j.update({{"tets", r.cells}, {"unknowns", r.unknowns}, {"clamped_vertices", r.clamped_vertices},
+              {"distributed", {{"ranks", r.ranks}, {"coarse_cells_rank0", r.coarse_cells}}}});
+    json stages = json::array();
+    for (const auto& [name, seconds] : r.stages) stages.push_back({{"stage", name}, {"seconds_rank0", seconds}});
+    j["distributed"]["setup_stages"] = stages;
+  } else {
+    j.update({{"tets", b.mesh->num_tets()}, {"unknowns", b.finest().num_free_dofs()}, {"clamped_nodes", b.finest().num_fixed()}});
+  }
+  return j;
+}
+
 void run(const Cli& cli_in) {
   catch_interrupt();
   Cli cli = cli_in;
@@ -202,6 +239,9 @@ void run(const Cli& cli_in) {
     return;
   }
   // --render needs frames to render: refused before any work, as a bad path is.
+  if (cli.distributed_mesh && !s.dynamic)
+    throw InputError("--distributed-mesh: " + s.source + " is a static scene; pmg compare --distributed-mesh solves "
+                     "it across the ranks");
   if (cli.render && cli.output.empty())
     throw InputError("--render renders the run's frames, and this run writes none: give -o DIR (or "
                      "output.directory in the scene)");
@@ -216,31 +256,22 @@ void run(const Cli& cli_in) {
   plan.output(cli.json_report, "--json");
   plan.check();
   if (cli.render && mpi::launched_rank() == 0) prepare_output_directory(render_dir, "--render");
+  const bool across_ranks = cli.distributed_mesh || sim::runs_across_ranks(s);
   if (mpi::launched_rank() != 0) {  // under mpirun rank 0 writes; every rank its piece of a distributed frame
     cli.json_report.clear();
-    if (!sim::runs_across_ranks(s)) cli.output.clear();
+    if (!across_ranks) cli.output.clear();
   }
   const auto t0 = Clock::now();
-  sim::SceneSetup b = sim::set_up(s);
+  sim::SceneSetup b = cli.distributed_mesh ? sim::set_up_on_ranks(s) : sim::set_up(s);
   for (const auto& w : b.warnings) std::cerr << "warning: " << w << "\n";
-  const fem::ElasticityModel& m = b.finest();
   std::cout << "scene:   " << s.source << "\n"
-            << "mesh:    " << (s.mesh_file.empty() ? "box bar " + std::to_string(s.box[0]) + "x" + std::to_string(s.box[1]) + "x" + std::to_string(s.box[2]) + " boxes" : s.mesh_file)
-            << (s.refine > 0 ? " refined " + std::to_string(s.refine) + "x" : "")
-            << ", " << b.mesh->num_tets() << " tets, degree " << s.degree << ", " << m.num_free_dofs() << " unknowns, "
-            << m.num_fixed() << " clamped nodes"
-            << (s.supports.empty() ? std::string() : ", " + std::to_string(held_components(m)) + " components held by supports")
-            << "\n"
+            << "mesh:    " << mesh_line(s, b) << "\n"
             << "model:   " << (s.corotational ? "corotational" : "linear") << ", E = " << s.young << " Pa, nu = " << s.poisson
             << ", rho = " << s.density << " kg/m^3; initial state " << s.initial << "\n"
             << "set-up:  " << fmt("%.3f", seconds_since(t0)) << " s, " << count_of(omp_get_max_threads(), "thread") << "\n";
   json report = {{"command", "pmg simulate"},
                  {"scene", s.source},
-                 {"mesh", {{"source", s.mesh_file.empty() ? "box" : s.mesh_file},
-                           {"tets", b.mesh->num_tets()},
-                           {"degree", s.degree},
-                           {"unknowns", m.num_free_dofs()},
-                           {"clamped_nodes", m.num_fixed()}}},
+                 {"mesh", mesh_report(s, b)},
                  {"model", {{"material", s.corotational ? "corotational" : "linear"},
                             {"young_Pa", s.young},
                             {"poisson", s.poisson},
@@ -261,7 +292,7 @@ void run(const Cli& cli_in) {
   write_report();
   // Under mpirun rank 0 renders: a run across the ranks once every rank has written its pieces of
   // the last frame (another run's frames are all rank 0's own).
-  if (cli.render && mpi::launched_ranks() > 1 && sim::runs_across_ranks(s)) {
+  if (cli.render && mpi::launched_ranks() > 1 && across_ranks) {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
     MPI_Barrier(MPI_COMM_WORLD);
   }
@@ -287,6 +318,9 @@ void register_simulate(CLI::App& app) {
   sub->add_option("--duration", cli->duration, "override time.duration [s]")->check(FinitePositive());
   sub->add_option("--dt", cli->dt, "override time.dt [s]")->check(FinitePositive());
   add_threads_option(sub);
+  sub->add_flag("--distributed-mesh", cli->distributed_mesh,
+                "under mpirun: build the scene on the ranks, none holding the whole mesh (DMPlex; a .h5 mesh read in "
+                "parallel, mesh.refine after distribution), and step it with petsc-mgpcg (docs/distributed.md)");
   sub->add_flag("--print-scene", cli->print_scene, "print the scene as JSON (a template to edit) and stop");
   sub->add_flag("-q,--quiet", cli->quiet, "no progress lines");
   sub->add_option("--json", cli->json_report,

@@ -12,7 +12,9 @@
 #include <cmath>
 #include <cstdint>
 #include <mutex>
+#include <sstream>
 #include <string>
+#include <tuple>
 
 namespace pmg::dist {
 
@@ -48,7 +50,7 @@ class RankLevels final : public Solver {
 
 DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vector& f_ext,
                                    const fem::SimulationParams& p, DistributedMgpcgParams solver, MPI_Comm comm)
-    : serial_(serial), p_(p), comm_(comm) {
+    : serial_(&serial), p_(p), comm_(comm) {
   const fem::ElasticityModel& m = serial.finest();
   // Each rank was handed the whole model: the same on every rank, or a named error on all.
   std::vector<mpi::Item> items = {{"dt", detail::exact(p.dt)},
@@ -65,14 +67,46 @@ DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vec
   if (holds_components(serial))
     throw InputError("distributed time step: components held on their own (symmetry planes, supports) "
                      "are not supported across ranks yet; use mgpcg on one process");
-  ranks_ = std::make_unique<RankHierarchy>(serial, comm);
+  own_ranks_ = std::make_unique<RankHierarchy>(serial, comm);
+  ranks_ = own_ranks_.get();
   const int top = ranks_->num_levels() - 1;
-  ghosts_ = std::make_unique<petsc::GhostExchange>(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
-  f_ext_owned_ = ranks_->owned_part(top, m.restrict_to_free(f_ext));
-  solver_ = std::make_unique<petsc::PMultigridCg>(comm, to_pcmg(solver));
+  build(ranks_->owned_part(top, m.restrict_to_free(f_ext)), solver);
+}
+
+DistributedEuler::DistributedEuler(RankHierarchy& ranks, const Vector& f_ext_owned, const fem::SimulationParams& p,
+                                   DistributedMgpcgParams solver)
+    : p_(p), comm_(ranks.comm()), ranks_(&ranks) {
+  std::vector<mpi::Item> items = {{"dt", detail::exact(p.dt)},
+                                  {"rayleigh_alpha", detail::exact(p.rayleigh_alpha)},
+                                  {"rayleigh_beta", detail::exact(p.rayleigh_beta)},
+                                  {"the material model", p.corotational ? "corotational" : "linear"}};
+  const std::vector<mpi::Item> keys = detail::params_items(solver);
+  items.insert(items.end(), keys.begin(), keys.end());
+  mpi::check_agreement(comm_, items, "distributed time step");
+  const int top = ranks.num_levels() - 1;
+  mpi::together(comm_, [&] {
+    const fem::ElasticityModel& local = ranks.local().finest();
+    if (f_ext_owned.size() != 3 * static_cast<Eigen::Index>(ranks.owned(top)))
+      throw InputError("distributed time step: an external force of " + std::to_string(f_ext_owned.size()) +
+                       " entries for " + std::to_string(3 * ranks.owned(top)) + " owned unknowns");
+    if (!f_ext_owned.allFinite()) throw InputError("distributed time step: the external force is not finite");
+    fem::check_simulation(local, Vector::Zero(local.num_dofs()), p);
+  });
+  if (ranks.num_levels() < 2)
+    throw InputError("distributed time step: needs at least two levels (an FEM scene of degree >= 2)");
+  build(f_ext_owned, solver);
+}
+
+void DistributedEuler::build(const Vector& f_ext_owned, const DistributedMgpcgParams& solver) {
+  const int top = ranks_->num_levels() - 1;
+  ghosts_ = std::make_unique<petsc::GhostExchange>(comm_, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
+  f_ext_owned_ = f_ext_owned;
+  params_ = solver;
+  solver_ = std::make_unique<petsc::PMultigridCg>(comm_, to_pcmg(solver));
   rank_solver_ = std::make_unique<RankLevels>(*solver_, *ranks_);
   system_ = std::make_unique<fem::BoundSystem>(ranks_->local().bind(*rank_solver_));
-  set_state(Vector::Zero(m.num_dofs()), Vector::Zero(m.num_dofs()));
+  u_owned_ = v_owned_ = Vector::Zero(ghosts_->owned_size());
+  owned_to_local();
 }
 
 DistributedEuler::~DistributedEuler() = default;
@@ -100,17 +134,111 @@ bool DistributedEuler::any_rank(bool mine) const {
 }
 
 void DistributedEuler::set_state(const Vector& u, const Vector& v) {
-  const fem::ElasticityModel& m = serial_.finest();
+  if (!serial_)
+    throw InputError("distributed time step: set_state takes serial vectors, and this one runs on a distributed mesh "
+                     "(set_state_local)");
+  const fem::ElasticityModel& m = serial_->finest();
   mpi::check_agreement(comm_, {{"the displacement", "digest " + mpi::digest(u)}, {"the velocity", "digest " + mpi::digest(v)}},
                        "distributed time step: set_state");
   mpi::together(comm_, [&] { fem::check_state(m, u, v); });
   const int top = ranks_->num_levels() - 1;
   const fem::ElasticityModel& local = ranks_->local().finest();
-  u_local_ = ranks_->local_part(serial_, top, u);
-  v_local_ = local.restrict_to_free(ranks_->local_part(serial_, top, v));
+  u_local_ = ranks_->local_part(*serial_, top, u);
+  v_local_ = local.restrict_to_free(ranks_->local_part(*serial_, top, v));
   u_owned_ = ranks_->owned_part(top, m.restrict_to_free(u));
   v_owned_ = ranks_->owned_part(top, m.restrict_to_free(v));
   state_.valid = false;
+}
+
+void DistributedEuler::owned_to_local() {
+  Vector u_free;
+  ghosts_->to_local(u_owned_, u_free);
+  u_local_ = ranks_->local().finest().expand(u_free, Vector());
+  ghosts_->to_local(v_owned_, v_local_);
+  state_.valid = false;
+}
+
+void DistributedEuler::set_state_local(const Vector& u, const Vector& v) {
+  const int top = ranks_->num_levels() - 1;
+  const fem::ElasticityModel& local = ranks_->local().finest();
+  mpi::together(comm_, [&] {
+    for (const Vector* x : {&u, &v}) {
+      const char* what = x == &u ? "displacement" : "velocity";
+      if (x->size() != local.num_dofs())
+        throw InputError(std::string("distributed time step: set_state_local: a ") + what + " of " +
+                         std::to_string(x->size()) + " entries for the rank's " + std::to_string(local.num_dofs()));
+      if (!x->allFinite()) throw InputError(std::string("distributed time step: set_state_local: the ") + what + " is not finite");
+    }
+  });
+  // The owned part of the rank's free nodes; the ghosts then take their owners' values.
+  const Vector uf = local.restrict_to_free(u), vf = local.restrict_to_free(v);
+  const std::vector<index_t>& global = ranks_->global(top);
+  const index_t first = ranks_->first(top), owned = ranks_->owned(top);
+  for (size_t i = 0; i < global.size(); ++i) {
+    const index_t k = global[i] - first;
+    if (k < 0 || k >= owned) continue;
+    u_owned_.segment<3>(3 * k) = uf.segment<3>(3 * static_cast<Eigen::Index>(i));
+    v_owned_.segment<3>(3 * k) = vf.segment<3>(3 * static_cast<Eigen::Index>(i));
+  }
+  owned_to_local();
+}
+
+int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticOptions& options, double solve_tol) {
+  mpi::together(comm_, [&] {
+    if (f_owned.size() != ghosts_->owned_size())
+      throw InputError("distributed time step: a static load of " + std::to_string(f_owned.size()) + " entries for " +
+                       std::to_string(ghosts_->owned_size()) + " owned unknowns");
+    if (!f_owned.allFinite()) throw InputError("distributed time step: the static load is not finite");
+  });
+  // Its own solver on the stiffness alone, to solve_tol: the step solver keeps its tolerance.
+  DistributedMgpcgParams sp = params_;
+  sp.tol = solve_tol;
+  sp.rhs_floor = 0.0;
+  petsc::PMultigridCg solver(comm_, to_pcmg(sp));
+  fem::DegreeHierarchy& local = ranks_->local();
+  const bool corotational = p_.corotational;
+  u_owned_.setZero();
+  v_owned_.setZero();
+  owned_to_local();
+  step_levels_ = false;
+  double omega = options.relaxation, previous_change = INFINITY;
+  for (int it = 1;; ++it) {
+    // The fixed point of pmg/fem/static_solve.hpp: K_R δ = f + f_el(u_k), u_{k+1} = u_k + ω δ.
+    fem::Rotations R;
+    Vector force;
+    std::string error;
+    try {
+      if (corotational) R = local.finest().rotations(u_local_);
+      system_->evaluate(u_local_, corotational ? &R : nullptr, {}, &force, nullptr);
+      system_->prepare(corotational ? &R : nullptr, {}, /*finest=*/false);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    agree_on(comm_, error, "static state, iteration " + std::to_string(it));
+    if (it == 1) solver.setup(ranks_->rank_levels());
+    else solver.refresh();
+    Vector rhs;
+    ghosts_->add_to_owners(local.finest().restrict_to_free(force), rhs);
+    rhs += f_owned;
+    Vector delta = Vector::Zero(rhs.size());
+    const SolveResult res = solver.solve(rhs, delta);
+    if (!res.ok()) {
+      SolveResult r = res;
+      r.message = "static state: iteration " + std::to_string(it) + ": petsc-mgpcg failed: " + res.message;
+      throw SolveError(r);
+    }
+    const double change = std::sqrt(sum(delta.squaredNorm())) /
+                          std::max(std::sqrt(sum((u_owned_ + delta).squaredNorm())), 1e-300);
+    if (corotational && it > 1 && change > previous_change) omega = std::max(omega / 2, 1.0 / 64);
+    previous_change = change;
+    u_owned_ += (corotational && it > 1 ? omega : 1.0) * delta;
+    owned_to_local();
+    if (!corotational || change <= options.corotational_tol) return it;
+    if (!std::isfinite(change) || it >= options.max_corotational_iterations)
+      throw Error("static state: the corotational fixed point did not converge (relative change " +
+                  std::to_string(change) + " after " + std::to_string(it) + " iterations, tolerance " +
+                  std::to_string(options.corotational_tol) + ")");
+  }
 }
 
 void DistributedEuler::evaluate_state() const {
@@ -130,8 +258,7 @@ void DistributedEuler::evaluate_state() const {
       state_.seconds[fem::kRotations] = seconds_since(t0);
     }
     // The finest operator with the force and energy (linear material: final after the first step).
-    s = system_->evaluate(u_local_, R, {w.mass, w.stiffness}, &force, &energy,
-                          p_.corotational || !rank_solver_->is_set_up());
+    s = system_->evaluate(u_local_, R, {w.mass, w.stiffness}, &force, &energy, p_.corotational || !step_levels_);
     state_.seconds[fem::kAssembly] = s.finest;
   } catch (const std::exception& e) {
     error = e.what();
@@ -152,7 +279,7 @@ fem::StepStats DistributedEuler::step() {
   fem::DegreeHierarchy& local = ranks_->local();
   const int top = local.num_levels() - 1;
   const fem::StepWeights w = fem::step_weights(p_);
-  if (p_.corotational || !rank_solver_->is_set_up()) {
+  if (p_.corotational || !step_levels_) {
     // The lower degrees get the same rotations and weights (the seam prepares what the rank's
     // solver reads: matrix-free degrees, the linear level assembled); every rank agrees on the
     // rank-local work before the collective set-up.
@@ -166,6 +293,7 @@ fem::StepStats DistributedEuler::step() {
     }
     agree_on(comm_, error, "step " + std::to_string(step_ + 1));
     system_->set_up_solver();
+    step_levels_ = true;
     st.seconds[fem::kHierarchy] = seconds_since(t0);
   }
   // b = M v + Δt (f_ext + f_el(x)) on the owned unknowns.
@@ -214,7 +342,8 @@ double DistributedEuler::elastic_energy() const {
 double DistributedEuler::external_work() const { return sum(f_ext_owned_.dot(u_owned_)); }
 
 fem::Vec3 DistributedEuler::displacement_at(index_t serial_element, const Eigen::Vector4d& barycentric) const {
-  if (serial_element < 0 || serial_element >= serial_.finest().space().mesh().num_tets())
+  if (!serial_) throw InputError("distributed time step: no serial elements on a distributed mesh (locate a point)");
+  if (serial_element < 0 || serial_element >= serial_->finest().space().mesh().num_tets())
     throw InputError("distributed time step: no element " + std::to_string(serial_element));
   const index_t e = ranks_->local_element(serial_element);
   fem::Vec3 mine = fem::Vec3::Zero(), all = fem::Vec3::Zero();
@@ -224,9 +353,41 @@ fem::Vec3 DistributedEuler::displacement_at(index_t serial_element, const Eigen:
   return all;
 }
 
+DistributedEuler::Located DistributedEuler::locate(const fem::Vec3& point) const {
+  Located mine;
+  try {
+    std::tie(mine.element, mine.barycentric) = ranks_->local().finest().locate(point);
+    mine.rank = ranks_->rank();
+  } catch (const Error&) {  // not among this rank's elements
+  }
+  int holder = mine.rank >= 0 ? mine.rank : ranks_->size();
+  Located out;
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Allreduce(&holder, &out.rank, 1, MPI_INT, MPI_MIN, comm_);
+  }
+  if (out.rank == ranks_->size()) {
+    std::ostringstream where;
+    where << "the point (" << point.transpose() << ") lies outside the mesh (no rank's elements hold it)";
+    throw InputError(where.str());
+  }
+  if (out.rank == ranks_->rank()) out.element = mine.element, out.barycentric = mine.barycentric;
+  return out;
+}
+
+fem::Vec3 DistributedEuler::displacement_at(const Located& point) const {
+  if (point.rank < 0 || point.rank >= ranks_->size()) throw InputError("distributed time step: a point not located");
+  fem::Vec3 d = fem::Vec3::Zero();
+  if (point.rank == ranks_->rank()) d = ranks_->local().finest().displacement_at(u_local_, point.element, point.barycentric);
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Bcast(d.data(), 3, MPI_DOUBLE, point.rank, comm_);
+  return d;
+}
+
 Vector DistributedEuler::gather_displacement() const {
+  if (!serial_) throw InputError("distributed time step: gather_displacement gathers a serial vector, and this one runs on a distributed mesh");
   const int top = ranks_->num_levels() - 1;
-  return serial_.finest().expand(ranks_->gather(top, u_owned_), Vector());
+  return serial_->finest().expand(ranks_->gather(top, u_owned_), Vector());
 }
 
 std::string DistributedEuler::write_frame(const std::string& directory, const std::string& stem) const {

@@ -11,6 +11,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <mutex>
 
@@ -155,24 +156,44 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
 
   // Loads from the rank's own cells, summed into the owners.
   t0 = Clock::now();
+  axis_ = axis, tol_ = tol;
   const int top = ranks_->num_levels() - 1;
   const fem::ElasticityModel& m = ranks_->local().finest();
-  Vector f = Vector::Zero(m.num_dofs());
-  if (o.gravity.norm() > 0) f += m.gravity(o.gravity);
-  if (o.end_force.norm() > 0) {
-    Vector g = Vector::Zero(m.num_dofs());
-    const double hi = hi_[axis];
-    const double area = reduce(comm, m.add_traction(g, [=](const fem::Vec3& P) { return P[axis] >= hi - tol; }, o.end_force),
-                               MPI_SUM);
-    if (!(area > 0)) throw InputError("distributed mesh: no boundary face at the maximum of the clamp axis to load");
-    f += g / area;
-  }
-  const Vector local = m.restrict_to_free(f);
-  petsc::GhostExchange exchange(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
-  load_ = Vector::Zero(exchange.owned_size());
-  exchange.add_to_owners(local, load_);
+  exchange_ = std::make_unique<petsc::GhostExchange>(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
+  load_ = Vector::Zero(exchange_->owned_size());
+  if (o.gravity.norm() > 0) exchange_->add_to_owners(m.restrict_to_free(m.gravity(o.gravity)), load_);
+  if (o.end_force.norm() > 0) load_ += end_traction(o.end_force);
   stages_.emplace_back("loads", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
+}
+
+Vector MeshProblem::end_traction(const fem::Vec3& F) const {
+  const fem::ElasticityModel& m = ranks_->local().finest();
+  Vector g = Vector::Zero(m.num_dofs());
+  const int axis = axis_;
+  const double hi = hi_[axis], tol = tol_;
+  const double area = reduce(comm_, m.add_traction(g, [=](const fem::Vec3& P) { return P[axis] >= hi - tol; }, F), MPI_SUM);
+  if (!(area > 0)) throw InputError("distributed mesh: no boundary face at the maximum of the clamp axis to load");
+  Vector owned;
+  exchange_->add_to_owners(m.restrict_to_free(g), owned);
+  return owned / area;
+}
+
+fem::Vec3 MeshProblem::nearest_vertex(const fem::Vec3& target) const {
+  // (distance, x, y, z) of the rank's best vertex; the smallest over the ranks, compared in order.
+  std::array<double, 4> mine = {1e300, 0.0, 0.0, 0.0};
+  for (const fem::Vec3& X : ranks_->mesh().vertices) {
+    const std::array<double, 4> c = {(X - target).norm(), X[0], X[1], X[2]};
+    if (c < mine) mine = c;
+  }
+  std::vector<double> all(4 * static_cast<size_t>(ranks_->size()));
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Allgather(mine.data(), 4, MPI_DOUBLE, all.data(), 4, MPI_DOUBLE, comm_);
+  }
+  std::array<double, 4> best = mine;
+  for (size_t r = 0; r < all.size(); r += 4) best = std::min(best, {all[r], all[r + 1], all[r + 2], all[r + 3]});
+  return {best[1], best[2], best[3]};
 }
 
 MeshProblem::~MeshProblem() = default;

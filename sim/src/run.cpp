@@ -8,6 +8,7 @@
 #include "pmg/sparse/timer.hpp"
 #ifdef PMG_HAVE_DISTRIBUTED
 #include "pmg/distributed/dynamics.hpp"
+#include "pmg/distributed/mesh_problem.hpp"
 #endif
 
 #include <sys/stat.h>
@@ -110,43 +111,47 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
 };
 
 #ifdef PMG_HAVE_DISTRIBUTED
-class RankStepper final : public SteppingWith<dist::DistributedEuler> {
- public:
-  RankStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, const Vector& u0,
-              const Vector& v0, std::string& settings) {
-    Config c = scene.solver.clone();
-    c.set_default("rhs_floor", "1e-12");  // warm-started steps end at once within rounding
-    const double start = start_libraries(c);
-    if (start >= 0) {
-      char text[64];
-      std::snprintf(text, sizeof text, "MPI (and PETSc) start-up: %.3f s", start);
-      setup.notes.push_back(text);
-    }
-    settings = c.to_string();
-    c.mark_used("method");
-    dist::DistributedMgpcgParams params = read_params<dist::DistributedMgpcgParams>(c);
-    params.allow_unused_options = unused_options_allowed(c);
-    check_keys_used(c);  // as make_solver does: a key petsc-mgpcg does not read is an error
-    sim_ = std::make_unique<dist::DistributedEuler>(*setup.hierarchy, setup.f_ext, sp, params);
-    sim_->set_state(u0, v0);
-    // A vertex probe becomes a corner of an element holding it: the value there is the vertex's.
-    const Probe& p = setup.probe;
-    element_ = p.element, barycentric_ = p.barycentric;
-    if (p.vertex >= 0) {
-      const fem::TetMesh& mesh = *setup.mesh;
-      for (index_t e = 0; e < mesh.num_tets() && element_ < 0; ++e)
-        for (int k = 0; k < 4; ++k)
-          if (mesh.tets[e][k] == p.vertex) element_ = e, barycentric_ = Eigen::Vector4d::Unit(k);
-    }
-    const int ranks = sim_->ranks().size();
-    setup.notes.push_back("ranks: " + std::to_string(ranks) + "; each steps its own elements (" +
-                          (scene.corotational ? "rotations, forces, energies; degrees >= 2 matrix-free, the "
-                                                "linear level assembled per step"
-                                              : "forces, energies; degrees >= 2 matrix-free, the linear level "
-                                                "assembled once") +
-                          ") and writes its own piece of each frame (.pvtu)");
+/// petsc-mgpcg's keys from the scene's solver options (a rounding floor for warm starts; a key it
+/// does not read is an error, as make_solver() says), the start-up of MPI and PETSc as a note.
+dist::DistributedMgpcgParams step_params(const Config& solver, SceneSetup& setup, std::string& settings) {
+  Config c = solver.clone();
+  c.set_default("rhs_floor", "1e-12");  // warm-started steps end at once within rounding
+  const double start = start_libraries(c);
+  if (start >= 0) {
+    char text[64];
+    std::snprintf(text, sizeof text, "MPI (and PETSc) start-up: %.3f s", start);
+    setup.notes.push_back(text);
   }
-  fem::Vec3 probe() const override { return sim_->displacement_at(element_, barycentric_); }
+  c.mark_used("method");
+  dist::DistributedMgpcgParams params = read_params<dist::DistributedMgpcgParams>(c);
+  params.allow_unused_options = unused_options_allowed(c);
+  check_keys_used(c);
+  settings = c.to_string();
+  return params;
+}
+
+/// The scene's solver options as petsc-mgpcg's, the route's one method: a scene naming it keeps
+/// them all; another method's stopping rule (tol, max_iterations, rhs_floor, throw_on_failure) is
+/// kept and its other keys, whose values mean that method's choices, are named in a note.
+Config petsc_mgpcg_keys(const Scene& scene, std::vector<std::string>& notes) {
+  const std::string named = scene.solver.get_string("method", "petsc-mgpcg");
+  if (named == "petsc-mgpcg") return scene.solver.clone();
+  Config c = Config::from_pairs({"method=petsc-mgpcg"}, scene.solver.origin());
+  std::string dropped;
+  for (const auto& [key, value] : scene.solver.items()) {
+    if (key == "method") continue;
+    if (key == "tol" || key == "max_iterations" || key == "rhs_floor" || key == "throw_on_failure") c.set(key, value);
+    else dropped += (dropped.empty() ? "" : ", ") + key;
+  }
+  notes.push_back("solver: petsc-mgpcg across the ranks in place of the scene's " + named +
+                  (dropped.empty() ? std::string() : " (its keys " + dropped + " not taken)"));
+  return c;
+}
+
+/// dist::DistributedEuler across the ranks of the job: each rank writes its piece of a frame, rank
+/// 0 the run's files; stop requests, output failures and the output directory agreed on.
+class AcrossRanks : public SteppingWith<dist::DistributedEuler> {
+ public:
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
     return sim_->write_frame(directory, stem);
   }
@@ -166,9 +171,77 @@ class RankStepper final : public SteppingWith<dist::DistributedEuler> {
     sim_->require_same_on_every_rank("the output directory", directory);
   }
 
+ protected:
+  static std::string rank_note(const Scene& scene, int ranks) {
+    return "ranks: " + std::to_string(ranks) + "; each steps its own elements (" +
+           (scene.corotational ? "rotations, forces, energies; degrees >= 2 matrix-free, the linear level assembled "
+                                 "per step"
+                               : "forces, energies; degrees >= 2 matrix-free, the linear level assembled once") +
+           ") and writes its own piece of each frame (.pvtu)";
+  }
+};
+
+/// The replicated set-up: every rank holds the serial scene and takes its share.
+class RankStepper final : public AcrossRanks {
+ public:
+  RankStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, const Vector& u0,
+              const Vector& v0, std::string& settings) {
+    sim_ = std::make_unique<dist::DistributedEuler>(*setup.hierarchy, setup.f_ext, sp, step_params(scene.solver, setup, settings));
+    sim_->set_state(u0, v0);
+    // A vertex probe becomes a corner of an element holding it: the value there is the vertex's.
+    const Probe& p = setup.probe;
+    element_ = p.element, barycentric_ = p.barycentric;
+    if (p.vertex >= 0) {
+      const fem::TetMesh& mesh = *setup.mesh;
+      for (index_t e = 0; e < mesh.num_tets() && element_ < 0; ++e)
+        for (int k = 0; k < 4; ++k)
+          if (mesh.tets[e][k] == p.vertex) element_ = e, barycentric_ = Eigen::Vector4d::Unit(k);
+    }
+    setup.notes.push_back(rank_note(scene, sim_->ranks().size()));
+  }
+  fem::Vec3 probe() const override { return sim_->displacement_at(element_, barycentric_); }
+
  private:
   index_t element_ = -1;
   Eigen::Vector4d barycentric_ = Eigen::Vector4d::Zero();
+};
+
+/// A mesh no rank holds whole (set_up_on_ranks): the initial state from each rank's own part — a
+/// formula on its nodes, or the static deflection solved across the ranks — and a probe point
+/// located once.
+class RankMeshStepper final : public AcrossRanks {
+ public:
+  RankMeshStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, std::string& settings) {
+    dist::MeshProblem& problem = *setup.on_ranks;
+    sim_ = std::make_unique<dist::DistributedEuler>(problem.ranks(), problem.load(), sp,
+                                                    step_params(petsc_mgpcg_keys(scene, setup.notes), setup, settings));
+    if (scene.initial == "deflected") {
+      const auto t0 = Clock::now();
+      fem::StaticOptions so;
+      so.corotational_tol = 1e-6;  // as the serial scene's deflected start
+      const int iterations = sim_->set_static_state(problem.end_traction(scene.initial_force), so);
+      char text[160];
+      std::snprintf(text, sizeof text,
+                    "initial state: static deflection under the end force solved across the ranks, %d fixed-point "
+                    "iterations, %.2f s",
+                    iterations, seconds_since(t0));
+      setup.notes.push_back(text);
+    } else {
+      const auto [u, v] = formula_state(scene, problem.ranks().local().finest(), setup.lo, setup.hi);
+      sim_->set_state_local(u, v);
+    }
+    try {
+      probe_ = sim_->locate(setup.probe.point);  // every rank alike
+    } catch (const InputError& e) {
+      throw InputError(std::string("output.probe: ") + e.what());
+    }
+    setup.notes.push_back(rank_note(scene, sim_->ranks().size()) +
+                          "; the mesh, its numbering, loads and initial state built on the ranks, none holding it whole");
+  }
+  fem::Vec3 probe() const override { return sim_->displacement_at(probe_); }
+
+ private:
+  dist::DistributedEuler::Located probe_;
 };
 #endif
 
@@ -209,19 +282,26 @@ bool runs_across_ranks(const Scene& scene) {
 DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string& output_dir)
     : scene_(scene), setup_(setup), output_(output_dir) {
   if (!scene.dynamic) throw InputError("DynamicRun: the scene is static (time: \"static\")");
-  const auto [u0, v0] = initial_state(scene, setup);
   fem::SimulationParams sp;
   sp.dt = scene.dt;
   sp.rayleigh_alpha = scene.rayleigh_alpha;
   sp.rayleigh_beta = scene.rayleigh_beta;
   sp.corotational = scene.corotational;
 #ifdef PMG_HAVE_DISTRIBUTED
-  if (runs_across_ranks(scene)) {
+  if (setup.on_ranks) {
+    method_ = "petsc-mgpcg";
+    stepper_ = std::make_unique<detail::RankMeshStepper>(scene, setup, sp, settings_);
+  } else if (runs_across_ranks(scene)) {
+    const auto [u0, v0] = initial_state(scene, setup);
     method_ = scene.solver.get_string("method", kDefaultDynamicMethod);
     stepper_ = std::make_unique<detail::RankStepper>(scene, setup, sp, u0, v0, settings_);
   }
 #endif
-  if (!stepper_) stepper_ = std::make_unique<detail::SerialStepper>(scene, setup, sp, u0, v0, method_, settings_);
+  if (!stepper_) {
+    if (setup.on_ranks) throw InputError("DynamicRun: a set-up across ranks needs a build with pmg::distributed");
+    const auto [u0, v0] = initial_state(scene, setup);
+    stepper_ = std::make_unique<detail::SerialStepper>(scene, setup, sp, u0, v0, method_, settings_);
+  }
   steps_ = static_cast<int>(std::llround(scene.duration / scene.dt));
   auto& notes = setup.notes;
   if (!scene.corotational)

@@ -7,6 +7,10 @@
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/timer.hpp"
+#ifdef PMG_HAVE_DISTRIBUTED
+#include "pmg/distributed/scene.hpp"
+#include "pmg/mpi/session.hpp"
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -165,24 +169,47 @@ SceneSetup set_up(const Scene& s) {
   return b;
 }
 
-std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
-  const fem::ElasticityModel& m = b.finest();
+SceneSetup set_up_on_ranks(const Scene& s) {
+#ifdef PMG_HAVE_DISTRIBUTED
+  SceneSetup b;
+  mpi::start();
+  MPI_Comm comm = MPI_COMM_WORLD;
+  const dist::MeshProblemOptions o = dist::mesh_problem_options(s);
+  b.on_ranks = dist::mesh_problem(comm, s, o, &b.warnings, &b.rank_mesh.coarse_cells);
+  const dist::MeshProblem& p = *b.on_ranks;
+  const dist::RankHierarchy& R = p.ranks();
+  const int top = R.num_levels() - 1;
+  RankMeshSummary& r = b.rank_mesh;
+  r.ranks = R.size();
+  r.cells = p.global_cells();
+  r.unknowns = 3 * static_cast<long>(R.global_nodes(top));
+  r.clamped_vertices = p.clamped_vertices();
+  r.stages = p.stages();
+  b.lo = p.lo(), b.hi = p.hi(), b.centre = 0.5 * (b.lo + b.hi);
+  if (s.probe) {
+    b.probe.point = *s.probe;
+  } else {
+    fem::Vec3 target = b.centre;
+    target[s.clamp_axis] = b.hi[s.clamp_axis];
+    b.probe.point = p.nearest_vertex(target);
+  }
+  if (s.gravity.norm() == 0) b.notes.push_back("gravity load: skipped (none in the scene)");
+  return b;
+#else
+  (void)s;
+  throw InputError("a scene on a distributed mesh: this build has no PETSc (pmg::distributed is not built)");
+#endif
+}
+
+std::pair<Vector, Vector> formula_state(const Scene& s, const fem::ElasticityModel& m, const fem::Vec3& lo_corner,
+                                        const fem::Vec3& hi_corner) {
   Vector u = Vector::Zero(m.num_dofs()), v = Vector::Zero(m.num_dofs());
   const int axis = s.clamp_axis;
-  const double lo = axis >= 0 ? b.lo[axis] : 0.0, L = axis >= 0 ? b.hi[axis] - lo : 0.0;
+  const fem::Vec3 centre = 0.5 * (lo_corner + hi_corner);
+  const double lo = axis >= 0 ? lo_corner[axis] : 0.0, L = axis >= 0 ? hi_corner[axis] - lo : 0.0;
   if (s.initial != "rest" && s.initial != "spinning" && axis < 0)
     throw InputError("initial.state " + s.initial + ": needs a clamp axis");
-  if (s.initial == "deflected") {
-    const auto t0 = Clock::now();
-    const Vector f = end_force(m, axis, b.hi[axis], 1e-9 * L, s.initial_force);
-    fem::StaticOptions so;
-    so.corotational_tol = 1e-6;
-    register_all_solvers();  // the static solve's default direct method
-    const fem::StaticResult r = fem::solve_static(m, f, s.corotational, so);
-    u = r.u;
-    b.notes.push_back("initial state: static deflection under the end force, " +
-                      std::to_string(r.iterations) + " fixed-point iterations, " + seconds(seconds_since(t0), 2) + " s");
-  } else if (s.initial == "compressed") {
+  if (s.initial == "compressed") {
     u = m.interpolate([&](const fem::Vec3& X) {
       fem::Vec3 d = fem::Vec3::Zero();
       d[axis] = -s.strain * (X[axis] - lo);
@@ -193,17 +220,35 @@ std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
     u = m.interpolate([&](const fem::Vec3& X) {
       const double a = total * (X[axis] - lo) / L;
       const int i = (axis + 1) % 3, j = (axis + 2) % 3;
-      const double yi = X[i] - b.centre[i], yj = X[j] - b.centre[j];
+      const double yi = X[i] - centre[i], yj = X[j] - centre[j];
       fem::Vec3 d = fem::Vec3::Zero();
       d[i] = std::cos(a) * yi - std::sin(a) * yj - yi;
       d[j] = std::sin(a) * yi + std::cos(a) * yj - yj;
       return d;
     });
   } else if (s.initial == "spinning") {
-    v = m.interpolate([&](const fem::Vec3& X) -> fem::Vec3 { return s.omega.cross(X - b.centre); });
+    v = m.interpolate([&](const fem::Vec3& X) -> fem::Vec3 { return s.omega.cross(X - centre); });
   }
   for (index_t i = 0; i < m.num_nodes(); ++i)
     if (m.is_fixed(i)) u.segment<3>(3 * i).setZero(), v.segment<3>(3 * i).setZero();
+  return {u, v};
+}
+
+std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
+  const fem::ElasticityModel& m = b.finest();
+  auto [u, v] = formula_state(s, m, b.lo, b.hi);
+  if (s.initial == "deflected") {
+    const auto t0 = Clock::now();
+    const int axis = s.clamp_axis;
+    const Vector f = end_force(m, axis, b.hi[axis], 1e-9 * (b.hi[axis] - b.lo[axis]), s.initial_force);
+    fem::StaticOptions so;
+    so.corotational_tol = 1e-6;
+    register_all_solvers();  // the static solve's default direct method
+    const fem::StaticResult r = fem::solve_static(m, f, s.corotational, so);
+    u = r.u;
+    b.notes.push_back("initial state: static deflection under the end force, " +
+                      std::to_string(r.iterations) + " fixed-point iterations, " + seconds(seconds_since(t0), 2) + " s");
+  }
   return {u, v};
 }
 

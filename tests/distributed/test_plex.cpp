@@ -3,10 +3,12 @@
 // counts, a numbering in which every rank sees a shared node under the same global number, and
 // solutions equal to pmgkit's serial MGPCG on the same mesh. The same executable runs on 1 rank
 // and under mpirun -np 2, 3 and 4 (oversubscribed: equality, not speed).
+#include "pmg/distributed/dynamics.hpp"
 #include "pmg/distributed/mesh_problem.hpp"
 #include "pmg/distributed/rank_hierarchy.hpp"
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/static_solve.hpp"
 #include "pmg/petsc/plex.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/sparse/factory.hpp"
@@ -405,4 +407,57 @@ TEST_CASE("every level's product and the lowest level's matrix equal the serial 
     CHECK(again.ranks().owned(l) == R.owned(l));
     CHECK(again.ranks().global(l) == R.global(l));
   }
+}
+
+TEST_CASE("a time step's start on a distributed mesh: the static state, a formula, a probe point", "[plex][simulation]") {
+  const bool corotational = GENERATE(false, true);
+  CAPTURE(corotational);
+  const TetMesh box = box_mesh_24(6, 2, 2, 1.0, 0.3, 0.3);
+  dist::MeshProblemOptions o;
+  o.material = Material{500e3, 0.3, 1000.0};
+  o.end_force = Vec3(0, 0, -2000.0);  // a large deflection: rotations matter
+  dist::MeshProblem problem(MPI_COMM_WORLD, [&] { return box; }, o);
+  SimulationParams sp;
+  sp.corotational = corotational;
+  dist::DistributedMgpcgParams params;
+  params.tol = 1e-11;
+  dist::DistributedEuler across(problem.ranks(), problem.load(), sp, params);
+  StaticOptions so;
+  so.corotational_tol = 1e-11;
+  const int iterations = across.set_static_state(problem.load(), so, 1e-12);
+  CHECK((corotational ? iterations > 2 : iterations == 1));
+
+  // The serial fixed point on the same mesh with pmgkit's MGPCG.
+  DegreeHierarchy serial(box, 2, o.material, [](const Vec3& X) { return X.x() < 1e-9; });
+  const ElasticityModel& m = serial.finest();
+  Vector f = Vector::Zero(m.num_dofs());
+  f /= m.add_traction(f, [](const Vec3& X) { return X.x() >= 1.0 - 1e-9; }, o.end_force);  // total force F
+  auto solver = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-12", "lowest_level=cholmod"}, "test"),
+                            SolverContext{&serial, nullptr});
+  const StaticResult r = solve_static(serial, f, corotational, *solver, so);
+  CHECK(r.iterations == iterations);
+  CHECK(difference_to_serial(problem.ranks(), across.displacement_owned(), m, r.u) < 1e-8);
+
+  // A probe point: every rank gets the serial value; a point outside is refused on every rank.
+  const Vec3 point(0.93, 0.21, 0.07);
+  const Vec3 d = across.displacement_at(across.locate(point));
+  CHECK((d - m.displacement_at(r.u, point)).norm() <= 1e-8 * d.norm());
+  CHECK_THROWS_WITH(across.locate(Vec3(5, 5, 5)), Catch::Contains("lies outside the mesh"));
+
+  // A formula on each rank's own nodes: the energies of the serial state.
+  const auto bend = [](const Vec3& X) { return Vec3(0.0, 0.02 * X.x() * X.x(), -0.05 * X.x() * X.x()); };
+  const ElasticityModel& local = problem.ranks().local().finest();
+  Vector u_local = local.interpolate(bend), v_local = local.interpolate(bend);
+  across.set_state_local(u_local, v_local);
+  Vector u = m.interpolate(bend), v = m.interpolate(bend);
+  for (index_t i = 0; i < m.num_nodes(); ++i)
+    if (m.is_fixed(i)) u.segment<3>(3 * i).setZero(), v.segment<3>(3 * i).setZero();
+  auto serial_solver = make_solver(Config::from_pairs({"method=mgpcg", "tol=1e-12", "lowest_level=cholmod"}, "test"),
+                                   SolverContext{&serial, nullptr});
+  ImplicitEuler one(serial, *serial_solver, Vector::Zero(m.num_dofs()), sp);
+  one.set_state(u, v);
+  CHECK(across.kinetic_energy() == Approx(one.kinetic_energy()).epsilon(1e-10));
+  CHECK(across.elastic_energy() == Approx(one.elastic_energy()).epsilon(1e-10));
+  CHECK_THROWS_WITH(across.set_state_local(Vector::Zero(3), v_local), Catch::Contains("set_state_local"));
+  CHECK_THROWS_AS(across.set_state(u, v), InputError);  // serial vectors: the replicated set-up's
 }

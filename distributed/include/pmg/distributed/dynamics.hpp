@@ -18,14 +18,20 @@
 // A probe point belongs to the rank holding its element. Frames are ParaView's parallel
 // convention: one .vtu piece per rank (its elements, its local state) and one .pvtu naming them.
 //
-// The set-up is replicated (every rank holds the serial hierarchy, from which RankHierarchy takes
-// its share, and the initial state as serial vectors); from the first step on, each rank touches
-// only its own elements and nodes. Every member function is collective over the communicator.
+// Two set-ups. Replicated: every rank holds the serial hierarchy, from which RankHierarchy takes its
+// share, and gives the initial state as serial vectors. On a distributed mesh (MeshProblem,
+// pmg/distributed/mesh_problem.hpp): the rank's share was built from its own cells, the external
+// force comes as owned unknowns, and the initial state from the rank's own nodes (set_state_local)
+// or as the static equilibrium under a load (set_static_state: the corotational fixed point of
+// pmg/fem/static_solve.hpp, its norms reduced over the ranks); a probe is a point located once
+// (locate). From the first step on, each rank touches only its own elements and nodes. Every
+// member function is collective over the communicator.
 #pragma once
 
 #include "pmg/distributed/mgpcg.hpp"
 #include "pmg/distributed/rank_hierarchy.hpp"
 #include "pmg/fem/simulation.hpp"
+#include "pmg/fem/static_solve.hpp"
 
 #include <array>
 #include <memory>
@@ -47,12 +53,30 @@ class DistributedEuler {
   /// must outlive the object. Throws InputError for parameters ImplicitEuler refuses.
   DistributedEuler(const fem::DegreeHierarchy& serial, const Vector& f_ext, const fem::SimulationParams& p,
                    DistributedMgpcgParams solver = {}, MPI_Comm comm = MPI_COMM_WORLD);
+  /// On a rank's share of a distributed mesh (RankHierarchy's mesh constructor; it must outlive
+  /// the object), over its communicator. f_ext_owned: the external force on the finest level's
+  /// owned unknowns (MeshProblem::load()). The state starts at rest. Throws InputError (on every
+  /// rank) for parameters ImplicitEuler refuses or a force of the wrong size.
+  DistributedEuler(RankHierarchy& ranks, const Vector& f_ext_owned, const fem::SimulationParams& p,
+                   DistributedMgpcgParams solver = {});
   ~DistributedEuler();
   DistributedEuler(const DistributedEuler&) = delete;
   DistributedEuler& operator=(const DistributedEuler&) = delete;
 
-  /// The state from serial full vectors (every rank gives the same; clamped nodes at rest).
+  /// The state from serial full vectors (every rank gives the same; clamped nodes at rest). The
+  /// replicated set-up only.
   void set_state(const Vector& u, const Vector& v);
+  /// The state from each rank's full vectors of its own finest level (3 per node of its sub-mesh
+  /// space, as fem::ElasticityModel::interpolate() gives them); a node shared by ranks takes its
+  /// owner's value, clamped nodes are set at rest. Throws InputError on every rank for a vector of
+  /// the wrong size or not finite.
+  void set_state_local(const Vector& u, const Vector& v);
+  /// The state of static equilibrium under the force f_owned (owned unknowns), at rest: the fixed
+  /// point of pmg/fem/static_solve.hpp (corotational as the time step's material; linear: one
+  /// solve), each solve by a PETSc solver of the step solver's keys but tolerance `solve_tol`, on
+  /// the stiffness alone. Returns the fixed-point iterations. Throws SolveError or pmg::Error
+  /// (every rank) when a solve or the fixed point fails.
+  int set_static_state(const Vector& f_owned, const fem::StaticOptions& options = {}, double solve_tol = 1e-10);
   /// One step (see the file comment). Throws SolveError naming the step when the solve fails and
   /// pmg::Error when the velocity turns non-finite on any rank (every rank throws).
   fem::StepStats step();
@@ -69,7 +93,22 @@ class DistributedEuler {
   /// The displacement at a point of a serial element given by barycentric coordinates; every rank
   /// gets it.
   fem::Vec3 displacement_at(index_t serial_element, const Eigen::Vector4d& barycentric) const;
-  /// The serial full displacement (every rank gets all of it: for checks, not per step).
+  /// A point of the rank-distributed mesh: the lowest rank whose elements hold it, its element
+  /// there and barycentric coordinates.
+  struct Located {
+    int rank = -1;        ///< the rank that evaluates the point
+    index_t element = -1;  ///< that rank's element
+    Eigen::Vector4d barycentric = Eigen::Vector4d::Zero();  ///< in that element
+  };
+  /// Locates a rest point once (every rank gets the same answer). Throws InputError on every rank,
+  /// naming the point, when no rank's elements hold it.
+  Located locate(const fem::Vec3& point) const;
+  /// The displacement at a located point; every rank gets it.
+  fem::Vec3 displacement_at(const Located& point) const;
+  /// The displacement on the finest level's owned unknowns (global order).
+  const Vector& displacement_owned() const { return u_owned_; }
+  /// The serial full displacement (every rank gets all of it: for checks, not per step). The
+  /// replicated set-up only.
   Vector gather_displacement() const;
   /// Writes `directory/stem_<rank>.vtu` on every rank (the rank's elements and state), then on
   /// rank 0 `directory/stem.pvtu` naming the pieces; each file atomically, the .pvtu after every
@@ -94,11 +133,19 @@ class DistributedEuler {
  private:
   void evaluate_state() const;
   double sum(double mine) const;
+  /// The rank's solver, ghost exchange and binding, after ranks_ is set; the state at rest.
+  void build(const Vector& f_ext_owned, const DistributedMgpcgParams& solver);
+  /// u_local_ and v_local_ from u_owned_ and v_owned_ (the ghosts from their owners).
+  void owned_to_local();
 
-  const fem::DegreeHierarchy& serial_;
+  const fem::DegreeHierarchy* serial_ = nullptr;  // the replicated set-up's serial hierarchy
   fem::SimulationParams p_;
+  DistributedMgpcgParams params_;  // the step solver's keys
   MPI_Comm comm_;
-  std::unique_ptr<RankHierarchy> ranks_;
+  std::unique_ptr<RankHierarchy> own_ranks_;  // the replicated set-up's share
+  RankHierarchy* ranks_ = nullptr;
+  /// The rank's levels carry the step's weights (a static solve leaves stiffness alone on them).
+  bool step_levels_ = false;
   std::unique_ptr<petsc::GhostExchange> ghosts_;
   std::unique_ptr<petsc::PMultigridCg> solver_;
   /// solver_ on the rank's levels as the seam's Solver (set up and refreshed through system_).

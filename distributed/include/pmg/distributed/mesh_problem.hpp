@@ -86,6 +86,13 @@ class MeshProblem {
   const fem::Vec3& lo() const { return lo_; }
   /// Upper corner of the bounding box (all ranks).
   const fem::Vec3& hi() const { return hi_; }
+  /// The force F spread as a uniform traction over the boundary faces at the maximum of the clamp
+  /// axis (total force F, the serial scene's end_force), on the finest level's owned unknowns.
+  /// Collective; throws InputError on every rank when no rank has such a face.
+  Vector end_traction(const fem::Vec3& F) const;
+  /// The mesh vertex nearest `target` over every rank (ties: the smallest coordinates, x first);
+  /// every rank gets it. Collective.
+  fem::Vec3 nearest_vertex(const fem::Vec3& target) const;
   /// Seconds of each stage on this rank, in order.
   const std::vector<std::pair<std::string, double>>& stages() const { return stages_; }
   /// This rank's peak resident memory (bytes, peak_resident_bytes()) at the end of each stage.
@@ -96,6 +103,9 @@ class MeshProblem {
   void build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o, const std::vector<int>* parts);
   MPI_Comm comm_;
   std::unique_ptr<RankHierarchy> ranks_;
+  std::unique_ptr<petsc::GhostExchange> exchange_;  // the finest level's
+  int axis_ = 0;
+  double tol_ = 0.0;  // of a position on the clamp and the far face
   Vector load_;
   long cells_ = 0, clamped_ = 0;
   fem::Vec3 lo_, hi_;

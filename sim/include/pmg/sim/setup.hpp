@@ -18,6 +18,10 @@
 #include <utility>
 #include <vector>
 
+namespace pmg::dist {
+class MeshProblem;
+}
+
 namespace pmg::sim {
 
 /// A mesh file (its reader's warnings appended to `warnings` if given), or with an empty path the
@@ -45,8 +49,20 @@ struct Probe {
   fem::Vec3 displacement(const fem::ElasticityModel& m, const Vector& u) const;
 };
 
+/// What set_up_on_ranks() built, the same on every rank.
+struct RankMeshSummary {
+  int ranks = 1;                ///< MPI ranks of the job
+  long coarse_cells = 0;        ///< cells of the mesh rank 0 made or read (0: read in parallel)
+  long cells = 0;               ///< cells of all ranks after refinement
+  long unknowns = 0;            ///< finest-level unknowns of all ranks
+  long clamped_vertices = 0;    ///< of all ranks
+  /// Seconds of each set-up stage on rank 0, in order (pmg::dist::MeshProblem::stages()).
+  std::vector<std::pair<std::string, double>> stages;
+};
+
 /// Everything set_up() builds from a scene; the hierarchy and the run refer into it, so it must
-/// outlive them.
+/// outlive them. On a mesh no rank holds whole (set_up_on_ranks) `mesh` and `hierarchy` are empty
+/// and `on_ranks` holds the rank's share instead.
 struct SceneSetup {
   std::unique_ptr<const fem::TetMesh> mesh;  ///< held by pointer: the hierarchy refers to it
   /// The degree hierarchy (degrees 1 to the scene's degree) with clamp and material.
@@ -61,7 +77,12 @@ struct SceneSetup {
   Probe probe;
   std::vector<std::string> notes;     ///< what was done once or skipped, for the report
   std::vector<std::string> warnings;  ///< the mesh reader's (e.g. unused vertices)
-  /// The model of the finest degree (the scene's degree).
+  /// The rank's share of a scene set up across the MPI ranks (set_up_on_ranks; empty otherwise):
+  /// an opaque handle for DynamicRun, which needs pmg::distributed's headers to be used directly.
+  std::shared_ptr<dist::MeshProblem> on_ranks;
+  /// What set_up_on_ranks() built (zero otherwise).
+  RankMeshSummary rank_mesh;
+  /// The model of the finest degree (the scene's degree); not on a set-up across ranks.
   const fem::ElasticityModel& finest() const { return hierarchy->finest(); }
 };
 
@@ -70,13 +91,31 @@ struct SceneSetup {
 /// farthest from the centre when nothing is clamped). InputError names the scene key at fault.
 SceneSetup set_up(const Scene& s);
 
+/// A scene set up across the MPI ranks of the job (MPI_COMM_WORLD) on a mesh no rank holds whole
+/// (pmg/distributed/mesh_problem.hpp): a `.h5` mesh read in parallel, any other mesh or the box bar
+/// made on rank 0 and distributed, refined on the ranks (mesh.refine), each rank's hierarchy,
+/// clamp and loads from its own cells; the bounding box over the ranks; the probe point (the
+/// scene's, or the vertex nearest the centre of the far face). Collective. Throws InputError (on
+/// every rank) for what this route does not take — supports and symmetry planes, an inclusion,
+/// degree 1 — and where the build has no pmg::distributed. A run of it (DynamicRun) solves with
+/// petsc-mgpcg, whatever method the scene names, taking the scene's keys that petsc-mgpcg reads.
+SceneSetup set_up_on_ranks(const Scene& s);
+
 /// Force F spread as a uniform traction over the boundary faces at the maximum of `axis` (total
 /// force F). Throws InputError if there is no such face.
 Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol, const fem::Vec3& F);
 
 /// Initial displacement and velocity (full vectors; clamped nodes at rest): rest, deflected (a
 /// static solve under the scene's initial force), compressed, twisted or spinning.
+/// formula_state() gives the last three.
 std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& setup);
+/// The initial states given by a formula on a model whose mesh spans the box [lo, hi] (its own or,
+/// on a rank of a distributed mesh, every rank's): compressed, twisted or spinning as full vectors
+/// of `m`, clamped nodes at rest; zero vectors for rest and deflected (a static solve, which
+/// initial_state() and a run across ranks make themselves). InputError for a state that needs a
+/// clamp axis where the scene has none.
+std::pair<Vector, Vector> formula_state(const Scene& s, const fem::ElasticityModel& m, const fem::Vec3& lo,
+                                        const fem::Vec3& hi);
 
 /// The step solver from the scene's solver options, through the one factory, with a rounding
 /// floor for warm starts. Degree 1 has no lower degree: a multigrid method falls back to CHOLMOD
