@@ -43,7 +43,7 @@ void check_distributed_mesh(const CLI::App& sub, bool on, const std::vector<std:
     if (!save_mesh.empty()) throw InputError("--save-mesh needs --distributed-mesh");
     return;
   }
-  for (const char* flag : {"--matrix", "--levels", "--grid", "--symmetry", "--dt", "--plot", "--solution-out",
+  for (const char* flag : {"--matrix", "--levels", "--grid", "--dt", "--plot", "--solution-out",
                            "--export-levels", "--export-petsc", "--solver-config", "--fixed-iterations", "--warm-up",
                            "--allow", "--check-every", "--format"})
     if (sub.count(flag))
@@ -150,7 +150,9 @@ void run_distributed_mesh(const SceneOptions& o, const Config& solver, const Dis
       << (size == 1 ? "on 1 rank" : std::string(parallel_read ? "partitioned by PT-Scotch over " : "partitioned by METIS on rank 0 over ") + std::to_string(size) + " ranks");
   if (o.refine > 0) sys << ", refined " << o.refine << "x on the ranks";
   sys << ": " << problem.global_cells() << " tets, " << r.unknowns << " unknowns, " << problem.clamped_vertices()
-      << " clamped vertices, " << o.load;
+      << " clamped vertices, ";
+  if (problem.held_components() > 0) sys << problem.held_components() << " components held by symmetry planes, ";
+  sys << o.load;
   std::cout << "system: " << sys.str() << "\n";
   std::cout << "stages (time of the slowest rank; peak resident memory of the largest rank so far):\n";
   nlohmann::ordered_json stages = nlohmann::ordered_json::object(), peaks = nlohmann::ordered_json::object();

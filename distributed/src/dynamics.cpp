@@ -64,9 +64,6 @@ DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vec
   mpi::together(comm, [&] { fem::check_simulation(m, f_ext, p); });
   if (serial.num_levels() < 2)
     throw InputError("distributed time step: needs at least two levels (an FEM scene of degree >= 2)");
-  if (holds_components(serial))
-    throw InputError("distributed time step: components held on their own (symmetry planes, supports) "
-                     "are not supported across ranks yet; use mgpcg on one process");
   own_ranks_ = std::make_unique<RankHierarchy>(serial, comm);
   ranks_ = own_ranks_.get();
   const int top = ranks_->num_levels() - 1;

@@ -149,7 +149,19 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
   if (clamped_ < 3)
     throw InputError("distributed mesh: " + std::to_string(clamped_) + " clamped vertices: the body could still move "
                      "rigidly; clamp a larger fraction");
-  ranks_ = std::make_unique<RankHierarchy>(*plex, o.degree, o.material, std::move(clamped));
+  std::vector<char> masks;  // the components each vertex holds (empty: none)
+  if (!o.held.empty()) {
+    masks.assign(nv, 0);
+    for (const HeldPlane& h : o.held) {
+      if (h.axis < 0 || h.axis > 2 || h.components < 1 || h.components > 7)
+        throw InputError("distributed mesh: a held plane needs an axis 0-2 and components 1-7");
+      const double face = h.at_max ? hi_[h.axis] : lo_[h.axis];
+      for (size_t v = 0; v < nv; ++v)
+        if (std::abs(X[3 * v + h.axis] - face) <= tol) masks[v] = static_cast<char>(masks[v] | h.components);
+    }
+  }
+  ranks_ = std::make_unique<RankHierarchy>(*plex, o.degree, o.material, std::move(clamped), std::vector<double>(),
+                                           std::move(masks));
   plex.reset();  // the rank's mesh lives on in its hierarchy
   stages_.emplace_back("the rank's hierarchy and numbering", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
@@ -160,11 +172,41 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
   const int top = ranks_->num_levels() - 1;
   const fem::ElasticityModel& m = ranks_->local().finest();
   exchange_ = std::make_unique<petsc::GhostExchange>(comm, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
+  check_held(o);
   load_ = Vector::Zero(exchange_->owned_size());
   if (o.gravity.norm() > 0) exchange_->add_to_owners(m.restrict_to_free(m.gravity(o.gravity)), load_);
   if (o.end_force.norm() > 0) load_ += end_traction(o.end_force);
   stages_.emplace_back("loads", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
+}
+
+void MeshProblem::check_held(const MeshProblemOptions& o) {
+  // Each plane must hold a planar part of the boundary, as a serial scene's: the area of the
+  // boundary faces on it, over the ranks.
+  const fem::ElasticityModel& m = ranks_->local().finest();
+  for (const HeldPlane& h : o.held) {
+    const double face = h.at_max ? hi_[h.axis] : lo_[h.axis], tol = tol_;
+    Vector scratch = Vector::Zero(m.num_dofs());
+    const int axis = h.axis;
+    const double area = reduce(
+        comm_, m.add_traction(scratch, [=](const fem::Vec3& X) { return std::abs(X[axis] - face) <= tol; }, fem::Vec3::Zero()),
+        MPI_SUM);
+    if (!(area > 0))
+      throw InputError(std::string("distributed mesh: the support or symmetry plane at the ") + (h.at_max ? "maximum" : "minimum") +
+                       " of " + static_cast<char>('x' + h.axis) + " holds no boundary face (a symmetry plane needs a planar cut face)");
+  }
+  // Held components of owned nodes, counted once.
+  const int top = ranks_->num_levels() - 1;
+  const std::vector<char>* held = ranks_->local().constrained_dofs(top);
+  long mine = 0;
+  if (held) {
+    const std::vector<index_t>& global = ranks_->global(top);
+    for (size_t i = 0; i < global.size(); ++i)
+      if (global[i] >= ranks_->first(top) && global[i] < ranks_->first(top) + ranks_->owned(top))
+        for (int c = 0; c < 3; ++c) mine += (*held)[3 * i + c] != 0;
+  }
+  std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+  MPI_Allreduce(&mine, &held_, 1, MPI_LONG, MPI_SUM, comm_);
 }
 
 Vector MeshProblem::end_traction(const fem::Vec3& F) const {
@@ -179,21 +221,27 @@ Vector MeshProblem::end_traction(const fem::Vec3& F) const {
   return owned / area;
 }
 
-fem::Vec3 MeshProblem::nearest_vertex(const fem::Vec3& target) const {
-  // (distance, x, y, z) of the rank's best vertex; the smallest over the ranks, compared in order.
-  std::array<double, 4> mine = {1e300, 0.0, 0.0, 0.0};
+fem::Vec3 MeshProblem::vertex_with_smallest(const std::function<std::array<double, 4>(const fem::Vec3&)>& key) const {
+  // The rank's smallest (key, x, y, z); the smallest over the ranks, compared in order.
+  std::array<double, 7> mine;
+  mine.fill(1e300);
   for (const fem::Vec3& X : ranks_->mesh().vertices) {
-    const std::array<double, 4> c = {(X - target).norm(), X[0], X[1], X[2]};
+    const std::array<double, 4> k = key(X);
+    const std::array<double, 7> c = {k[0], k[1], k[2], k[3], X[0], X[1], X[2]};
     if (c < mine) mine = c;
   }
-  std::vector<double> all(4 * static_cast<size_t>(ranks_->size()));
+  std::vector<double> all(7 * static_cast<size_t>(ranks_->size()));
   {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-    MPI_Allgather(mine.data(), 4, MPI_DOUBLE, all.data(), 4, MPI_DOUBLE, comm_);
+    MPI_Allgather(mine.data(), 7, MPI_DOUBLE, all.data(), 7, MPI_DOUBLE, comm_);
   }
-  std::array<double, 4> best = mine;
-  for (size_t r = 0; r < all.size(); r += 4) best = std::min(best, {all[r], all[r + 1], all[r + 2], all[r + 3]});
-  return {best[1], best[2], best[3]};
+  std::array<double, 7> best = mine;
+  for (size_t r = 0; r < all.size(); r += 7) {
+    std::array<double, 7> c;
+    std::copy(all.begin() + static_cast<long>(r), all.begin() + static_cast<long>(r) + 7, c.begin());
+    best = std::min(best, c);
+  }
+  return {best[4], best[5], best[6]};
 }
 
 MeshProblem::~MeshProblem() = default;

@@ -45,9 +45,6 @@ DistributedMgpcg::DistributedMgpcg(const fem::DegreeHierarchy& serial, Distribut
     : serial_(&serial), params_(std::move(params)), comm_(comm) {
   if (serial.num_levels() < 2)
     throw InputError("petsc-mgpcg: needs at least two levels (an FEM scene of degree >= 2)");
-  if (holds_components(serial))
-    throw InputError("petsc-mgpcg does not take components held on their own (symmetry planes, supports) "
-                     "yet: its rank levels hold whole nodes; use mgpcg on one process");
 }
 
 DistributedMgpcg::~DistributedMgpcg() = default;

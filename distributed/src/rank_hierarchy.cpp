@@ -39,12 +39,6 @@ std::vector<int> partition(const fem::TetMesh& mesh, MPI_Comm comm, int rank, in
 
 }  // namespace
 
-bool holds_components(const fem::DegreeHierarchy& serial) {
-  for (int l = 0; l < serial.num_levels(); ++l)
-    if (serial.constrained_dofs(l)) return true;
-  return false;
-}
-
 RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) : comm_(comm) {
   mpi::start();
   const fem::TetMesh& full = serial.model(0).space().mesh();
@@ -63,12 +57,14 @@ RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) 
       for (index_t v : full.tets[e]) local_vertex[v] = 0;
     }
   mesh_ = std::make_unique<fem::TetMesh>();
-  std::vector<char> clamped;
+  std::vector<char> clamped, components;
+  const std::vector<char>& masks = serial.component_masks();
   for (size_t v = 0; v < full.vertices.size(); ++v)
     if (local_vertex[v] == 0) {
       local_vertex[v] = mesh_->num_vertices();
       mesh_->vertices.push_back(full.vertices[v]);
       clamped.push_back(serial.clamped_vertices()[v]);
+      if (!masks.empty()) components.push_back(masks[v]);
     }
   for (index_t e : elements_) {
     fem::Tet t;
@@ -76,7 +72,7 @@ RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) 
     mesh_->tets.push_back(t);
   }
   local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, serial.num_levels(), serial.finest().material(),
-                                                  std::move(clamped));
+                                                  std::move(clamped), std::move(components));
   const std::vector<double>& scale = serial.model(0).stiffness_scale();
   if (!scale.empty()) {
     std::vector<double> mine;
@@ -128,7 +124,8 @@ RankHierarchy::RankHierarchy(const fem::DegreeHierarchy& serial, MPI_Comm comm) 
 }
 
 RankHierarchy::RankHierarchy(const petsc::PlexMesh& plex, int degree, const fem::Material& material,
-                             std::vector<char> clamped, const std::vector<double>& stiffness_scale)
+                             std::vector<char> clamped, const std::vector<double>& stiffness_scale,
+                             std::vector<char> components)
     : comm_(plex.comm()) {
   {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
@@ -143,7 +140,7 @@ RankHierarchy::RankHierarchy(const petsc::PlexMesh& plex, int degree, const fem:
     for (size_t v = 0; v < X.size() / 3; ++v) mesh_->vertices.emplace_back(X[3 * v], X[3 * v + 1], X[3 * v + 2]);
     const std::vector<index_t>& C = plex.local_cells();
     for (size_t e = 0; e < C.size() / 4; ++e) mesh_->tets.push_back({C[4 * e], C[4 * e + 1], C[4 * e + 2], C[4 * e + 3]});
-    local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, degree, material, std::move(clamped));
+    local_ = std::make_unique<fem::DegreeHierarchy>(*mesh_, degree, material, std::move(clamped), std::move(components));
     if (!stiffness_scale.empty()) local_->set_stiffness_scale(stiffness_scale);
   });
 
@@ -262,6 +259,7 @@ std::vector<petsc::RankLevel> RankHierarchy::rank_levels() {
     R.first = first(l);
     R.owned = owned(l);
     R.global = global(l);
+    R.constrained = local_->constrained_dofs(l);
     if (l == 0) {
       R.matrix = &local_->matrix(0);
       R.coordinates = local_->node_coordinates(0);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Time steps on a mesh no rank holds whole (pmg simulate --distributed-mesh) against pmgkit's serial
 # time step (MGPCG) and the replicated petsc-mgpcg route: the quadratic cantilever bar (16x4x4
-# boxes of 24 tetrahedra over 4 x 1 x 1 m, refined once: 196,608 tetrahedra, 0.82M unknowns; the
+# boxes of 24 tetrahedra over 4 x 1 x 1 m, refined once: 96,000 tetrahedra, 409,440 unknowns; the
 # serial and replicated runs refine the whole mesh, the distributed one on the ranks), corotational,
 # released from its static deflection under a 4 kN end force, 10 steps of 0.01 s, each solved to
 # 1e-3 with a warm start, no output files. Whole-job wall time and peak resident memory of every
@@ -16,8 +16,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 - "$work" <<'PY'
 import json, sys
-base = {"name": "cantilever bar 16x4x4 refined once, degree 2, released from its deflection",
-        "mesh": {"box": [16, 4, 4], "size": [4, 1, 1], "refine": 1}, "degree": 2,
+base = {"name": "cantilever bar 20x5x5 refined once, degree 2, released from its deflection",
+        "mesh": {"box": [20, 5, 5], "size": [4, 1, 1], "refine": 1}, "degree": 2,
         "material": {"model": "corotational", "young": 5e6, "poisson": 0.3, "density": 1000},
         "clamp": {"axis": "x", "fraction": 0.0},
         "initial": {"state": "deflected", "force": [0, 0, -4000]},

@@ -623,7 +623,8 @@ def solve_distributed(scene, comm=None, solver=None, save_mesh=""):
     mpi4py communicator; None: MPI.COMM_WORLD), each rank refines its part `mesh.refine` times and
     builds its share of the degree hierarchy, clamp and loads; petsc-mgpcg solves K u = f. Every
     rank of comm calls it with the same scene. scene: a dict in the scene-file schema, a JSON
-    string or a path (the scene's supports and inclusion are refused: not on this route yet).
+    string or a path (symmetry planes and supports are taken; an inclusion is refused: not on this
+    route yet).
     solver: petsc-mgpcg's keys (default {"method": "petsc-mgpcg"}; its tol is 1e-8 unless given).
     save_mesh: also write the refined mesh there (.h5) for a later parallel read.
 

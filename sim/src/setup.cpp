@@ -157,16 +157,24 @@ SceneSetup set_up(const Scene& s) {
       throw InputError("output.probe: the point lies outside the mesh");
     }
   } else {
-    fem::Vec3 target = b.centre;
-    if (axis >= 0) target[axis] = b.hi[axis];
-    double best = 1e300;
+    std::array<double, 4> best;
+    best.fill(1e300);
     for (index_t v = 0; v < static_cast<index_t>(mesh.vertices.size()); ++v) {
-      const double d = axis >= 0 ? (mesh.vertices[v] - target).norm() : -(mesh.vertices[v] - b.centre).norm();
-      if (d < best) best = d, p.vertex = v;
+      const std::array<double, 4> k = probe_key(s, b.lo, b.hi, mesh.vertices[v]);
+      if (k < best) best = k, p.vertex = v;
     }
     p.point = mesh.vertices[p.vertex];
   }
   return b;
+}
+
+std::array<double, 4> probe_key(const Scene& s, const fem::Vec3& lo, const fem::Vec3& hi, const fem::Vec3& X) {
+  const fem::Vec3 centre = 0.5 * (lo + hi);
+  const int axis = s.clamp_axis;
+  if (axis < 0) return {-(X - centre).norm(), X[0], X[1], X[2]};
+  fem::Vec3 target = centre;
+  target[axis] = hi[axis];
+  return {(X - target).norm(), -X[axis], X[(axis + 1) % 3], X[(axis + 2) % 3]};
 }
 
 SceneSetup set_up_on_ranks(const Scene& s) {
@@ -186,13 +194,8 @@ SceneSetup set_up_on_ranks(const Scene& s) {
   r.clamped_vertices = p.clamped_vertices();
   r.stages = p.stages();
   b.lo = p.lo(), b.hi = p.hi(), b.centre = 0.5 * (b.lo + b.hi);
-  if (s.probe) {
-    b.probe.point = *s.probe;
-  } else {
-    fem::Vec3 target = b.centre;
-    target[s.clamp_axis] = b.hi[s.clamp_axis];
-    b.probe.point = p.nearest_vertex(target);
-  }
+  if (s.probe) b.probe.point = *s.probe;
+  else b.probe.point = p.vertex_with_smallest([&](const fem::Vec3& X) { return probe_key(s, b.lo, b.hi, X); });
   if (s.gravity.norm() == 0) b.notes.push_back("gravity load: skipped (none in the scene)");
   return b;
 #else

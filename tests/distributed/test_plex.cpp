@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
 #include <map>
 
 using namespace pmg;
@@ -197,6 +198,54 @@ TEST_CASE("a static problem on a distributed mesh equals the serial MGPCG", "[pl
     const Vector f = serial.finest().gravity(g);
     CHECK(r.compliance == Approx(f.dot(u)).epsilon(1e-9));
   }
+}
+
+TEST_CASE("a quarter model with two symmetry planes on a distributed mesh equals the serial MGPCG", "[plex][symmetry]") {
+  const Vec3 g(0, 0, -9.81);
+  const TetMesh box = box_mesh_24(6, 2, 2, 1.0, 0.25, 0.25);
+  dist::MeshProblemOptions o;
+  o.material = Material{500e3, 0.3, 1000.0};
+  o.gravity = g;
+  o.held = {{1, true, 2}, {2, true, 4}};  // u_y on y = max, u_z on z = max
+  dist::MeshProblem problem(MPI_COMM_WORLD, [&] { return box; }, o);
+  dist::DistributedMgpcgParams params;
+  params.tol = 1e-11;
+  Vector x;
+  const dist::RankSolveReport r = dist::solve_on_ranks(problem, params, x);
+  CHECK(r.result.ok());
+  std::vector<char> masks(box.vertices.size(), 0);
+  for (size_t v = 0; v < masks.size(); ++v) {
+    if (std::abs(box.vertices[v].y() - 0.25) < 1e-9) masks[v] |= 2;
+    if (std::abs(box.vertices[v].z() - 0.25) < 1e-9) masks[v] |= 4;
+  }
+  DegreeHierarchy serial(box, 2, o.material, [](const Vec3& X) { return X.x() < 1e-9; }, masks);
+  const Vector u = serial_displacement(serial, g);
+  CHECK(difference_to_serial(problem.ranks(), x, serial.finest(), u) < 1e-8);
+  const Vector f = serial.finest().expand(serial.finest().restrict_to_free(serial.finest().gravity(g)), Vector());
+  CHECK(r.compliance == Approx(f.dot(u)).epsilon(1e-9));
+  // The held components: counted once over the ranks, zero in the answer.
+  const auto& held = serial.finest().constrained_free_dofs();
+  CHECK(problem.held_components() == std::count(held.begin(), held.end(), 1));
+  const dist::RankHierarchy& R = problem.ranks();
+  const int top = R.num_levels() - 1;
+  const std::vector<char>& mine = *R.local().constrained_dofs(top);
+  double on_planes = 0.0;
+  for (size_t i = 0; i < R.global(top).size(); ++i) {
+    const index_t k = R.global(top)[i] - R.first(top);
+    if (k < 0 || k >= R.owned(top)) continue;
+    for (int c = 0; c < 3; ++c)
+      if (mine[3 * i + c]) on_planes = std::max(on_planes, std::abs(x[3 * k + c]));
+  }
+  CHECK(on_planes == 0.0);
+  // A plane that holds no boundary face is refused on every rank.
+  o.held = {{1, true, 2}};
+  CHECK_THROWS_WITH(dist::MeshProblem(MPI_COMM_WORLD, [] {
+                      TetMesh t;  // a single tetrahedron touches y = max in one vertex only
+                      t.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+                      t.tets = {{0, 1, 2, 3}};
+                      return t;
+                    }, o),
+                    Catch::Contains("holds no boundary face") || Catch::Contains("cells for"));
 }
 
 TEST_CASE("refined after distribution: the same answer as the serial MGPCG on the mesh DMPlex refines", "[plex]") {

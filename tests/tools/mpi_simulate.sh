@@ -6,8 +6,9 @@
 # (the deflected start solved across the ranks): the probe and the energies of every step agree
 # to 1e-8, rank 0 alone writes steps.csv, and each distributed frame is a .pvtu of one .vtu piece
 # per rank that VTK reads, its displacement at every control point the serial frame's to 1e-8. A
-# start given by a formula (twisted, under gravity) on the distributed mesh agrees the same way;
-# what the distributed mesh does not take ends every rank with one clear error.
+# start given by a formula (twisted, under gravity) and a half bar with a symmetry plane on the
+# distributed mesh agree the same way; what the distributed mesh does not take ends every rank with
+# one clear error.
 set -u
 pmg=$1 scene=$2
 work=$(mktemp -d)
@@ -99,6 +100,18 @@ OMP_NUM_THREADS=1 "$pmg" simulate "$work/twisted.json" -o "$work/twisted_serial"
 run_ranks 3 "$work/twisted3" "$work/twisted.json" --distributed-mesh
 compare_runs "$work/twisted_serial" "$work/twisted3" 3
 
+# A symmetry plane (the bar's half, u_y held on y = max): the serial run's probe and energies.
+/usr/bin/python3 - "$work" <<'PY' || fail "cannot write the half scene"
+import json, sys
+s = json.load(open(sys.argv[1] + "/serial.json"))
+s["mesh"]["box"], s["mesh"]["size"] = [8, 1, 2], [4, 0.5, 1]
+s["symmetry"] = [{"axis": "y", "at": "max"}]
+json.dump(s, open(sys.argv[1] + "/half.json", "w"))
+PY
+OMP_NUM_THREADS=1 "$pmg" simulate "$work/half.json" -o "$work/half_serial" -q > /dev/null || fail "the serial half run failed"
+run_ranks 2 "$work/half2" "$work/half.json" --distributed-mesh
+compare_runs "$work/half_serial" "$work/half2" 2
+
 # What the distributed mesh does not take: one error, exit 2, on every rank, never a hang.
 expect_error() {  # expect_error PATTERN SCENE_EDIT: the edited scene on 2 ranks
   /usr/bin/python3 - "$work" "$2" <<'PY' || fail "cannot write the scene"
@@ -114,7 +127,7 @@ PY
   [ "$(grep -c "error: .*$1" "$work/err.txt")" = 1 ] || fail "expected one error naming '$1'"
 }
 expect_error "static scene" 's["time"] = "static"'
-expect_error "supports and symmetry planes" 's["symmetry"] = [{"axis": "y", "at": "max"}]'
+expect_error "material.inclusion" 's["material"]["inclusion"] = {"min": [0, 0, 0], "max": [1, 1, 1], "young": 5e7}'
 expect_error "degree 1" 's["degree"] = 1'
 expect_error "output.probe: the point (9 9 9) lies outside" 's["output"]["probe"] = [9, 9, 9]'
 echo "mpi_simulate.sh: ok"

@@ -360,7 +360,8 @@ void PMultigridCg::Impl::assemble_lowest_level() {
   check(MatSetNearNullSpace(d.coarse, d.near_null), "MatSetNearNullSpace");
 }
 
-/// The owned rows of each prolongation, 3x3 identity blocks per scalar entry.
+/// The owned rows of each prolongation, 3x3 identity blocks per scalar entry, without the held
+/// components of either level (RankLevel::constrained).
 void PMultigridCg::Impl::create_transfers() {
   Impl& d = *this;
   const int nl = static_cast<int>(d.levels.size());
@@ -371,6 +372,12 @@ void PMultigridCg::Impl::create_transfers() {
     const Csr& P = *F.prolongation;
     if (P.rows() != static_cast<index_t>(F.global.size()) || P.cols() != static_cast<index_t>(C.global.size()))
       throw InputError("distributed p-multigrid: prolongation " + std::to_string(l) + " does not match the levels' nodes");
+    for (const RankLevel* L : {&F, &C})
+      if (L->constrained && L->constrained->size() != 3 * L->global.size())
+        throw InputError("distributed p-multigrid: held components of " + L->name + " do not match its nodes");
+    const auto held = [](const RankLevel& L, index_t node, int a) {
+      return L.constrained && (*L.constrained)[3 * static_cast<size_t>(node) + a] != 0;
+    };
     std::vector<PetscInt> ci, cj;
     std::vector<PetscScalar> v;
     const CsrPattern& pat = P.pattern();
@@ -381,7 +388,7 @@ void PMultigridCg::Impl::create_transfers() {
         for (int a = 0; a < 3; ++a) {
           ci.push_back(3 * gi + a);
           cj.push_back(3 * C.global[pat.col_idx[k]] + a);
-          v.push_back(P.values()[k]);
+          v.push_back(held(F, i, a) || held(C, pat.col_idx[k], a) ? 0.0 : P.values()[k]);
         }
     }
     Mat Pm = nullptr;

@@ -10,8 +10,9 @@
 // The clamp and loads mean what they mean for a serial scene (pmg/sim/setup.hpp): the vertices
 // within clamp_fraction of the extent from the minimum of clamp_axis (plus 1e-9 of the bounding
 // box's largest extent) are clamped; gravity ρ g on every element; end_force spread as a uniform
-// traction over the boundary faces at the maximum of clamp_axis. The bounding box is reduced over
-// the ranks.
+// traction over the boundary faces at the maximum of clamp_axis; symmetry planes and supports hold
+// components on planes of the bounding box (each must hold a planar part of the boundary). The
+// bounding box is reduced over the ranks.
 //
 // Refinement: PETSc's regular refinement (DMRefine), which cuts each inner octahedron along a
 // fixed diagonal; the serial route's mesh refinement (fem::refine_uniform) cuts it along the
@@ -25,6 +26,7 @@
 
 #include <mpi.h>
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -37,6 +39,14 @@ class GhostExchange;
 }
 
 namespace pmg::dist {
+
+/// A plane of the bounding box on which components are held at zero: a symmetry plane (the normal
+/// component) or a support (any components), as a serial scene's "symmetry" and "supports".
+struct HeldPlane {
+  int axis = 0;         ///< 0, 1, 2: the plane's normal
+  bool at_max = false;  ///< the maximum of the axis (else the minimum)
+  int components = 1;   ///< bits 1, 2, 4 for x, y, z (a symmetry plane: 1 << axis)
+};
 
 /// What MeshProblem builds (see the file comment).
 struct MeshProblemOptions {
@@ -52,6 +62,9 @@ struct MeshProblemOptions {
   double clamp_fraction = 0.0;           ///< of the extent along clamp_axis, in [0, 1)
   fem::Vec3 gravity = fem::Vec3::Zero();    ///< m/s²
   fem::Vec3 end_force = fem::Vec3::Zero();  ///< total force on the far face (N)
+  /// Components held on planes of the bounding box, each vertex within 1e-9 of the box's largest
+  /// extent of a plane taking its bits (fem::DegreeHierarchy's rule then gives the nodes theirs).
+  std::vector<HeldPlane> held;
   /// Where non-empty: the distributed mesh, after refinement, written there in PETSc's HDF5
   /// format (pmg::petsc::PlexMesh::save), to be read in parallel by the file constructor.
   std::string save_mesh;
@@ -82,6 +95,9 @@ class MeshProblem {
   long global_cells() const { return cells_; }
   /// Clamped vertices of all ranks.
   long clamped_vertices() const { return clamped_; }
+  /// Components held by symmetry planes and supports on the finest level, all ranks (each held
+  /// component of an owned node once).
+  long held_components() const { return held_; }
   /// Lower corner of the bounding box (all ranks).
   const fem::Vec3& lo() const { return lo_; }
   /// Upper corner of the bounding box (all ranks).
@@ -90,9 +106,9 @@ class MeshProblem {
   /// axis (total force F, the serial scene's end_force), on the finest level's owned unknowns.
   /// Collective; throws InputError on every rank when no rank has such a face.
   Vector end_traction(const fem::Vec3& F) const;
-  /// The mesh vertex nearest `target` over every rank (ties: the smallest coordinates, x first);
-  /// every rank gets it. Collective.
-  fem::Vec3 nearest_vertex(const fem::Vec3& target) const;
+  /// The mesh vertex of every rank whose key is the smallest (keys compared in order: a distance,
+  /// then tie-breaks); every rank gets it. Collective.
+  fem::Vec3 vertex_with_smallest(const std::function<std::array<double, 4>(const fem::Vec3&)>& key) const;
   /// Seconds of each stage on this rank, in order.
   const std::vector<std::pair<std::string, double>>& stages() const { return stages_; }
   /// This rank's peak resident memory (bytes, peak_resident_bytes()) at the end of each stage.
@@ -100,6 +116,8 @@ class MeshProblem {
 
  private:
   void check(const MeshProblemOptions& o) const;
+  /// Refuses a held plane without boundary faces (every rank alike); counts the held components.
+  void check_held(const MeshProblemOptions& o);
   void build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblemOptions& o, const std::vector<int>* parts);
   MPI_Comm comm_;
   std::unique_ptr<RankHierarchy> ranks_;
@@ -107,7 +125,7 @@ class MeshProblem {
   int axis_ = 0;
   double tol_ = 0.0;  // of a position on the clamp and the far face
   Vector load_;
-  long cells_ = 0, clamped_ = 0;
+  long cells_ = 0, clamped_ = 0, held_ = 0;
   fem::Vec3 lo_, hi_;
   std::vector<std::pair<std::string, double>> stages_;
   std::vector<double> peaks_;

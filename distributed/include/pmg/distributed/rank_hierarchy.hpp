@@ -37,10 +37,6 @@ class PlexMesh;
 
 namespace pmg::dist {
 
-/// Whether any level holds single components (symmetry planes, supports: constrained_dofs()),
-/// which the rank levels, holding whole nodes, do not support yet.
-bool holds_components(const fem::DegreeHierarchy& serial);
-
 /// One rank's share of a DegreeHierarchy (see the file comment).
 class RankHierarchy {
  public:
@@ -50,9 +46,11 @@ class RankHierarchy {
   /// This rank's share of a distributed mesh (see the file comment): degrees 1 to `degree` on the
   /// rank's cells, `clamped` one flag per local vertex of `mesh` (every rank must flag a shared
   /// vertex alike), the material's stiffness scaled per local cell by `stiffness_scale` (empty:
-  /// 1). Collective; `mesh` may be destroyed afterwards.
+  /// 1), `components` the components held on their own per local vertex (bits 1, 2, 4; empty:
+  /// none; fem::DegreeHierarchy's rule, alike on every rank). Collective; `mesh` may be destroyed
+  /// afterwards.
   RankHierarchy(const petsc::PlexMesh& mesh, int degree, const fem::Material& material, std::vector<char> clamped,
-                const std::vector<double>& stiffness_scale = {});
+                const std::vector<double>& stiffness_scale = {}, std::vector<char> components = {});
   ~RankHierarchy();
   /// Whether the share was built from a serial hierarchy (else from a distributed mesh).
   bool from_serial() const { return !parts_.empty(); }

@@ -14,11 +14,9 @@
 
 namespace pmg::dist {
 
-/// The scene's mesh refinement, degree, material, clamp and loads; InputError for what this route
-/// does not take yet (supports and symmetry planes, a stiffer inclusion).
+/// The scene's mesh refinement, degree, material, clamp, supports and symmetry planes and loads;
+/// InputError for what this route does not take yet (a stiffer inclusion).
 inline MeshProblemOptions mesh_problem_options(const sim::Scene& s) {
-  if (!s.supports.empty())
-    throw InputError("distributed mesh: the scene's supports and symmetry planes are not taken on a distributed mesh yet");
   if (s.inclusion) throw InputError("distributed mesh: material.inclusion is not taken on a distributed mesh yet");
   MeshProblemOptions o;
   o.refine = s.refine;
@@ -28,6 +26,7 @@ inline MeshProblemOptions mesh_problem_options(const sim::Scene& s) {
   o.clamp_fraction = s.clamp_fraction;
   o.gravity = s.gravity;
   o.end_force = s.end_force;
+  for (const sim::Scene::Support& sup : s.supports) o.held.push_back({sup.axis, sup.at_max, sup.components});
   return o;
 }
 

@@ -13,6 +13,7 @@
 #include "pmg/sim/scene.hpp"
 #include "pmg/sparse/solver.hpp"
 
+#include <array>
 #include <memory>
 #include <string>
 #include <utility>
@@ -87,9 +88,15 @@ struct SceneSetup {
 };
 
 /// Mesh, hierarchy, clamp (refuses a clamp that leaves a rigid motion), inclusion, loads and the
-/// probe (the scene's point, or the vertex nearest the centre of the far face; the vertex
-/// farthest from the centre when nothing is clamped). InputError names the scene key at fault.
+/// probe (the scene's point, or the vertex with the smallest probe_key()). InputError names the
+/// scene key at fault.
 SceneSetup set_up(const Scene& s);
+/// Where a scene without a probe point records: the vertex with the smallest key, compared in
+/// order. Clamped: (distance to the centre of the far face, then the vertex farther along the
+/// clamp axis, then the smaller coordinate on the next axes); nothing clamped: (minus the
+/// distance from the centre, then the smaller x, y, z). The same vertex for any order of the
+/// vertices, so a mesh no rank holds whole picks the serial scene's.
+std::array<double, 4> probe_key(const Scene& s, const fem::Vec3& lo, const fem::Vec3& hi, const fem::Vec3& X);
 
 /// A scene set up across the MPI ranks of the job (MPI_COMM_WORLD) on a mesh no rank holds whole
 /// (pmg/distributed/mesh_problem.hpp): a `.h5` mesh read in parallel, any other mesh or the box bar

@@ -63,6 +63,12 @@ struct RankLevel {
   /// (degree elevation: a node's row reads only its entity's closure, held by any element that
   /// holds the node).
   const Csr* prolongation = nullptr;
+  /// Components held on their own (symmetry planes, supports): 1 per held local unknown (3 per
+  /// local node), nullptr: none. Their rows of the level's operator are identity rows on every
+  /// rank that holds the node (so the owner's row is the ranks' count times the identity) and their
+  /// entries of every vector zero; the prolongation leaves them out, as rows here and as columns
+  /// on the level above. Must outlive the solver.
+  const std::vector<char>* constrained = nullptr;
 };
 
 /// The options of PMultigridCg.
