@@ -48,6 +48,43 @@ class RankLevels final : public Solver {
 
 }  // namespace
 
+/// A rank's StepPart: owned unknowns in global order, its free local nodes' values from their
+/// owners and its element sums into them (petsc::GhostExchange), sums over the ranks, a rank's own
+/// failure every rank's, and the PETSc solver on the owned unknowns.
+class DistributedEuler::RankPart final : public fem::StepPart {
+ public:
+  RankPart(DistributedEuler& e) : e_(e) {}
+  const fem::ElasticityModel& finest() const override { return e_.ranks_->local().finest(); }
+  fem::BoundSystem& system() const override { return *e_.system_; }
+  void add_to_owners(const Vector& local, Vector& owned) const override { e_.ghosts_->add_to_owners(local, owned); }
+  void to_local(const Vector& owned, Vector& local) const override { e_.ghosts_->to_local(owned, local); }
+  double sum(double mine) const override { return e_.sum(mine); }
+  void together(const std::function<void()>& f, const std::string& what) const override {
+    std::string error;
+    try {
+      f();
+    } catch (const std::exception& x) {
+      error = x.what();
+    }
+    agree_on(e_.comm_, error, what);
+  }
+  void agree(const std::string& error, const std::string& what) const override { agree_on(e_.comm_, error, what); }
+  double residual_norm(const Vector& b, const Vector& v) const override {
+    Vector av;
+    e_.solver_->multiply(e_.ranks_->num_levels() - 1, v, av);
+    return std::sqrt(e_.sum((b - av).squaredNorm()));
+  }
+  SolveResult solve(const Vector& b, Vector& v) override {
+    const SolveResult res = e_.solver_->solve(b, v);
+    if (!res.ok() && e_.params_.throw_on_failure) throw SolveError(res);
+    return res;
+  }
+  std::string solver_name() const override { return "petsc-mgpcg"; }
+
+ private:
+  DistributedEuler& e_;
+};
+
 DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vector& f_ext,
                                    const fem::SimulationParams& p, DistributedMgpcgParams solver, MPI_Comm comm)
     : serial_(&serial), p_(p), comm_(comm) {
@@ -97,13 +134,12 @@ DistributedEuler::DistributedEuler(RankHierarchy& ranks, const Vector& f_ext_own
 void DistributedEuler::build(const Vector& f_ext_owned, const DistributedMgpcgParams& solver) {
   const int top = ranks_->num_levels() - 1;
   ghosts_ = std::make_unique<petsc::GhostExchange>(comm_, ranks_->first(top), ranks_->owned(top), ranks_->global(top));
-  f_ext_owned_ = f_ext_owned;
   params_ = solver;
   solver_ = std::make_unique<petsc::PMultigridCg>(comm_, to_pcmg(solver));
   rank_solver_ = std::make_unique<RankLevels>(*solver_, *ranks_);
   system_ = std::make_unique<fem::BoundSystem>(ranks_->local().bind(*rank_solver_));
-  u_owned_ = v_owned_ = Vector::Zero(ghosts_->owned_size());
-  owned_to_local();
+  part_ = std::make_unique<RankPart>(*this);
+  step_ = std::make_unique<fem::EulerStep>(*part_, p_, f_ext_owned);
 }
 
 DistributedEuler::~DistributedEuler() = default;
@@ -140,19 +176,8 @@ void DistributedEuler::set_state(const Vector& u, const Vector& v) {
   mpi::together(comm_, [&] { fem::check_state(m, u, v); });
   const int top = ranks_->num_levels() - 1;
   const fem::ElasticityModel& local = ranks_->local().finest();
-  u_local_ = ranks_->local_part(*serial_, top, u);
-  v_local_ = local.restrict_to_free(ranks_->local_part(*serial_, top, v));
-  u_owned_ = ranks_->owned_part(top, m.restrict_to_free(u));
-  v_owned_ = ranks_->owned_part(top, m.restrict_to_free(v));
-  state_.valid = false;
-}
-
-void DistributedEuler::owned_to_local() {
-  Vector u_free;
-  ghosts_->to_local(u_owned_, u_free);
-  u_local_ = ranks_->local().finest().expand(u_free, Vector());
-  ghosts_->to_local(v_owned_, v_local_);
-  state_.valid = false;
+  step_->set_state(ranks_->local_part(*serial_, top, u), local.restrict_to_free(ranks_->local_part(*serial_, top, v)),
+                   ranks_->owned_part(top, m.restrict_to_free(u)), ranks_->owned_part(top, m.restrict_to_free(v)));
 }
 
 void DistributedEuler::set_state_local(const Vector& u, const Vector& v) {
@@ -171,13 +196,14 @@ void DistributedEuler::set_state_local(const Vector& u, const Vector& v) {
   const Vector uf = local.restrict_to_free(u), vf = local.restrict_to_free(v);
   const std::vector<index_t>& global = ranks_->global(top);
   const index_t first = ranks_->first(top), owned = ranks_->owned(top);
+  Vector u_owned(ghosts_->owned_size()), v_owned(ghosts_->owned_size());
   for (size_t i = 0; i < global.size(); ++i) {
     const index_t k = global[i] - first;
     if (k < 0 || k >= owned) continue;
-    u_owned_.segment<3>(3 * k) = uf.segment<3>(3 * static_cast<Eigen::Index>(i));
-    v_owned_.segment<3>(3 * k) = vf.segment<3>(3 * static_cast<Eigen::Index>(i));
+    u_owned.segment<3>(3 * k) = uf.segment<3>(3 * static_cast<Eigen::Index>(i));
+    v_owned.segment<3>(3 * k) = vf.segment<3>(3 * static_cast<Eigen::Index>(i));
   }
-  owned_to_local();
+  step_->set_state_owned(std::move(u_owned), std::move(v_owned));
 }
 
 int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticOptions& options, double solve_tol) {
@@ -194,10 +220,9 @@ int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticO
   petsc::PMultigridCg solver(comm_, to_pcmg(sp));
   fem::DegreeHierarchy& local = ranks_->local();
   const bool corotational = p_.corotational;
-  u_owned_.setZero();
-  v_owned_.setZero();
-  owned_to_local();
-  step_levels_ = false;
+  Vector u = Vector::Zero(ghosts_->owned_size());
+  step_->set_state_owned(u, u);
+  step_->levels_changed();  // the levels below carry the stiffness alone until the next step
   double omega = options.relaxation, previous_change = INFINITY;
   for (int it = 1;; ++it) {
     // The fixed point of pmg/fem/static_solve.hpp: K_R δ = f + f_el(u_k), u_{k+1} = u_k + ω δ.
@@ -205,8 +230,8 @@ int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticO
     Vector force;
     std::string error;
     try {
-      if (corotational) R = local.finest().rotations(u_local_);
-      system_->evaluate(u_local_, corotational ? &R : nullptr, {}, &force, nullptr);
+      if (corotational) R = local.finest().rotations(step_->u_local());
+      system_->evaluate(step_->u_local(), corotational ? &R : nullptr, {}, &force, nullptr);
       system_->prepare(corotational ? &R : nullptr, {}, /*finest=*/false);
     } catch (const std::exception& e) {
       error = e.what();
@@ -225,11 +250,11 @@ int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticO
       throw SolveError(r);
     }
     const double change = std::sqrt(sum(delta.squaredNorm())) /
-                          std::max(std::sqrt(sum((u_owned_ + delta).squaredNorm())), 1e-300);
+                          std::max(std::sqrt(sum((u + delta).squaredNorm())), 1e-300);
     if (corotational && it > 1 && change > previous_change) omega = std::max(omega / 2, 1.0 / 64);
     previous_change = change;
-    u_owned_ += (corotational && it > 1 ? omega : 1.0) * delta;
-    owned_to_local();
+    u += (corotational && it > 1 ? omega : 1.0) * delta;
+    step_->set_state_owned(u, Vector::Zero(u.size()));
     if (!corotational || change <= options.corotational_tol) return it;
     if (!std::isfinite(change) || it >= options.max_corotational_iterations)
       throw Error("static state: the corotational fixed point did not converge (relative change " +
@@ -238,105 +263,13 @@ int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticO
   }
 }
 
-void DistributedEuler::evaluate_state() const {
-  if (state_.valid) return;
-  state_.seconds = {};
-  fem::DegreeHierarchy& local = ranks_->local();
-  const fem::StepWeights w = fem::step_weights(p_);
-  const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
-  Vector force;
-  double energy = 0.0;
-  fem::EvaluateSeconds s;
-  auto t0 = Clock::now();
-  std::string error;  // the rank's own elements first; any rank's failure is every rank's
-  try {
-    if (p_.corotational) {
-      state_.R = local.finest().rotations(u_local_);
-      state_.seconds[fem::kRotations] = seconds_since(t0);
-    }
-    // The finest operator with the force and energy (linear material: final after the first step).
-    s = system_->evaluate(u_local_, R, {w.mass, w.stiffness}, &force, &energy, p_.corotational || !step_levels_);
-    state_.seconds[fem::kAssembly] = s.finest;
-  } catch (const std::exception& e) {
-    error = e.what();
-  }
-  t0 = Clock::now();
-  agree_on(comm_, error, "step " + std::to_string(step_ + 1));
-  ghosts_->add_to_owners(local.finest().restrict_to_free(force), state_.force_owned);
-  state_.energy = sum(energy);
-  state_.seconds[fem::kForces] = s.force + seconds_since(t0);
-  state_.valid = true;
-}
-
-fem::StepStats DistributedEuler::step() {
-  const ThreadBudget budget;  // the cores free now, for the whole step (pmg/sparse/threads.hpp)
-  evaluate_state();
-  fem::StepStats st;
-  st.seconds = state_.seconds;
-  fem::DegreeHierarchy& local = ranks_->local();
-  const int top = local.num_levels() - 1;
-  const fem::StepWeights w = fem::step_weights(p_);
-  if (p_.corotational || !step_levels_) {
-    // The lower degrees get the same rotations and weights (the seam prepares what the rank's
-    // solver reads: matrix-free degrees, the linear level assembled); every rank agrees on the
-    // rank-local work before the collective set-up.
-    const auto t0 = Clock::now();
-    const fem::Rotations* R = p_.corotational ? &state_.R : nullptr;
-    std::string error;
-    try {
-      system_->prepare(R, {w.mass, w.stiffness}, /*finest=*/false);
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-    agree_on(comm_, error, "step " + std::to_string(step_ + 1));
-    system_->set_up_solver();
-    step_levels_ = true;
-    st.seconds[fem::kHierarchy] = seconds_since(t0);
-  }
-  // b = M v + Δt (f_ext + f_el(x)) on the owned unknowns.
-  auto t0 = Clock::now();
-  Vector mv_local(system_->mass().rows()), b;
-  system_->mass().apply(v_local_, mv_local);
-  ghosts_->add_to_owners(mv_local, b);
-  b += p_.dt * (f_ext_owned_ + state_.force_owned);
-  st.seconds[fem::kForces] += seconds_since(t0);
-
-  // The warm start is kept only where it beats zero (fem::ImplicitEuler::step()).
-  t0 = Clock::now();
-  const double bn = std::sqrt(sum(b.squaredNorm()));
-  Vector av;
-  solver_->multiply(top, v_owned_, av);
-  if (std::sqrt(sum((b - av).squaredNorm())) > bn) v_owned_.setZero();
-  const SolveResult res = solver_->solve(b, v_owned_);
-  if (!res.ok()) {
-    SolveResult r = res;
-    r.message = "step " + std::to_string(step_ + 1) + " (t = " + std::to_string(t_ + p_.dt) +
-                " s): petsc-mgpcg failed: " + res.message;
-    throw SolveError(r);
-  }
-  st.seconds[fem::kSolve] = seconds_since(t0);
-  agree_on(comm_, v_owned_.allFinite() ? "" : "the velocity is not finite", "step " + std::to_string(step_ + 1));
-
-  ghosts_->to_local(v_owned_, v_local_);
-  u_local_ += p_.dt * local.finest().expand(v_local_, Vector());
-  u_owned_ += p_.dt * v_owned_;
-  state_.valid = false;
-  fem::finish_step(st, step_, t_, p_.dt, res, bn);
-  return st;
-}
-
-double DistributedEuler::kinetic_energy() const {
-  Vector mv(system_->mass().rows());
-  system_->mass().apply(v_local_, mv);
-  return sum(0.5 * v_local_.dot(mv));
-}
-
-double DistributedEuler::elastic_energy() const {
-  evaluate_state();
-  return state_.energy;
-}
-
-double DistributedEuler::external_work() const { return sum(f_ext_owned_.dot(u_owned_)); }
+fem::StepStats DistributedEuler::step() { return step_->step(); }
+double DistributedEuler::time() const { return step_->time(); }
+int DistributedEuler::steps() const { return step_->steps(); }
+const Vector& DistributedEuler::displacement_owned() const { return step_->u_owned(); }
+double DistributedEuler::kinetic_energy() const { return step_->kinetic_energy(); }
+double DistributedEuler::elastic_energy() const { return step_->elastic_energy(); }
+double DistributedEuler::external_work() const { return step_->external_work(); }
 
 fem::Vec3 DistributedEuler::displacement_at(index_t serial_element, const Eigen::Vector4d& barycentric) const {
   if (!serial_) throw InputError("distributed time step: no serial elements on a distributed mesh (locate a point)");
@@ -344,7 +277,7 @@ fem::Vec3 DistributedEuler::displacement_at(index_t serial_element, const Eigen:
     throw InputError("distributed time step: no element " + std::to_string(serial_element));
   const index_t e = ranks_->local_element(serial_element);
   fem::Vec3 mine = fem::Vec3::Zero(), all = fem::Vec3::Zero();
-  if (e >= 0) mine = ranks_->local().finest().displacement_at(u_local_, e, barycentric);
+  if (e >= 0) mine = ranks_->local().finest().displacement_at(step_->u_local(), e, barycentric);
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   MPI_Allreduce(mine.data(), all.data(), 3, MPI_DOUBLE, MPI_SUM, comm_);
   return all;
@@ -375,7 +308,7 @@ DistributedEuler::Located DistributedEuler::locate(const fem::Vec3& point) const
 fem::Vec3 DistributedEuler::displacement_at(const Located& point) const {
   if (point.rank < 0 || point.rank >= ranks_->size()) throw InputError("distributed time step: a point not located");
   fem::Vec3 d = fem::Vec3::Zero();
-  if (point.rank == ranks_->rank()) d = ranks_->local().finest().displacement_at(u_local_, point.element, point.barycentric);
+  if (point.rank == ranks_->rank()) d = ranks_->local().finest().displacement_at(step_->u_local(), point.element, point.barycentric);
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   MPI_Bcast(d.data(), 3, MPI_DOUBLE, point.rank, comm_);
   return d;
@@ -384,7 +317,7 @@ fem::Vec3 DistributedEuler::displacement_at(const Located& point) const {
 Vector DistributedEuler::gather_displacement() const {
   if (!serial_) throw InputError("distributed time step: gather_displacement gathers a serial vector, and this one runs on a distributed mesh");
   const int top = ranks_->num_levels() - 1;
-  return serial_->finest().expand(ranks_->gather(top, u_owned_), Vector());
+  return serial_->finest().expand(ranks_->gather(top, step_->u_owned()), Vector());
 }
 
 std::string DistributedEuler::write_frame(const std::string& directory, const std::string& stem) const {
@@ -392,7 +325,7 @@ std::string DistributedEuler::write_frame(const std::string& directory, const st
   std::string error;
   try {
     fem::write_vtu(directory + "/" + stem + "_" + std::to_string(rank) + ".vtu", ranks_->local().finest().space(),
-                   u_local_);
+                   step_->u_local());
   } catch (const std::exception& e) {
     error = e.what();
   }

@@ -1,4 +1,5 @@
 #include "pmg/fem/simulation.hpp"
+#include "pmg/fem/euler_step.hpp"
 #include "pmg/sparse/threads.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -67,15 +68,47 @@ void finish_step(StepStats& st, int& step, double& t, double dt, const SolveResu
 
 // ---- implicit Euler ------------------------------------------------------------------------------
 
-ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext,
-                             const SimulationParams& p)
-    : h_(h), solver_(solver), system_(h.bind(solver)), f_ext_(f_ext), p_(p) {
+namespace {
+
+/// One process's StepPart: the owned unknowns are the free ones, a sum is the value itself.
+class SerialPart final : public StepPart {
+ public:
+  SerialPart(DegreeHierarchy& h, BoundSystem& system, Solver& solver) : h_(h), system_(system), solver_(solver) {}
+  const ElasticityModel& finest() const override { return h_.finest(); }
+  BoundSystem& system() const override { return system_; }
+  void add_to_owners(const Vector& local, Vector& owned) const override { owned = local; }
+  void to_local(const Vector& owned, Vector& local) const override { local = owned; }
+  double sum(double mine) const override { return mine; }
+  void together(const std::function<void()>& f, const std::string&) const override { f(); }
+  void agree(const std::string& error, const std::string& what) const override {
+    if (!error.empty()) throw Error(what + ": " + error);
+  }
+  double residual_norm(const Vector& b, const Vector& v) const override {
+    system_.system().residual(b, v, residual_);  // reused: no per-step allocation
+    return residual_.norm();
+  }
+  SolveResult solve(const Vector& b, Vector& v) override { return solver_.solve(b, v); }
+  std::string solver_name() const override { return solver_.name(); }
+
+ private:
+  DegreeHierarchy& h_;
+  BoundSystem& system_;
+  Solver& solver_;
+  mutable Vector residual_;
+};
+
+}  // namespace
+
+ImplicitEuler::ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext, const SimulationParams& p)
+    : h_(h), system_(h.bind(solver)) {
   const ElasticityModel& m = h_.finest();
-  check_simulation(m, f_ext_, p_);
-  u_ = Vector::Zero(m.num_dofs());
+  check_simulation(m, f_ext, p);
+  part_ = std::make_unique<SerialPart>(h_, system_, solver);
+  step_ = std::make_unique<EulerStep>(*part_, p, m.restrict_to_free(f_ext));
   v_ = Vector::Zero(m.num_dofs());
-  v_free_ = Vector::Zero(m.num_free_dofs());
 }
+
+ImplicitEuler::~ImplicitEuler() = default;
 
 void check_state(const ElasticityModel& m, const Vector& u, const Vector& v) {
   if (u.size() != m.num_dofs() || v.size() != m.num_dofs())
@@ -98,90 +131,22 @@ void check_state(const ElasticityModel& m, const Vector& u, const Vector& v) {
 void ImplicitEuler::set_state(const Vector& u, const Vector& v) {
   const ElasticityModel& m = h_.finest();
   check_state(m, u, v);
-  u_ = u;
   v_ = v;
-  state_.valid = false;
-  v_free_ = m.restrict_to_free(v);
+  step_->set_state(u, m.restrict_to_free(v), m.restrict_to_free(u), m.restrict_to_free(v));
 }
 
-void ImplicitEuler::evaluate_state() const {
-  if (state_.valid) return;
-  state_.seconds = {};
-  auto t0 = Clock::now();
-  if (p_.corotational) {
-    state_.R = h_.finest().rotations(u_);
-    state_.seconds[kRotations] = seconds_since(t0);
-  }
-  const Rotations* R = p_.corotational ? &state_.R : nullptr;
-  // Linear material keeps its finest operator after the first pass: force and energy only.
-  state_.matrix_assembled = p_.corotational || !assembled_;
-  const EvaluateSeconds s =
-      system_.evaluate(u_, R, weights(), &state_.force, &state_.energy, state_.matrix_assembled);
-  assembled_ = true;
-  state_.seconds[kAssembly] = s.finest;
-  state_.seconds[kForces] = s.force;
-  state_.valid = true;
-}
+const Vector& ImplicitEuler::displacement() const { return step_->u_local(); }
+double ImplicitEuler::time() const { return step_->time(); }
+int ImplicitEuler::steps() const { return step_->steps(); }
 
 StepStats ImplicitEuler::step() {
-  const ThreadBudget budget;  // the cores free now, for the whole step (pmg/sparse/threads.hpp)
-  const ElasticityModel& m = h_.finest();
-  evaluate_state();
-  StepStats st;
-  st.seconds = state_.seconds;
-  if (state_.matrix_assembled) {
-    // The lower degrees get the same rotations and weights: (1 + Δt α) M + (Δt β + Δt²) K_R.
-    const RefreshSeconds r = system_.refresh(p_.corotational ? &state_.R : nullptr, weights(), /*finest=*/false);
-    st.seconds[kHierarchy] = r.prepare + r.setup;
-  }
-  // b = M v + Δt (f_ext + f_el(x)) on the free nodes.
-  auto t0 = Clock::now();
-  const Vector f = m.restrict_to_free(f_ext_ + state_.force);
-  Vector b(v_free_.size());
-  system_.mass().apply(v_free_, b);
-  b += p_.dt * f;
-  st.seconds[kForces] += seconds_since(t0);
-
-  t0 = Clock::now();
-  const double bn = b.norm();
-  // The solvers' tolerance is relative to the initial residual ||b - A v_0||. The previous velocity
-  // is kept as the start only where it beats zero (||b - A v_0|| <= ||b||): near the turning points
-  // of an oscillation b is small and the old velocity a poor guess, and a step started from it would
-  // be accepted with ||b - A v|| far above tol ||b||. So every accepted step has
-  // ||b - A v|| <= tol ||b|| (up to the solvers' factor-2 allowance on the true residual).
-  system_.system().residual(b, v_free_, start_residual_);
-  if (start_residual_.norm() > bn) v_free_.setZero();
-  SolveResult res;
-  try {
-    res = solver_.solve(b, v_free_);
-  } catch (const SolveError& e) {
-    SolveResult r = e.result;
-    r.message = "step " + std::to_string(step_ + 1) + " (t = " + std::to_string(t_ + p_.dt) +
-                " s): " + solver_.name() + " failed: " + e.what();
-    throw SolveError(r);
-  }
-  st.seconds[kSolve] = seconds_since(t0);
-  if (!v_free_.allFinite())
-    throw Error("step " + std::to_string(step_ + 1) + ": the velocity is not finite");
-
-  v_ = m.expand(v_free_, Vector());
-  u_ += p_.dt * v_;
-  state_.valid = false;
-  finish_step(st, step_, t_, p_.dt, res, bn);
+  const StepStats st = step_->step();
+  v_ = h_.finest().expand(step_->v_local(), Vector());
   return st;
 }
 
-double ImplicitEuler::kinetic_energy() const {
-  Vector Mv(v_free_.size());
-  system_.mass().apply(v_free_, Mv);
-  return 0.5 * v_free_.dot(Mv);
-}
-
-double ImplicitEuler::elastic_energy() const {
-  evaluate_state();
-  return state_.energy;
-}
-
-double ImplicitEuler::external_work() const { return f_ext_.dot(u_); }
+double ImplicitEuler::kinetic_energy() const { return step_->kinetic_energy(); }
+double ImplicitEuler::elastic_energy() const { return step_->elastic_energy(); }
+double ImplicitEuler::external_work() const { return step_->external_work(); }
 
 }  // namespace pmg::fem

@@ -1,7 +1,8 @@
 // pmg/distributed/dynamics.hpp — the implicit-Euler time step of pmg/fem/simulation.hpp across MPI
 // ranks: each rank computes the rotations, elastic forces and energy of its own elements only,
 // keeps the velocity and displacement of its owned nodes, and solves the step system with the
-// p-multigrid on PETSc (pmg/petsc/pcmg.hpp). The step equation is fem::ImplicitEuler's:
+// p-multigrid on PETSc (pmg/petsc/pcmg.hpp). The step is fem::EulerStep's (pmg/fem/euler_step.hpp),
+// the very code of fem::ImplicitEuler, on a StepPart whose exchanges, sums and solve span the ranks:
 //
 //   (m M + s K_R) v⁺ = M v + Δt (f_ext + f_el(x)),   x⁺ = x + Δt v⁺,   f_el = Σ_ranks Gᵀ f_el,rank,
 //
@@ -30,6 +31,7 @@
 
 #include "pmg/distributed/mgpcg.hpp"
 #include "pmg/distributed/rank_hierarchy.hpp"
+#include "pmg/fem/euler_step.hpp"
 #include "pmg/fem/simulation.hpp"
 #include "pmg/fem/static_solve.hpp"
 
@@ -81,9 +83,9 @@ class DistributedEuler {
   /// pmg::Error when the velocity turns non-finite on any rank (every rank throws).
   fem::StepStats step();
   /// Simulated time in seconds.
-  double time() const { return t_; }
+  double time() const;
   /// Steps done.
-  int steps() const { return step_; }
+  int steps() const;
   /// ½ vᵀ M v over every rank.
   double kinetic_energy() const;
   /// The elastic energy of the state over every rank (from the pass the next step reuses).
@@ -106,7 +108,7 @@ class DistributedEuler {
   /// The displacement at a located point; every rank gets it.
   fem::Vec3 displacement_at(const Located& point) const;
   /// The displacement on the finest level's owned unknowns (global order).
-  const Vector& displacement_owned() const { return u_owned_; }
+  const Vector& displacement_owned() const;
   /// The serial full displacement (every rank gets all of it: for checks, not per step). The
   /// replicated set-up only.
   Vector gather_displacement() const;
@@ -131,12 +133,10 @@ class DistributedEuler {
   std::string describe() const;
 
  private:
-  void evaluate_state() const;
+  class RankPart;
   double sum(double mine) const;
-  /// The rank's solver, ghost exchange and binding, after ranks_ is set; the state at rest.
+  /// The rank's solver, ghost exchange, binding and step, after ranks_ is set; the state at rest.
   void build(const Vector& f_ext_owned, const DistributedMgpcgParams& solver);
-  /// u_local_ and v_local_ from u_owned_ and v_owned_ (the ghosts from their owners).
-  void owned_to_local();
 
   const fem::DegreeHierarchy* serial_ = nullptr;  // the replicated set-up's serial hierarchy
   fem::SimulationParams p_;
@@ -144,8 +144,6 @@ class DistributedEuler {
   MPI_Comm comm_;
   std::unique_ptr<RankHierarchy> own_ranks_;  // the replicated set-up's share
   RankHierarchy* ranks_ = nullptr;
-  /// The rank's levels carry the step's weights (a static solve leaves stiffness alone on them).
-  bool step_levels_ = false;
   std::unique_ptr<petsc::GhostExchange> ghosts_;
   std::unique_ptr<petsc::PMultigridCg> solver_;
   /// solver_ on the rank's levels as the seam's Solver (set up and refreshed through system_).
@@ -153,20 +151,8 @@ class DistributedEuler {
   /// The rank's hierarchy bound to rank_solver_ (fem::BoundSystem): what a step prepares, and the
   /// rank's consistent mass.
   std::unique_ptr<fem::BoundSystem> system_;
-  Vector f_ext_owned_;
-  Vector u_owned_, v_owned_;  // owned unknowns, global order
-  Vector u_local_;            // the rank's full vector (its sub-mesh's nodes, fixed ones zero)
-  Vector v_local_;            // the rank's free local unknowns
-  double t_ = 0.0;
-  int step_ = 0;
-  struct StateTerms {
-    bool valid = false;
-    fem::Rotations R;
-    Vector force_owned;
-    double energy = 0.0;
-    std::array<double, fem::kNumStages> seconds{};
-  };
-  mutable StateTerms state_;
+  std::unique_ptr<fem::StepPart> part_;  // the rank's exchanges, reductions and solve
+  std::unique_ptr<fem::EulerStep> step_;  // the one implicit-Euler step (pmg/fem/euler_step.hpp)
 };
 
 }  // namespace pmg::dist

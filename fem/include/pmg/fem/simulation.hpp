@@ -89,25 +89,32 @@ void record_solve(StepStats& st, const SolveResult& res, double b_norm);
 /// Closes a step of any stepper: the clock t advanced by dt, the step counted, and the step's
 /// StepStats given its number, time and solve (record_solve).
 void finish_step(StepStats& st, int& step, double& t, double dt, const SolveResult& res, double b_norm);
+class StepPart;
+class EulerStep;
+
 /// Linearised implicit Euler time stepping of (corotational) elasticity on a degree hierarchy
-/// (see the file comment). Holds references to the hierarchy and the solver, which must outlive it.
+/// (see the file comment): the step of pmg/fem/euler_step.hpp on one process. Holds references to
+/// the hierarchy and the solver, which must outlive it.
 class ImplicitEuler {
  public:
   /// f_ext: full external force vector (constant in time). The hierarchy is assembled here.
   /// The solver is set up on the finest matrix at the first step (its levels, if it uses any,
   /// must be h).
   ImplicitEuler(DegreeHierarchy& h, Solver& solver, const Vector& f_ext, const SimulationParams& p);
+  ~ImplicitEuler();
+  ImplicitEuler(const ImplicitEuler&) = delete;
+  ImplicitEuler& operator=(const ImplicitEuler&) = delete;
 
   /// Full displacement (3 per node) and velocity; fixed nodes must be zero in both.
   void set_state(const Vector& u, const Vector& v);
   /// Current full displacement u (3 per node, zero on clamped nodes).
-  const Vector& displacement() const { return u_; }
+  const Vector& displacement() const;
   /// Current full velocity v (3 per node, zero on clamped nodes).
   const Vector& velocity() const { return v_; }
   /// Simulated time in seconds (dt per step done).
-  double time() const { return t_; }
+  double time() const;
   /// Number of steps done since construction.
-  int steps() const { return step_; }
+  int steps() const;
 
   /// One step. Throws SolveError (with the step in the message) when the solve fails, and
   /// pmg::Error when the state turns non-finite.
@@ -123,31 +130,11 @@ class ImplicitEuler {
   const BoundSystem& bound_system() const { return system_; }
 
  private:
-  double mass_weight() const { return step_weights(p_).mass; }
-  double stiffness_weight() const { return step_weights(p_).stiffness; }
-  SystemWeights weights() const { return {mass_weight(), stiffness_weight()}; }
-  /// The pass over the elements for the current state, once per state.
-  void evaluate_state() const;
   DegreeHierarchy& h_;
-  Solver& solver_;
   mutable BoundSystem system_;  ///< the seam: what the solver reads of the hierarchy, kept current
-  Vector f_ext_;
-  SimulationParams p_;
-  Vector u_, v_, v_free_;
-  Vector start_residual_;  ///< b - A v_0 of the step (reused: no per-step allocation)
-  double t_ = 0.0;
-  int step_ = 0;
-  /// What the state u_ contributes (valid until u_ changes).
-  struct StateTerms {
-    bool valid = false;
-    bool matrix_assembled = false;  ///< the pass assembled the finest matrix (lower levels follow)
-    Rotations R;
-    Vector force;                   ///< f_el(u), full
-    double energy = 0.0;
-    std::array<double, kNumStages> seconds{};
-  };
-  mutable StateTerms state_;
-  mutable bool assembled_ = false;  ///< linear material: assembled once
+  std::unique_ptr<StepPart> part_;  ///< one process: owned = free vectors, sums are values
+  std::unique_ptr<EulerStep> step_;
+  Vector v_;  ///< the full velocity
 };
 
 }  // namespace pmg::fem
