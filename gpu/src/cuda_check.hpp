@@ -2,6 +2,7 @@
 #pragma once
 
 #include "pmg/gpu/device.hpp"
+#include "vendor_libraries.hpp"
 
 #include <cublas_v2.h>
 #include <cuda_runtime.h>
@@ -20,7 +21,7 @@ inline void check_cuda(cudaError_t e, const char* call, const char* file, int li
 }
 inline void check_cusparse(cusparseStatus_t e, const char* call, const char* file, int line) {
   if (e != CUSPARSE_STATUS_SUCCESS)
-    throw CudaError("cuSPARSE error in " + where(call, file, line) + ": " + cusparseGetErrorString(e));
+    throw CudaError("cuSPARSE error in " + where(call, file, line) + ": " + PMG_VENDOR(cusparse, cusparseGetErrorString)(e));
 }
 inline void check_cublas(cublasStatus_t e, const char* call, const char* file, int line) {
   if (e != CUBLAS_STATUS_SUCCESS)

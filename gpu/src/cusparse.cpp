@@ -27,18 +27,18 @@ CusparseBsr::CusparseBsr(const Bcsr& A)
       values_(A.values()) {
   if (A.rows() != A.cols()) throw InputError("CusparseBsr: matrix must be square");
   cusparseHandle_t h = nullptr;
-  PMG_CUSPARSE(cusparseCreate(&h));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreate)(&h));
   handle_ = h;
   cusparseMatDescr_t d = nullptr;
-  PMG_CUSPARSE(cusparseCreateMatDescr(&d));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreateMatDescr)(&d));
   descr_ = d;
-  PMG_CUSPARSE(cusparseSetMatType(d, CUSPARSE_MATRIX_TYPE_GENERAL));
-  PMG_CUSPARSE(cusparseSetMatIndexBase(d, CUSPARSE_INDEX_BASE_ZERO));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseSetMatType)(d, CUSPARSE_MATRIX_TYPE_GENERAL));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseSetMatIndexBase)(d, CUSPARSE_INDEX_BASE_ZERO));
 }
 
 CusparseBsr::~CusparseBsr() {
-  if (descr_) cusparseDestroyMatDescr(static_cast<cusparseMatDescr_t>(descr_));
-  if (handle_) cusparseDestroy(handle_of(handle_));
+  if (descr_) PMG_VENDOR(cusparse, cusparseDestroyMatDescr)(static_cast<cusparseMatDescr_t>(descr_));
+  if (handle_) PMG_VENDOR(cusparse, cusparseDestroy)(handle_of(handle_));
 }
 
 void CusparseBsr::update_values(const Bcsr& A) {
@@ -57,7 +57,7 @@ void CusparseBsr::multiply(const DeviceVector& x, DeviceVector& y) const {
   y.resize(x.size());
   if (block_rows_ == 0) return;
   const double one = 1.0, zero = 0.0;
-  PMG_CUSPARSE(cusparseDbsrmv(handle_of(handle_), CUSPARSE_DIRECTION_ROW,
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseDbsrmv)(handle_of(handle_), CUSPARSE_DIRECTION_ROW,
                               CUSPARSE_OPERATION_NON_TRANSPOSE, block_rows_, block_rows_, num_blocks_,
                               &one, static_cast<cusparseMatDescr_t>(descr_), values_.data(),
                               row_ptr_.data(), col_idx_.data(), Bcsr::kBlock, x.data(), &zero,
@@ -71,18 +71,18 @@ CusparseCsr::CusparseCsr(const Csr& A)
       row_ptr_(narrow_row_ptr(A.pattern().row_ptr, "CusparseCsr")), col_idx_(A.pattern().col_idx),
       values_(A.values()) {
   cusparseHandle_t h = nullptr;
-  PMG_CUSPARSE(cusparseCreate(&h));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreate)(&h));
   handle_ = h;
   cusparseSpMatDescr_t m = nullptr;
-  PMG_CUSPARSE(cusparseCreateCsr(&m, rows_, cols_, nnz_, row_ptr_.data(), col_idx_.data(),
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreateCsr)(&m, rows_, cols_, nnz_, row_ptr_.data(), col_idx_.data(),
                                  values_.data(), CUSPARSE_INDEX_32I, CUSPARSE_INDEX_32I,
                                  CUSPARSE_INDEX_BASE_ZERO, CUDA_R_64F));
   mat_ = m;
 }
 
 CusparseCsr::~CusparseCsr() {
-  if (mat_) cusparseDestroySpMat(static_cast<cusparseSpMatDescr_t>(mat_));
-  if (handle_) cusparseDestroy(handle_of(handle_));
+  if (mat_) PMG_VENDOR(cusparse, cusparseDestroySpMat)(static_cast<cusparseSpMatDescr_t>(mat_));
+  if (handle_) PMG_VENDOR(cusparse, cusparseDestroy)(handle_of(handle_));
 }
 
 double CusparseCsr::bytes_per_spmv() const {
@@ -95,25 +95,25 @@ void CusparseCsr::multiply(const DeviceVector& x, DeviceVector& y) const {
   y.resize(static_cast<std::size_t>(rows_));
   if (rows_ == 0) return;
   cusparseDnVecDescr_t vx = nullptr, vy = nullptr;
-  PMG_CUSPARSE(cusparseCreateDnVec(&vx, cols_, const_cast<double*>(x.data()), CUDA_R_64F));
-  PMG_CUSPARSE(cusparseCreateDnVec(&vy, rows_, y.data(), CUDA_R_64F));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreateDnVec)(&vx, cols_, const_cast<double*>(x.data()), CUDA_R_64F));
+  PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreateDnVec)(&vy, rows_, y.data(), CUDA_R_64F));
   const double one = 1.0, zero = 0.0;
   auto mat = static_cast<cusparseSpMatDescr_t>(mat_);
   try {
     std::size_t bytes = 0;
-    PMG_CUSPARSE(cusparseSpMV_bufferSize(handle_of(handle_), CUSPARSE_OPERATION_NON_TRANSPOSE, &one,
+    PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseSpMV_bufferSize)(handle_of(handle_), CUSPARSE_OPERATION_NON_TRANSPOSE, &one,
                                          mat, vx, &zero, vy, CUDA_R_64F, CUSPARSE_SPMV_ALG_DEFAULT,
                                          &bytes));
     if (bytes > buffer_.size()) buffer_.resize(bytes);
-    PMG_CUSPARSE(cusparseSpMV(handle_of(handle_), CUSPARSE_OPERATION_NON_TRANSPOSE, &one, mat, vx,
+    PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseSpMV)(handle_of(handle_), CUSPARSE_OPERATION_NON_TRANSPOSE, &one, mat, vx,
                               &zero, vy, CUDA_R_64F, CUSPARSE_SPMV_ALG_DEFAULT, buffer_.data()));
   } catch (...) {
-    cusparseDestroyDnVec(vx);
-    cusparseDestroyDnVec(vy);
+    PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vx);
+    PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vy);
     throw;
   }
-  cusparseDestroyDnVec(vx);
-  cusparseDestroyDnVec(vy);
+  PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vx);
+  PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vy);
 }
 
 }  // namespace pmg::gpu

@@ -30,12 +30,12 @@ LibraryPcg::LibraryPcg(const Bcsr& A, const BlockJacobiPreconditioner& M)
     : A_(A), Dinv_(block_diagonal(M.inverse_blocks())) {
   if (M.rows() != A.rows()) throw InputError("gpu::LibraryPcg: matrix and preconditioner differ in size");
   cublasHandle_t h = nullptr;
-  PMG_CUBLAS(cublasCreate(&h));
+  PMG_CUBLAS(PMG_VENDOR(cublas, cublasCreate)(&h));
   cublas_ = h;
 }
 
 LibraryPcg::~LibraryPcg() {
-  if (cublas_) cublasDestroy(handle_of(cublas_));
+  if (cublas_) PMG_VENDOR(cublas, cublasDestroy)(handle_of(cublas_));
 }
 
 SolveResult LibraryPcg::solve(const DeviceVector& b, DeviceVector& x, const KrylovParams& params,
@@ -50,11 +50,11 @@ SolveResult LibraryPcg::solve(const DeviceVector& b, DeviceVector& x, const Kryl
   cublasHandle_t h = handle_of(cublas_);
   auto dot = [&](const DeviceVector& u, const DeviceVector& v) {
     double d = 0.0;
-    PMG_CUBLAS(cublasDdot(h, n, u.data(), 1, v.data(), 1, &d));  // host pointer mode: waits
+    PMG_CUBLAS(PMG_VENDOR(cublas, cublasDdot)(h, n, u.data(), 1, v.data(), 1, &d));  // host pointer mode: waits
     return d;
   };
   auto axpy = [&](double a, const DeviceVector& u, DeviceVector& v) {
-    PMG_CUBLAS(cublasDaxpy(h, n, &a, u.data(), 1, v.data(), 1));
+    PMG_CUBLAS(PMG_VENDOR(cublas, cublasDaxpy)(h, n, &a, u.data(), 1, v.data(), 1));
   };
   // r = b - A x
   auto residual = [&]() {
@@ -95,7 +95,7 @@ SolveResult LibraryPcg::solve(const DeviceVector& b, DeviceVector& x, const Kryl
     if (!track.check_positive(rho_new, "r^T M^{-1} r", it)) break;
     // p = z + β p in one call (geam on an n x 1 matrix, in place in p)
     const double one = 1.0, beta = rho_new / rho;
-    PMG_CUBLAS(cublasDgeam(h, CUBLAS_OP_N, CUBLAS_OP_N, n, 1, &one, z_.data(), n, &beta, p_.data(), n,
+    PMG_CUBLAS(PMG_VENDOR(cublas, cublasDgeam)(h, CUBLAS_OP_N, CUBLAS_OP_N, n, 1, &one, z_.data(), n, &beta, p_.data(), n,
                            p_.data(), n));
     rho = rho_new;
   }

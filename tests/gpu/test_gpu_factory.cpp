@@ -11,6 +11,8 @@
 #include <cmath>
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 using namespace pmg;
@@ -136,4 +138,14 @@ TEST_CASE("gpu::VCycle refuses bad levels before it touches a device", "[gpu][fa
   CHECK_THROWS_WITH(gpu::VCycle(m, t, {}, {nullptr, &c.A()}), Catch::Contains("not a matrix-free elasticity operator"));
   CHECK_THROWS_WITH(gpu::VCycle(m, t, {}, {nullptr}), Catch::Contains("one operator per level"));
   CHECK_THROWS_WITH(gpu::VCycle({m[1], m[0]}, t, {}), Catch::Contains("does not match"));
+}
+
+TEST_CASE("cuBLAS and cuSPARSE open on first use, every function pmgkit calls in them resolves", "[gpu][factory]") {
+  // No device needed: opening a library and finding its functions is the loader's work.
+  REQUIRE_NOTHROW(gpu::load_vendor_libraries());
+  std::ifstream maps("/proc/self/maps");
+  const std::string all((std::istreambuf_iterator<char>(maps)), std::istreambuf_iterator<char>());
+  CHECK(all.find("libcublas") != std::string::npos);
+  CHECK(all.find("libcusparse") != std::string::npos);
+  REQUIRE_NOTHROW(gpu::load_vendor_libraries());  // again: the handles are kept
 }

@@ -39,6 +39,11 @@ struct DeviceInfo {
 DeviceInfo device_info();
 /// Waits for every kernel launched so far; throws CudaError on a failed kernel.
 void synchronize();
+/// Opens cuBLAS and cuSPARSE now and resolves every function pmgkit calls in them, as the
+/// baselines (CusparseBsr, CusparseCsr, LibraryPcgSolver) do on their first use; the libraries
+/// are not linked, so a process that never calls them never maps them. Needs no device. Throws
+/// CudaError naming the library or function that is missing.
+void load_vendor_libraries();
 
 namespace detail {
 void* allocate(std::size_t bytes);
