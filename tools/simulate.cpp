@@ -239,9 +239,6 @@ void run(const Cli& cli_in) {
     return;
   }
   // --render needs frames to render: refused before any work, as a bad path is.
-  if (cli.distributed_mesh && !s.dynamic)
-    throw InputError("--distributed-mesh: " + s.source + " is a static scene; pmg compare --distributed-mesh solves "
-                     "it across the ranks");
   if (cli.render && cli.output.empty())
     throw InputError("--render renders the run's frames, and this run writes none: give -o DIR (or "
                      "output.directory in the scene)");
@@ -320,7 +317,7 @@ void register_simulate(CLI::App& app) {
   add_threads_option(sub);
   sub->add_flag("--distributed-mesh", cli->distributed_mesh,
                 "under mpirun: build the scene on the ranks, none holding the whole mesh (DMPlex; a .h5 mesh read in "
-                "parallel, mesh.refine after distribution), and step it with petsc-mgpcg (docs/distributed.md)");
+                "parallel, mesh.refine after distribution), and step or solve it with petsc-mgpcg (docs/distributed.md)");
   sub->add_flag("--print-scene", cli->print_scene, "print the scene as JSON (a template to edit) and stop");
   sub->add_flag("-q,--quiet", cli->quiet, "no progress lines");
   sub->add_option("--json", cli->json_report,

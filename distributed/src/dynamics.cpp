@@ -192,6 +192,16 @@ void DistributedEuler::set_state_local(const Vector& u, const Vector& v) {
       if (!x->allFinite()) throw InputError(std::string("distributed time step: set_state_local: the ") + what + " is not finite");
     }
   });
+  // A component held at zero (a support or symmetry plane) must start at zero, as fem::check_state says.
+  mpi::together(comm_, [&] {
+    const std::vector<char>& held = local.constrained_free_dofs();
+    const auto& fi = local.assembler().free_index();
+    for (index_t i = 0; i < local.num_nodes() && !held.empty(); ++i)
+      for (int c = 0; c < 3 && fi[i] >= 0; ++c)
+        if (held[3 * static_cast<size_t>(fi[i]) + c] && (u[3 * i + c] != 0.0 || v[3 * i + c] != 0.0))
+          throw InputError("distributed time step: set_state_local: a node holds its " + std::string(1, char('x' + c)) +
+                           " component at zero (a support or symmetry plane) but starts with it moved");
+  });
   // The owned part of the rank's free nodes; the ghosts then take their owners' values.
   const Vector uf = local.restrict_to_free(u), vf = local.restrict_to_free(v);
   const std::vector<index_t>& global = ranks_->global(top);
@@ -206,23 +216,46 @@ void DistributedEuler::set_state_local(const Vector& u, const Vector& v) {
   step_->set_state_owned(std::move(u_owned), std::move(v_owned));
 }
 
-int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticOptions& options, double solve_tol) {
+int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticOptions& options, double solve_tol,
+                                       int* solver_iterations) {
+  if (solver_iterations) *solver_iterations = 0;
+  mpi::check_agreement(comm_,
+                       {{"the static solve's tolerance", detail::exact(solve_tol)},
+                        {"corotational_tol", detail::exact(options.corotational_tol)},
+                        {"max_corotational_iterations", std::to_string(options.max_corotational_iterations)},
+                        {"relaxation", detail::exact(options.relaxation)}},
+                       "distributed time step: set_static_state");
   mpi::together(comm_, [&] {
     if (f_owned.size() != ghosts_->owned_size())
       throw InputError("distributed time step: a static load of " + std::to_string(f_owned.size()) + " entries for " +
                        std::to_string(ghosts_->owned_size()) + " owned unknowns");
     if (!f_owned.allFinite()) throw InputError("distributed time step: the static load is not finite");
+    if (!(solve_tol > 0 && solve_tol < 1)) throw InputError("distributed time step: a static solve tolerance in (0, 1)");
+    if (!(options.relaxation > 0 && options.relaxation <= 1) || options.max_corotational_iterations < 1)
+      throw InputError("distributed time step: the fixed point's relaxation in (0, 1] and at least one iteration");
   });
   // Its own solver on the stiffness alone, to solve_tol: the step solver keeps its tolerance.
   DistributedMgpcgParams sp = params_;
   sp.tol = solve_tol;
   sp.rhs_floor = 0.0;
   petsc::PMultigridCg solver(comm_, to_pcmg(sp));
-  fem::DegreeHierarchy& local = ranks_->local();
-  const bool corotational = p_.corotational;
+  // The state is the iterate from here; a failure restores the one before (every rank fails alike).
+  const Vector u_before = step_->u_owned(), v_before = step_->v_owned();
   Vector u = Vector::Zero(ghosts_->owned_size());
   step_->set_state_owned(u, u);
   step_->levels_changed();  // the levels below carry the stiffness alone until the next step
+  try {
+    return static_fixed_point(f_owned, options, solver, u, solver_iterations);
+  } catch (...) {
+    step_->set_state_owned(u_before, v_before);
+    throw;
+  }
+}
+
+int DistributedEuler::static_fixed_point(const Vector& f_owned, const fem::StaticOptions& options,
+                                         petsc::PMultigridCg& solver, Vector& u, int* solver_iterations) {
+  fem::DegreeHierarchy& local = ranks_->local();
+  const bool corotational = p_.corotational;
   double omega = options.relaxation, previous_change = INFINITY;
   for (int it = 1;; ++it) {
     // The fixed point of pmg/fem/static_solve.hpp: K_R δ = f + f_el(u_k), u_{k+1} = u_k + ω δ.
@@ -244,6 +277,7 @@ int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticO
     rhs += f_owned;
     Vector delta = Vector::Zero(rhs.size());
     const SolveResult res = solver.solve(rhs, delta);
+    if (solver_iterations) *solver_iterations += res.iterations;
     if (!res.ok()) {
       SolveResult r = res;
       r.message = "static state: iteration " + std::to_string(it) + ": petsc-mgpcg failed: " + res.message;
@@ -285,11 +319,15 @@ fem::Vec3 DistributedEuler::displacement_at(index_t serial_element, const Eigen:
 
 DistributedEuler::Located DistributedEuler::locate(const fem::Vec3& point) const {
   Located mine;
+  std::string error;
   try {
     std::tie(mine.element, mine.barycentric) = ranks_->local().finest().locate(point);
     mine.rank = ranks_->rank();
   } catch (const Error&) {  // not among this rank's elements
+  } catch (const std::exception& e) {
+    error = e.what();
   }
+  agree_on(comm_, error, "locate");
   int holder = mine.rank >= 0 ? mine.rank : ranks_->size();
   Located out;
   {
@@ -308,7 +346,14 @@ DistributedEuler::Located DistributedEuler::locate(const fem::Vec3& point) const
 fem::Vec3 DistributedEuler::displacement_at(const Located& point) const {
   if (point.rank < 0 || point.rank >= ranks_->size()) throw InputError("distributed time step: a point not located");
   fem::Vec3 d = fem::Vec3::Zero();
-  if (point.rank == ranks_->rank()) d = ranks_->local().finest().displacement_at(step_->u_local(), point.element, point.barycentric);
+  std::string error;  // the holder's failure (a point located by another object) is every rank's
+  try {
+    if (point.rank == ranks_->rank())
+      d = ranks_->local().finest().displacement_at(step_->u_local(), point.element, point.barycentric);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  agree_on(comm_, error, "displacement_at");
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   MPI_Bcast(d.data(), 3, MPI_DOUBLE, point.rank, comm_);
   return d;

@@ -160,7 +160,7 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
         if (std::abs(X[3 * v + h.axis] - face) <= tol) masks[v] = static_cast<char>(masks[v] | h.components);
     }
   }
-  ranks_ = std::make_unique<RankHierarchy>(*plex, o.degree, o.material, std::move(clamped), std::vector<double>(),
+  ranks_ = std::make_unique<RankHierarchy>(*plex, o.degree, o.material, std::move(clamped), inclusion_scale(*plex, o),
                                            std::move(masks));
   plex.reset();  // the rank's mesh lives on in its hierarchy
   stages_.emplace_back("the rank's hierarchy and numbering", seconds_since(t0));
@@ -178,6 +178,28 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
   if (o.end_force.norm() > 0) load_ += end_traction(o.end_force);
   stages_.emplace_back("loads", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
+}
+
+std::vector<double> MeshProblem::inclusion_scale(const petsc::PlexMesh& plex, const MeshProblemOptions& o) {
+  if (!o.inclusion) return {};
+  if (!(o.inclusion_young > 0) || !std::isfinite(o.inclusion_young))
+    throw InputError("distributed mesh: material.inclusion: Young's modulus must be positive and finite");
+  const std::vector<double>& X = plex.local_vertices();
+  const std::vector<index_t>& C = plex.local_cells();
+  std::vector<double> scale(C.size() / 4, 1.0);
+  long inside = 0;
+  for (size_t e = 0; e < scale.size(); ++e) {
+    fem::Vec3 c = fem::Vec3::Zero();
+    for (int k = 0; k < 4; ++k) c += 0.25 * fem::Vec3(X[3 * C[4 * e + k]], X[3 * C[4 * e + k] + 1], X[3 * C[4 * e + k] + 2]);
+    if ((c.array() >= o.inclusion_min.array()).all() && (c.array() <= o.inclusion_max.array()).all())
+      scale[e] = o.inclusion_young / o.material.young, ++inside;
+  }
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Allreduce(&inside, &inclusion_cells_, 1, MPI_LONG, MPI_SUM, comm_);
+  }
+  if (inclusion_cells_ == 0) throw InputError("material.inclusion: no element centroid lies inside [min, max]");
+  return scale;
 }
 
 void MeshProblem::check_held(const MeshProblemOptions& o) {

@@ -105,11 +105,19 @@ SolveResult DistributedMgpcg::solve_impl(const Vector& b, Vector& x, SolveMonito
   mpi::check_agreement(comm_, {{"the right-hand side", "digest " + mpi::digest(b)}, {"the starting guess", "digest " + mpi::digest(x)}},
                        "petsc-mgpcg: solve");
   const int top = ranks_->num_levels() - 1;
-  const Vector b_owned = ranks_->owned_part(top, b);
-  Vector x_owned = ranks_->owned_part(top, x);
+  // A held component is an identity row of the serial operator (x = b there) and the ranks' count
+  // times the identity in PETSc's: solved with b and x zero there, then given b's value.
+  const std::vector<char>& held = serial_->finest().constrained_free_dofs();
+  Vector bz = b, xz = x;
+  for (size_t i = 0; i < held.size(); ++i)
+    if (held[i]) bz[static_cast<Eigen::Index>(i)] = xz[static_cast<Eigen::Index>(i)] = 0.0;
+  const Vector b_owned = ranks_->owned_part(top, bz);
+  Vector x_owned = ranks_->owned_part(top, xz);
   SolveResult res;
   mpi::together(comm_, [&] { res = solver_->solve(b_owned, x_owned, monitor); });
   x = ranks_->gather(top, x_owned);
+  for (size_t i = 0; i < held.size(); ++i)
+    if (held[i]) x[static_cast<Eigen::Index>(i)] = b[static_cast<Eigen::Index>(i)];
   if (!res.ok() && params_.throw_on_failure) throw SolveError(res);
   return res;
 }

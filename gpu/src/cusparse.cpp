@@ -37,8 +37,11 @@ CusparseBsr::CusparseBsr(const Bcsr& A)
 }
 
 CusparseBsr::~CusparseBsr() {
-  if (descr_) PMG_VENDOR(cusparse, cusparseDestroyMatDescr)(static_cast<cusparseMatDescr_t>(descr_));
-  if (handle_) PMG_VENDOR(cusparse, cusparseDestroy)(handle_of(handle_));
+  try {  // a destroy function the opened library lacks leaves the handle: a destructor never throws
+    if (descr_) PMG_VENDOR(cusparse, cusparseDestroyMatDescr)(static_cast<cusparseMatDescr_t>(descr_));
+    if (handle_) PMG_VENDOR(cusparse, cusparseDestroy)(handle_of(handle_));
+  } catch (...) {
+  }
 }
 
 void CusparseBsr::update_values(const Bcsr& A) {
@@ -81,8 +84,11 @@ CusparseCsr::CusparseCsr(const Csr& A)
 }
 
 CusparseCsr::~CusparseCsr() {
-  if (mat_) PMG_VENDOR(cusparse, cusparseDestroySpMat)(static_cast<cusparseSpMatDescr_t>(mat_));
-  if (handle_) PMG_VENDOR(cusparse, cusparseDestroy)(handle_of(handle_));
+  try {  // a destroy function the opened library lacks leaves the handle: a destructor never throws
+    if (mat_) PMG_VENDOR(cusparse, cusparseDestroySpMat)(static_cast<cusparseSpMatDescr_t>(mat_));
+    if (handle_) PMG_VENDOR(cusparse, cusparseDestroy)(handle_of(handle_));
+  } catch (...) {
+  }
 }
 
 double CusparseCsr::bytes_per_spmv() const {
@@ -94,6 +100,7 @@ void CusparseCsr::multiply(const DeviceVector& x, DeviceVector& y) const {
     throw InputError("CusparseCsr::multiply: x does not match the matrix");
   y.resize(static_cast<std::size_t>(rows_));
   if (rows_ == 0) return;
+  const auto destroy = PMG_VENDOR(cusparse, cusparseDestroyDnVec);  // resolved before anything is made
   cusparseDnVecDescr_t vx = nullptr, vy = nullptr;
   PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreateDnVec)(&vx, cols_, const_cast<double*>(x.data()), CUDA_R_64F));
   PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseCreateDnVec)(&vy, rows_, y.data(), CUDA_R_64F));
@@ -108,12 +115,12 @@ void CusparseCsr::multiply(const DeviceVector& x, DeviceVector& y) const {
     PMG_CUSPARSE(PMG_VENDOR(cusparse, cusparseSpMV)(handle_of(handle_), CUSPARSE_OPERATION_NON_TRANSPOSE, &one, mat, vx,
                               &zero, vy, CUDA_R_64F, CUSPARSE_SPMV_ALG_DEFAULT, buffer_.data()));
   } catch (...) {
-    PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vx);
-    PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vy);
+    destroy(vx);
+    destroy(vy);
     throw;
   }
-  PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vx);
-  PMG_VENDOR(cusparse, cusparseDestroyDnVec)(vy);
+  destroy(vx);
+  destroy(vy);
 }
 
 }  // namespace pmg::gpu

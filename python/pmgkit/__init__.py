@@ -596,19 +596,21 @@ def study_scene(scene, solvers, dt=0.0, reference="direct", warm_up=False):
     return _core.study_scene(text, origin, configs, float(dt), reference == "direct", bool(warm_up))
 
 
-def simulate(scene, output_dir=""):
+def simulate(scene, output_dir="", distributed_mesh=False):
     """Runs a dynamic scene (a dict in the scene-file schema, a JSON string, or a path to a scene
     file) and returns its summary with per-step records as NumPy arrays (records: step, time,
     probe (n x 3), kinetic, elastic, total_energy, iterations, rel_residual, residual and the
     seconds of each stage). output_dir: also write steps.csv and the .vtu frames there. A scene
     with petsc-mgpcg run under mpirun steps across the ranks: every rank calls simulate with the
-    same output_dir (each writes its piece of every .pvtu frame; rank 0 steps.csv).
+    same output_dir (each writes its piece of every .pvtu frame; rank 0 steps.csv). With
+    distributed_mesh=True (under mpirun, the world's ranks) no rank holds the whole mesh: the scene
+    is built on the ranks, as `pmg simulate --distributed-mesh` does, and stepped by petsc-mgpcg.
 
     A step that fails (its solve diverges, stagnates or misses the scene's tolerance) raises
     SolveError "simulation failed at step N: ...", as `pmg simulate` exits 1; the summary of the
     steps done before it is the exception's `summary` attribute."""
     text, origin = _scene_text(scene)
-    out = _core.simulate(text, origin, output_dir)
+    out = _core.simulate(text, origin, output_dir, bool(distributed_mesh))
     if out["failure"]:
         err = SolveError("simulation failed at step %d: %s" % (out["failed_step"], out["failure"]))
         err.summary = out
@@ -623,8 +625,7 @@ def solve_distributed(scene, comm=None, solver=None, save_mesh=""):
     mpi4py communicator; None: MPI.COMM_WORLD), each rank refines its part `mesh.refine` times and
     builds its share of the degree hierarchy, clamp and loads; petsc-mgpcg solves K u = f. Every
     rank of comm calls it with the same scene. scene: a dict in the scene-file schema, a JSON
-    string or a path (symmetry planes and supports are taken; an inclusion is refused: not on this
-    route yet).
+    string or a path (symmetry planes, supports and an inclusion are taken).
     solver: petsc-mgpcg's keys (default {"method": "petsc-mgpcg"}; its tol is 1e-8 unless given).
     save_mesh: also write the refined mesh there (.h5) for a later parallel read.
 

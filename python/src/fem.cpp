@@ -436,7 +436,8 @@ void register_hierarchy(py::module_& m) {
 /// simulate(): a scene run from Python.
 void register_simulation(py::module_& m) {
   // ---- simulation ----
-  m.def("simulate", [](const std::string& scene_json, const std::string& origin, const std::string& output_dir) {
+  m.def("simulate", [](const std::string& scene_json, const std::string& origin, const std::string& output_dir,
+                       bool distributed_mesh) {
     const sim::Scene scene = sim::parse_scene(scene_json, origin);
     FilePlan plan;  // the output folder may hold no input of the run
     sim::plan_files(scene, origin, output_dir, plan);
@@ -447,7 +448,7 @@ void register_simulation(py::module_& m) {
     std::vector<std::string> notes;
     {
       py::gil_scoped_release nogil;
-      sim::SceneSetup setup = sim::set_up(scene);
+      sim::SceneSetup setup = distributed_mesh ? sim::set_up_on_ranks(scene) : sim::set_up(scene);
       sim::DynamicRun run(scene, setup, output_dir);
       method = run.method();
       settings = run.solver_settings();
@@ -467,12 +468,13 @@ void register_simulation(py::module_& m) {
     out["failure"] = r.failure;
     out["warnings"] = r.warnings;
     return out;
-  }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "",
+  }, py::arg("scene_json"), py::arg("origin"), py::arg("output_dir") = "", py::arg("distributed_mesh") = false,
      "Runs a dynamic scene (scene_json: the scene file's JSON text; origin: its path or a name, for messages "
      "and relative paths) and returns its summary: records (per-step NumPy arrays), steps_done, wall_seconds, "
      "iterations, max_residual, method, solver_settings, outputs, notes, failed_step, failure, warnings. "
-     "output_dir: also write steps.csv and the .vtu frames there. pmgkit.simulate raises SolveError for a "
-     "failed step.");
+     "output_dir: also write steps.csv and the .vtu frames there. distributed_mesh: build the scene on the "
+     "world's ranks, none holding the whole mesh (sim::set_up_on_ranks), and step it with petsc-mgpcg. "
+     "pmgkit.simulate raises SolveError for a failed step.");
 }
 
 }  // namespace

@@ -249,7 +249,8 @@ class RankMeshStepper final : public AcrossRanks {
 }  // namespace detail
 
 bool written_by_run(const std::string& name) {
-  if (name == "steps.csv" || name == "simulation.pvd" || name == "static.vtu") return true;
+  if (name == "steps.csv" || name == "simulation.pvd" || name == "static.vtu" || name == "static.pvtu") return true;
+  if (name.rfind("static_", 0) == 0) return name.size() > 4 && name.compare(name.size() - 4, 4, ".vtu") == 0;
   if (name.rfind("frame_", 0) != 0) return false;
   const size_t dot = name.rfind('.');
   const std::string ext = dot == std::string::npos ? "" : name.substr(dot);
@@ -447,7 +448,57 @@ RunSummary DynamicRun::run(const std::function<void(int, double)>& progress) {
   return r;
 }
 
+#ifdef PMG_HAVE_DISTRIBUTED
+namespace {
+
+/// A static scene on a mesh no rank holds whole: the fixed point of pmg/fem/static_solve.hpp
+/// across the ranks (DistributedEuler::set_static_state), each solve by petsc-mgpcg to the scene's
+/// tol (1e-10 unless given), the probe located once, static.pvtu with one piece per rank.
+StaticOutcome solve_static_on_ranks(const Scene& scene, SceneSetup& setup, const std::string& output_dir) {
+  StaticOutcome out;
+  const Config keys = detail::petsc_mgpcg_keys(scene, setup.notes);
+  const double tol = keys.get_double("tol", 1e-10, 0.0, 1.0);
+  const dist::DistributedMgpcgParams params = detail::step_params(keys, setup, out.settings);
+  out.method = "petsc-mgpcg";
+  dist::MeshProblem& problem = *setup.on_ranks;
+  fem::SimulationParams sp;  // the static state only: no step is taken
+  sp.corotational = scene.corotational;
+  dist::DistributedEuler e(problem.ranks(), problem.load(), sp, params);
+  const auto t0 = Clock::now();
+  fem::StaticOptions so;
+  so.corotational_tol = 1e-6;
+  out.result.iterations = e.set_static_state(problem.load(), so, tol, &out.result.solver_iterations);
+  out.seconds = seconds_since(t0);
+  dist::DistributedEuler::Located probe;
+  try {
+    probe = e.locate(setup.probe.point);
+  } catch (const InputError& x) {
+    throw InputError(std::string("output.probe: ") + x.what());
+  }
+  out.probe = e.displacement_at(probe);
+  if (!output_dir.empty()) {
+    e.require_same_on_every_rank("the output directory", output_dir);
+    std::string error;
+    try {
+      make_dir(output_dir);
+    } catch (const std::exception& x) {
+      error = x.what();
+    }
+    e.agree(error, "output");
+    const std::string name = e.write_frame(output_dir, "static");
+    if (e.ranks().rank() == 0) out.outputs.push_back(output_dir + "/" + name);
+  }
+  return out;
+}
+
+}  // namespace
+#endif
+
 StaticOutcome solve_static(const Scene& scene, SceneSetup& setup, const std::string& output_dir) {
+#ifdef PMG_HAVE_DISTRIBUTED
+  if (setup.on_ranks) return solve_static_on_ranks(scene, setup, output_dir);
+#endif
+  if (setup.on_ranks) throw InputError("solve_static: a set-up across ranks needs a build with pmg::distributed");
   const fem::ElasticityModel& m = setup.finest();
   StaticOutcome out;
   const auto solver = make_step_solver(scene, *setup.hierarchy, out.method, out.settings, setup.notes);

@@ -182,7 +182,13 @@ SceneSetup set_up_on_ranks(const Scene& s) {
   SceneSetup b;
   mpi::start();
   MPI_Comm comm = MPI_COMM_WORLD;
-  const dist::MeshProblemOptions o = dist::mesh_problem_options(s);
+  dist::MeshProblemOptions o = dist::mesh_problem_options(s);
+  if (!s.dynamic && s.density == 0) {
+    // A static scene may have no density: its gravity load ρ g is zero, and no mass is used. The
+    // ranks' models take density 1 (what a time-step object checks) without a gravity load.
+    o.material.density = 1.0;
+    o.gravity = fem::Vec3::Zero();
+  }
   b.on_ranks = dist::mesh_problem(comm, s, o, &b.warnings, &b.rank_mesh.coarse_cells);
   const dist::MeshProblem& p = *b.on_ranks;
   const dist::RankHierarchy& R = p.ranks();

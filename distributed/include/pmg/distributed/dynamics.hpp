@@ -76,9 +76,11 @@ class DistributedEuler {
   /// The state of static equilibrium under the force f_owned (owned unknowns), at rest: the fixed
   /// point of pmg/fem/static_solve.hpp (corotational as the time step's material; linear: one
   /// solve), each solve by a PETSc solver of the step solver's keys but tolerance `solve_tol`, on
-  /// the stiffness alone. Returns the fixed-point iterations. Throws SolveError or pmg::Error
-  /// (every rank) when a solve or the fixed point fails.
-  int set_static_state(const Vector& f_owned, const fem::StaticOptions& options = {}, double solve_tol = 1e-10);
+  /// the stiffness alone. Returns the fixed-point iterations (`solver_iterations`, where given,
+  /// gets the solves' iterations summed). Throws SolveError or pmg::Error (every rank) when a
+  /// solve or the fixed point fails.
+  int set_static_state(const Vector& f_owned, const fem::StaticOptions& options = {}, double solve_tol = 1e-10,
+                       int* solver_iterations = nullptr);
   /// One step (see the file comment). Throws SolveError naming the step when the solve fails and
   /// pmg::Error when the velocity turns non-finite on any rank (every rank throws).
   fem::StepStats step();
@@ -137,6 +139,9 @@ class DistributedEuler {
   double sum(double mine) const;
   /// The rank's solver, ghost exchange, binding and step, after ranks_ is set; the state at rest.
   void build(const Vector& f_ext_owned, const DistributedMgpcgParams& solver);
+  /// set_static_state's iteration from u (owned; the state as it goes); returns the iterations.
+  int static_fixed_point(const Vector& f_owned, const fem::StaticOptions& options, petsc::PMultigridCg& solver,
+                         Vector& u, int* solver_iterations);
 
   const fem::DegreeHierarchy* serial_ = nullptr;  // the replicated set-up's serial hierarchy
   fem::SimulationParams p_;

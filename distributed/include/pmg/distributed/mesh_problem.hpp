@@ -65,6 +65,12 @@ struct MeshProblemOptions {
   /// Components held on planes of the bounding box, each vertex within 1e-9 of the box's largest
   /// extent of a plane taking its bits (fem::DegreeHierarchy's rule then gives the nodes theirs).
   std::vector<HeldPlane> held;
+  /// A stiffer (or softer) inclusion, as a serial scene's material.inclusion: the cells whose
+  /// centroid lies in [inclusion_min, inclusion_max] get Young's modulus inclusion_young.
+  bool inclusion = false;
+  fem::Vec3 inclusion_min = fem::Vec3::Zero();  ///< lower corner of the inclusion's box
+  fem::Vec3 inclusion_max = fem::Vec3::Zero();  ///< upper corner of the inclusion's box
+  double inclusion_young = 0.0;                 ///< the inclusion's Young's modulus (Pa, > 0)
   /// Where non-empty: the distributed mesh, after refinement, written there in PETSc's HDF5
   /// format (pmg::petsc::PlexMesh::save), to be read in parallel by the file constructor.
   std::string save_mesh;
@@ -98,6 +104,8 @@ class MeshProblem {
   /// Components held by symmetry planes and supports on the finest level, all ranks (each held
   /// component of an owned node once).
   long held_components() const { return held_; }
+  /// Cells of the inclusion, all ranks (0 without one).
+  long inclusion_cells() const { return inclusion_cells_; }
   /// Lower corner of the bounding box (all ranks).
   const fem::Vec3& lo() const { return lo_; }
   /// Upper corner of the bounding box (all ranks).
@@ -125,7 +133,9 @@ class MeshProblem {
   int axis_ = 0;
   double tol_ = 0.0;  // of a position on the clamp and the far face
   Vector load_;
-  long cells_ = 0, clamped_ = 0, held_ = 0;
+  long cells_ = 0, clamped_ = 0, held_ = 0, inclusion_cells_ = 0;
+  /// The per-cell stiffness factors of o's inclusion on the rank's cells (empty: none).
+  std::vector<double> inclusion_scale(const petsc::PlexMesh& plex, const MeshProblemOptions& o);
   fem::Vec3 lo_, hi_;
   std::vector<std::pair<std::string, double>> stages_;
   std::vector<double> peaks_;

@@ -14,10 +14,9 @@
 
 namespace pmg::dist {
 
-/// The scene's mesh refinement, degree, material, clamp, supports and symmetry planes and loads;
-/// InputError for what this route does not take yet (a stiffer inclusion).
+/// The scene's mesh refinement, degree, material (with its inclusion), clamp, supports and
+/// symmetry planes and loads.
 inline MeshProblemOptions mesh_problem_options(const sim::Scene& s) {
-  if (s.inclusion) throw InputError("distributed mesh: material.inclusion is not taken on a distributed mesh yet");
   MeshProblemOptions o;
   o.refine = s.refine;
   o.degree = s.degree;
@@ -27,6 +26,9 @@ inline MeshProblemOptions mesh_problem_options(const sim::Scene& s) {
   o.gravity = s.gravity;
   o.end_force = s.end_force;
   for (const sim::Scene::Support& sup : s.supports) o.held.push_back({sup.axis, sup.at_max, sup.components});
+  o.inclusion = s.inclusion;
+  o.inclusion_min = s.inclusion_min, o.inclusion_max = s.inclusion_max;
+  o.inclusion_young = s.inclusion_young;
   return o;
 }
 

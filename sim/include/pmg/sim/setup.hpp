@@ -102,10 +102,11 @@ std::array<double, 4> probe_key(const Scene& s, const fem::Vec3& lo, const fem::
 /// (pmg/distributed/mesh_problem.hpp): a `.h5` mesh read in parallel, any other mesh or the box bar
 /// made on rank 0 and distributed, refined on the ranks (mesh.refine), each rank's hierarchy,
 /// clamp and loads from its own cells; the bounding box over the ranks; the probe point (the
-/// scene's, or the vertex nearest the centre of the far face). Collective. Throws InputError (on
-/// every rank) for what this route does not take — supports and symmetry planes, an inclusion,
-/// degree 1 — and where the build has no pmg::distributed. A run of it (DynamicRun) solves with
-/// petsc-mgpcg, whatever method the scene names, taking the scene's keys that petsc-mgpcg reads.
+/// scene's, or the vertex with the smallest probe_key()); supports, symmetry planes and an
+/// inclusion from each rank's own vertices and cells. Collective. Throws InputError (on every
+/// rank) for degree 1 and where the build has no pmg::distributed. A run of it (DynamicRun, or
+/// solve_static for a static scene) solves with petsc-mgpcg, whatever method the scene names,
+/// taking the scene's stopping rule.
 SceneSetup set_up_on_ranks(const Scene& s);
 
 /// Force F spread as a uniform traction over the boundary faces at the maximum of `axis` (total
