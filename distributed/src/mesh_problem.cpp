@@ -58,7 +58,9 @@ void MeshProblem::check(const MeshProblemOptions& o) const {
   mpi::together(comm_, [&] {
     if (o.degree < 2 || o.degree > 3) throw InputError("distributed mesh: degree " + std::to_string(o.degree) + " (2 or 3)");
     if (o.refine < 0 || o.refine > 6) throw InputError("distributed mesh: refine " + std::to_string(o.refine) + " (0 to 6)");
-    if (o.clamp_axis < 0 || o.clamp_axis > 2) throw InputError("distributed mesh: a static problem needs a clamp axis (0, 1, 2)");
+    if ((o.clamp_axis < 0 && !o.free_body) || o.clamp_axis < -1 || o.clamp_axis > 2)
+      throw InputError("distributed mesh: a clamp axis (0, 1, 2) is needed unless the body is free (a time-stepping "
+                       "scene)");
     if (!(o.clamp_fraction >= 0 && o.clamp_fraction < 1))
       throw InputError("distributed mesh: clamp fraction " + std::to_string(o.clamp_fraction) + " (in [0, 1))");
     o.material.check();
@@ -135,18 +137,20 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
   }
   const int axis = o.clamp_axis;
   const double tol = 1e-9 * (hi_ - lo_).maxCoeff();
-  const double limit = lo_[axis] + o.clamp_fraction * (hi_[axis] - lo_[axis]) + tol;
   std::vector<char> clamped(nv, 0);
   long mine = 0;
-  for (size_t v = 0; v < nv; ++v) {
-    clamped[v] = X[3 * v + axis] <= limit ? 1 : 0;
-    if (clamped[v] && plex->owns_vertex()[v]) ++mine;
+  if (axis >= 0) {
+    const double limit = lo_[axis] + o.clamp_fraction * (hi_[axis] - lo_[axis]) + tol;
+    for (size_t v = 0; v < nv; ++v) {
+      clamped[v] = X[3 * v + axis] <= limit ? 1 : 0;
+      if (clamped[v] && plex->owns_vertex()[v]) ++mine;
+    }
   }
   {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
     MPI_Allreduce(&mine, &clamped_, 1, MPI_LONG, MPI_SUM, comm);
   }
-  if (clamped_ < 3)
+  if (axis >= 0 && clamped_ < 3)
     throw InputError("distributed mesh: " + std::to_string(clamped_) + " clamped vertices: the body could still move "
                      "rigidly; clamp a larger fraction");
   std::vector<char> masks;  // the components each vertex holds (empty: none)
@@ -232,6 +236,7 @@ void MeshProblem::check_held(const MeshProblemOptions& o) {
 }
 
 Vector MeshProblem::end_traction(const fem::Vec3& F) const {
+  if (axis_ < 0) throw InputError("distributed mesh: an end force needs a clamp axis (it loads the far face)");
   const fem::ElasticityModel& m = ranks_->local().finest();
   Vector g = Vector::Zero(m.num_dofs());
   const int axis = axis_;

@@ -183,6 +183,7 @@ SceneSetup set_up_on_ranks(const Scene& s) {
   mpi::start();
   MPI_Comm comm = MPI_COMM_WORLD;
   dist::MeshProblemOptions o = dist::mesh_problem_options(s);
+  o.free_body = s.dynamic && s.clamp_axis < 0;  // a free body steps: its mass keeps each system definite
   if (!s.dynamic && s.density == 0) {
     // A static scene may have no density: its gravity load ρ g is zero, and no mass is used. The
     // ranks' models take density 1 (what a time-step object checks) without a gravity load.

@@ -58,7 +58,10 @@ struct MeshProblemOptions {
   std::string partitioner = "auto";
   int degree = 2;                        ///< finest degree, 2 or 3 (the hierarchy holds 1 to it)
   fem::Material material;                ///< E, ν, ρ
-  int clamp_axis = 0;                    ///< 0, 1, 2: the axis whose minimum is clamped
+  int clamp_axis = 0;                    ///< 0, 1, 2: the axis whose minimum is clamped (-1: free_body)
+  /// No clamp (clamp_axis -1): a body free to move rigidly, for time steps only (the mass keeps
+  /// each step's system definite; a static solve of it is singular).
+  bool free_body = false;
   double clamp_fraction = 0.0;           ///< of the extent along clamp_axis, in [0, 1)
   fem::Vec3 gravity = fem::Vec3::Zero();    ///< m/s²
   fem::Vec3 end_force = fem::Vec3::Zero();  ///< total force on the far face (N)
