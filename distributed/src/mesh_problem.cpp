@@ -6,6 +6,7 @@
 #include "pmg/mpi/session.hpp"
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/petsc/plex.hpp"
+#include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/timer.hpp"
 
 #include <sys/resource.h>
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 
 namespace pmg::dist {
@@ -51,6 +53,28 @@ double reduce(MPI_Comm comm, double mine, MPI_Op op) {
 }
 
 double dot(MPI_Comm comm, const Vector& a, const Vector& b) { return reduce(comm, a.dot(b), MPI_SUM); }
+
+/// Refuses, on every rank, a refined mesh whose share on this machine's ranks would not fit its
+/// memory: `cells` after refinement, an equal share per rank, times the ranks on this node, at a
+/// lower estimate of the bytes per cell of the route (measured: 3.8-4.0 KB per quadratic cell on
+/// the refined cubes of docs/distributed.md; taken 2 KB, and 8 KB for cubic cells), so that a run
+/// that would be killed for memory stops with a clear error before DMPlex refines.
+void require_memory_per_node(MPI_Comm comm, double cells, const MeshProblemOptions& o) {
+  int size = 1, on_node = 1;
+  {
+    std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
+    MPI_Comm_size(comm, &size);
+    MPI_Comm node = MPI_COMM_NULL;
+    MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    MPI_Comm_size(node, &on_node);
+    MPI_Comm_free(&node);
+  }
+  const double per_cell = o.degree >= 3 ? 8e3 : 2e3;
+  char what[200];
+  std::snprintf(what, sizeof what, "distributed mesh: %.3g cells of degree %d after %d refinement(s) on %d rank(s), %d on this machine,",
+                cells, o.degree, o.refine, size, on_node);
+  mpi::together(comm, [&] { require_memory(cells / size * per_cell * on_node, what); });
+}
 
 }  // namespace
 
@@ -113,6 +137,7 @@ void MeshProblem::build(std::unique_ptr<petsc::PlexMesh> plex, const MeshProblem
     plex->distribute(size == 1 ? "simple" : partitioner);
   stages_.emplace_back("distribute (" + partitioner + ")", seconds_since(t0));
   peaks_.push_back(peak_resident_bytes());
+  require_memory_per_node(comm, static_cast<double>(plex->global_cells()) * std::pow(8.0, o.refine), o);
   t0 = Clock::now();
   plex->refine(o.refine);
   stages_.emplace_back("refine x" + std::to_string(o.refine) + " on the ranks", seconds_since(t0));

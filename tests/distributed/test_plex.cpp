@@ -374,6 +374,11 @@ TEST_CASE("bad input on a distributed mesh is the same error on every rank", "[p
   o.degree = 1;
   CHECK_THROWS_AS(dist::MeshProblem(MPI_COMM_WORLD, [] { return box_mesh_24(1, 1, 1, 1, 1, 1); }, o), InputError);
   o.degree = 2;
+  // A refinement whose cells would not fit this machine: refused on every rank before DMPlex refines.
+  o.refine = 6;
+  CHECK_THROWS_WITH(dist::MeshProblem(MPI_COMM_WORLD, [] { return box_mesh_24(20, 20, 20, 1, 1, 1); }, o),
+                    Catch::Contains("would need an estimated"));
+  o.refine = 0;
   o.clamp_fraction = 1.5;
   CHECK_THROWS_AS(dist::MeshProblem(MPI_COMM_WORLD, [] { return box_mesh_24(1, 1, 1, 1, 1, 1); }, o), InputError);
   // Fewer cells than ranks.
