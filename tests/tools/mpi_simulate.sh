@@ -87,55 +87,36 @@ for np in 1 2 3; do
   compare_runs "$work/serial" "$work/mesh$np" $np
 done
 
+edited_scene() {  # edited_scene NAME EDIT: serial.json changed by the Python statements EDIT (on s) as NAME.json
+  /usr/bin/python3 - "$work" "$2" "$1" <<'PY' || fail "cannot write the $1 scene"
+import json, sys
+s = json.load(open(sys.argv[1] + "/serial.json"))
+exec(sys.argv[2])
+json.dump(s, open("%s/%s.json" % (sys.argv[1], sys.argv[3]), "w"))
+PY
+}
+against_serial() {  # against_serial NAME NP EDIT: the edited scene serially and on NP ranks, compared
+  local name=$1 np=$2
+  edited_scene "$name" "$3"
+  OMP_NUM_THREADS=1 "$pmg" simulate "$work/$name.json" -o "$work/${name}_serial" -q > /dev/null ||
+    fail "the serial $name run failed"
+  run_ranks "$np" "$work/$name$np" "$work/$name.json" --distributed-mesh
+  compare_runs "$work/${name}_serial" "$work/$name$np" "$np"
+}
 # A start given by a formula on each rank's own nodes, under gravity, with a probe point.
-/usr/bin/python3 - "$work" <<'PY' || fail "cannot write the twisted scene"
-import json, sys
-s = json.load(open(sys.argv[1] + "/serial.json"))
-s["initial"] = {"state": "twisted", "degrees": 60}
+against_serial twisted 3 's["initial"] = {"state": "twisted", "degrees": 60}
 s["loads"] = {"gravity": [0, 0, -9.81]}
-s["output"]["probe"] = [3.9, 0.8, 0.3]
-json.dump(s, open(sys.argv[1] + "/twisted.json", "w"))
-PY
-OMP_NUM_THREADS=1 "$pmg" simulate "$work/twisted.json" -o "$work/twisted_serial" -q > /dev/null || fail "the serial twisted run failed"
-run_ranks 3 "$work/twisted3" "$work/twisted.json" --distributed-mesh
-compare_runs "$work/twisted_serial" "$work/twisted3" 3
-
-# A symmetry plane (the bar's half, u_y held on y = max): the serial run's probe and energies.
-/usr/bin/python3 - "$work" <<'PY' || fail "cannot write the half scene"
-import json, sys
-s = json.load(open(sys.argv[1] + "/serial.json"))
-s["mesh"]["box"], s["mesh"]["size"] = [8, 1, 2], [4, 0.5, 1]
-s["symmetry"] = [{"axis": "y", "at": "max"}]
-json.dump(s, open(sys.argv[1] + "/half.json", "w"))
-PY
-OMP_NUM_THREADS=1 "$pmg" simulate "$work/half.json" -o "$work/half_serial" -q > /dev/null || fail "the serial half run failed"
-run_ranks 2 "$work/half2" "$work/half.json" --distributed-mesh
-compare_runs "$work/half_serial" "$work/half2" 2
-
-# A stiffer inclusion (E x 10 in the middle third of the bar): the serial run's probe and energies.
-/usr/bin/python3 - "$work" <<'PY' || fail "cannot write the inclusion scene"
-import json, sys
-s = json.load(open(sys.argv[1] + "/serial.json"))
-s["material"]["inclusion"] = {"min": [1.3, -1, -1], "max": [2.7, 2, 2], "young": 5e7}
-json.dump(s, open(sys.argv[1] + "/inclusion.json", "w"))
-PY
-OMP_NUM_THREADS=1 "$pmg" simulate "$work/inclusion.json" -o "$work/inclusion_serial" -q > /dev/null || fail "the serial inclusion run failed"
-run_ranks 2 "$work/inclusion2" "$work/inclusion.json" --distributed-mesh
-compare_runs "$work/inclusion_serial" "$work/inclusion2" 2
-
+s["output"]["probe"] = [3.9, 0.8, 0.3]'
+# A symmetry plane (the bar's half, u_y held on y = max).
+against_serial half 2 's["mesh"]["box"], s["mesh"]["size"] = [8, 1, 2], [4, 0.5, 1]
+s["symmetry"] = [{"axis": "y", "at": "max"}]'
+# A stiffer inclusion (E x 10 in the middle third of the bar).
+against_serial inclusion 2 's["material"]["inclusion"] = {"min": [1.3, -1, -1], "max": [2.7, 2, 2], "young": 5e7}'
 # A free body (no clamp) spinning: its mass keeps every step's system definite on the ranks too.
-/usr/bin/python3 - "$work" <<'PY' || fail "cannot write the spinning scene"
-import json, sys
-s = {"mesh": {"box": [4, 1, 1], "size": [2, 0.5, 0.5]}, "degree": 2,
-     "material": {"model": "corotational", "young": 5e5, "poisson": 0.3, "density": 1000},
-     "clamp": "none", "initial": {"state": "spinning", "omega": [0, 0, 3]},
-     "time": {"dt": 0.01, "duration": 0.2}, "output": {"directory": "", "energy": True, "frame_every": 10},
-     "solver": {"method": "mgpcg", "tol": 1e-11, "lowest_level": "cholmod"}}
-json.dump(s, open(sys.argv[1] + "/spinning.json", "w"))
-PY
-OMP_NUM_THREADS=1 "$pmg" simulate "$work/spinning.json" -o "$work/spinning_serial" -q > /dev/null || fail "the serial spinning run failed"
-run_ranks 2 "$work/spinning2" "$work/spinning.json" --distributed-mesh
-compare_runs "$work/spinning_serial" "$work/spinning2" 2
+against_serial spinning 2 's["mesh"]["box"], s["mesh"]["size"] = [4, 1, 1], [2, 0.5, 0.5]
+s["clamp"] = "none"
+s["initial"] = {"state": "spinning", "omega": [0, 0, 3]}
+s["material"]["young"] = 5e5'
 
 # A static corotational scene (the cubic bar sagging under gravity): the serial fixed point's probe
 # to 1e-7 (both stop at a relative change of 1e-6, the serial one's solves by CHOLMOD), and
@@ -158,12 +139,7 @@ PY
 
 # What the distributed mesh does not take: one error, exit 2, on every rank, never a hang.
 expect_error() {  # expect_error PATTERN SCENE_EDIT: the edited scene on 2 ranks
-  /usr/bin/python3 - "$work" "$2" <<'PY' || fail "cannot write the scene"
-import json, sys
-s = json.load(open(sys.argv[1] + "/serial.json"))
-exec(sys.argv[2])
-json.dump(s, open(sys.argv[1] + "/bad.json", "w"))
-PY
+  edited_scene bad "$2"
   timeout 120 "${mpi[@]}" -np 2 "$pmg" simulate "$work/bad.json" --distributed-mesh -q > "$work/err.txt" 2>&1
   local rc=$?
   cat "$work/err.txt"
