@@ -46,6 +46,17 @@ class RankLevels final : public Solver {
   RankHierarchy& ranks_;
 };
 
+/// What every rank's step must agree on: the step's parameters and the solver's keys.
+std::vector<mpi::Item> step_items(const fem::SimulationParams& p, const DistributedMgpcgParams& solver) {
+  std::vector<mpi::Item> items = {{"dt", detail::exact(p.dt)},
+                                  {"rayleigh_alpha", detail::exact(p.rayleigh_alpha)},
+                                  {"rayleigh_beta", detail::exact(p.rayleigh_beta)},
+                                  {"the material model", p.corotational ? "corotational" : "linear"}};
+  const std::vector<mpi::Item> keys = detail::params_items(solver);
+  items.insert(items.end(), keys.begin(), keys.end());
+  return items;
+}
+
 }  // namespace
 
 /// A rank's StepPart: owned unknowns in global order, its free local nodes' values from their
@@ -59,15 +70,7 @@ class DistributedEuler::RankPart final : public fem::StepPart {
   void add_to_owners(const Vector& local, Vector& owned) const override { e_.ghosts_->add_to_owners(local, owned); }
   void to_local(const Vector& owned, Vector& local) const override { e_.ghosts_->to_local(owned, local); }
   double sum(double mine) const override { return e_.sum(mine); }
-  void together(const std::function<void()>& f, const std::string& what) const override {
-    std::string error;
-    try {
-      f();
-    } catch (const std::exception& x) {
-      error = x.what();
-    }
-    agree_on(e_.comm_, error, what);
-  }
+  void together(const std::function<void()>& f) const override { mpi::together(e_.comm_, f); }
   void agree(const std::string& error, const std::string& what) const override { agree_on(e_.comm_, error, what); }
   double residual_norm(const Vector& b, const Vector& v) const override {
     Vector av;
@@ -90,13 +93,10 @@ DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vec
     : serial_(&serial), p_(p), comm_(comm) {
   const fem::ElasticityModel& m = serial.finest();
   // Each rank was handed the whole model: the same on every rank, or a named error on all.
-  std::vector<mpi::Item> items = {{"dt", detail::exact(p.dt)},
-                                  {"rayleigh_alpha", detail::exact(p.rayleigh_alpha)},
-                                  {"rayleigh_beta", detail::exact(p.rayleigh_beta)},
-                                  {"the material model", p.corotational ? "corotational" : "linear"},
-                                  {"the external force", "digest " + mpi::digest(f_ext)}};
-  for (const std::vector<mpi::Item>& part : {detail::params_items(solver), detail::hierarchy_items(serial)})
-    items.insert(items.end(), part.begin(), part.end());
+  std::vector<mpi::Item> items = step_items(p, solver);
+  items.push_back({"the external force", "digest " + mpi::digest(f_ext)});
+  const std::vector<mpi::Item> model = detail::hierarchy_items(serial);
+  items.insert(items.end(), model.begin(), model.end());
   mpi::check_agreement(comm, items, "distributed time step");
   mpi::together(comm, [&] { fem::check_simulation(m, f_ext, p); });
   if (serial.num_levels() < 2)
@@ -110,13 +110,7 @@ DistributedEuler::DistributedEuler(const fem::DegreeHierarchy& serial, const Vec
 DistributedEuler::DistributedEuler(RankHierarchy& ranks, const Vector& f_ext_owned, const fem::SimulationParams& p,
                                    DistributedMgpcgParams solver)
     : p_(p), comm_(ranks.comm()), ranks_(&ranks) {
-  std::vector<mpi::Item> items = {{"dt", detail::exact(p.dt)},
-                                  {"rayleigh_alpha", detail::exact(p.rayleigh_alpha)},
-                                  {"rayleigh_beta", detail::exact(p.rayleigh_beta)},
-                                  {"the material model", p.corotational ? "corotational" : "linear"}};
-  const std::vector<mpi::Item> keys = detail::params_items(solver);
-  items.insert(items.end(), keys.begin(), keys.end());
-  mpi::check_agreement(comm_, items, "distributed time step");
+  mpi::check_agreement(comm_, step_items(p, solver), "distributed time step");
   const int top = ranks.num_levels() - 1;
   mpi::together(comm_, [&] {
     const fem::ElasticityModel& local = ranks.local().finest();

@@ -53,8 +53,7 @@ void EulerStep::evaluate_state() const {
           state_.seconds[kRotations] = seconds_since(t0);
         }
         s = part_.system().evaluate(u_local_, R, {w.mass, w.stiffness}, &force, &energy, state_.prepare);
-      },
-      "step " + std::to_string(step_ + 1));
+      });
   state_.seconds[kAssembly] = s.finest;
   const auto t0 = Clock::now();
   part_.add_to_owners(part_.finest().restrict_to_free(force), state_.force_owned);
@@ -74,8 +73,7 @@ StepStats EulerStep::step() {
     // part's own preparation is agreed on before the solver's (collective) set-up.
     const auto t0 = Clock::now();
     const StepWeights w = step_weights(p_);
-    part_.together([&] { part_.system().prepare(p_.corotational ? &state_.R : nullptr, {w.mass, w.stiffness}, false); },
-                   name);
+    part_.together([&] { part_.system().prepare(p_.corotational ? &state_.R : nullptr, {w.mass, w.stiffness}, false); });
     part_.system().set_up_solver();
     levels_current_ = true;
     st.seconds[kHierarchy] = seconds_since(t0);

@@ -79,7 +79,7 @@ class SerialPart final : public StepPart {
   void add_to_owners(const Vector& local, Vector& owned) const override { owned = local; }
   void to_local(const Vector& owned, Vector& local) const override { local = owned; }
   double sum(double mine) const override { return mine; }
-  void together(const std::function<void()>& f, const std::string&) const override { f(); }
+  void together(const std::function<void()>& f) const override { f(); }
   void agree(const std::string& error, const std::string& what) const override {
     if (!error.empty()) throw Error(what + ": " + error);
   }

@@ -37,9 +37,9 @@ class StepPart {
   virtual void to_local(const Vector& owned, Vector& local) const = 0;
   /// Σ over the parts of `mine`.
   virtual double sum(double mine) const = 0;
-  /// Runs f, the part's own work; a failure on any part is thrown on every part (one process: f's
-  /// exception as it is).
-  virtual void together(const std::function<void()>& f, const std::string& what) const = 0;
+  /// Runs f, the part's own work; a failure on any part is thrown on every part, its type kept
+  /// (one process: f's exception as it is).
+  virtual void together(const std::function<void()>& f) const = 0;
   /// Throws pmg::Error "what: error" on every part when `error` is not empty on any.
   virtual void agree(const std::string& error, const std::string& what) const = 0;
   /// ‖b − A v‖ over every part's owned unknowns, A the step matrix the solver was set up on.
