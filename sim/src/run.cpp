@@ -130,6 +130,16 @@ dist::DistributedMgpcgParams step_params(const Config& solver, SceneSetup& setup
   return params;
 }
 
+/// The scene's probe point located on the ranks (every rank alike); InputError naming the key when
+/// no rank's elements hold it.
+dist::DistributedEuler::Located locate_probe(const dist::DistributedEuler& e, const fem::Vec3& point) {
+  try {
+    return e.locate(point);
+  } catch (const InputError& x) {
+    throw InputError(std::string("output.probe: ") + x.what());
+  }
+}
+
 /// The scene's solver options as petsc-mgpcg's, the route's one method: a scene naming it keeps
 /// them all; another method's stopping rule (tol, max_iterations, rhs_floor, throw_on_failure) is
 /// kept and its other keys, whose values mean that method's choices, are named in a note.
@@ -230,11 +240,7 @@ class RankMeshStepper final : public AcrossRanks {
       const auto [u, v] = formula_state(scene, problem.ranks().local().finest(), setup.lo, setup.hi);
       sim_->set_state_local(u, v);
     }
-    try {
-      probe_ = sim_->locate(setup.probe.point);  // every rank alike
-    } catch (const InputError& e) {
-      throw InputError(std::string("output.probe: ") + e.what());
-    }
+    probe_ = locate_probe(*sim_, setup.probe.point);
     setup.notes.push_back(rank_note(scene, sim_->ranks().size()) +
                           "; the mesh, its numbering, loads and initial state built on the ranks, none holding it whole");
   }
@@ -469,13 +475,7 @@ StaticOutcome solve_static_on_ranks(const Scene& scene, SceneSetup& setup, const
   so.corotational_tol = 1e-6;
   out.result.iterations = e.set_static_state(problem.load(), so, tol, &out.result.solver_iterations);
   out.seconds = seconds_since(t0);
-  dist::DistributedEuler::Located probe;
-  try {
-    probe = e.locate(setup.probe.point);
-  } catch (const InputError& x) {
-    throw InputError(std::string("output.probe: ") + x.what());
-  }
-  out.probe = e.displacement_at(probe);
+  out.probe = e.displacement_at(detail::locate_probe(e, setup.probe.point));
   if (!output_dir.empty()) {
     e.require_same_on_every_rank("the output directory", output_dir);
     std::string error;
