@@ -52,13 +52,14 @@ bool all_finite(const Vector& x) {
 }
 
 void block_diagonal_apply(const std::vector<double>& D, const Vector& r, Vector& z) {
-  const Eigen::Index nb = r.size() / 3;
   z.resize(r.size());
-  const double* d = D.data();
-  const double* rp = r.data();
-  double* zp = z.data();
+  block_diagonal_apply(D.data(), r.data(), z.data(), static_cast<index_t>(r.size() / 3));
+}
+
+void block_diagonal_apply(const double* D, const double* r, double* z, index_t blocks) {
+  const std::ptrdiff_t nb = blocks;
 #pragma omp parallel for schedule(static)
-  for (Eigen::Index I = 0; I < nb; ++I) block3_apply(d + 9 * I, rp + 3 * I, zp + 3 * I);
+  for (std::ptrdiff_t I = 0; I < nb; ++I) block3_apply(D + 9 * I, r + 3 * I, z + 3 * I);
 }
 
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x) {

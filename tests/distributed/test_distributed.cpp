@@ -124,7 +124,7 @@ TEST_CASE("the distributed solve equals the serial MGPCG, its iterations the one
     Bar bar(p, 8, 2, 2);
     int serial_iterations = 0;
     const Vector x_serial = serial_solution(bar.h, bar.b, "1e-11", &serial_iterations);
-    for (const char* lowest : {"mumps", "gamg", "hypre"}) {
+    for (const char* lowest : {"mumps", "gamg", "boomeramg"}) {
       INFO("degree " << p << ", lowest level " << lowest);
       dist::DistributedMgpcgParams params;
       params.tol = 1e-11;
@@ -279,6 +279,11 @@ TEST_CASE("bad input is one clear error on every rank", "[distributed]") {
     dist::DistributedMgpcgParams params;
     params.lowest_level = "lu";
     refused(params, "unknown lowest level 'lu'");
+  }
+  SECTION("mgpcg's serial lowest level names the distributed one") {
+    dist::DistributedMgpcgParams params;
+    params.lowest_level = "cholmod";
+    refused(params, "across ranks the sparse Cholesky is 'mumps'");
   }
   SECTION("more ranks than elements") {
     if (world_size() < 2) return;

@@ -1,6 +1,7 @@
 // CG + PCMG across MPI ranks (pmg/petsc/pcmg.hpp).
 #include "pmg/petsc/pcmg.hpp"
 #include "pmg/sparse/timer.hpp"
+#include "pmg/sparse/vector_ops.hpp"
 
 #include "common.hpp"
 #include "vectors.hpp"
@@ -103,6 +104,23 @@ PetscErrorCode shell_diagonal(Mat A, Vec d) {
   PetscFunctionReturn(0);
 }
 
+/// z = D⁻¹ r on the rank's owned nodes (point-block Jacobi, the smoothers' preconditioner), over
+/// the level's inverted diagonal blocks: pmgkit's threaded kernel (PETSc's PCPBJACOBI runs on one
+/// thread).
+PetscErrorCode shell_block_jacobi(PC pc, Vec r, Vec z) {
+  ShellLevel* s = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &s));
+  const PetscScalar* rp = nullptr;
+  PetscScalar* zp = nullptr;
+  PetscCall(VecGetArrayRead(r, &rp));
+  PetscCall(VecGetArrayWrite(z, &zp));
+  ops::block_diagonal_apply(s->inverse_blocks.data(), rp, zp, s->owned);
+  PetscCall(VecRestoreArrayWrite(z, &zp));
+  PetscCall(VecRestoreArrayRead(r, &rp));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode shell_invert_block_diagonal(Mat A, const PetscScalar** values) {
   ShellLevel* s = nullptr;
   PetscFunctionBeginUser;
@@ -148,6 +166,14 @@ void refresh_diagonal(ShellLevel& s, MPI_Comm comm) {
   int mine = singular ? 1 : 0, any = 0;
   MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm);
   if (any) throw Error("distributed p-multigrid: a singular or non-finite 3x3 diagonal block (a node without stiffness)");
+}
+
+/// A smoother's preconditioner: the shell level's point-block Jacobi (shell_block_jacobi).
+void set_block_jacobi(PC pc, ShellLevel* s) {
+  check(PCSetType(pc, PCSHELL), "PCSetType");
+  check(PCShellSetContext(pc, s), "PCShellSetContext");
+  check(PCShellSetApply(pc, shell_block_jacobi), "PCShellSetApply");
+  check(PCShellSetName(pc, "point-block Jacobi"), "PCShellSetName");
 }
 
 /// Global unknowns of a level from the owned counts.
@@ -226,9 +252,13 @@ struct PMultigridCg::Impl {
 };
 
 PMultigridCg::PMultigridCg(MPI_Comm comm, PcmgParams params) : impl_(std::make_unique<Impl>()), params_(std::move(params)) {
-  const std::string& m = params_.lowest_level;
-  if (m != "auto" && m != "mumps" && m != "gamg" && m != "hypre")
-    throw InputError("distributed p-multigrid: unknown lowest level '" + m + "' (auto, mumps, gamg, hypre)");
+  std::string& m = params_.lowest_level;
+  if (m == "hypre") m = "boomeramg";  // the library's name for its method
+  if (m == "cholmod")
+    throw InputError("distributed p-multigrid: lowest level 'cholmod' factors on one process; across ranks the "
+                     "sparse Cholesky is 'mumps'");
+  if (m != "auto" && m != "mumps" && m != "gamg" && m != "boomeramg")
+    throw InputError("distributed p-multigrid: unknown lowest level '" + m + "' (auto, mumps, gamg, boomeramg)");
   if (!(params_.rel_tol >= 0 && params_.rel_tol < 1))
     throw InputError("distributed p-multigrid: tol must lie in [0, 1)");
   if (params_.max_iterations < 1 || params_.smoothing_steps < 1)
@@ -422,30 +452,34 @@ void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::stri
   check(PCMGSetCycleType(pc, PC_MG_CYCLE_V), "PCMGSetCycleType");
   check(PCMGSetGalerkin(pc, PC_MG_GALERKIN_NONE), "PCMGSetGalerkin");
   for (int l = 1; l < nl; ++l) check(PCMGSetInterpolation(pc, l, d.prolongations[l]), "PCMGSetInterpolation");
-  for (int l = 0; l < nl; ++l) {
+  {
+    KSP s = nullptr;
+    check(PCMGGetSmoother(pc, 0, &s), "PCMGGetSmoother");
+    check(KSPSetOperators(s, d.ops[0], d.ops[0]), "KSPSetOperators");
+    check(KSPSetType(s, KSPPREONLY), "KSPSetType");
+    PC sp = nullptr;
+    check(KSPGetPC(s, &sp), "KSPGetPC");
+    if (lowest == "mumps") {
+      check(PCSetType(sp, PCCHOLESKY), "PCSetType");
+      check(PCFactorSetMatSolverType(sp, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+    } else if (lowest == "gamg") {
+      check(PCSetType(sp, PCGAMG), "PCSetType");
+    } else {
+      check(PCSetType(sp, PCHYPRE), "PCSetType");
+      check(PCHYPRESetType(sp, "boomeramg"), "PCHYPRESetType");
+    }
+  }
+  for (int l = 1; l < nl; ++l) {
     KSP s = nullptr;
     check(PCMGGetSmoother(pc, l, &s), "PCMGGetSmoother");
     check(KSPSetOperators(s, d.ops[l], d.ops[l]), "KSPSetOperators");
+    check(KSPSetType(s, KSPCHEBYSHEV), "KSPSetType");
+    check(KSPChebyshevEstEigSet(s, 0.0, 0.1, 0.0, 1.1), "KSPChebyshevEstEigSet");
+    check(KSPSetTolerances(s, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, params.smoothing_steps), "KSPSetTolerances");
+    check(KSPSetNormType(s, KSP_NORM_NONE), "KSPSetNormType");
     PC sp = nullptr;
     check(KSPGetPC(s, &sp), "KSPGetPC");
-    if (l == 0) {
-      check(KSPSetType(s, KSPPREONLY), "KSPSetType");
-      if (lowest == "mumps") {
-        check(PCSetType(sp, PCCHOLESKY), "PCSetType");
-        check(PCFactorSetMatSolverType(sp, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
-      } else if (lowest == "gamg") {
-        check(PCSetType(sp, PCGAMG), "PCSetType");
-      } else {
-        check(PCSetType(sp, PCHYPRE), "PCSetType");
-        check(PCHYPRESetType(sp, "boomeramg"), "PCHYPRESetType");
-      }
-    } else {
-      check(KSPSetType(s, KSPCHEBYSHEV), "KSPSetType");
-      check(KSPChebyshevEstEigSet(s, 0.0, 0.1, 0.0, 1.1), "KSPChebyshevEstEigSet");
-      check(KSPSetTolerances(s, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, params.smoothing_steps), "KSPSetTolerances");
-      check(KSPSetNormType(s, KSP_NORM_NONE), "KSPSetNormType");
-      check(PCSetType(sp, PCPBJACOBI), "PCSetType");
-    }
+    set_block_jacobi(sp, d.shells[l].get());
   }
   // Defaults as options (so that the user's options, inserted after, override them).
   std::string defaults = "-mg_levels_esteig_ksp_type cg -mg_levels_esteig_ksp_max_it 10 ";
@@ -463,7 +497,7 @@ void PMultigridCg::Impl::create_solver(const PcmgParams& params, const std::stri
   // own defaults (Falgout, classical interpolation) cost 2.4-2.7x BoomerAMG's set-up time (1.6x the
   // whole solver set-up) and 1.3x the peak memory for 0.57x the iterations on the quadratic cube
   // of docs/distributed.md.
-  if (lowest == "hypre")
+  if (lowest == "boomeramg")
     defaults += "-mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev -mg_coarse_pc_hypre_boomeramg_coarsen_type PMIS "
                 "-mg_coarse_pc_hypre_boomeramg_interp_type ext+i -mg_coarse_pc_hypre_boomeramg_P_max 6 "
                 "-mg_coarse_pc_hypre_boomeramg_agg_nl 1 -mg_coarse_pc_hypre_boomeramg_strong_threshold 0.5 ";
@@ -508,7 +542,7 @@ void PMultigridCg::set_up(std::vector<RankLevel> levels) {
   d.setup_seconds.emplace_back("transfers", seconds_since(t0));
   t0 = Clock::now();
   lowest_ = params_.lowest_level;
-  if (lowest_ == "auto") lowest_ = d.global_sizes[0] < params_.amg_threshold ? "mumps" : "hypre";
+  if (lowest_ == "auto") lowest_ = d.global_sizes[0] < params_.amg_threshold ? "mumps" : "boomeramg";
   d.create_solver(params_, lowest_);
   d.setup_seconds.emplace_back("KSP set-up (lowest level " + lowest_ + ")", seconds_since(t0));
   d.ready = true;

@@ -15,8 +15,9 @@
 // rank's element sum applied on them, the result added back to the owners (the reverse scatter):
 // A = Σ_ranks Gᵀ A_rank G, the same sum of element contributions as the serial operator. The
 // (3x3 block) diagonal comes the same way from the operators' diagonal blocks: the smoothers are
-// Chebyshev (first kind, PETSc's estimate of the largest eigenvalue by CG, interval
-// [0.1, 1.1] λmax) on point-block Jacobi.
+// PETSc's Chebyshev (first kind, PETSc's estimate of the largest eigenvalue by 10 CG steps,
+// interval [0.1, 1.1] λmax) on point-block Jacobi, D⁻¹ applied by pmgkit's threaded kernel (a
+// PCSHELL: PETSc's PCPBJACOBI runs on one thread).
 //
 // Every call is collective over the communicator given at construction; PETSc options beyond the
 // keys (`-mg_levels_ksp_max_it 4`, `-log_view` is the process's own) go into PETSc's options
@@ -79,9 +80,11 @@ struct PcmgParams {
   double rhs_floor = 0.0;
   int max_iterations = 10000;  ///< iteration limit (a failure)
   int smoothing_steps = 3;     ///< Chebyshev steps per pre- and post-smoothing
-  /// "mumps" (Cholesky), "gamg" (one V-cycle, rigid-body near-null space), "hypre" (one
-  /// BoomerAMG V-cycle: HMIS, extended+i interpolation, Chebyshev relaxation) or "auto": MUMPS below amg_threshold global
-  /// unknowns on the lowest level, BoomerAMG from there.
+  /// The lowest level's method, by the names mgpcg's `lowest_level` gives them: "mumps"
+  /// (Cholesky), "gamg" (one V-cycle, rigid-body near-null space), "boomeramg" (one BoomerAMG
+  /// V-cycle through PCHYPRE: PMIS, extended+i interpolation, Chebyshev relaxation; "hypre" is
+  /// its alias) or "auto": MUMPS below amg_threshold global unknowns on the lowest level,
+  /// BoomerAMG from there. "cholmod" (one process only) is refused with a pointer to "mumps".
   std::string lowest_level = "auto";
   /// "auto" takes BoomerAMG from this many global unknowns on the lowest level.
   long amg_threshold = kAmgLowestLevelUnknowns;
@@ -147,7 +150,7 @@ class PMultigridCg {
   int num_levels() const;
   /// Global unknowns of a level.
   long global_size(int level) const;
-  /// The lowest level's method after "auto" is resolved ("mumps", "gamg", "hypre").
+  /// The lowest level's method after "auto" is resolved ("mumps", "gamg", "boomeramg").
   const std::string& lowest_level() const { return lowest_; }
   /// Levels, sizes, smoother and lowest level in words, after set-up.
   std::string describe() const;
