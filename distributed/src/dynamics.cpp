@@ -210,6 +210,54 @@ void DistributedEuler::set_state_local(const Vector& u, const Vector& v) {
   step_->set_state_owned(std::move(u_owned), std::move(v_owned));
 }
 
+/// The rank's share of set_static_state's fixed point (fem::corotational_fixed_point): the state is
+/// the rank's owned unknowns, each correction solved across the ranks by the static solve's own
+/// PETSc solver, the norms summed over the ranks.
+class DistributedEuler::StaticRankPart final : public fem::StaticPart {
+ public:
+  StaticRankPart(DistributedEuler& e, const Vector& f_owned, petsc::PMultigridCg& solver, int* solver_iterations)
+      : e_(e), f_owned_(f_owned), solver_(solver), solver_iterations_(solver_iterations) {}
+
+  Vector correction(const Vector& u, int it) override {
+    // K_R δ = f + f_el(u) (pmg/fem/static_solve.hpp) at the state u on every rank's nodes.
+    e_.step_->set_state_owned(u, Vector::Zero(u.size()));
+    fem::DegreeHierarchy& local = e_.ranks_->local();
+    const bool corotational = e_.p_.corotational;
+    fem::Rotations R;
+    Vector force;
+    std::string error;
+    try {
+      if (corotational) R = local.finest().rotations(e_.step_->u_local());
+      e_.system_->evaluate(e_.step_->u_local(), corotational ? &R : nullptr, {}, &force, nullptr);
+      e_.system_->prepare(corotational ? &R : nullptr, {}, /*finest=*/false);
+    } catch (const std::exception& ex) {
+      error = ex.what();
+    }
+    agree_on(e_.comm_, error, "static state, iteration " + std::to_string(it));
+    if (it == 1) solver_.setup(e_.ranks_->rank_levels());
+    else solver_.refresh();
+    Vector rhs;
+    e_.ghosts_->add_to_owners(local.finest().restrict_to_free(force), rhs);
+    rhs += f_owned_;
+    Vector delta = Vector::Zero(rhs.size());
+    const SolveResult res = solver_.solve(rhs, delta);
+    if (solver_iterations_) *solver_iterations_ += res.iterations;
+    if (!res.ok()) {
+      SolveResult r = res;
+      r.message = "static state: iteration " + std::to_string(it) + ": petsc-mgpcg failed: " + res.message;
+      throw SolveError(r);
+    }
+    return delta;
+  }
+  double norm(const Vector& v) const override { return std::sqrt(e_.sum(v.squaredNorm())); }
+
+ private:
+  DistributedEuler& e_;
+  const Vector& f_owned_;
+  petsc::PMultigridCg& solver_;
+  int* solver_iterations_;
+};
+
 int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticOptions& options, double solve_tol,
                                        int* solver_iterations) {
   if (solver_iterations) *solver_iterations = 0;
@@ -239,55 +287,13 @@ int DistributedEuler::set_static_state(const Vector& f_owned, const fem::StaticO
   step_->set_state_owned(u, u);
   step_->levels_changed();  // the levels below carry the stiffness alone until the next step
   try {
-    return static_fixed_point(f_owned, options, solver, u, solver_iterations);
+    StaticRankPart part(*this, f_owned, solver, solver_iterations);
+    const fem::FixedPointStats stats = fem::corotational_fixed_point(part, u, p_.corotational, options, "static state");
+    step_->set_state_owned(u, Vector::Zero(u.size()));
+    return stats.iterations;
   } catch (...) {
     step_->set_state_owned(u_before, v_before);
     throw;
-  }
-}
-
-int DistributedEuler::static_fixed_point(const Vector& f_owned, const fem::StaticOptions& options,
-                                         petsc::PMultigridCg& solver, Vector& u, int* solver_iterations) {
-  fem::DegreeHierarchy& local = ranks_->local();
-  const bool corotational = p_.corotational;
-  double omega = options.relaxation, previous_change = INFINITY;
-  for (int it = 1;; ++it) {
-    // The fixed point of pmg/fem/static_solve.hpp: K_R δ = f + f_el(u_k), u_{k+1} = u_k + ω δ.
-    fem::Rotations R;
-    Vector force;
-    std::string error;
-    try {
-      if (corotational) R = local.finest().rotations(step_->u_local());
-      system_->evaluate(step_->u_local(), corotational ? &R : nullptr, {}, &force, nullptr);
-      system_->prepare(corotational ? &R : nullptr, {}, /*finest=*/false);
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-    agree_on(comm_, error, "static state, iteration " + std::to_string(it));
-    if (it == 1) solver.setup(ranks_->rank_levels());
-    else solver.refresh();
-    Vector rhs;
-    ghosts_->add_to_owners(local.finest().restrict_to_free(force), rhs);
-    rhs += f_owned;
-    Vector delta = Vector::Zero(rhs.size());
-    const SolveResult res = solver.solve(rhs, delta);
-    if (solver_iterations) *solver_iterations += res.iterations;
-    if (!res.ok()) {
-      SolveResult r = res;
-      r.message = "static state: iteration " + std::to_string(it) + ": petsc-mgpcg failed: " + res.message;
-      throw SolveError(r);
-    }
-    const double change = std::sqrt(sum(delta.squaredNorm())) /
-                          std::max(std::sqrt(sum((u + delta).squaredNorm())), 1e-300);
-    if (corotational && it > 1 && change > previous_change) omega = std::max(omega / 2, 1.0 / 64);
-    previous_change = change;
-    u += (corotational && it > 1 ? omega : 1.0) * delta;
-    step_->set_state_owned(u, Vector::Zero(u.size()));
-    if (!corotational || change <= options.corotational_tol) return it;
-    if (!std::isfinite(change) || it >= options.max_corotational_iterations)
-      throw Error("static state: the corotational fixed point did not converge (relative change " +
-                  std::to_string(change) + " after " + std::to_string(it) + " iterations, tolerance " +
-                  std::to_string(options.corotational_tol) + ")");
   }
 }
 

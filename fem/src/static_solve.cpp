@@ -4,6 +4,7 @@
 
 #include "pmg/sparse/factory.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <sstream>
@@ -33,52 +34,85 @@ void check_inputs(const ElasticityModel& model, const Vector& f_ext) {
   if (!f_ext.allFinite()) throw InputError("static solve: force vector has NaN/Inf");
 }
 
-/// The fixed point of the file comment of static_solve.hpp, from u0.
-StaticResult fixed_point(const ElasticityModel& model, const Vector& f_ext, bool corotational, Solver& solver,
-                         const StaticOptions& options, Vector u0, const Evaluate& evaluate,
-                         const Refresh& refresh) {
-  StaticResult res;
-  res.u = std::move(u0);
-  Rotations R;
-  Vector force, delta;
-  double omega = options.relaxation, previous_change = INFINITY;
-  for (int it = 1;; ++it) {
-    if (corotational) R = model.rotations(res.u);
-    evaluate(res.u, corotational ? &R : nullptr, force);
+/// The whole model in this process: corrections on the free unknowns, the state full (3 per node).
+class SerialStaticPart final : public StaticPart {
+ public:
+  SerialStaticPart(const ElasticityModel& model, const Vector& f_ext, bool corotational, Solver& solver,
+                   const Evaluate& evaluate, const Refresh& refresh, int& solver_iterations)
+      : model_(model), f_ext_(f_ext), corotational_(corotational), solver_(solver), evaluate_(evaluate),
+        refresh_(refresh), solver_iterations_(solver_iterations) {}
+
+  Vector correction(const Vector& u, int iteration) override {
+    Rotations R;
+    if (corotational_) R = model_.rotations(u);
+    Vector force;
+    evaluate_(u, corotational_ ? &R : nullptr, force);
     try {
-      refresh(corotational ? &R : nullptr, it == 1);  // symbolic set-up once, then numeric only
+      refresh_(corotational_ ? &R : nullptr, iteration == 1);  // symbolic set-up once, then numeric only
     } catch (const InputError&) {
       throw;  // a solver that does not suit this system says so itself
     } catch (const Error& e) {
       throw Error(std::string("static solve: ") + e.what() + "; the constraints may not remove every rigid motion");
     }
-    const Vector rhs = model.restrict_to_free(f_ext + force);
-    delta = Vector::Zero(rhs.size());
+    const Vector rhs = model_.restrict_to_free(f_ext_ + force);
+    Vector delta = Vector::Zero(rhs.size());
     try {
-      res.solver_iterations += solver.solve(rhs, delta).iterations;
+      solver_iterations_ += solver_.solve(rhs, delta).iterations;
     } catch (const SolveError& e) {
       SolveResult r = e.result;
-      r.message = std::string("static solve: iteration ") + std::to_string(it) + ": " + e.what();
+      r.message = std::string("static solve: iteration ") + std::to_string(iteration) + ": " + e.what();
       throw SolveError(r);
     }
-    const Vector step = model.expand(delta, Vector());
-    const double change = step.norm() / std::max((res.u + step).norm(), 1e-300);
+    return model_.expand(delta, Vector());
+  }
+  double norm(const Vector& v) const override { return v.norm(); }
+
+ private:
+  const ElasticityModel& model_;
+  const Vector& f_ext_;
+  bool corotational_;
+  Solver& solver_;
+  const Evaluate& evaluate_;
+  const Refresh& refresh_;
+  int& solver_iterations_;
+};
+
+/// The fixed point of the file comment of static_solve.hpp on the whole model, from u0.
+StaticResult fixed_point(const ElasticityModel& model, const Vector& f_ext, bool corotational, Solver& solver,
+                         const StaticOptions& options, Vector u0, const Evaluate& evaluate,
+                         const Refresh& refresh) {
+  StaticResult res;
+  res.u = std::move(u0);
+  SerialStaticPart part(model, f_ext, corotational, solver, evaluate, refresh, res.solver_iterations);
+  const FixedPointStats stats = corotational_fixed_point(part, res.u, corotational, options, "static solve");
+  res.iterations = stats.iterations;
+  res.last_change = stats.last_change;
+  return res;
+}
+
+}  // namespace
+
+FixedPointStats corotational_fixed_point(StaticPart& part, Vector& u, bool corotational, const StaticOptions& options,
+                                         const std::string& what) {
+  FixedPointStats stats;
+  double omega = options.relaxation, previous_change = INFINITY;
+  for (int it = 1;; ++it) {
+    const Vector step = part.correction(u, it);
+    const double change = part.norm(step) / std::max(part.norm(u + step), 1e-300);
     if (corotational && it > 1 && change > previous_change) omega = std::max(omega / 2, 1.0 / 64);
     previous_change = change;
-    res.u += (corotational && it > 1 ? omega : 1.0) * step;
-    res.iterations = it;
-    res.last_change = change;
-    if (!corotational || change <= options.corotational_tol) return res;
+    u += (corotational && it > 1 ? omega : 1.0) * step;
+    stats.iterations = it;
+    stats.last_change = change;
+    if (!corotational || change <= options.corotational_tol) return stats;
     if (!std::isfinite(change) || it >= options.max_corotational_iterations) {
       std::ostringstream msg;
-      msg << "static solve: corotational fixed point did not converge (relative change " << change
-          << " after " << it << " iterations, tolerance " << options.corotational_tol << ")";
+      msg << what << ": the corotational fixed point did not converge (relative change " << change << " after " << it
+          << " iterations, tolerance " << options.corotational_tol << ")";
       throw Error(msg.str());
     }
   }
 }
-
-}  // namespace
 
 StaticResult solve_static(const ElasticityModel& model, const Vector& f_ext, bool corotational,
                           const StaticOptions& options, const Vector& prescribed) {

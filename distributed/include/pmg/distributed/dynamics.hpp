@@ -23,8 +23,8 @@
 // share, and gives the initial state as serial vectors. On a distributed mesh (MeshProblem,
 // pmg/distributed/mesh_problem.hpp): the rank's share was built from its own cells, the external
 // force comes as owned unknowns, and the initial state from the rank's own nodes (set_state_local)
-// or as the static equilibrium under a load (set_static_state: the corotational fixed point of
-// pmg/fem/static_solve.hpp, its norms reduced over the ranks); a probe is a point located once
+// or as the static equilibrium under a load (set_static_state: fem::corotational_fixed_point, the
+// loop of the serial static solve, on the rank's part, its norms reduced over the ranks); a probe is a point located once
 // (locate). From the first step on, each rank touches only its own elements and nodes. Every
 // member function is collective over the communicator.
 #pragma once
@@ -139,9 +139,7 @@ class DistributedEuler {
   double sum(double mine) const;
   /// The rank's solver, ghost exchange, binding and step, after ranks_ is set; the state at rest.
   void build(const Vector& f_ext_owned, const DistributedMgpcgParams& solver);
-  /// set_static_state's iteration from u (owned; the state as it goes); returns the iterations.
-  int static_fixed_point(const Vector& f_owned, const fem::StaticOptions& options, petsc::PMultigridCg& solver,
-                         Vector& u, int* solver_iterations);
+  class StaticRankPart;  // the rank's share of set_static_state's fixed point
 
   const fem::DegreeHierarchy* serial_ = nullptr;  // the replicated set-up's serial hierarchy
   fem::SimulationParams p_;

@@ -38,6 +38,33 @@ struct StaticResult {
   int solver_iterations = 0;  ///< iterations of the linear solves, summed
 };
 
+/// One part's share of the static fixed point of the file comment: the whole model in one process
+/// (solve_static()) or a rank's owned unknowns (dist::DistributedEuler::set_static_state()), so
+/// that the iteration, its relaxation and its stopping rule exist once.
+class StaticPart {
+ public:
+  virtual ~StaticPart() = default;
+  /// The correction δ at state u (the part's vector): the rotations of u, the operator the solver
+  /// reads brought to them (set up at iteration 1, updated after), K_R δ = f_ext + f_el(u) solved.
+  /// Throws (a SolveError naming the iteration) where the solve fails.
+  virtual Vector correction(const Vector& u, int iteration) = 0;
+  /// ‖v‖₂ of a vector of the part's kind, over every part.
+  virtual double norm(const Vector& v) const = 0;
+};
+
+/// How corotational_fixed_point() ended.
+struct FixedPointStats {
+  int iterations = 0;       ///< fixed-point iterations (1 for linear material)
+  double last_change = 0;   ///< the last relative change ‖δ‖ / ‖u + δ‖
+};
+
+/// The fixed point of the file comment on `part` from u (updated in place): one correction for
+/// linear material; for corotational material until the relative change falls to
+/// options.corotational_tol, ω halved whenever the change grows. Throws pmg::Error, prefixed with
+/// `what`, when the change is not finite or the iterations run out.
+FixedPointStats corotational_fixed_point(StaticPart& part, Vector& u, bool corotational, const StaticOptions& options,
+                                         const std::string& what);
+
 /// On one model with options.solver (a single-level method of the factory: kDefaultDirectMethod,
 /// CHOLMOD, by default; fem links no solver library, so the caller registers the method). `prescribed`
 /// (full vector, may be empty) gives the clamped nodes' displacements. Throws InputError when no

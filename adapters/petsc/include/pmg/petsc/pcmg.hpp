@@ -79,7 +79,7 @@ struct PcmgParams {
   /// solution (a warm-started time step), as KrylovParams::rhs_floor.
   double rhs_floor = 0.0;
   int max_iterations = 10000;  ///< iteration limit (a failure)
-  int smoothing_steps = 3;     ///< Chebyshev steps per pre- and post-smoothing
+  int smoothing_steps = 2;     ///< Chebyshev steps per pre- and post-smoothing (dist::DistributedMgpcgParams)
   /// The lowest level's method, by the names mgpcg's `lowest_level` gives them: "mumps"
   /// (Cholesky), "gamg" (one V-cycle, rigid-body near-null space), "boomeramg" (one BoomerAMG
   /// V-cycle through PCHYPRE: PMIS, extended+i interpolation, Chebyshev relaxation; "hypre" is
