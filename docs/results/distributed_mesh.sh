@@ -4,14 +4,16 @@
 # from zero: 14^3 boxes of 24 tetrahedra refined once (2.28M unknowns; the serial runs refine the
 # same coarse mesh themselves, the distributed one on the ranks after distribution). Peak resident
 # memory of every process by /usr/bin/time (%M, kB). Two alternating batches; np 4 on this 2-core
-# VM is oversubscribed: its memory counts, its time measures overhead.
+# VM is oversubscribed: its memory counts, its time measures overhead. Each run starts after a
+# 10 s pause.
 #   docs/results/distributed_mesh.sh > docs/results/distributed_mesh_$(date +%F).txt 2>&1
 set -u
 cd "$(dirname "$0")/../.."
 pmg=build/tools/pmg
 C=(compare --box 14 14 14 --refine 1 --size 1 1 1 -p 2 --fix z --load gravity --tol 1e-6)
 mpi=(mpirun --allow-run-as-root --oversubscribe --bind-to none)
-run() {  # run TITLE COMMAND...
+run() {  # run TITLE COMMAND... (after a 10 s pause: see distributed_np1.sh)
+  sleep 10
   echo "=== $1"
   shift
   "$@" 2>&1 | grep -v "^\s*$"

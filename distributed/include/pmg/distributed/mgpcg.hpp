@@ -29,9 +29,9 @@ struct DistributedMgpcgParams {
   int max_iterations = 10000;         ///< CG iteration limit (a failure)
   double rhs_floor = 0.0;             ///< also converged when ||r|| <= rhs_floor ||b|| (0: off)
   bool throw_on_failure = true;       ///< a failed solve throws SolveError
-  /// Chebyshev steps per pre- and post-smoothing: 2 took 0.8x the solve time of 3 on the quadratic
-  /// and cubic cubes of docs/distributed.md, 1.3x the iterations on a nearly incompressible
-  /// slender bar (where 3 is the better choice).
+  /// Chebyshev steps per pre- and post-smoothing: 2 solved the quadratic and cubic cubes of
+  /// docs/distributed.md in 0.74-0.85x the time of 3 (a few more iterations, fewer products);
+  /// 1 took fewer seconds still on the cubes but stalled above 1e-8 on a nearly incompressible bar.
   int smoothing_steps = 2;
   std::string lowest_level = "auto";  ///< auto, mumps, gamg or hypre (pmg::petsc::PcmgParams)
   std::string options;                ///< further PETSc options, under the solver's prefix
