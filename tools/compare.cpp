@@ -432,7 +432,14 @@ void print_header(const Options& o, const System& sys, double load_time, double 
             << (sys.nonzeros() >= 0 ? std::to_string(sys.nonzeros()) + " nonzeros" : "finest matrix not assembled (matrix-free solvers only)")
             << (sys.bcsr ? ", " + std::to_string(sys.bcsr->num_blocks()) + " 3x3 blocks" : "") << "\n"
             << "format:  " << o.format << " (load " << fmt("%.3f", load_time) << " s, convert "
-            << fmt("%.3f", convert_time) << " s), " << count_of(omp_get_max_threads(), "thread") << "\n"
+            << fmt("%.3f", convert_time) << " s), " << count_of(omp_get_max_threads(), "thread") << "\n";
+  if (sys.fem && !sys.fem->setup.stages.empty()) {  // where an FEM scene's load went
+    std::cout << "load:   ";
+    for (const auto& [name, seconds] : sys.fem->setup.stages) std::cout << " " << name << " " << fmt("%.3f", seconds) << " s;";
+    if (sys.fem->finest_assembled) std::cout << " finest assembly " << fmt("%.3f", sys.fem->finest_assembly) << " s;";
+    std::cout << "\n";
+  }
+  std::cout
             << "stop:    "
             << (o.fixed_iterations > 0 ? std::to_string(o.fixed_iterations) + " fixed iterations"
                                        : "relative residual <= " + fmt("%.1e", o.tol))
@@ -529,6 +536,12 @@ void write_report(const Options& o, const System& sys, const std::vector<study::
                   {"finest_assembled", !sys.fem || sys.fem->finest_assembled}}},
       {"format", o.format},
       {"load_s", f.load_s},
+      {"load_stages", [&] {  // an FEM scene's load by stage, in order (sim::SceneSetup::stages)
+         nlohmann::json j = nlohmann::json::array();
+         if (sys.fem)
+           for (const auto& [name, seconds] : sys.fem->setup.stages) j.push_back({{"stage", name}, {"seconds", seconds}});
+         return j;
+       }()},
       {"convert_s", f.convert_s},
       {"threads", omp_get_max_threads()},
       // Whether malloc asked for transparent huge pages (pmg's start-up; docs/scaling.md): the

@@ -20,11 +20,11 @@ namespace pmg::dist {
 void DistributedMgpcgParams::visit(ParamVisitor& v) {
   visit_stopping_keys(v, tol, rhs_floor, max_iterations, throw_on_failure);  // the common keys
   v.integer("smoothing_steps", smoothing_steps, 1, 100, "Chebyshev steps per pre- and post-smoothing");
-  v.choice("lowest_level", lowest_level, {"auto", "mumps", "gamg", "boomeramg", "hypre"},
+  v.choice("lowest_level", lowest_level, {"auto", "mumps", "gamg", "boomeramg", "hypre", "cholmod"},
            ("the lowest level's method by mgpcg's names: auto: MUMPS below " + std::to_string(kAmgLowestLevelUnknowns) +
             " unknowns on the linear level, BoomerAMG (one V-cycle through PETSc's PCHYPRE) from there; mumps: "
             "Cholesky; gamg: one GAMG V-cycle with the rigid-body near-null space; boomeramg (alias hypre); "
-            "mgpcg's cholmod factors on one process (mumps is the Cholesky across ranks)")
+            "cholmod (mgpcg's) factors on one process and is refused: mumps is the Cholesky across ranks")
                .c_str());
   v.text("options", options, "further PETSc options (\"-name value ...\": -mg_levels_..., -mg_coarse_...), "
                              "under this solver's own prefix");

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The distributed-mesh route (pmg compare --distributed-mesh) against pmgkit's serial MGPCG and the
 # replicated petsc-mgpcg route, on the quadratic unit cube clamped at z = 0 under gravity, to 1e-6
-# from zero: 14^3 boxes of 24 tetrahedra refined once (2.28M unknowns; the serial runs refine the
+# from zero: 14^3 boxes of 24 tetrahedra refined once (2,178,120 unknowns; the serial runs refine the
 # same coarse mesh themselves, the distributed one on the ranks after distribution). Peak resident
 # memory of every process by /usr/bin/time (%M, kB). Two alternating batches; np 4 on this 2-core
 # VM is oversubscribed: its memory counts, its time measures overhead. Each run starts after a

@@ -6,12 +6,15 @@
 # each run (on these VMs a run started as the previous one frees its memory can take 20% longer);
 # t(1e-6) is each report's (set-up plus the solve to 1e-6). The median of the three ratios is the
 # figure.
+# Arguments go to the distributed runs (`--set smoothing_steps=3`).
 #   docs/results/distributed_np1.sh > docs/results/distributed_np1_$(date +%F).txt 2>&1
 set -u
 cd "$(dirname "$0")/../.."
 pmg=build/tools/pmg
 C=(compare --box 14 14 14 --refine 1 --size 1 1 1 -p 2 --fix z --load gravity --tol 1e-6)
 mpi=(mpirun --allow-run-as-root --bind-to none -np 1)
+extra=("$@")
+echo "distributed runs' extra arguments: ${extra[*]:-none}"
 date; uname -n; lscpu | grep "Model name"; nproc
 for threads in 2 1; do
   for pair in 1 2 3; do
@@ -21,7 +24,7 @@ for threads in 2 1; do
     }
     distributed() {
       sleep 10
-      d=$("${mpi[@]}" -x OMP_NUM_THREADS=$threads $pmg "${C[@]}" --distributed-mesh 2>&1 |
+      d=$("${mpi[@]}" -x OMP_NUM_THREADS=$threads $pmg "${C[@]}" --distributed-mesh "${extra[@]}" 2>&1 |
           sed -n 's/^t(1e-06): set-up + solve \([0-9.]*\) s.*/\1/p')
     }
     if [ $((pair % 2)) = 1 ]; then serial; distributed; else distributed; serial; fi

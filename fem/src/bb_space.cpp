@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <cstdint>
 #include <string>
 
 namespace pmg::fem {
@@ -84,55 +84,128 @@ Eigen::Vector4d bernstein_gradient(const MultiIndex& a, const Eigen::Vector4d& l
   return g;
 }
 
+namespace {
+
+/// The distinct keys of each row: row r's candidates (in [start[r], start[r + 1]) of `keys`) sorted
+/// and made unique, compacted in place; `start` becomes the unique rows' offsets. The id of a key
+/// is its position in the compacted array (find_key).
+template <typename K>
+void unique_rows(std::vector<offset_t>& start, std::vector<K>& keys) {
+  const index_t rows = static_cast<index_t>(start.size()) - 1;
+  std::vector<offset_t> count(rows + 1, 0);
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (index_t r = 0; r < rows; ++r) {
+    K* first = keys.data() + start[r];
+    K* last = keys.data() + start[r + 1];
+    std::sort(first, last);
+    count[r + 1] = std::unique(first, last) - first;
+  }
+  offset_t next = 0;
+  for (index_t r = 0; r < rows; ++r) {  // compact: row r's unique keys move down to `next`
+    const offset_t from = start[r], n = count[r + 1];
+    std::copy(keys.begin() + from, keys.begin() + from + n, keys.begin() + next);
+    start[r] = next;
+    next += n;
+  }
+  start[rows] = next;
+  keys.resize(next);
+}
+
+/// The position of `key` in row r of unique_rows()' result.
+template <typename K>
+offset_t find_key(const std::vector<offset_t>& start, const std::vector<K>& keys, index_t r, K key) {
+  return std::lower_bound(keys.begin() + start[r], keys.begin() + start[r + 1], key) - keys.begin();
+}
+
+/// Rows of candidate keys: row_of(e, k) and key_of(e, k) for the per_element candidates of each
+/// element, bucketed by row (a counting sort), then unique_rows().
+template <typename K, typename RowOf, typename KeyOf>
+void bucket(index_t rows, index_t elements, int per_element, const RowOf& row_of, const KeyOf& key_of,
+            std::vector<offset_t>& start, std::vector<K>& keys) {
+  start.assign(rows + 1, 0);
+  for (index_t e = 0; e < elements; ++e)
+    for (int k = 0; k < per_element; ++k) ++start[row_of(e, k) + 1];
+  for (index_t r = 0; r < rows; ++r) start[r + 1] += start[r];
+  std::vector<offset_t> fill(start.begin(), start.end() - 1);
+  keys.resize(start[rows]);
+  for (index_t e = 0; e < elements; ++e)
+    for (int k = 0; k < per_element; ++k) keys[fill[row_of(e, k)]++] = key_of(e, k);
+  unique_rows(start, keys);
+}
+
+constexpr int kTetEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+}  // namespace
+
 BBSpace::BBSpace(const TetMesh& mesh, int degree)
     : mesh_(&mesh), p_(degree), n_(num_element_nodes(degree)) {
   check_degree(degree);
   const auto& alpha = multi_indices(p_);
+  const index_t nv = static_cast<index_t>(mesh.vertices.size()), ne = mesh.num_tets();
   positions_.assign(mesh.vertices.begin(), mesh.vertices.end());  // vertex nodes: node v = vertex v
-  element_nodes_.resize(static_cast<size_t>(mesh.num_tets()) * n_);
+  element_nodes_.resize(static_cast<size_t>(ne) * n_);
 
-  // Key of a non-vertex node: its (global vertex, multiplicity) pairs sorted by vertex id.
-  using Key = std::array<std::pair<index_t, int>, 3>;
-  std::map<Key, index_t> edge_nodes, face_nodes;
-  std::map<std::pair<index_t, index_t>, int> edges;
-  std::map<std::array<index_t, 3>, int> faces;
-  for (index_t e = 0; e < mesh.num_tets(); ++e) {
+  // The mesh's edges and faces, numbered by their smallest vertex, then the others (arrays, no
+  // maps: a 10M-unknown mesh has millions of each).
+  std::vector<offset_t> edge_start, face_start;
+  std::vector<index_t> edge_hi;            // per edge: its larger vertex (row: the smaller)
+  std::vector<std::uint64_t> face_rest;    // per face: its two larger vertices (row: the smallest)
+  auto sorted_face = [&](index_t e, int skip) {
+    std::array<index_t, 3> f;
+    for (int i = 0, k = 0; i < 4; ++i)
+      if (i != skip) f[k++] = mesh.tets[e][i];
+    std::sort(f.begin(), f.end());
+    return f;
+  };
+  bucket<index_t>(
+      nv, ne, 6, [&](index_t e, int k) { return std::min(mesh.tets[e][kTetEdges[k][0]], mesh.tets[e][kTetEdges[k][1]]); },
+      [&](index_t e, int k) { return std::max(mesh.tets[e][kTetEdges[k][0]], mesh.tets[e][kTetEdges[k][1]]); },
+      edge_start, edge_hi);
+  bucket<std::uint64_t>(
+      nv, ne, 4, [&](index_t e, int k) { return sorted_face(e, k)[0]; },
+      [&](index_t e, int k) {
+        const auto f = sorted_face(e, k);
+        return (static_cast<std::uint64_t>(f[1]) << 32) | static_cast<std::uint32_t>(f[2]);
+      },
+      face_start, face_rest);
+  num_edges_ = static_cast<index_t>(edge_hi.size());
+  num_faces_ = static_cast<index_t>(face_rest.size());
+
+  // Non-vertex nodes numbered in the order the elements first meet them (element by element,
+  // node by node): an edge carries p - 1 nodes, told apart by the smaller vertex's multiplicity;
+  // a face (p = 3) one.
+  std::vector<index_t> edge_node(static_cast<size_t>(num_edges_) * std::max(p_ - 1, 0), -1);
+  std::vector<index_t> face_node(p_ == 3 ? num_faces_ : 0, -1);
+  for (index_t e = 0; e < ne; ++e) {
     const Tet& t = mesh.tets[e];
     for (int a = 0; a < n_; ++a) {
       const MultiIndex& al = alpha[a];
-      Key key{};
+      std::array<std::pair<index_t, int>, 3> key{};
       int support = 0;
       for (int i = 0; i < 4; ++i)
         if (al[i] > 0) key[support++] = {t[i], al[i]};
-      index_t id;
+      index_t* slot = nullptr;
       if (support == 1) {
-        id = key[0].first;
-      } else {
-        std::sort(key.begin(), key.begin() + support);
-        auto& table = support == 2 ? edge_nodes : face_nodes;
-        auto [it, inserted] = table.emplace(key, -1);
-        if (inserted) {
-          it->second = static_cast<index_t>(positions_.size());
-          Vec3 X = Vec3::Zero();
-          for (int i = 0; i < 4; ++i) X += (static_cast<double>(al[i]) / p_) * mesh.vertices[t[i]];
-          positions_.push_back(X);
-        }
-        id = it->second;
+        element_nodes_[static_cast<size_t>(e) * n_ + a] = key[0].first;
+        continue;
       }
-      element_nodes_[static_cast<size_t>(e) * n_ + a] = id;
-    }
-    for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) edges.emplace(std::minmax(t[i], t[j]), 0);
-    for (int skip = 0; skip < 4; ++skip) {
-      std::array<index_t, 3> f;
-      for (int i = 0, k = 0; i < 4; ++i)
-        if (i != skip) f[k++] = t[i];
-      std::sort(f.begin(), f.end());
-      faces.emplace(f, 0);
+      std::sort(key.begin(), key.begin() + support);
+      if (support == 2) {
+        const offset_t edge = find_key(edge_start, edge_hi, key[0].first, key[1].first);
+        slot = &edge_node[static_cast<size_t>(edge) * (p_ - 1) + (key[0].second - 1)];
+      } else {
+        const std::uint64_t rest = (static_cast<std::uint64_t>(key[1].first) << 32) | static_cast<std::uint32_t>(key[2].first);
+        slot = &face_node[find_key(face_start, face_rest, key[0].first, rest)];
+      }
+      if (*slot < 0) {
+        *slot = static_cast<index_t>(positions_.size());
+        Vec3 X = Vec3::Zero();
+        for (int i = 0; i < 4; ++i) X += (static_cast<double>(al[i]) / p_) * mesh.vertices[t[i]];
+        positions_.push_back(X);
+      }
+      element_nodes_[static_cast<size_t>(e) * n_ + a] = *slot;
     }
   }
-  num_edges_ = static_cast<index_t>(edges.size());
-  num_faces_ = static_cast<index_t>(faces.size());
 }
 
 }  // namespace pmg::fem

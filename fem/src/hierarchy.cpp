@@ -34,20 +34,26 @@ Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
   check_pair(fine, coarse);
   const int p = fine.degree();
   const auto& alpha = multi_indices(p);
-  std::map<std::pair<index_t, index_t>, double> entries;
+  // A fine node's row reads only its own entity's closure: any element holding the node gives the
+  // whole row, so each row is written once, from the first element that meets it.
+  const index_t rows = count_free(fine_free);
+  std::vector<char> done(rows, 0);
+  std::vector<Triplet> t;
+  t.reserve(4 * static_cast<size_t>(rows));
   for (index_t e = 0; e < fine.mesh().num_tets(); ++e)
     for (int a = 0; a < fine.nodes_per_element(); ++a) {
       const index_t I = fine_free[fine.node(e, a)];
-      if (I < 0) continue;
+      if (I < 0 || done[I]) continue;
+      done[I] = 1;
       for (int k = 0; k < 4; ++k) {
         if (alpha[a][k] == 0) continue;
         MultiIndex beta = alpha[a];
         --beta[k];
         const index_t J = coarse_free[coarse.node(e, local_index(beta))];
-        if (J >= 0) entries[{I, J}] = static_cast<double>(alpha[a][k]) / p;
+        if (J >= 0) t.emplace_back(I, J, static_cast<double>(alpha[a][k]) / p);
       }
     }
-  return from_entries(count_free(fine_free), count_free(coarse_free), entries);
+  return Csr::from_triplets(rows, count_free(coarse_free), t);
 }
 
 Csr interpolating_restriction(const BBSpace& fine, const std::vector<index_t>& fine_free,

@@ -56,12 +56,18 @@ class SerialStaticPart final : public StaticPart {
     }
     const Vector rhs = model_.restrict_to_free(f_ext_ + force);
     Vector delta = Vector::Zero(rhs.size());
+    SolveResult res;
     try {
-      solver_iterations_ += solver_.solve(rhs, delta).iterations;
+      res = solver_.solve(rhs, delta);
     } catch (const SolveError& e) {
-      SolveResult r = e.result;
-      r.message = std::string("static solve: iteration ") + std::to_string(iteration) + ": " + e.what();
-      throw SolveError(r);
+      res = e.result;
+      res.message = e.what();
+    }
+    solver_iterations_ += res.iterations;
+    if (!res.ok()) {  // a solver that does not throw on failure (throw_on_failure=false) included
+      res.message = std::string("static solve: iteration ") + std::to_string(iteration) + ": " +
+                    (res.message.empty() ? std::string("the solver ended with ") + to_string(res.status) : res.message);
+      throw SolveError(res);
     }
     return model_.expand(delta, Vector());
   }

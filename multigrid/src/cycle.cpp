@@ -369,20 +369,7 @@ void block_multiply_single(const CsrPattern& p, const std::vector<float>& values
 
 /// z = D⁻¹ r with D⁻¹'s 3x3 blocks in float, row-major.
 void block_diagonal_single(const std::vector<float>& inv, const Eigen::VectorXf& r, Eigen::VectorXf& z) {
-  const long n = static_cast<long>(r.size() / 3);
-  const float* rp = r.data();
-  float* zp = z.data();
-  const float* d = inv.data();
-#pragma omp parallel for schedule(static)
-  for (long i = 0; i < n; ++i) {
-    const float* b = d + 9 * i;
-    const float* ri = rp + 3 * i;
-    float* zi = zp + 3 * i;
-    const float r0 = ri[0], r1 = ri[1], r2 = ri[2];
-    zi[0] = b[0] * r0 + b[1] * r1 + b[2] * r2;
-    zi[1] = b[3] * r0 + b[4] * r1 + b[5] * r2;
-    zi[2] = b[6] * r0 + b[7] * r1 + b[8] * r2;
-  }
+  ops::block_diagonal_apply(inv.data(), r.data(), z.data(), static_cast<index_t>(r.size() / 3));
 }
 }  // namespace
 

@@ -13,7 +13,6 @@
 #endif
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -69,12 +68,19 @@ void check_size(double tets, const Scene& s) {
 
 SceneSetup set_up(const Scene& s) {
   SceneSetup b;
+  auto t0 = Clock::now();
+  auto stage = [&](const char* name) {  // the seconds since the previous stage's end
+    b.stages.emplace_back(name, seconds_since(t0));
+    t0 = Clock::now();
+  };
   // The box's size is known before it is generated; a file's once it is read.
   const double refined = std::pow(8.0, s.refine);
   if (s.mesh_file.empty()) check_size(24.0 * s.box[0] * s.box[1] * s.box[2] * refined, s);
   fem::TetMesh loaded = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings, s.mesh_checks);
   if (!s.mesh_file.empty()) check_size(loaded.num_tets() * refined, s);
+  stage(s.mesh_file.empty() ? "mesh (box)" : "mesh (read)");
   b.mesh = std::make_unique<const fem::TetMesh>(fem::refine_uniform(loaded, s.refine));
+  if (s.refine > 0) stage("refinement");
   const fem::TetMesh& mesh = *b.mesh;
   b.lo = fem::Vec3::Constant(1e300), b.hi = fem::Vec3::Constant(-1e300);
   for (const auto& v : mesh.vertices) b.lo = b.lo.cwiseMin(v), b.hi = b.hi.cwiseMax(v);
@@ -95,6 +101,7 @@ SceneSetup set_up(const Scene& s) {
   b.hierarchy = std::make_unique<fem::DegreeHierarchy>(
       mesh, s.degree, fem::Material{s.young, s.poisson, s.density},
       [axis, limit](const fem::Vec3& X) { return axis >= 0 && X[axis] <= limit; }, std::move(held));
+  stage("degree hierarchy");
   // Each support must hold a planar part of the boundary, not a point or a line where a curved
   // surface touches its bounding box: the area of the boundary faces whose three vertices lie on it.
   for (const auto& sup : s.supports) {
@@ -140,6 +147,7 @@ SceneSetup set_up(const Scene& s) {
          << s.inclusion_young / s.young << ")";
     b.notes.push_back(note.str());
   }
+  stage("supports, clamp and inclusion");
   const fem::ElasticityModel& m = b.hierarchy->finest();
   b.f_ext = Vector::Zero(m.num_dofs());
   if (s.gravity.norm() > 0) b.f_ext += m.gravity(s.gravity);
@@ -165,6 +173,7 @@ SceneSetup set_up(const Scene& s) {
     }
     p.point = mesh.vertices[p.vertex];
   }
+  stage("loads and probe");
   return b;
 }
 

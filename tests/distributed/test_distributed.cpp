@@ -288,6 +288,18 @@ TEST_CASE("bad input is one clear error on every rank", "[distributed]") {
     params.lowest_level = "cholmod";
     refused(params, "across ranks the sparse Cholesky is 'mumps'");
   }
+  SECTION("hypre is BoomerAMG's alias; PETSc's options still choose the smoothers' preconditioner") {
+    dist::DistributedMgpcgParams params;
+    params.lowest_level = "hypre";
+    params.options = "-mg_levels_pc_type pbjacobi";
+    params.tol = 1e-10;
+    dist::DistributedMgpcg s(bar.h, params);
+    s.setup(bar.h.bind(s).prepare());
+    Vector x;
+    const SolveResult r = s.solve(bar.b, x);
+    CHECK(r.ok());
+    CHECK(s.describe().find("lowest level boomeramg") != std::string::npos);
+  }
   SECTION("more ranks than elements") {
     if (world_size() < 2) return;
     TetMesh one;

@@ -37,6 +37,21 @@ for s in r["solvers"]:
     check(s["rel_residual"] is not None and s["rel_residual"] <= 1e-8, "compare: %s reached 1e-8" % s["name"])
     check(s["rel_error"] is not None and s["rel_error"] < 1e-6, "compare: %s's error against the known solution" % s["name"])
 
+# compare: an FEM scene's load by stage, as printed, each within the load's total.
+p, r = pmgreport.run([pmg, "compare", "--box", "3", "1", "1", "--refine", "1", "-p", "2", "--fix", "x",
+                      "--load", "gravity", "--solvers", "mgpcg", "--no-reference"])
+line = re.search(r"^load: (.*)$", p.stdout, re.M)
+printed = {}
+for segment in (line.group(1).split(";") if line else []):
+    if segment.strip():
+        name, value, _ = segment.strip().rsplit(" ", 2)  # "mesh (box) 0.004 s"
+        printed[name] = float(value)
+stages = {x["stage"]: x["seconds"] for x in r["load_stages"]} if r else {}
+check(p.returncode == 0 and list(stages) == ["mesh (box)", "refinement", "degree hierarchy", "supports, clamp and inclusion",
+                                             "loads and probe"], "compare: an FEM scene's load stages in the report")
+check(all(abs(printed.get(k, -1) - v) <= 1e-3 for k, v in stages.items()) and sum(stages.values()) <= r["load_s"] + 1e-3,
+      "compare: the load stages as printed, within the load's total")
+
 # compare: a solver that fails is in the report with its message, and the exit code is 1.
 p, r = pmgreport.run([pmg, "compare", "--matrix", os.path.join(data, "indefinite.mtx"), "--format", "csr",
                       "--solvers", "cholmod"])

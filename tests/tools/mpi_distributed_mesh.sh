@@ -111,6 +111,7 @@ expect_error() {  # expect_error NP PATTERN ARGS...: exit 2 (bad input), one err
 }
 expect_error 2 "runs petsc-mgpcg only" "${scene[@]}" --solvers mgpcg
 expect_error 2 "does not take --dt" "${scene[@]}" --dt 0.01
+expect_error 2 "the sparse Cholesky is 'mumps'" "${scene[@]}" --set lowest_level=cholmod
 expect_error 2 "degree 1 (2 or 3)" compare --box 4 2 2 --degree 1 --fix x --distributed-mesh
 expect_error 7 "6 cells for 7 ranks" compare --mesh "$data/kuhn_cube.ele" --degree 2 --fix x --distributed-mesh
 expect_error 2 "File does not exist" compare --mesh /nonexistent.ele --degree 2 --fix x --distributed-mesh

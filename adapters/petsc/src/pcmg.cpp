@@ -130,7 +130,8 @@ PetscErrorCode shell_invert_block_diagonal(Mat A, const PetscScalar** values) {
 }
 
 /// The rank's diagonal blocks summed over the ranks, then per owned node the 3 diagonal entries
-/// and the inverse block (symmetric blocks: row- and column-major alike).
+/// and the inverse block, row-major (shell_block_jacobi reads it so; PETSc's PCPBJACOBI, under
+/// `-mg_levels_pc_type pbjacobi`, reads column-major: the same, the blocks being symmetric).
 void refresh_diagonal(ShellLevel& s, MPI_Comm comm) {
   s.blocks->diagonal_blocks(s.local_blocks);
   OwnedVec local;

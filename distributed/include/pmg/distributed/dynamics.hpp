@@ -23,8 +23,8 @@
 // share, and gives the initial state as serial vectors. On a distributed mesh (MeshProblem,
 // pmg/distributed/mesh_problem.hpp): the rank's share was built from its own cells, the external
 // force comes as owned unknowns, and the initial state from the rank's own nodes (set_state_local)
-// or as the static equilibrium under a load (set_static_state: fem::corotational_fixed_point, the
-// loop of the serial static solve, on the rank's part, its norms reduced over the ranks); a probe is a point located once
+// or as the static equilibrium under a load (set_static_state: fem::corotational_fixed_point,
+// the serial static solve's loop, on the rank's part, its norms reduced over the ranks); a probe is a point located once
 // (locate). From the first step on, each rank touches only its own elements and nodes. Every
 // member function is collective over the communicator.
 #pragma once

@@ -33,7 +33,7 @@ struct DistributedMgpcgParams {
   /// docs/distributed.md in 0.74-0.85x the time of 3 (a few more iterations, fewer products);
   /// 1 took fewer seconds still on the cubes but stalled above 1e-8 on a nearly incompressible bar.
   int smoothing_steps = 2;
-  std::string lowest_level = "auto";  ///< auto, mumps, gamg or hypre (pmg::petsc::PcmgParams)
+  std::string lowest_level = "auto";  ///< auto, mumps, gamg, boomeramg (alias hypre) (pmg::petsc::PcmgParams)
   std::string options;                ///< further PETSc options, under the solver's prefix
   /// Accept PETSc options nobody reads (not a key: the factory sets it from unused_keys).
   bool allow_unused_options = false;

@@ -78,6 +78,10 @@ struct SceneSetup {
   Probe probe;
   std::vector<std::string> notes;     ///< what was done once or skipped, for the report
   std::vector<std::string> warnings;  ///< the mesh reader's (e.g. unused vertices)
+  /// Seconds of each stage of set_up(), in order: the mesh (generated or read), its refinement,
+  /// the degree hierarchy (spaces, numbering, clamp), the checks of supports, clamp and inclusion,
+  /// the loads and the probe (empty after set_up_on_ranks(): rank_mesh.stages).
+  std::vector<std::pair<std::string, double>> stages;
   /// The rank's share of a scene set up across the MPI ranks (set_up_on_ranks; empty otherwise):
   /// an opaque handle for DynamicRun, which needs pmg::distributed's headers to be used directly.
   std::shared_ptr<dist::MeshProblem> on_ranks;

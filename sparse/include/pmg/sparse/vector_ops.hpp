@@ -23,6 +23,8 @@ void block_diagonal_apply(const std::vector<double>& D, const Vector& r, Vector&
 /// z = D r for `blocks` 3x3 blocks on raw arrays (D: 9 doubles per block, r and z: 3 per block; z
 /// must not alias r): the same kernel for vectors another library owns (a PETSc Vec's array).
 void block_diagonal_apply(const double* D, const double* r, double* z, index_t blocks);
+/// The same in float (a float cycle's or estimate's D⁻¹).
+void block_diagonal_apply(const float* D, const float* r, float* z, index_t blocks);
 /// x += a D r, D as for block_diagonal_apply.
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x);
 
