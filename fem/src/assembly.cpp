@@ -11,19 +11,32 @@ BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_i
   for (index_t f : free_index_) num_free_ = std::max(num_free_, f + 1);
   const index_t ne = space.mesh().num_tets();
 
-  // Greedy colouring: the smallest colour not used by an element sharing a node.
-  std::vector<std::vector<index_t>> node_elements(space.num_nodes());
+  // Greedy colouring: the smallest colour not used by an element sharing a node. Each node's
+  // elements, in ascending order, as one array with offsets (a counting sort).
+  const index_t nn = space.num_nodes();
+  std::vector<offset_t> start(static_cast<size_t>(nn) + 1, 0);
   for (index_t e = 0; e < ne; ++e)
-    for (int a = 0; a < n_; ++a) node_elements[space.element_nodes(e)[a]].push_back(e);
+    for (int a = 0; a < n_; ++a) ++start[space.element_nodes(e)[a] + 1];
+  for (index_t i = 0; i < nn; ++i) start[i + 1] += start[i];
+  std::vector<index_t> node_elements(static_cast<size_t>(start[nn]));
+  {
+    std::vector<offset_t> fill(start.begin(), start.end() - 1);
+    for (index_t e = 0; e < ne; ++e)
+      for (int a = 0; a < n_; ++a) node_elements[fill[space.element_nodes(e)[a]]++] = e;
+  }
   std::vector<int> color(ne, -1);
   std::vector<index_t> used_by(64, -1);  // used_by[c] == e: colour c is taken for element e
   for (index_t e = 0; e < ne; ++e) {
-    for (int a = 0; a < n_; ++a)
-      for (index_t other : node_elements[space.element_nodes(e)[a]])
+    for (int a = 0; a < n_; ++a) {
+      const index_t node = space.element_nodes(e)[a];
+      for (offset_t q = start[node]; q < start[node + 1]; ++q) {
+        const index_t other = node_elements[q];
         if (color[other] >= 0) {
           if (static_cast<size_t>(color[other]) >= used_by.size()) used_by.resize(2 * used_by.size(), -1);
           used_by[color[other]] = e;
         }
+      }
+    }
     int c = 0;
     while (c < static_cast<int>(used_by.size()) && used_by[c] == e) ++c;
     color[e] = c;
