@@ -1,4 +1,5 @@
 #include "pmg/fem/assembly.hpp"
+#include "row_groups.hpp"
 
 #include <algorithm>
 
@@ -13,17 +14,11 @@ BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_i
 
   // Greedy colouring: the smallest colour not used by an element sharing a node. Each node's
   // elements, in ascending order, as one array with offsets (a counting sort).
-  const index_t nn = space.num_nodes();
-  std::vector<offset_t> start(static_cast<size_t>(nn) + 1, 0);
-  for (index_t e = 0; e < ne; ++e)
-    for (int a = 0; a < n_; ++a) ++start[space.element_nodes(e)[a] + 1];
-  for (index_t i = 0; i < nn; ++i) start[i + 1] += start[i];
-  std::vector<index_t> node_elements(static_cast<size_t>(start[nn]));
-  {
-    std::vector<offset_t> fill(start.begin(), start.end() - 1);
-    for (index_t e = 0; e < ne; ++e)
-      for (int a = 0; a < n_; ++a) node_elements[fill[space.element_nodes(e)[a]]++] = e;
-  }
+  std::vector<offset_t> start;
+  std::vector<index_t> node_elements;
+  detail::group_by_row(space.num_nodes(), ne, n_, [&](index_t e, int a) {
+    return std::pair<index_t, index_t>(space.element_nodes(e)[a], e);
+  }, start, node_elements);
   std::vector<int> color(ne, -1);
   std::vector<index_t> used_by(64, -1);  // used_by[c] == e: colour c is taken for element e
   for (index_t e = 0; e < ne; ++e) {

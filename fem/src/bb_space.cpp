@@ -1,4 +1,5 @@
 #include "pmg/fem/bb_space.hpp"
+#include "row_groups.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -86,8 +87,8 @@ Eigen::Vector4d bernstein_gradient(const MultiIndex& a, const Eigen::Vector4d& l
 
 namespace {
 
-/// The distinct keys of each row: row r's candidates (in [start[r], start[r + 1]) of `keys`) sorted
-/// and made unique, compacted in place; `start` becomes the unique rows' offsets. The id of a key
+/// The distinct keys of each row: row r's candidates (in [start[r], start[r + 1]) of `keys`, as
+/// detail::group_by_row leaves them) sorted and made unique, compacted in place; `start` becomes the unique rows' offsets. The id of a key
 /// is its position in the compacted array (find_key).
 template <typename K>
 void unique_rows(std::vector<offset_t>& start, std::vector<K>& keys) {
@@ -117,22 +118,6 @@ offset_t find_key(const std::vector<offset_t>& start, const std::vector<K>& keys
   return std::lower_bound(keys.begin() + start[r], keys.begin() + start[r + 1], key) - keys.begin();
 }
 
-/// Rows of candidate keys: row_of(e, k) and key_of(e, k) for the per_element candidates of each
-/// element, bucketed by row (a counting sort), then unique_rows().
-template <typename K, typename RowOf, typename KeyOf>
-void bucket(index_t rows, index_t elements, int per_element, const RowOf& row_of, const KeyOf& key_of,
-            std::vector<offset_t>& start, std::vector<K>& keys) {
-  start.assign(rows + 1, 0);
-  for (index_t e = 0; e < elements; ++e)
-    for (int k = 0; k < per_element; ++k) ++start[row_of(e, k) + 1];
-  for (index_t r = 0; r < rows; ++r) start[r + 1] += start[r];
-  std::vector<offset_t> fill(start.begin(), start.end() - 1);
-  keys.resize(start[rows]);
-  for (index_t e = 0; e < elements; ++e)
-    for (int k = 0; k < per_element; ++k) keys[fill[row_of(e, k)]++] = key_of(e, k);
-  unique_rows(start, keys);
-}
-
 constexpr int kTetEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
 }  // namespace
@@ -150,24 +135,19 @@ BBSpace::BBSpace(const TetMesh& mesh, int degree)
   std::vector<offset_t> edge_start, face_start;
   std::vector<index_t> edge_hi;            // per edge: its larger vertex (row: the smaller)
   std::vector<std::uint64_t> face_rest;    // per face: its two larger vertices (row: the smallest)
-  auto sorted_face = [&](index_t e, int skip) {
+  detail::group_by_row(nv, ne, 6, [&](index_t e, int k) {
+    const index_t a = mesh.tets[e][kTetEdges[k][0]], b = mesh.tets[e][kTetEdges[k][1]];
+    return std::pair<index_t, index_t>(std::min(a, b), std::max(a, b));
+  }, edge_start, edge_hi);
+  unique_rows(edge_start, edge_hi);
+  detail::group_by_row(nv, ne, 4, [&](index_t e, int skip) {  // the face without vertex `skip`
     std::array<index_t, 3> f;
     for (int i = 0, k = 0; i < 4; ++i)
       if (i != skip) f[k++] = mesh.tets[e][i];
     std::sort(f.begin(), f.end());
-    return f;
-  };
-  bucket<index_t>(
-      nv, ne, 6, [&](index_t e, int k) { return std::min(mesh.tets[e][kTetEdges[k][0]], mesh.tets[e][kTetEdges[k][1]]); },
-      [&](index_t e, int k) { return std::max(mesh.tets[e][kTetEdges[k][0]], mesh.tets[e][kTetEdges[k][1]]); },
-      edge_start, edge_hi);
-  bucket<std::uint64_t>(
-      nv, ne, 4, [&](index_t e, int k) { return sorted_face(e, k)[0]; },
-      [&](index_t e, int k) {
-        const auto f = sorted_face(e, k);
-        return (static_cast<std::uint64_t>(f[1]) << 32) | static_cast<std::uint32_t>(f[2]);
-      },
-      face_start, face_rest);
+    return std::pair<index_t, std::uint64_t>(f[0], (static_cast<std::uint64_t>(f[1]) << 32) | static_cast<std::uint32_t>(f[2]));
+  }, face_start, face_rest);
+  unique_rows(face_start, face_rest);
   num_edges_ = static_cast<index_t>(edge_hi.size());
   num_faces_ = static_cast<index_t>(face_rest.size());
 

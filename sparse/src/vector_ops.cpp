@@ -65,14 +65,7 @@ void block_diagonal_apply(const double* D, const double* r, double* z, index_t b
 void block_diagonal_apply(const float* D, const float* r, float* z, index_t blocks) {
   const std::ptrdiff_t nb = blocks;
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t I = 0; I < nb; ++I) {
-    const float* b = D + 9 * I;
-    const float r0 = r[3 * I], r1 = r[3 * I + 1], r2 = r[3 * I + 2];
-    float* zi = z + 3 * I;
-    zi[0] = b[0] * r0 + b[1] * r1 + b[2] * r2;
-    zi[1] = b[3] * r0 + b[4] * r1 + b[5] * r2;
-    zi[2] = b[6] * r0 + b[7] * r1 + b[8] * r2;
-  }
+  for (std::ptrdiff_t I = 0; I < nb; ++I) block3_apply(D + 9 * I, r + 3 * I, z + 3 * I);
 }
 
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x) {
