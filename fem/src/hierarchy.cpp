@@ -271,3 +271,92 @@ void DegreeHierarchy::update_matrix_free(int l, const Rotations* R, double mass_
 BoundSystem DegreeHierarchy::bind(Solver& solver) { return BoundSystem(*this, solver); }
 
 }  // namespace pmg::fem
+
+namespace pmg::fem {
+
+void DegreeHierarchy::set_refinements(const std::vector<Refinement>& refinements) {
+  below_ = refinements.empty() ? nullptr : std::make_shared<const CoarseMeshLevels>(*this, refinements);
+}
+
+const LevelProvider* DegreeHierarchy::levels_below() const { return below_.get(); }
+
+CoarseMeshLevels::CoarseMeshLevels(const DegreeHierarchy& hierarchy, const std::vector<Refinement>& refinements)
+    : hierarchy_(hierarchy) {
+  const index_t V = hierarchy.model(0).space().mesh().num_vertices();
+  const int K = static_cast<int>(refinements.size());
+  for (int r = 0; r < K; ++r) {
+    const Refinement& ref = refinements[r];
+    const index_t next = r + 1 < K ? refinements[r + 1].coarse_vertices : V;
+    if (ref.fine_vertices() != next)
+      throw InputError("coarse meshes: refinement " + std::to_string(r + 1) + " of " + std::to_string(K) + " makes " +
+                       std::to_string(ref.fine_vertices()) + " vertices, but the " +
+                       (r + 1 < K ? "next refinement starts from " : "hierarchy's mesh has ") + std::to_string(next));
+    for (const auto& [a, b] : ref.midpoints)
+      if (a < 0 || b < 0 || a >= ref.coarse_vertices || b >= ref.coarse_vertices || a == b)
+        throw InputError("coarse meshes: refinement " + std::to_string(r + 1) + " halves an edge (" + std::to_string(a) +
+                         ", " + std::to_string(b) + ") that is not one of its " +
+                         std::to_string(ref.coarse_vertices) + " coarse vertices'");
+  }
+  // Node numbers per level, by vertex: the top level's are the linear level's own; below it, the
+  // vertices it leaves free, in vertex order.
+  const std::vector<index_t>& top = hierarchy.model(0).assembler().free_index();
+  std::vector<std::vector<index_t>> node(K + 1);
+  node[K] = top;
+  vertex_of_.resize(K);
+  empty_.resize(K);
+  for (int l = 0; l < K; ++l) {
+    node[l].assign(refinements[l].coarse_vertices, -1);
+    for (index_t v = 0; v < refinements[l].coarse_vertices; ++v)
+      if (top[v] >= 0) {
+        node[l][v] = static_cast<index_t>(vertex_of_[l].size());
+        vertex_of_[l].push_back(v);
+      }
+    auto pattern = std::make_shared<BlockPattern>();
+    pattern->rows = pattern->cols = static_cast<index_t>(vertex_of_[l].size());
+    pattern->row_ptr.assign(vertex_of_[l].size() + 1, 0);
+    empty_[l] = Bcsr(pattern, {});
+  }
+  for (int l = 1; l <= K; ++l) {
+    const Refinement& ref = refinements[l - 1];
+    const std::vector<index_t>& fine = node[l];
+    const std::vector<index_t>& coarse = node[l - 1];
+    std::vector<Triplet> t;
+    for (index_t v = 0; v < ref.fine_vertices(); ++v) {
+      const index_t I = fine[v];
+      if (I < 0) continue;
+      if (v < ref.coarse_vertices) {
+        t.emplace_back(I, coarse[v], 1.0);
+      } else {
+        for (index_t parent : ref.midpoints[v - ref.coarse_vertices])
+          if (coarse[parent] >= 0) t.emplace_back(I, coarse[parent], 0.5);
+      }
+    }
+    const index_t rows = l == K ? hierarchy.model(0).assembler().num_free() : static_cast<index_t>(vertex_of_[l].size());
+    prolongations_.push_back(Csr::from_triplets(rows, static_cast<index_t>(vertex_of_[l - 1].size()), t));
+  }
+}
+
+const Bcsr& CoarseMeshLevels::matrix(int level) const {
+  if (level == num_levels() - 1) return hierarchy_.matrix(0);
+  return empty_.at(level);
+}
+
+std::vector<double> CoarseMeshLevels::node_coordinates(int level) const {
+  if (level == num_levels() - 1) return hierarchy_.node_coordinates(0);
+  const std::vector<Vec3>& X = hierarchy_.model(0).space().mesh().vertices;
+  std::vector<double> xyz;
+  xyz.reserve(3 * vertex_of_.at(level).size());
+  for (index_t v : vertex_of_[level]) xyz.insert(xyz.end(), {X[v].x(), X[v].y(), X[v].z()});
+  return xyz;
+}
+
+const std::vector<char>* CoarseMeshLevels::constrained_dofs(int level) const {
+  return level == num_levels() - 1 ? hierarchy_.constrained_dofs(0) : nullptr;
+}
+
+std::string CoarseMeshLevels::level_name(int level) const {
+  const int coarser = num_levels() - 1 - level;
+  return coarser == 0 ? hierarchy_.level_name(0) : "degree 1, mesh coarser by " + std::to_string(coarser);
+}
+
+}  // namespace pmg::fem

@@ -1,5 +1,7 @@
 #include "pmg/fem/mesh.hpp"
 
+#include "row_groups.hpp"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -154,18 +156,53 @@ std::vector<std::string> allowed_mesh_defects(const MeshCheckOptions& options) {
 
 namespace {
 
-TetMesh refine_once(const TetMesh& in) {
+/// The edges of `in` in the order the elements first meet them (element by element, local edges
+/// 01, 02, 03, 12, 13, 23): per position 6e + k, the number of its edge in that order.
+std::vector<index_t> number_edges(const TetMesh& in, Refinement& record) {
+  static constexpr int kEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  const index_t T = in.num_tets();
+  auto ends = [&](index_t pos) { return std::minmax(in.tets[pos / 6][kEdge[pos % 6][0]], in.tets[pos / 6][kEdge[pos % 6][1]]); };
+  // Each edge's positions grouped under its lower vertex, in position order.
+  std::vector<offset_t> start;
+  std::vector<index_t> at;
+  detail::group_by_row<index_t>(
+      in.num_vertices(), 6 * T, 1, [&](index_t pos, int) { return std::pair<index_t, index_t>{ends(pos).first, pos}; },
+      start, at);
+  // first[pos]: the first position of pos's edge (within a row, equal upper vertices).
+  std::vector<index_t> first(static_cast<size_t>(6) * T);
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (index_t v = 0; v < in.num_vertices(); ++v) {
+    std::vector<std::pair<index_t, index_t>> row;  // (upper vertex, position), positions ascending
+    for (offset_t k = start[v]; k < start[v + 1]; ++k) row.emplace_back(ends(at[k]).second, at[k]);
+    std::stable_sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (size_t k = 0; k < row.size(); ++k)
+      first[row[k].second] = k > 0 && row[k].first == row[k - 1].first ? first[row[k - 1].second] : row[k].second;
+  }
+  std::vector<index_t> number(first.size());
+  record.midpoints.clear();
+  for (size_t pos = 0; pos < first.size(); ++pos) {
+    if (first[pos] == static_cast<index_t>(pos)) {
+      number[pos] = static_cast<index_t>(record.midpoints.size());
+      const auto [a, b] = ends(static_cast<index_t>(pos));
+      record.midpoints.push_back({a, b});
+    } else {
+      number[pos] = number[first[pos]];
+    }
+  }
+  return number;
+}
+
+TetMesh refine_once(const TetMesh& in, Refinement& record) {
   TetMesh out;
+  record.coarse_vertices = in.num_vertices();
+  const std::vector<index_t> edge = number_edges(in, record);
+  out.vertices.reserve(in.vertices.size() + record.midpoints.size());
   out.vertices = in.vertices;
-  std::map<std::pair<index_t, index_t>, index_t> midpoint;
-  auto mid = [&](index_t a, index_t b) {
-    const auto key = std::minmax(a, b);
-    const auto it = midpoint.find(key);
-    if (it != midpoint.end()) return it->second;
-    const index_t id = static_cast<index_t>(out.vertices.size());
-    out.vertices.push_back(0.5 * (in.vertices[a] + in.vertices[b]));
-    midpoint.emplace(key, id);
-    return id;
+  for (const auto& [a, b] : record.midpoints) out.vertices.push_back(0.5 * (in.vertices[a] + in.vertices[b]));
+  const index_t nc = record.coarse_vertices;
+  auto mid = [&](index_t e, int i, int j) {
+    static constexpr int kLocal[4][4] = {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}};
+    return nc + edge[6 * static_cast<size_t>(e) + kLocal[i][j]];
   };
   auto add = [&](Tet t) {
     const Vec3& X0 = out.vertices[t[0]];
@@ -174,11 +211,12 @@ TetMesh refine_once(const TetMesh& in) {
     out.tets.push_back(t);
   };
   out.tets.reserve(8 * in.tets.size());
-  for (const Tet& t : in.tets) {
+  for (index_t e = 0; e < in.num_tets(); ++e) {
+    const Tet& t = in.tets[e];
     // m[i][j]: midpoint of edge ij.
     index_t m[4][4];
     for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) m[i][j] = m[j][i] = mid(t[i], t[j]);
+      for (int j = i + 1; j < 4; ++j) m[i][j] = m[j][i] = mid(e, i, j);
     for (int i = 0; i < 4; ++i) {  // corner tets
       Tet c;
       for (int j = 0; j < 4; ++j) c[j] = j == i ? t[i] : m[i][j];
@@ -204,10 +242,15 @@ TetMesh refine_once(const TetMesh& in) {
 
 }  // namespace
 
-TetMesh refine_uniform(const TetMesh& mesh, int levels) {
+TetMesh refine_uniform(const TetMesh& mesh, int levels, std::vector<Refinement>* record) {
   if (levels < 0) throw MeshError("refine_uniform: levels must be >= 0");
+  if (record) record->clear();
   TetMesh m = mesh;
-  for (int l = 0; l < levels; ++l) m = refine_once(m);
+  for (int l = 0; l < levels; ++l) {
+    Refinement r;
+    m = refine_once(m, r);
+    if (record) record->push_back(std::move(r));
+  }
   return m;
 }
 

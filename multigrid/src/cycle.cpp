@@ -195,6 +195,7 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
     timed_stage("smoother " + levels_.level_name(l),
                 [&] { on_level(l, [&] { smoothers_[l - 1]->setup(level_operator(l)); }); });
   timed_stage("lowest level (" + lowest_->name() + ")", [&] { on_level(0, [&] { lowest_->setup(level_matrix(0)); }); });
+  itemise_lowest();
   work_.assign(L, Work{});
   for (int l = 1; l < L; ++l) {
     work_[l].r.resize(level_operator(l).rows());
@@ -306,6 +307,16 @@ void MultigridCycle::update_impl() {
     for (int l = 1; l < static_cast<int>(single_.size()); ++l) refresh_single(l);  // the float D⁻¹ with the smoother's own
   }
   timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
+  itemise_lowest();
+}
+
+void MultigridCycle::itemise_lowest() {
+  // A lowest level with stages of its own (a cycle over coarser meshes) lists them in place of its
+  // total, each named under "lowest level: ".
+  const TimingBreakdown inner = lowest_->setup_timings();
+  if (inner.parts.empty() || setup_timings_.parts.empty()) return;
+  setup_timings_.parts.pop_back();
+  for (const auto& [name, seconds] : inner.parts) setup_timings_.parts.emplace_back("lowest level: " + name, seconds);
 }
 
 TimingBreakdown MultigridCycle::timings() const {

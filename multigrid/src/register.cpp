@@ -59,6 +59,7 @@ struct CycleOptions {
   std::string op = "auto";
   std::string precision = "auto";
   int skip_levels = 0;
+  std::string coarse_meshes = "auto";
 
   void visit(ParamVisitor& v) {
     v.choice("cycle", cycle, {"V", "W"}, "V- or W-cycle");
@@ -81,6 +82,13 @@ struct CycleOptions {
               "levels left out below the lowest one used: 1 on an FEM scene's degree hierarchy makes degree 2 the "
               "factorised lowest level (p >= 3), which does not lock for thin parts and nearly incompressible "
               "material as degree 1 does");
+    const std::string coarse_meshes_help =
+             "on: where the mesh was made by uniform refinement (a scene's mesh.refine, --refine k), the lowest "
+             "level is solved by a cycle of its own over the linear spaces of the coarser meshes (Galerkin "
+             "products, the smoother's keys), with lowest_level on the coarsest mesh; auto: on for mgpcg where "
+             "the linear level has " + std::to_string(kAmgLowestLevelUnknowns) + " unknowns or more; off: "
+             "lowest_level on the linear level itself";
+    v.choice("coarse_meshes", coarse_meshes, {"auto", "on", "off"}, coarse_meshes_help.c_str());
     v.solver("smoother", "chebyshev",
              "one per level above the lowest. Unset: chebyshev with kind opt-fourth and degree 3 (not the "
              "chebyshev method's own defaults) on the matrix-free route and for mgpcg on user levels (there with "
@@ -296,6 +304,54 @@ Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mg
   return lc;
 }
 
+/// One smoother per level of ctx.levels from `first` up, each built from the same keys.
+std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const SolverContext& ctx, int first) {
+  std::vector<std::unique_ptr<Smoother>> smoothers;
+  for (int l = first; l < ctx.levels->num_levels(); ++l) {
+    SolverContext level_ctx = ctx;
+    level_ctx.level = l;
+    smoothers.push_back(build_smoother(sc, level_ctx));
+  }
+  return smoothers;
+}
+
+/// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own (its
+/// nodes' coordinates, where the levels know them, not the finest level's).
+std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg) {
+  const std::vector<double> xyz = ctx.levels->node_coordinates(0);
+  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz);
+  SolverContext lowest_ctx = ctx;
+  lowest_ctx.coordinates = xyz.empty() ? nullptr : &xyz;
+  return build_solver(lc, lowest_ctx, kDefaultDirectMethod);
+}
+
+/// The lowest level's solver: lowest_level on the levels' level 0, or (coarse_meshes) one cycle
+/// over the coarser meshes' linear levels under it — Galerkin products, the smoother keys' smoothers,
+/// lowest_level on the coarsest mesh — the geometric h-levels a refined mesh brings, so that an AMG
+/// or a factorisation sees the coarse mesh only.
+std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, const SolverContext& ctx,
+                                     const Config& sc, bool mgpcg, const MultigridParams& p) {
+  const LevelProvider& levels = *ctx.levels;
+  const LevelProvider* below = levels.levels_below();
+  bool use = o.coarse_meshes == "on";
+  if (use && !below)
+    c.fail("coarse_meshes", "coarse_meshes=on needs levels with coarser meshes under the linear level: an FEM "
+                            "scene whose mesh was made by uniform refinement (mesh.refine, --refine k), used "
+                            "without skip_levels");
+  if (o.coarse_meshes == "auto")
+    use = below && mgpcg && lowest_level_unknowns(levels, levels.node_coordinates(0)) >= kAmgLowestLevelUnknowns;
+  if (!use) return build_level_solver(c, ctx, mgpcg);
+  SolverContext h = ctx;
+  h.levels = below;
+  MultigridParams hp;
+  hp.gamma = p.gamma;
+  hp.coarse_operator = CoarseOperator::galerkin;
+  hp.cycles = 1;
+  auto smoothers = build_smoothers(sc, h, 1);
+  auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
+  return std::make_unique<MultigridCycle>(*below, hp, factory, build_level_solver(c, h, mgpcg));
+}
+
 /// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.
 std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext& given, bool mgpcg,
                                             const KrylovParams& iteration) {
@@ -325,20 +381,9 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
     c.fail("restriction", "mgpcg needs restriction=transpose: CG needs a symmetric cycle, and the "
                           "interpolating restriction is not the prolongation's transpose (use pmg)");
   check_matrix_free_route(c, sc, levels, p);
-  // The lowest level is a system of its own: its nodes' coordinates (where the levels know them),
-  // not the finest level's.
-  const std::vector<double> lowest_xyz = levels.node_coordinates(0);
-  const Config lc = lowest_level_config(c, levels, mgpcg, lowest_xyz);
+  auto lowest = build_lowest(c, o, ctx, sc, mgpcg, p);
   // One smoother per level, built from the same options (read once per level: same keys).
-  std::vector<std::unique_ptr<Smoother>> smoothers;
-  for (int l = 1; l < levels.num_levels(); ++l) {
-    SolverContext level_ctx = ctx;
-    level_ctx.level = l;
-    smoothers.push_back(build_smoother(sc, level_ctx));
-  }
-  SolverContext lowest_ctx = ctx;
-  lowest_ctx.coordinates = lowest_xyz.empty() ? nullptr : &lowest_xyz;
-  auto lowest = build_solver(lc, lowest_ctx, kDefaultDirectMethod);
+  auto smoothers = build_smoothers(sc, ctx, 1);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
   if (view) return std::make_unique<MultigridCycle>(view, p, factory, std::move(lowest));
   return std::make_unique<MultigridCycle>(levels, p, factory, std::move(lowest));

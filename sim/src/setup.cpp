@@ -79,7 +79,8 @@ SceneSetup set_up(const Scene& s) {
   fem::TetMesh loaded = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings, s.mesh_checks);
   if (!s.mesh_file.empty()) check_size(loaded.num_tets() * refined, s);
   stage(s.mesh_file.empty() ? "mesh (box)" : "mesh (read)");
-  b.mesh = std::make_unique<const fem::TetMesh>(fem::refine_uniform(loaded, s.refine));
+  std::vector<fem::Refinement> refinements;
+  b.mesh = std::make_unique<const fem::TetMesh>(fem::refine_uniform(loaded, s.refine, &refinements));
   if (s.refine > 0) stage("refinement");
   const fem::TetMesh& mesh = *b.mesh;
   b.lo = fem::Vec3::Constant(1e300), b.hi = fem::Vec3::Constant(-1e300);
@@ -101,6 +102,7 @@ SceneSetup set_up(const Scene& s) {
   b.hierarchy = std::make_unique<fem::DegreeHierarchy>(
       mesh, s.degree, fem::Material{s.young, s.poisson, s.density},
       [axis, limit](const fem::Vec3& X) { return axis >= 0 && X[axis] <= limit; }, std::move(held));
+  b.hierarchy->set_refinements(refinements);  // the coarser meshes' linear levels (coarse_meshes)
   stage("degree hierarchy");
   // Each support must hold a planar part of the boundary, not a point or a line where a curved
   // surface touches its bounding box: the area of the boundary faces whose three vertices lie on it.

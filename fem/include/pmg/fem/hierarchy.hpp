@@ -23,6 +23,7 @@
 namespace pmg::fem {
 
 class BoundSystem;
+class CoarseMeshLevels;
 
 /// Scalar prolongation (fine free nodes x coarse free nodes) from degree p-1 to degree p.
 Csr degree_elevation(const BBSpace& fine, const std::vector<index_t>& fine_free,
@@ -108,6 +109,15 @@ class DegreeHierarchy final : public mg::LevelProvider {
   void update_matrix_free(int level, const Rotations* R, double mass_weight = 0.0,
                           double stiffness_weight = 1.0);
 
+  /// The uniform refinements that made the mesh (refine_uniform's record, coarsest first): the
+  /// linear spaces of the coarser meshes become levels under this hierarchy's linear level
+  /// (levels_below(), CoarseMeshLevels). Call before a solver is built on the hierarchy. Throws
+  /// InputError when the record does not end at this hierarchy's mesh; an empty record removes them.
+  void set_refinements(const std::vector<Refinement>& refinements);
+  /// The linear levels of the coarser meshes with this hierarchy's linear level on top, or nullptr
+  /// without set_refinements().
+  const LevelProvider* levels_below() const override;
+
   /// This hierarchy bound to a solver (BoundSystem, pmg/fem/bound_system.hpp): the one seam through
   /// which every FEM caller prepares the levels the solver reads and sets it up or updates it.
   /// Both must outlive the binding.
@@ -157,6 +167,39 @@ class DegreeHierarchy final : public mg::LevelProvider {
   mutable std::vector<std::unique_ptr<ElasticityOperator>> operators_;
   mutable std::vector<std::vector<std::vector<index_t>>> patches_;  ///< per level, built on first use
   void record(int level, const Rotations* R, double mass_weight, double stiffness_weight);
+  std::shared_ptr<const CoarseMeshLevels> below_;  ///< set_refinements(); nullptr: none
+};
+
+/// The linear levels of the meshes a uniformly refined mesh was made from (DegreeHierarchy::
+/// levels_below): the top level is the hierarchy's linear level itself (its matrix, unknowns and
+/// held components); level l < top is the linear space of the mesh top - l refinements coarser,
+/// over the vertices the mesh's clamp leaves free (a coarse mesh's vertices are the fine mesh's
+/// first ones, so they keep their clamp and held components). The scalar prolongation is linear
+/// interpolation: 1 at a vertex the coarse mesh has, 1/2 from each end of the edge a midpoint
+/// halves; exact on nested meshes. No level below the top holds a matrix: a cycle over these
+/// forms Galerkin products, which equal the re-discretised coarse operators for linear elasticity
+/// with a material constant per coarse element, and stay exact for per-element rotations, stiffness
+/// scales and mass weights, where a re-discretisation would not.
+class CoarseMeshLevels final : public LevelProvider {
+ public:
+  /// Checks that the record chains to the hierarchy's mesh (InputError otherwise).
+  CoarseMeshLevels(const DegreeHierarchy& hierarchy, const std::vector<Refinement>& refinements);
+  int num_levels() const override { return static_cast<int>(prolongations_.size()) + 1; }
+  /// The top level's: the hierarchy's linear matrix; below it a matrix without entries of the
+  /// level's size (has_matrix() is false there).
+  const Bcsr& matrix(int level) const override;
+  bool has_matrix(int level) const override { return level == num_levels() - 1; }
+  const Csr& prolongation(int level) const override { return prolongations_.at(level - 1); }
+  std::vector<double> node_coordinates(int level) const override;
+  const std::vector<char>* constrained_dofs(int level) const override;
+  double lame_ratio() const override { return hierarchy_.lame_ratio(); }
+  std::string level_name(int level) const override;
+
+ private:
+  const DegreeHierarchy& hierarchy_;
+  std::vector<std::vector<index_t>> vertex_of_;  ///< per level below the top: the vertex of each node
+  std::vector<Csr> prolongations_;
+  std::vector<Bcsr> empty_;  ///< per level below the top: its size, no entries
 };
 
 }  // namespace pmg::fem

@@ -70,11 +70,24 @@ std::vector<std::string> allowed_mesh_defects(const MeshCheckOptions& options);
 /// at the same coordinates, a boundary edge not shared by exactly two boundary faces).
 void check_mesh(TetMesh& mesh, const MeshCheckOptions& options = {});
 
+/// One uniform refinement's vertex parents: the refined mesh's vertices [0, coarse_vertices) are the
+/// coarse mesh's, and vertex coarse_vertices + k is the midpoint of the coarse edge midpoints[k].
+struct Refinement {
+  index_t coarse_vertices = 0;                         ///< vertices of the coarse mesh
+  std::vector<std::array<index_t, 2>> midpoints;       ///< the coarse edge of each new vertex
+  /// Vertices of the refined mesh.
+  index_t fine_vertices() const { return coarse_vertices + static_cast<index_t>(midpoints.size()); }
+};
+
 /// Uniform ("red") refinement, levels times: every tetrahedron is split into 8 through its edge
 /// midpoints (4 corner tets and the inner octahedron cut along its shortest diagonal, which keeps
 /// the shapes from degrading, Bey 1995). The geometry is unchanged (new vertices lie on the old
 /// straight edges), so a sequence of refinements is a clean h-convergence study on any mesh.
 /// Vertices: V + E per level; elements: 8^levels as many; every element positively oriented.
-TetMesh refine_uniform(const TetMesh& mesh, int levels = 1);
+/// The coarse vertices keep their numbers, the edge midpoints follow in the order the elements
+/// first meet their edges, and element e's eight children are elements 8e..8e+7. `record` (when
+/// given) gets one Refinement per level, coarsest first: the nested meshes' vertex parents, from
+/// which the linear levels under a refined mesh's own are made (DegreeHierarchy::set_refinements).
+TetMesh refine_uniform(const TetMesh& mesh, int levels = 1, std::vector<Refinement>* record = nullptr);
 
 }  // namespace pmg::fem

@@ -203,6 +203,8 @@ class MultigridCycle final : public Solver {
   TimingBreakdown setup_timings_;
   /// Runs `stage` and adds its seconds to setup_timings_ under `name`.
   void timed_stage(const std::string& name, const std::function<void()>& stage);
+  /// Replaces the last set-up stage (the lowest level's) by the lowest level's own stages, if any.
+  void itemise_lowest();
 };
 
 }  // namespace pmg::mg

@@ -83,6 +83,12 @@ class LevelProvider {
   /// nearly incompressible the problem is (λ/μ = 2ν / (1 - 2ν): 1.5 at ν = 0.3, 499 at ν = 0.499).
   /// The factory's stationary pmg smooths on vertex patches from kPatchLameRatio on.
   virtual double lame_ratio() const { return 0.0; }
+  /// Levels under this provider's lowest one, where it knows nested coarser spaces there (an FEM
+  /// hierarchy on a mesh made by uniform refinement: the linear spaces of the coarser meshes), or
+  /// nullptr (the default). Their finest level is this provider's level 0 — the same matrix object
+  /// and unknowns — and the levels below it hold no matrix of their own (Galerkin products). A
+  /// cycle may then solve its lowest level by a cycle over these (the factory's coarse_meshes).
+  virtual const LevelProvider* levels_below() const { return nullptr; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
   /// The FEM degree hierarchy (mesh, spaces, clamp, material) behind these levels, for methods
