@@ -76,18 +76,18 @@ double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& a
   Vector z(r.size()), p(r.size()), w(r.size());
   apply_inverse_diagonal(r, z);
   p = z;
-  double rz = r.dot(z);
+  double rz = ops::dot(r, z);
   std::vector<double> alpha, beta;
   for (int k = 0; k < steps && rz > 0 && std::isfinite(rz); ++k) {
     A.apply(p, w);
-    const double pAp = p.dot(w);
+    const double pAp = ops::dot(p, w);
     if (!(pAp > 0) || !std::isfinite(pAp)) break;
     alpha.push_back(rz / pAp);
-    r -= alpha.back() * w;
+    ops::axpy(-alpha.back(), w, r);
     apply_inverse_diagonal(r, z);
-    const double rz_new = r.dot(z);
+    const double rz_new = ops::dot(r, z);
     beta.push_back(rz_new / rz);
-    p = z + beta.back() * p;
+    ops::xpby(z, beta.back(), p);  // p = z + β p
     rz = rz_new;
   }
   const int m = static_cast<int>(alpha.size());
@@ -125,9 +125,14 @@ void Chebyshev::estimate(int iterations, bool warm) {
   for (int k = 0; k < iterations; ++k) {
     A_->apply(v, w);
     apply_inverse_diagonal(w, z);
-    lambda = z.norm();
+    lambda = ops::norm2(z);
     if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
-    v = z / lambda;
+    v.swap(z);  // v = z / λ, on the threads (the vectors are as long as the level)
+    const double scale = 1.0 / lambda;
+    const Eigen::Index n = v.size();
+    double* x = v.data();
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index i = 0; i < n; ++i) x[i] *= scale;
   }
   lambda_max_ = 1.1 * lambda;
   steps_ = chebyshev_steps(params_, lambda_max_);  // once per estimate, not per smoothing

@@ -129,51 +129,47 @@ Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A) {
 }
 
 GalerkinProduct::GalerkinProduct(const BlockTransfer& T, const Bcsr& A)
-    : fine_pattern_(A.shared_pattern()), fine_mask_(T.fine_constraints()), coarse_mask_(T.coarse_constraints()) {
+    : R_(T.restriction()), P_(T.prolongation()), fine_pattern_(A.shared_pattern()),
+      fine_mask_(T.fine_constraints()), coarse_mask_(T.coarse_constraints()) {
   if (A.rows() != T.fine_size()) throw InputError("Galerkin product: matrix size does not match the transfer");
-  const CsrPattern& R = T.restriction().pattern();
-  const CsrPattern& P = T.prolongation().pattern();
-  const std::vector<double>& rv = T.restriction().values();
-  const std::vector<double>& pv = T.prolongation().values();
+  const CsrPattern& R = R_.pattern();
+  const CsrPattern& P = P_.pattern();
   const BlockPattern& a = A.pattern();
   const index_t nc = R.rows;
   auto pattern = std::make_shared<BlockPattern>();
   pattern->rows = pattern->cols = nc;
   pattern->row_ptr.assign(nc + 1, 0);
-  start_.assign(1, 0);
-  struct Term {
-    index_t J;
-    offset_t s;
-    double w;
-  };
-  std::vector<Term> terms;
-  for (index_t I = 0; I < nc; ++I) {
-    terms.clear();
-    for (offset_t k = R.row_ptr[I]; k < R.row_ptr[I + 1]; ++k) {
-      const index_t i = R.col_idx[k];
-      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
-        const index_t j = a.col_idx[s];
-        for (offset_t m = P.row_ptr[j]; m < P.row_ptr[j + 1]; ++m) terms.push_back({P.col_idx[m], s, rv[k] * pv[m]});
+  // C's pattern row by row (the coarse nodes J reached through R_I·, A and P), twice: counts, then
+  // the sorted columns into their places; a marker per coarse node and thread, no sort of terms.
+  for (int pass = 0; pass < 2; ++pass) {
+#pragma omp parallel
+    {
+      std::vector<index_t> mark(nc, -1), row;
+#pragma omp for schedule(dynamic, 256)
+      for (index_t I = 0; I < nc; ++I) {
+        row.clear();
+        for (offset_t k = R.row_ptr[I]; k < R.row_ptr[I + 1]; ++k) {
+          const index_t i = R.col_idx[k];
+          for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
+            const index_t j = a.col_idx[s];
+            for (offset_t m = P.row_ptr[j]; m < P.row_ptr[j + 1]; ++m)
+              if (mark[P.col_idx[m]] != I) mark[P.col_idx[m]] = I, row.push_back(P.col_idx[m]);
+          }
+        }
+        if (pass == 0) {
+          pattern->row_ptr[I + 1] = static_cast<offset_t>(row.size());
+        } else {
+          std::sort(row.begin(), row.end());
+          std::copy(row.begin(), row.end(), pattern->col_idx.begin() + pattern->row_ptr[I]);
+        }
       }
     }
-    std::stable_sort(terms.begin(), terms.end(), [](const Term& x, const Term& y) { return x.J < y.J; });
-    for (size_t t = 0; t < terms.size(); ++t) {
-      if (t == 0 || terms[t].J != terms[t - 1].J) {
-        if (t > 0) start_.push_back(static_cast<offset_t>(fine_slot_.size()));
-        pattern->col_idx.push_back(terms[t].J);
-      }
-      fine_slot_.push_back(terms[t].s);
-      weight_.push_back(terms[t].w);
+    if (pass == 0) {
+      for (index_t I = 0; I < nc; ++I) pattern->row_ptr[I + 1] += pattern->row_ptr[I];
+      pattern->col_idx.resize(pattern->row_ptr[nc]);
     }
-    if (!terms.empty()) start_.push_back(static_cast<offset_t>(fine_slot_.size()));
-    pattern->row_ptr[I + 1] = static_cast<offset_t>(pattern->col_idx.size());
   }
   C_ = Bcsr(pattern, std::vector<double>(9 * pattern->col_idx.size(), 0.0));
-  if (!fine_mask_.empty()) {  // the block row of each fine block, for the masks
-    fine_row_.resize(a.col_idx.size());
-    for (index_t i = 0; i < a.rows; ++i)
-      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) fine_row_[s] = i;
-  }
   update(A);
 }
 
@@ -181,28 +177,40 @@ void GalerkinProduct::update(const Bcsr& A) {
   if (A.shared_pattern() != fine_pattern_ && !(A.pattern().row_ptr == fine_pattern_->row_ptr &&
                                                A.pattern().col_idx == fine_pattern_->col_idx))
     throw InputError("Galerkin product: the fine matrix's pattern changed (build a new product)");
+  const CsrPattern& R = R_.pattern();
+  const CsrPattern& P = P_.pattern();
+  const double* rv = R_.values().data();
+  const double* pv = P_.values().data();
+  const BlockPattern& a = A.pattern();
+  const BlockPattern& c = C_.pattern();
   const index_t nc = C_.block_rows();
-  const offset_t* row_ptr = C_.pattern().row_ptr.data();
-  const index_t* fine_col = A.pattern().col_idx.data();
-#pragma omp parallel for schedule(dynamic, 64)
-  for (index_t I = 0; I < nc; ++I)
-    for (offset_t c = row_ptr[I]; c < row_ptr[I + 1]; ++c) {
-      Block3 sum = Block3::Zero();
-      if (fine_mask_.empty()) {
-        for (offset_t t = start_[c]; t < start_[c + 1]; ++t) sum += weight_[t] * A.block(fine_slot_[t]);
-      } else {  // M_f A M_f: constrained fine rows and columns (diagonal included) left out
-        for (offset_t t = start_[c]; t < start_[c + 1]; ++t) {
-          const offset_t s = fine_slot_[t];
-          const index_t i = fine_row_[s], j = fine_col[s];
-          Block3 a = A.block(s);
-          for (int r = 0; r < 3; ++r)
-            for (int q = 0; q < 3; ++q)
-              if (fine_mask_[3 * i + r] || fine_mask_[3 * j + q]) a(r, q) = 0.0;
-          sum += weight_[t] * a;
+  const bool masked = !fine_mask_.empty();
+  // C_I· = Σ_i R_Ii Σ_j A_ij P_j·, row by row on the threads: the blocks of row I found through
+  // a position per coarse node (set from C's pattern, cleared after the row).
+#pragma omp parallel
+  {
+    std::vector<offset_t> position(nc, -1);
+#pragma omp for schedule(dynamic, 64)
+    for (index_t I = 0; I < nc; ++I) {
+      for (offset_t q = c.row_ptr[I]; q < c.row_ptr[I + 1]; ++q) {
+        position[c.col_idx[q]] = q;
+        C_.block(q).setZero();
+      }
+      for (offset_t k = R.row_ptr[I]; k < R.row_ptr[I + 1]; ++k) {
+        const index_t i = R.col_idx[k];
+        for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
+          const index_t j = a.col_idx[s];
+          Block3 b = rv[k] * A.block(s);
+          if (masked)  // M_f A M_f: constrained fine rows and columns (diagonal included) left out
+            for (int r = 0; r < 3; ++r)
+              for (int q = 0; q < 3; ++q)
+                if (fine_mask_[3 * i + r] || fine_mask_[3 * j + q]) b(r, q) = 0.0;
+          for (offset_t m = P.row_ptr[j]; m < P.row_ptr[j + 1]; ++m) C_.block(position[P.col_idx[m]]) += pv[m] * b;
         }
       }
-      C_.block(c) = sum;
+      for (offset_t q = c.row_ptr[I]; q < c.row_ptr[I + 1]; ++q) position[c.col_idx[q]] = -1;
     }
+  }
   if (coarse_mask_.empty()) return;
   // Constrained coarse components: rows and columns zeroed, the diagonal the largest of the
   // node's free diagonal entries (1 when none), so that the row scales like its neighbours.

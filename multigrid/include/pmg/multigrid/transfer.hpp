@@ -69,15 +69,16 @@ Bcsr galerkin_product(const BlockTransfer& T, const Bcsr& A);
 
 /// The Galerkin coarse operator C = (R ⊗ I₃) A (P ⊗ I₃) kept across value updates (with the
 /// transfer's masks, C = M_c R M_f A M_f P M_c, its constrained rows then identity-like, their
-/// diagonal the largest of the node's other diagonal entries, or 1): the pattern
-/// of C and a plan — for every block of C the blocks of A and weights R_Ii P_jJ that sum into it —
-/// are built once; update() then refreshes C's values only, C_IJ = Σ R_Ii P_jJ A_ij, in parallel
-/// over the block rows of C without locks or allocation.
+/// diagonal the largest of the node's other diagonal entries, or 1): C's pattern is built once,
+/// row by row on the threads (a marker per coarse node: no list of terms is sorted or kept);
+/// update() then recomputes C's values, C_IJ = Σ R_Ii A_ij P_jJ, row by row on the threads
+/// without locks (each thread finds row I's blocks through a position per coarse node), reading A
+/// in its own order and storing nothing beyond C.
 class GalerkinProduct {
  public:
   GalerkinProduct() = default;
-  /// Builds C's pattern and plan and computes C from A (A's size must be T's fine size, else
-  /// InputError).
+  /// Builds C's pattern and computes C from A (A's size must be T's fine size, else InputError).
+  /// Keeps copies of T's scalar P and R (a few entries per fine node).
   GalerkinProduct(const BlockTransfer& T, const Bcsr& A);
   /// New values of A on the pattern the product was built on (InputError otherwise).
   void update(const Bcsr& A);
@@ -86,12 +87,9 @@ class GalerkinProduct {
 
  private:
   Bcsr C_;
+  Csr R_, P_;  ///< the transfer's scalar restriction and prolongation
   std::shared_ptr<const BlockPattern> fine_pattern_;
-  std::vector<offset_t> start_;      ///< per block of C: its terms [start_[c], start_[c+1])
-  std::vector<offset_t> fine_slot_;  ///< the block of A of each term
-  std::vector<double> weight_;       ///< R_Ii P_jJ of each term
   std::vector<char> fine_mask_, coarse_mask_;  ///< the transfer's constrained components
-  std::vector<index_t> fine_row_;  ///< with a fine mask: the block row of each block of A
 };
 
 }  // namespace pmg::mg
