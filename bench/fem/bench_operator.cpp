@@ -9,7 +9,9 @@
 // n = 8: 177k unknowns). BM_MatrixFree/p/kernel/precision/threads/dynamic applies y = K x
 // (dynamic 0) or y = M x + dt^2 K_R x (1, the implicit-Euler matrix) with one element kernel
 // (0 reference, 1 generic, 2 avx2, 3 avx512) in double (8) or float (4); BM_Bcsr is y = K x with
-// the assembled matrix; BM_MatrixFreeUpdate a corotational step's update(R).
+// the assembled matrix; BM_MatrixFreeUpdate a corotational step's update(R); BM_Assemble/p a
+// level's assembly into its matrix, BM_AssembleFirst/p the same from nothing (pattern, slots,
+// colouring, zeroed values: the set-up's first), p = 1 and 2.
 // Bytes per unknown are each kernel's least traffic:
 //   BCSR          76 B per 3x3 block (values + column index), 8 B per block row (row pointer),
 //                 24 B x read and 24 B y written per block row
@@ -222,6 +224,29 @@ void BM_DiagonalBlocks(benchmark::State& state) {
   state.counters["unknowns"] = static_cast<double>(s.x.size());
 }
 
+/// A level's assembly into its existing matrix (values only: a time step's, or the set-up's after
+/// the pattern), p = 1 the linear level every multigrid solver assembles.
+void BM_Assemble(benchmark::State& state) {
+  System& s = system_of(static_cast<int>(state.range(0)));
+  for (auto _ : state) s.model->assemble(nullptr, Vector(), s.K, nullptr);
+  state.counters["elements"] = static_cast<double>(s.mesh.num_tets());
+  state.counters["unknowns"] = static_cast<double>(s.x.size());
+}
+
+/// A level's matrix from nothing: the assembler's pattern, slots and colouring, the zeroed values
+/// and the assembly (the set-up's first assembly).
+void BM_AssembleFirst(benchmark::State& state) {
+  System& s = system_of(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    fem::ElasticityModel model(s.mesh, static_cast<int>(state.range(0)), fem::Material{1e6, 0.3, 1000.0});
+    model.fix_where([](const fem::Vec3& X) { return X.z() < 1e-12; });
+    Bcsr K = model.assembler().make_matrix();
+    model.assemble(nullptr, Vector(), K, nullptr);
+    benchmark::DoNotOptimize(K.values().data());
+  }
+  state.counters["elements"] = static_cast<double>(s.mesh.num_tets());
+}
+
 class SummaryReporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
@@ -332,6 +357,10 @@ int main(int argc, char** argv) {
           }
     benchmark::RegisterBenchmark("BM_MatrixFreeUpdate", BM_MatrixFreeUpdate)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark("BM_DiagonalBlocks", BM_DiagonalBlocks)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
+  }
+  for (int p : {1, 2}) {
+    benchmark::RegisterBenchmark("BM_Assemble", BM_Assemble)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("BM_AssembleFirst", BM_AssembleFirst)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
   }
   SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);

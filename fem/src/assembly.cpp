@@ -46,41 +46,61 @@ void BlockAssembler::build_pattern() const {
     const BBSpace& space = *space_;
     const index_t ne = space.mesh().num_tets();
 
-    // Calls fn(e, a, b, I, J) for every pair of free nodes (I, J) of every element e.
-    auto for_each_free_pair = [&](auto&& fn) {
-      for (index_t e = 0; e < ne; ++e) {
-        const index_t* nodes = space.element_nodes(e);
-        for (int a = 0; a < n_; ++a) {
-          const index_t I = free_index_[nodes[a]];
-          if (I < 0) continue;
-          for (int b = 0; b < n_; ++b) {
-            const index_t J = free_index_[nodes[b]];
-            if (J >= 0) fn(e, a, b, I, J);
-          }
-        }
-      }
-    };
-
-    // Pattern: block (I, J) for every pair of free nodes sharing an element.
-    std::vector<std::vector<index_t>> rows(num_free_);
-    for_each_free_pair([&](index_t, int, int, index_t I, index_t J) { rows[I].push_back(J); });
+    // Each free node's elements (fixed nodes under a row of their own, num_free_, left unread).
+    std::vector<offset_t> start;
+    std::vector<index_t> elements;
+    detail::group_by_row(num_free_ + 1, ne, n_, [&](index_t e, int a) {
+      const index_t I = free_index_[space.element_nodes(e)[a]];
+      return std::pair<index_t, index_t>(I < 0 ? num_free_ : I, e);
+    }, start, elements);
+    // Pattern: block (I, J) for every pair of free nodes sharing an element; row by row on the
+    // threads, twice (the counts, then the sorted columns in their places), a marker per node.
     auto p = std::make_shared<BlockPattern>();
     p->rows = p->cols = num_free_;
     p->row_ptr.assign(num_free_ + 1, 0);
-    for (index_t I = 0; I < num_free_; ++I) {
-      auto& r = rows[I];
-      std::sort(r.begin(), r.end());
-      r.erase(std::unique(r.begin(), r.end()), r.end());
-      p->col_idx.insert(p->col_idx.end(), r.begin(), r.end());
-      p->row_ptr[I + 1] = static_cast<offset_t>(p->col_idx.size());
-      std::vector<index_t>().swap(r);
+    for (int pass = 0; pass < 2; ++pass) {
+#pragma omp parallel
+      {
+        std::vector<index_t> mark(num_free_, -1), row;
+#pragma omp for schedule(dynamic, 256)
+        for (index_t I = 0; I < num_free_; ++I) {
+          row.clear();
+          for (offset_t q = start[I]; q < start[I + 1]; ++q) {
+            const index_t* nodes = space.element_nodes(elements[q]);
+            for (int b = 0; b < n_; ++b) {
+              const index_t J = free_index_[nodes[b]];
+              if (J >= 0 && mark[J] != I) mark[J] = I, row.push_back(J);
+            }
+          }
+          if (pass == 0) {
+            p->row_ptr[I + 1] = static_cast<offset_t>(row.size());
+          } else {
+            std::sort(row.begin(), row.end());
+            std::copy(row.begin(), row.end(), p->col_idx.begin() + p->row_ptr[I]);
+          }
+        }
+      }
+      if (pass == 0) {
+        for (index_t I = 0; I < num_free_; ++I) p->row_ptr[I + 1] += p->row_ptr[I];
+        p->col_idx.resize(p->row_ptr[num_free_]);
+      }
     }
     pattern_ = p;
 
-    slots_.assign(static_cast<size_t>(ne) * n_ * n_, -1);
-    for_each_free_pair([&](index_t e, int a, int b, index_t I, index_t J) {
-      slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b] = p->find(I, J);
-    });
+    // Slots: the block of every pair of an element's nodes (-1 where either is fixed).
+    slots_.resize(static_cast<size_t>(ne) * n_ * n_);
+#pragma omp parallel for schedule(static)
+    for (index_t e = 0; e < ne; ++e) {
+      const index_t* nodes = space.element_nodes(e);
+      offset_t* out = slots_.data() + static_cast<size_t>(e) * n_ * n_;
+      for (int a = 0; a < n_; ++a) {
+        const index_t I = free_index_[nodes[a]];
+        for (int b = 0; b < n_; ++b) {
+          const index_t J = free_index_[nodes[b]];
+          out[a * n_ + b] = I >= 0 && J >= 0 ? p->find(I, J) : -1;
+        }
+      }
+    }
   });
 }
 
