@@ -96,7 +96,8 @@ struct CycleOptions {
              "on user levels");
     const std::string lowest_help =
         "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
-        " unknowns, BoomerAMG (one V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level "
+        " unknowns (below " + std::to_string(kAmgCoarseMeshUnknowns) + " on the coarsest of coarse_meshes), "
+        "BoomerAMG (one V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level "
         "keys are given (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)";
     v.solver("lowest_level", "auto", lowest_help.c_str());
   }
@@ -121,10 +122,10 @@ index_t lowest_level_unknowns(const LevelProvider& levels, const std::vector<dou
 
 }  // namespace
 
-std::string choose_lowest_level(index_t unknowns) {
+std::string choose_lowest_level(index_t unknowns, index_t amg_from) {
   bool amg = false;
   for (const SolverInfo& s : registered_solvers()) amg = amg || s.name == "boomeramg";
-  return amg && unknowns >= kAmgLowestLevelUnknowns ? "boomeramg" : kDefaultDirectMethod;
+  return amg && unknowns >= amg_from ? "boomeramg" : kDefaultDirectMethod;
 }
 
 void set_amg_lowest_level_defaults(Config& lc) {
@@ -273,7 +274,8 @@ void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& l
 
 /// The lowest level's solver keys: `auto` resolved and written back (so the printed options say
 /// what ran), and the defaults of the method chosen.
-Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mgpcg, const std::vector<double>& xyz) {
+Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mgpcg, const std::vector<double>& xyz,
+                           index_t amg_from) {
   Config lc = c.child("lowest_level");
   // auto: for MGPCG by the lowest level's size, from the measured break-even (docs/scaling.md);
   // CHOLMOD for stationary PMG (one inexact V-cycle slows a stationary cycle far more: 990
@@ -283,7 +285,7 @@ Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mg
     bool keys = false;
     for (const auto& kv : lc.items()) keys = keys || kv.first != lc.full_key("method");
     const std::string chosen =
-        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz)) : kDefaultDirectMethod;
+        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz), amg_from) : kDefaultDirectMethod;
     lc.set("method", chosen);
   }
   if (lc.get_string("method", "") == "boomeramg") set_amg_lowest_level_defaults(lc);
@@ -316,10 +318,11 @@ std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const S
 }
 
 /// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own (its
-/// nodes' coordinates, where the levels know them, not the finest level's).
-std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg) {
+/// nodes' coordinates, where the levels know them, not the finest level's); `auto` takes AMG from
+/// amg_from unknowns.
+std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg, index_t amg_from) {
   const std::vector<double> xyz = ctx.levels->node_coordinates(0);
-  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz);
+  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_from);
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = xyz.empty() ? nullptr : &xyz;
   return build_solver(lc, lowest_ctx, kDefaultDirectMethod);
@@ -340,7 +343,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
                             "without skip_levels");
   if (o.coarse_meshes == "auto")
     use = below && mgpcg && lowest_level_unknowns(levels, levels.node_coordinates(0)) >= kAmgLowestLevelUnknowns;
-  if (!use) return build_level_solver(c, ctx, mgpcg);
+  if (!use) return build_level_solver(c, ctx, mgpcg, kAmgLowestLevelUnknowns);
   SolverContext h = ctx;
   h.levels = below;
   MultigridParams hp;
@@ -349,7 +352,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
   hp.cycles = 1;
   auto smoothers = build_smoothers(sc, h, 1);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
-  return std::make_unique<MultigridCycle>(*below, hp, factory, build_level_solver(c, h, mgpcg));
+  return std::make_unique<MultigridCycle>(*below, hp, factory, build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns));
 }
 
 /// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.

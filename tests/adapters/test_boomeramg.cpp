@@ -150,6 +150,9 @@ TEST_CASE("lowest_level=auto: CHOLMOD below the break-even, BoomerAMG from it, t
           "the options", "[multigrid][boomeramg][auto]") {
   CHECK(mg::choose_lowest_level(mg::kAmgLowestLevelUnknowns - 1) == "cholmod");
   CHECK(mg::choose_lowest_level(mg::kAmgLowestLevelUnknowns) == "boomeramg");
+  // The coarsest of a refined mesh's coarser meshes keeps the direct solve further up.
+  CHECK(mg::choose_lowest_level(mg::kAmgCoarseMeshUnknowns - 1, mg::kAmgCoarseMeshUnknowns) == "cholmod");
+  CHECK(mg::choose_lowest_level(mg::kAmgCoarseMeshUnknowns, mg::kAmgCoarseMeshUnknowns) == "boomeramg");
   Bar bar;  // a linear level of a few hundred unknowns
   SolverContext ctx;
   ctx.levels = &bar.h;
