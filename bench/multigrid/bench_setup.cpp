@@ -83,7 +83,7 @@ void BM_Hierarchy(benchmark::State& state) {
   for (auto _ : state) {
     fem::DegreeHierarchy h(s.mesh, 2, kMaterial, clamped);
     h.set_refinements(s.record);
-    benchmark::DoNotOptimize(h.levels_below());
+    benchmark::DoNotOptimize(h.levels_below().get());
   }
   count(state, s);
 }
@@ -118,7 +118,8 @@ void BM_ChebyshevSetup(benchmark::State& state) {
 
 void BM_GalerkinSetup(benchmark::State& state) {
   Scene& s = scene();
-  const LevelProvider& below = *s.h->levels_below();
+  const std::shared_ptr<const LevelProvider> levels = s.h->levels_below();
+  const LevelProvider& below = *levels;
   const mg::BlockTransfer T(below.prolongation(1));
   for (auto _ : state) {
     mg::GalerkinProduct C(T, below.matrix(1));
@@ -129,7 +130,8 @@ void BM_GalerkinSetup(benchmark::State& state) {
 
 void BM_GalerkinUpdate(benchmark::State& state) {
   Scene& s = scene();
-  const LevelProvider& below = *s.h->levels_below();
+  const std::shared_ptr<const LevelProvider> levels = s.h->levels_below();
+  const LevelProvider& below = *levels;
   const mg::BlockTransfer T(below.prolongation(1));
   mg::GalerkinProduct C(T, below.matrix(1));
   for (auto _ : state) C.update(below.matrix(1));
@@ -138,7 +140,8 @@ void BM_GalerkinUpdate(benchmark::State& state) {
 
 void BM_BoomerAmgSetup(benchmark::State& state) {
   Scene& s = scene();
-  const LevelProvider& below = *s.h->levels_below();
+  const std::shared_ptr<const LevelProvider> levels = s.h->levels_below();
+  const LevelProvider& below = *levels;
   const mg::BlockTransfer T(below.prolongation(1));
   const mg::GalerkinProduct C(T, below.matrix(1));
   bool available = false;

@@ -278,7 +278,7 @@ void DegreeHierarchy::set_refinements(const std::vector<Refinement>& refinements
   below_ = refinements.empty() ? nullptr : std::make_shared<const CoarseMeshLevels>(*this, refinements);
 }
 
-const LevelProvider* DegreeHierarchy::levels_below() const { return below_.get(); }
+std::shared_ptr<const LevelProvider> DegreeHierarchy::levels_below() const { return below_; }
 
 CoarseMeshLevels::CoarseMeshLevels(const DegreeHierarchy& hierarchy, const std::vector<Refinement>& refinements)
     : hierarchy_(hierarchy) {

@@ -335,24 +335,30 @@ std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext&
 std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, const SolverContext& ctx,
                                      const Config& sc, bool mgpcg, const MultigridParams& p) {
   const LevelProvider& levels = *ctx.levels;
-  const LevelProvider* below = levels.levels_below();
+  const std::shared_ptr<const LevelProvider> below = levels.levels_below();
   bool use = o.coarse_meshes == "on";
   if (use && !below)
     c.fail("coarse_meshes", "coarse_meshes=on needs levels with coarser meshes under the linear level: an FEM "
                             "scene whose mesh was made by uniform refinement (mesh.refine, --refine k), used "
                             "without skip_levels");
+  // The inner cycle's top level is the provider's linear matrix: with Galerkin coarse operators the
+  // outer cycle's lowest level is a product instead (and the provider's is not assembled).
+  if (use && p.coarse_operator == CoarseOperator::galerkin)
+    c.fail("coarse_meshes", "coarse_meshes=on needs coarse_operator=geometric (the coarser meshes sit under the "
+                            "hierarchy's own linear level, not under a Galerkin product)");
   if (o.coarse_meshes == "auto")
-    use = below && mgpcg && lowest_level_unknowns(levels, levels.node_coordinates(0)) >= kAmgLowestLevelUnknowns;
+    use = below && mgpcg && p.coarse_operator == CoarseOperator::geometric &&
+          lowest_level_unknowns(levels, levels.node_coordinates(0)) >= kAmgLowestLevelUnknowns;
   if (!use) return build_level_solver(c, ctx, mgpcg, kAmgLowestLevelUnknowns);
   SolverContext h = ctx;
-  h.levels = below;
+  h.levels = below.get();
   MultigridParams hp;
   hp.gamma = p.gamma;
   hp.coarse_operator = CoarseOperator::galerkin;
   hp.cycles = 1;
   auto smoothers = build_smoothers(sc, h, 1);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
-  return std::make_unique<MultigridCycle>(*below, hp, factory, build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns));
+  return std::make_unique<MultigridCycle>(below, hp, factory, build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns));
 }
 
 /// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.

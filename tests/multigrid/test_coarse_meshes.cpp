@@ -84,7 +84,7 @@ TEST_CASE("a refinement record gives each new vertex the edge it halves", "[fem]
 
 TEST_CASE("the coarser meshes' linear levels interpolate linear fields exactly", "[fem][multigrid]") {
   Refined r(2, 2);
-  const LevelProvider* below = r.h.levels_below();
+  const std::shared_ptr<const LevelProvider> below = r.h.levels_below();
   REQUIRE(below != nullptr);
   REQUIRE(below->num_levels() == 3);
   CHECK(below->has_matrix(2));
@@ -194,6 +194,11 @@ TEST_CASE("coarse_meshes=on without coarser meshes is refused, naming the key", 
   ctx.levels = &h;
   CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=mgpcg", "coarse_meshes=on"}, "test"), ctx),
                     Catch::Contains("coarse_meshes") && Catch::Contains("refinement"));
+  // Under Galerkin products the linear level is not the hierarchy's: refused for on, off for auto.
+  Refined g(1, 2);
+  ctx.levels = &g.h;
+  CHECK_THROWS_WITH(make_solver(Config::from_pairs({"method=mgpcg", "coarse_meshes=on", "coarse_operator=galerkin"}, "test"), ctx),
+                    Catch::Contains("coarse_operator=geometric"));
   // Levels skipped below degree 2 have no linear level to put the meshes under.
   Refined r(1, 3);
   ctx.levels = &r.h;

@@ -49,6 +49,9 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// clamped_vertices() returns them: a rank's share of a mesh keeps its owner's clamp.
   DegreeHierarchy(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
                   std::vector<char> components = {});
+  /// Neither copied nor moved: its coarse-mesh levels and bound solvers refer to it by address.
+  DegreeHierarchy(const DegreeHierarchy&) = delete;
+  DegreeHierarchy& operator=(const DegreeHierarchy&) = delete;
 
   int num_levels() const override { return static_cast<int>(models_.size()); }
   std::string level_name(int level) const override { return "degree " + std::to_string(level + 1); }
@@ -115,8 +118,8 @@ class DegreeHierarchy final : public mg::LevelProvider {
   /// InputError when the record does not end at this hierarchy's mesh; an empty record removes them.
   void set_refinements(const std::vector<Refinement>& refinements);
   /// The linear levels of the coarser meshes with this hierarchy's linear level on top, or nullptr
-  /// without set_refinements().
-  const LevelProvider* levels_below() const override;
+  /// without set_refinements(). They refer to this hierarchy, which must outlive them.
+  std::shared_ptr<const LevelProvider> levels_below() const override;
 
   /// This hierarchy bound to a solver (BoundSystem, pmg/fem/bound_system.hpp): the one seam through
   /// which every FEM caller prepares the levels the solver reads and sets it up or updates it.
@@ -174,7 +177,9 @@ class DegreeHierarchy final : public mg::LevelProvider {
 /// levels_below): the top level is the hierarchy's linear level itself (its matrix, unknowns and
 /// held components); level l < top is the linear space of the mesh top - l refinements coarser,
 /// over the vertices the mesh's clamp leaves free (a coarse mesh's vertices are the fine mesh's
-/// first ones, so they keep their clamp and held components). The scalar prolongation is linear
+/// first ones, so they keep their clamp; a component held on its own is held on the top level
+/// only, and a cycle's Galerkin products hold a coarse component where no free fine component
+/// reads it: the coarse spaces stay subspaces of the constrained top level's). The scalar prolongation is linear
 /// interpolation: 1 at a vertex the coarse mesh has, 1/2 from each end of the edge a midpoint
 /// halves; exact on nested meshes. No level below the top holds a matrix: a cycle over these
 /// forms Galerkin products, which equal the re-discretised coarse operators for linear elasticity

@@ -19,6 +19,7 @@
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/csr.hpp"
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -87,8 +88,9 @@ class LevelProvider {
   /// hierarchy on a mesh made by uniform refinement: the linear spaces of the coarser meshes), or
   /// nullptr (the default). Their finest level is this provider's level 0 — the same matrix object
   /// and unknowns — and the levels below it hold no matrix of their own (Galerkin products). A
-  /// cycle may then solve its lowest level by a cycle over these (the factory's coarse_meshes).
-  virtual const LevelProvider* levels_below() const { return nullptr; }
+  /// cycle may then solve its lowest level by a cycle over these (the factory's coarse_meshes),
+  /// which keeps them alive.
+  virtual std::shared_ptr<const LevelProvider> levels_below() const { return nullptr; }
   /// For messages and timing breakdowns ("degree 3", "level 2").
   virtual std::string level_name(int level) const { return "level " + std::to_string(level); }
   /// The FEM degree hierarchy (mesh, spaces, clamp, material) behind these levels, for methods
