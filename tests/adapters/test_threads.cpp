@@ -172,3 +172,37 @@ TEST_CASE("one solver shared by several threads serialises their calls and answe
     }
   }
 }
+
+TEST_CASE("the coarser meshes' cycle on several threads at once gives its answers alone", "[threads]") {
+  // A refined bar: the Galerkin product, the patterns and the inner cycle of coarse_meshes=on,
+  // built, set up, solved and updated on threads of their own (and, for the reference, on
+  // OpenMP's team).
+  std::vector<Refinement> record;
+  const TetMesh mesh = refine_uniform(box_mesh_24(2, 1, 1, 1.0, 0.5, 0.5), 1, &record);
+  DegreeHierarchy h(mesh, 2, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; });
+  h.set_refinements(record);
+  h.assemble(nullptr);
+  const Vector b = h.finest().restrict_to_free(h.finest().gravity(Vec3(0, 0, -9.81)));
+  SolverContext ctx;
+  ctx.levels = &h;
+  auto make = [&] {
+    auto s = make_solver(Config::from_pairs({"method=mgpcg", "coarse_meshes=on", "tol=1e-10"}, "test"), ctx);
+    s->setup(h.matrix(h.num_levels() - 1));
+    return s;
+  };
+  Vector reference;
+  make()->solve(b, reference);
+  std::vector<Vector> got(4);
+  const auto errors = on_threads(4, [&](int t) {
+    auto s = make();
+    s->solve(b, got[t]);
+    s->update();
+    s->solve(b, got[t]);
+  });
+  for (int t = 0; t < 4; ++t) {
+    INFO("thread " << t);
+    CHECK(errors[t] == "");
+    if (errors[t].empty()) CHECK((got[t] - reference).norm() <= 1e-8 * reference.norm());
+  }
+}
+
