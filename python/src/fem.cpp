@@ -351,6 +351,42 @@ void register_model(py::module_& m) {
       });
 }
 
+/// Per-vertex flags of a mesh carried to its refinements: a new vertex takes the bits both ends of
+/// its edge have (clamps and held components by position, as fix_vertices reads them).
+std::vector<char> refine_flags(std::vector<char> flags, const std::vector<fem::Refinement>& record) {
+  for (const fem::Refinement& r : record) {
+    flags.resize(r.fine_vertices());
+    for (size_t k = 0; k < r.midpoints.size(); ++k)
+      flags[r.coarse_vertices + k] = static_cast<char>(flags[r.midpoints[k][0]] & flags[r.midpoints[k][1]]);
+  }
+  return flags;
+}
+
+/// DegreeHierarchy(..., refine=k): the hierarchy of mesh refined k times, its coarser meshes kept.
+PyHierarchy refined_hierarchy(std::shared_ptr<const fem::TetMesh> coarse, int degree, const fem::Material& material,
+                              py::object clamp, py::object components, int refine) {
+  std::vector<fem::Refinement> record;
+  auto fine = std::make_shared<const fem::TetMesh>(fem::refine_uniform(*coarse, refine, &record));
+  // Flags for the given mesh's vertices are carried over; a function is asked on the refined mesh.
+  auto given_for_coarse = [&](const py::object& o) {
+    if (o.is_none() || PyCallable_Check(o.ptr())) return false;
+    const py::array a = py::module_::import("numpy").attr("asarray")(o);
+    return a.ndim() >= 1 && a.shape(0) == coarse->num_vertices() && coarse->num_vertices() != fine->num_vertices();
+  };
+  std::vector<char> mask = given_for_coarse(clamp) ? refine_flags(clamp_mask(*coarse, clamp), record)
+                                                   : clamp_mask(*fine, clamp);
+  std::vector<char> held;
+  if (!components.is_none())
+    held = given_for_coarse(components) ? refine_flags(component_masks(*coarse, components), record)
+                                        : component_masks(*fine, components);
+  auto h = std::make_unique<fem::DegreeHierarchy>(*fine, degree, material, std::move(mask), std::move(held));
+  h->set_refinements(record);
+  PyHierarchy out{fine, std::move(h)};
+  py::gil_scoped_release nogil;
+  out.h->assemble(nullptr);
+  return out;
+}
+
 /// DegreeHierarchy: the p-multigrid levels of a model.
 void register_hierarchy(py::module_& m) {
   py::class_<PyHierarchy>(m, "DegreeHierarchy",
@@ -358,9 +394,11 @@ void register_hierarchy(py::module_& m) {
                           "(level l holds degree l + 1), the same clamp on every degree, their matrices over the "
                           "free dofs (assembled at construction) and the degree-elevation prolongations.")
       .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material, py::object clamp,
-                       py::object components) {
+                       py::object components, int refine) {
              if (degree < 1 || degree > 3) throw InputError("degree must be 1, 2 or 3, got " + std::to_string(degree));
              material.check();
+             if (refine < 0 || refine > 4) throw InputError("refine must lie in [0, 4], got " + std::to_string(refine));
+             if (refine > 0) return refined_hierarchy(mesh, degree, material, clamp, components, refine);
              const std::vector<char> mask = clamp_mask(*mesh, clamp);
              // The hierarchy asks by rest position: the clamped vertices' positions, looked up.
              std::set<std::array<double, 3>> clamped;
@@ -375,11 +413,17 @@ void register_hierarchy(py::module_& m) {
              return out;
            }),
            py::arg("mesh"), py::arg("degree"), py::arg("material") = fem::Material{}, py::arg("clamp") = py::none(),
-           py::arg("components") = py::none(),
+           py::arg("components") = py::none(), py::arg("refine") = 0,
            "Levels of degrees 1..degree (degree 1, 2 or 3) on mesh with material. clamp: the clamped vertices, "
            "one boolean per vertex or a function of a position (None: nothing clamped). components: an "
            "(n_vertices, 3) boolean array holding single components at zero (symmetry planes, rollers), or "
-           "None. Raises InputError for another degree, a material out of range or masks of the wrong shape.")
+           "None. refine: refine the mesh uniformly this many times (0 to 4) and keep the coarser meshes under the "
+           "linear level (the solvers' coarse_meshes); the hierarchy's `mesh` is then the refined one, and clamp "
+           "and components may be given for either mesh's vertices (a new vertex takes what both ends of its edge "
+           "have). Raises InputError for another degree, a material out of range, refine out of range or masks "
+           "of the wrong shape.")
+      .def_property_readonly("mesh", [](const PyHierarchy& s) { return std::const_pointer_cast<fem::TetMesh>(s.mesh); },
+                             "The mesh the levels are built on (the refined one with refine > 0).")
       .def("constrained_dofs", [](const PyHierarchy& s) {
         const std::vector<char>* c = s.h->constrained_dofs(s.h->num_levels() - 1);
         py::array_t<bool> out(c ? static_cast<py::ssize_t>(c->size()) : 0);

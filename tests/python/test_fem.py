@@ -167,3 +167,28 @@ def test_symmetry_planes_in_a_degree_hierarchy():
     r = pmgkit.simulate(scene)
     assert r["steps_done"] == 3
     assert np.all(r["records"]["probe"][:, 1:] == 0.0)
+
+
+def test_a_refined_hierarchy_keeps_its_coarser_meshes_under_the_linear_level():
+    mesh = pmgkit.Mesh.box(2, 1, 1, 1.0, 0.5, 0.5)
+    material = pmgkit.Material(500e3, 0.3, 1000.0)
+    h = pmgkit.DegreeHierarchy(mesh, 2, material, clamp=lambda X: X[0] < 1e-12, refine=1)
+    assert h.mesh.num_tets == 8 * mesh.num_tets
+    b = h.restrict_to_free(h.gravity([0.0, 0.0, -9.81]))
+    exact = spla.spsolve(h.levels()[-1].tocsc(), b)
+    on = h.solver({"method": "mgpcg", "coarse_meshes": "on", "tol": 1e-10})
+    assert "mesh coarser by 1" in on.describe()
+    x, info = on.solve(b)
+    assert info["status"] == "converged"
+    assert np.linalg.norm(x - exact) <= 1e-8 * np.linalg.norm(exact)
+    # A clamp given for the coarse mesh's vertices clamps the same vertices of the refined one.
+    flags = mesh.vertices[:, 0] < 1e-12
+    same = pmgkit.DegreeHierarchy(mesh, 2, material, clamp=flags, refine=1)
+    assert np.array_equal(same.free_positions(), h.free_positions())
+    # Without refinement there are no coarser meshes to put under the linear level.
+    plain = pmgkit.DegreeHierarchy(mesh, 2, material, clamp=flags)
+    with pytest.raises(pmgkit.InputError, match="coarse_meshes"):
+        plain.solver({"method": "mgpcg", "coarse_meshes": "on"})
+    with pytest.raises(pmgkit.InputError, match="refine"):
+        pmgkit.DegreeHierarchy(mesh, 2, material, clamp=flags, refine=5)
+
