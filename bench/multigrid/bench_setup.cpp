@@ -47,6 +47,9 @@ struct Scene {
   fem::TetMesh base, mesh;
   std::vector<fem::Refinement> record;
   std::unique_ptr<fem::DegreeHierarchy> h;
+  std::shared_ptr<const LevelProvider> below;  ///< the coarser mesh under the linear level, and it
+  std::unique_ptr<mg::BlockTransfer> T;        ///< the transfer between them
+  std::unique_ptr<mg::GalerkinProduct> C;      ///< the coarser mesh's matrix
 };
 
 Scene& scene() {
@@ -59,6 +62,9 @@ Scene& scene() {
   s->h->set_refinements(s->record);
   s->h->assemble_level(0, nullptr);
   s->h->update_matrix_free(1, nullptr);
+  s->below = s->h->levels_below();
+  s->T = std::make_unique<mg::BlockTransfer>(s->below->prolongation(1));
+  s->C = std::make_unique<mg::GalerkinProduct>(*s->T, s->below->matrix(1));
   register_all_solvers();  // BoomerAMG, where hypre was built in
   return *s;
 }
@@ -118,11 +124,8 @@ void BM_ChebyshevSetup(benchmark::State& state) {
 
 void BM_GalerkinSetup(benchmark::State& state) {
   Scene& s = scene();
-  const std::shared_ptr<const LevelProvider> levels = s.h->levels_below();
-  const LevelProvider& below = *levels;
-  const mg::BlockTransfer T(below.prolongation(1));
   for (auto _ : state) {
-    mg::GalerkinProduct C(T, below.matrix(1));
+    mg::GalerkinProduct C(*s.T, s.below->matrix(1));
     benchmark::DoNotOptimize(C.matrix().values().data());
   }
   count(state, s);
@@ -130,20 +133,12 @@ void BM_GalerkinSetup(benchmark::State& state) {
 
 void BM_GalerkinUpdate(benchmark::State& state) {
   Scene& s = scene();
-  const std::shared_ptr<const LevelProvider> levels = s.h->levels_below();
-  const LevelProvider& below = *levels;
-  const mg::BlockTransfer T(below.prolongation(1));
-  mg::GalerkinProduct C(T, below.matrix(1));
-  for (auto _ : state) C.update(below.matrix(1));
+  for (auto _ : state) s.C->update(s.below->matrix(1));
   count(state, s);
 }
 
 void BM_BoomerAmgSetup(benchmark::State& state) {
   Scene& s = scene();
-  const std::shared_ptr<const LevelProvider> levels = s.h->levels_below();
-  const LevelProvider& below = *levels;
-  const mg::BlockTransfer T(below.prolongation(1));
-  const mg::GalerkinProduct C(T, below.matrix(1));
   bool available = false;
   for (const SolverInfo& info : registered_solvers()) available = available || info.name == "boomeramg";
   if (!available) {
@@ -152,7 +147,7 @@ void BM_BoomerAmgSetup(benchmark::State& state) {
   }
   for (auto _ : state) {
     auto amg = make_solver(Config::from_pairs({"method=boomeramg", "relax_type=16"}, "bench"), {});
-    amg->setup(C.matrix());
+    amg->setup(s.C->matrix());
     benchmark::DoNotOptimize(amg.get());
   }
   count(state, s);

@@ -1,6 +1,8 @@
 #include "pmg/fem/assembly.hpp"
 #include "row_groups.hpp"
 
+#include "pmg/sparse/pattern_rows.hpp"
+
 #include <algorithm>
 
 namespace pmg::fem {
@@ -53,38 +55,14 @@ void BlockAssembler::build_pattern() const {
       const index_t I = free_index_[space.element_nodes(e)[a]];
       return std::pair<index_t, index_t>(I < 0 ? num_free_ : I, e);
     }, start, elements);
-    // Pattern: block (I, J) for every pair of free nodes sharing an element; row by row on the
-    // threads, twice (the counts, then the sorted columns in their places), a marker per node.
-    auto p = std::make_shared<BlockPattern>();
-    p->rows = p->cols = num_free_;
-    p->row_ptr.assign(num_free_ + 1, 0);
-    for (int pass = 0; pass < 2; ++pass) {
-#pragma omp parallel
-      {
-        std::vector<index_t> mark(num_free_, -1), row;
-#pragma omp for schedule(dynamic, 256)
-        for (index_t I = 0; I < num_free_; ++I) {
-          row.clear();
-          for (offset_t q = start[I]; q < start[I + 1]; ++q) {
-            const index_t* nodes = space.element_nodes(elements[q]);
-            for (int b = 0; b < n_; ++b) {
-              const index_t J = free_index_[nodes[b]];
-              if (J >= 0 && mark[J] != I) mark[J] = I, row.push_back(J);
-            }
-          }
-          if (pass == 0) {
-            p->row_ptr[I + 1] = static_cast<offset_t>(row.size());
-          } else {
-            std::sort(row.begin(), row.end());
-            std::copy(row.begin(), row.end(), p->col_idx.begin() + p->row_ptr[I]);
-          }
-        }
+    // Pattern: block (I, J) for every pair of free nodes sharing an element.
+    const std::shared_ptr<BlockPattern> p = pattern_by_rows(num_free_, num_free_, [&](index_t I, auto&& add) {
+      for (offset_t q = start[I]; q < start[I + 1]; ++q) {
+        const index_t* nodes = space.element_nodes(elements[q]);
+        for (int b = 0; b < n_; ++b)
+          if (const index_t J = free_index_[nodes[b]]; J >= 0) add(J);
       }
-      if (pass == 0) {
-        for (index_t I = 0; I < num_free_; ++I) p->row_ptr[I + 1] += p->row_ptr[I];
-        p->col_idx.resize(p->row_ptr[num_free_]);
-      }
-    }
+    });
     pattern_ = p;
 
     // Slots: the block of every pair of an element's nodes (-1 where either is fixed).

@@ -306,10 +306,10 @@ Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mg
   return lc;
 }
 
-/// One smoother per level of ctx.levels from `first` up, each built from the same keys.
-std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const SolverContext& ctx, int first) {
+/// One smoother per level of ctx.levels above the lowest, each built from the same keys.
+std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const SolverContext& ctx) {
   std::vector<std::unique_ptr<Smoother>> smoothers;
-  for (int l = first; l < ctx.levels->num_levels(); ++l) {
+  for (int l = 1; l < ctx.levels->num_levels(); ++l) {
     SolverContext level_ctx = ctx;
     level_ctx.level = l;
     smoothers.push_back(build_smoother(sc, level_ctx));
@@ -317,11 +317,11 @@ std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const S
   return smoothers;
 }
 
-/// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own (its
-/// nodes' coordinates, where the levels know them, not the finest level's); `auto` takes AMG from
-/// amg_from unknowns.
-std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg, index_t amg_from) {
-  const std::vector<double> xyz = ctx.levels->node_coordinates(0);
+/// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own: xyz, its
+/// nodes' coordinates (ctx.levels->node_coordinates(0); empty where the levels do not know them),
+/// not the finest level's; `auto` takes AMG from amg_from unknowns.
+std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg, index_t amg_from,
+                                           const std::vector<double>& xyz) {
   const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_from);
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = xyz.empty() ? nullptr : &xyz;
@@ -336,6 +336,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
                                      const Config& sc, bool mgpcg, const MultigridParams& p) {
   const LevelProvider& levels = *ctx.levels;
   const std::shared_ptr<const LevelProvider> below = levels.levels_below();
+  const std::vector<double> xyz = levels.node_coordinates(0);
   bool use = o.coarse_meshes == "on";
   if (use && !below)
     c.fail("coarse_meshes", "coarse_meshes=on needs levels with coarser meshes under the linear level: an FEM "
@@ -348,17 +349,18 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
                             "hierarchy's own linear level, not under a Galerkin product)");
   if (o.coarse_meshes == "auto")
     use = below && mgpcg && p.coarse_operator == CoarseOperator::geometric &&
-          lowest_level_unknowns(levels, levels.node_coordinates(0)) >= kAmgLowestLevelUnknowns;
-  if (!use) return build_level_solver(c, ctx, mgpcg, kAmgLowestLevelUnknowns);
+          lowest_level_unknowns(levels, xyz) >= kAmgLowestLevelUnknowns;
+  if (!use) return build_level_solver(c, ctx, mgpcg, kAmgLowestLevelUnknowns, xyz);
   SolverContext h = ctx;
   h.levels = below.get();
   MultigridParams hp;
   hp.gamma = p.gamma;
   hp.coarse_operator = CoarseOperator::galerkin;
   hp.cycles = 1;
-  auto smoothers = build_smoothers(sc, h, 1);
+  auto smoothers = build_smoothers(sc, h);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
-  return std::make_unique<MultigridCycle>(below, hp, factory, build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns));
+  return std::make_unique<MultigridCycle>(below, hp, factory,
+                                          build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns, below->node_coordinates(0)));
 }
 
 /// A multigrid cycle from the CycleOptions keys; `mgpcg`: the defaults of a preconditioner.
@@ -392,7 +394,7 @@ std::unique_ptr<MultigridCycle> build_cycle(const Config& c, const SolverContext
   check_matrix_free_route(c, sc, levels, p);
   auto lowest = build_lowest(c, o, ctx, sc, mgpcg, p);
   // One smoother per level, built from the same options (read once per level: same keys).
-  auto smoothers = build_smoothers(sc, ctx, 1);
+  auto smoothers = build_smoothers(sc, ctx);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
   if (view) return std::make_unique<MultigridCycle>(view, p, factory, std::move(lowest));
   return std::make_unique<MultigridCycle>(levels, p, factory, std::move(lowest));

@@ -1,4 +1,5 @@
 #include "pmg/multigrid/transfer.hpp"
+#include "pmg/sparse/pattern_rows.hpp"
 
 #include <algorithm>
 
@@ -135,40 +136,16 @@ GalerkinProduct::GalerkinProduct(const BlockTransfer& T, const Bcsr& A)
   const CsrPattern& R = R_.pattern();
   const CsrPattern& P = P_.pattern();
   const BlockPattern& a = A.pattern();
-  const index_t nc = R.rows;
-  auto pattern = std::make_shared<BlockPattern>();
-  pattern->rows = pattern->cols = nc;
-  pattern->row_ptr.assign(nc + 1, 0);
-  // C's pattern row by row (the coarse nodes J reached through R_I·, A and P), twice: counts, then
-  // the sorted columns into their places; a marker per coarse node and thread, no sort of terms.
-  for (int pass = 0; pass < 2; ++pass) {
-#pragma omp parallel
-    {
-      std::vector<index_t> mark(nc, -1), row;
-#pragma omp for schedule(dynamic, 256)
-      for (index_t I = 0; I < nc; ++I) {
-        row.clear();
-        for (offset_t k = R.row_ptr[I]; k < R.row_ptr[I + 1]; ++k) {
-          const index_t i = R.col_idx[k];
-          for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
-            const index_t j = a.col_idx[s];
-            for (offset_t m = P.row_ptr[j]; m < P.row_ptr[j + 1]; ++m)
-              if (mark[P.col_idx[m]] != I) mark[P.col_idx[m]] = I, row.push_back(P.col_idx[m]);
-          }
-        }
-        if (pass == 0) {
-          pattern->row_ptr[I + 1] = static_cast<offset_t>(row.size());
-        } else {
-          std::sort(row.begin(), row.end());
-          std::copy(row.begin(), row.end(), pattern->col_idx.begin() + pattern->row_ptr[I]);
-        }
+  // C's pattern: the coarse nodes J reached from row I through R_I·, A and P.
+  const auto pattern = pattern_by_rows(R.rows, R.rows, [&](index_t I, auto&& add) {
+    for (offset_t k = R.row_ptr[I]; k < R.row_ptr[I + 1]; ++k) {
+      const index_t i = R.col_idx[k];
+      for (offset_t s = a.row_ptr[i]; s < a.row_ptr[i + 1]; ++s) {
+        const index_t j = a.col_idx[s];
+        for (offset_t m = P.row_ptr[j]; m < P.row_ptr[j + 1]; ++m) add(P.col_idx[m]);
       }
     }
-    if (pass == 0) {
-      for (index_t I = 0; I < nc; ++I) pattern->row_ptr[I + 1] += pattern->row_ptr[I];
-      pattern->col_idx.resize(pattern->row_ptr[nc]);
-    }
-  }
+  });
   C_ = Bcsr(pattern, std::vector<double>(9 * pattern->col_idx.size(), 0.0));
   update(A);
 }

@@ -10,8 +10,6 @@
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/layout.hpp"
 
-#include "pmg/sparse/threads.hpp"
-
 #include <catch2/catch.hpp>
 
 #include <limits>
@@ -427,14 +425,6 @@ TEST_CASE("rows in any column order and duplicate entries are read as given, wit
 
 TEST_CASE("layout=component: any method on a component-major matrix solves as on the interleaved one",
           "[user-levels][layout]") {
-  // The same arithmetic needs the same threads in both solves: the adaptive policy would take
-  // fewer where other processes run (ctest -j), and a sum over fewer threads rounds otherwise.
-  const ThreadPolicy kept = thread_policy();
-  set_thread_policy(ThreadPolicy::fixed);
-  struct Restore {
-    ThreadPolicy policy;
-    ~Restore() { set_thread_policy(policy); }
-  } restore{kept};
   Levels s;
   const Csr& A = s.A.back();
   const index_t n = A.rows() / 3;

@@ -26,8 +26,9 @@ inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
 /// The same for the coarsest mesh under a refined mesh's linear level (coarse_meshes): there the
 /// lowest level is solved once per inner cycle, and an exact solve halves the outer iterations
 /// (20 -> 10, 20 -> 9 on the refined cubes of 2.18M and 4.61M unknowns, coarse meshes of 43,554 and
-/// 91,422 unknowns: t(1e-6) 0.75-0.93x BoomerAMG's) where at 188,922 unknowns CHOLMOD's
-/// factorisation cost what its 12 fewer iterations saved (docs/scaling.md).
+/// 91,422 unknowns; t(1e-6) against BoomerAMG's, pair by pair on a noisy VM: 1.11x and 0.75x at
+/// 2.18M, 0.93x and 0.52x at 4.61M), where at 188,922 unknowns CHOLMOD's factorisation cost about
+/// what its 12 fewer iterations saved (docs/scaling.md).
 inline constexpr index_t kAmgCoarseMeshUnknowns = 120000;
 
 }  // namespace pmg
