@@ -4,6 +4,7 @@
 #include "pmg/multigrid/chebyshev.hpp"
 #include "pmg/multigrid/cycle.hpp"
 #include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/saddle_point.hpp"
 #include "pmg/multigrid/patch.hpp"
 #include "pmg/multigrid/smoothers.hpp"
 
@@ -411,6 +412,19 @@ void register_all() {
                   [](const Config& c, const SolverContext& ctx) {
                     const KrylovParams k = read_krylov(c);
                     return std::make_unique<Cg>(k, build_cycle(c, ctx, true, KrylovParams{}));
+                  });
+  register_builtin_solver({"mixed-minres",
+                   "MINRES on a displacement-pressure saddle point, preconditioned by mgpcg's cycle on the "
+                   "displacement block and Chebyshev on the scaled pressure mass (mixed elasticity)",
+                   krylov_keys() + cycle_keys + list_params<MixedMinresParams>(), true, true, "multigrid"},
+                  [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+                    if (!ctx.saddle_point)
+                      c.fail("method", "mixed-minres solves a mixed (displacement-pressure) system: use it with "
+                                       "formulation=mixed");
+                    const KrylovParams k = read_krylov(c);
+                    const MixedMinresParams mp = read_params<MixedMinresParams>(c);
+                    return std::make_unique<MixedMinres>(k, build_cycle(c, ctx, true, KrylovParams{}),
+                                                         *ctx.saddle_point, mp.pressure_steps, mp.pressure_scale);
                   });
   auto gauss_seidel = [](bool pointwise) {
     return [pointwise](const Config& c, const SolverContext&) {

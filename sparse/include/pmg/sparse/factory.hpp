@@ -34,6 +34,7 @@
 namespace pmg {
 
 class LevelProvider;
+struct SaddlePointBlocks;
 
 /// What a solver may need besides its options.
 struct SolverContext {
@@ -49,6 +50,9 @@ struct SolverContext {
   /// Smoothers a multigrid cycle builds: the level they smooth (levels->level_name(level)); -1
   /// elsewhere (a level's own data, such as vertex patches, is then the finest level's).
   int level = -1;
+  /// Saddle-point methods (mixed-minres): the blocks of the system [A Bᵀ; B -C] they are set up on,
+  /// `levels` then being the displacement block's levels. Must outlive the solvers built with it.
+  const SaddlePointBlocks* saddle_point = nullptr;
 };
 
 /// Builds the solver the config's "method" names (`fallback_method` when it names none) and

@@ -21,6 +21,7 @@ class ElasticityOperator;
 class Csr;
 class Bcsr;
 class BinBcsr;
+class SaddlePointOperator;
 class DiagonalBlocksSource;
 class SinglePrecisionSource;
 
@@ -57,6 +58,8 @@ class LinearOperator {
   virtual const Bcsr* bcsr_matrix() const { return nullptr; }
   /// This operator as a BIN-BCSR matrix (nullptr: it is not one).
   virtual const BinBcsr* bin_bcsr_matrix() const { return nullptr; }
+  /// The operator as a saddle-point system [A Bᵀ; B -C] (pmg/sparse/saddle_point.hpp), or nullptr.
+  virtual const SaddlePointOperator* saddle_point_operator() const { return nullptr; }
   /// Its 3x3 diagonal blocks, computed without a matrix (a matrix-free operator; nullptr: none).
   virtual const DiagonalBlocksSource* diagonal_blocks_source() const { return nullptr; }
   /// Its product in single precision (a matrix-free operator; nullptr: none).

@@ -1,0 +1,122 @@
+// pmg/fem/mixed.hpp — mixed displacement–pressure elasticity on Taylor–Hood Bernstein–Bézier
+// tetrahedra: displacement of degree k (2 or 3), continuous pressure of degree k - 1, on one mesh.
+//
+// With p = λ div u the elastic energy μ|ε|² + (λ/2)(div u)² becomes the saddle-point problem
+//
+//   2μ (ε(u), ε(v)) + (p, div v)      = f(v)        [ A  Bᵀ ] [u]   [f]
+//   (div u, q)      - (p, q) / λ      = 0           [ B  -C ] [p] = [0]
+//
+// whose displacement block A is the elasticity operator with λ = 0 (E' = 2μ, ν' = 0): independent of
+// ν, the operator that pmgkit's p-multigrid solves well. ν = 1/2 is allowed (C = 0). The pressure
+// Schur complement S = C + B A⁻¹ Bᵀ lies between multiples of (1/λ + β²/μ) M_p and (1/λ + 1/μ) M_p
+// (β the discrete inf-sup constant; |div u|² <= |∇u|² <= 2|ε(u)|² on clamped fields), so it is
+// replaced by (1/μ + 1/λ) M_p in the preconditioner (pmg/sparse/saddle_point.hpp).
+//
+// Closed-form element blocks (element.hpp's integrals):
+//   B_e(b, 3a+c) = ∫ B^{k-1}_b ∂_c B^k_a = 6V Σ_i (∇λ_i)_c D(b, a, i),
+//   D(b, a, i)   = k ∫ B^{k-1}_b B^{k-1}_{a-e_i} / (6V)  (0 where a_i = 0),
+//   M_p,e        = 6V ∫ B^{k-1}_b B^{k-1}_b' / (6V),    C_e = M_p,e / λ.
+#pragma once
+
+#include "pmg/fem/hierarchy.hpp"
+#include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/saddle_point.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pmg {
+class Config;
+}
+
+namespace pmg::fem {
+
+/// The per-degree table of the divergence block (see the file comment), and the bounds of the
+/// spectrum of D⁻¹M_p for the pressure mass (the extreme eigenvalues of one element's D_e⁻¹M_e: a
+/// constant of the degree, since M_e is 6V times a table).
+struct MixedTables {
+  int k = 0;               ///< displacement degree
+  int nu = 0, np = 0;      ///< displacement and pressure nodes per element
+  std::vector<double> D;   ///< D[(b nu + a) 4 + i]
+  double mass_lo = 0.0;    ///< smallest eigenvalue of D_e⁻¹ M_e (pressure degree k - 1)
+  double mass_hi = 0.0;    ///< largest
+};
+/// The tables of displacement degree k (2 or 3; InputError otherwise), built once.
+const MixedTables& mixed_tables(int k);
+
+/// The element divergence block B_e (np x 3 nu, node-major columns 3a + c).
+void element_divergence(const MixedTables& t, const ElementGeometry& g, Eigen::MatrixXd& Be);
+
+/// Checks a material for the mixed formulation: E > 0, ν in (-1, 1/2] (1/2 allowed: C = 0), ρ >= 0.
+void check_mixed_material(const Material& m);
+
+/// Mixed elasticity on one mesh (see the file comment): the displacement degree hierarchy on the
+/// shear material (E' = 2μ, ν' = 0) with the clamp and held components, the pressure space of
+/// degree k - 1 (every node free), and the assembled blocks B, Bᵀ, C and M_p. A held displacement
+/// component has a zero column in B. Holds references to the mesh, which must outlive it.
+class MixedElasticity {
+ public:
+  /// Throws InputError for a degree other than 2 or 3 and for a material out of range
+  /// (check_mixed_material); MeshError for a degenerate element.
+  MixedElasticity(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
+                  std::vector<char> components = {});
+  MixedElasticity(const MixedElasticity&) = delete;
+  MixedElasticity& operator=(const MixedElasticity&) = delete;
+
+  /// The material (ν up to 1/2).
+  const Material& material() const { return material_; }
+  /// The material of the displacement block: E' = 2μ, ν' = 0, the same density.
+  static Material shear_material(const Material& m);
+  /// The displacement levels (degree k down to 1) on the shear material.
+  DegreeHierarchy& hierarchy() { return *hierarchy_; }
+  const DegreeHierarchy& hierarchy() const { return *hierarchy_; }
+  /// The pressure's BB space (degree k - 1).
+  const BBSpace& pressure_space() const { return pressure_; }
+  /// Unknowns of the displacement block (3 per free node) and of the pressure (one per node).
+  index_t num_displacement() const { return hierarchy_->finest().num_free_dofs(); }
+  index_t num_pressure() const { return pressure_.num_nodes(); }
+  index_t num_unknowns() const { return num_displacement() + num_pressure(); }
+  /// B (pressure x displacement), Bᵀ, C = M_p / λ (nullptr at ν = 1/2) and M_p.
+  const Csr& divergence() const { return B_; }
+  const Csr& divergence_transpose() const { return Bt_; }
+  const Csr* compressibility() const { return lambda_inverse_ > 0 ? &C_ : nullptr; }
+  const Csr& pressure_mass() const { return Mp_; }
+  /// What a saddle-point solver reads (SolverContext::saddle_point): the blocks, the mass bounds
+  /// and the Schur complement's scale 1/μ + 1/λ.
+  const SaddlePointBlocks& blocks() const { return blocks_; }
+  /// The right-hand side (f|free with held components zero; 0 for the pressure) of a full load.
+  Vector rhs(const Vector& f_full) const;
+  /// The whole system K assembled as one scalar matrix (displacement first), for direct solvers:
+  /// the finest displacement matrix is assembled for it (linear elasticity).
+  Csr assembled_system();
+  /// The pressure (one value per pressure node) at barycentric point l of element e.
+  double pressure_at(const Vector& p, index_t e, const Eigen::Vector4d& l) const;
+
+ private:
+  Material material_;
+  std::unique_ptr<DegreeHierarchy> hierarchy_;
+  BBSpace pressure_;
+  double lambda_inverse_ = 0.0;
+  Csr B_, Bt_, C_, Mp_;
+  SaddlePointBlocks blocks_;
+  void assemble_blocks();
+};
+
+/// What a mixed static solve reports.
+struct MixedResult {
+  Vector u;                ///< full displacement (3 per node, zero on the fixed nodes)
+  Vector p;                ///< pressure, one per pressure node
+  SolveResult solve;       ///< iterations and residuals of the whole system's solve
+  double setup_seconds = 0.0;
+  double solve_seconds = 0.0;
+  std::string description; ///< the solver's name and description
+};
+
+/// The linear static solve of the mixed system for the full load f_full with the solver the
+/// config names (the factory; `mixed-minres` by default, or a direct method such as mumps on the
+/// assembled system). Throws what the solver throws (SolveError on failure).
+MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& solver,
+                               SolveMonitor* monitor = nullptr);
+
+}  // namespace pmg::fem

@@ -1,0 +1,205 @@
+#include "pmg/fem/mixed.hpp"
+
+#include "pmg/sparse/config.hpp"
+#include "pmg/sparse/factory.hpp"
+#include "pmg/sparse/timer.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <array>
+#include <cmath>
+#include <mutex>
+
+namespace pmg::fem {
+
+namespace {
+
+MixedTables build_mixed_tables(int k) {
+  MixedTables t;
+  t.k = k;
+  t.nu = num_element_nodes(k);
+  t.np = num_element_nodes(k - 1);
+  const auto& au = multi_indices(k);
+  const auto& ap = multi_indices(k - 1);
+  t.D.assign(static_cast<size_t>(t.np) * t.nu * 4, 0.0);
+  for (int b = 0; b < t.np; ++b)
+    for (int a = 0; a < t.nu; ++a)
+      for (int i = 0; i < 4; ++i) {
+        if (au[a][i] == 0) continue;
+        MultiIndex lower = au[a];
+        --lower[i];
+        t.D[(static_cast<size_t>(b) * t.nu + a) * 4 + i] = k * bernstein_product_integral(ap[b], lower);
+      }
+  // Spectrum of D_e⁻¹ M_e = that of D_e^{-1/2} M_e D_e^{-1/2} (Wathen 1987: it bounds the global one).
+  const Eigen::MatrixXd& M = element_tables(k - 1).mass;
+  const Eigen::VectorXd s = M.diagonal().cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd S = s.asDiagonal() * M * s.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S);
+  t.mass_lo = eig.eigenvalues().minCoeff();
+  t.mass_hi = eig.eigenvalues().maxCoeff();
+  return t;
+}
+
+}  // namespace
+
+const MixedTables& mixed_tables(int k) {
+  if (k != 2 && k != 3)
+    throw InputError("mixed elements: the displacement degree must be 2 or 3 (Taylor–Hood needs a pressure of "
+                     "degree k - 1 >= 1), got " + std::to_string(k));
+  static std::once_flag once[2];
+  static MixedTables tables[2];
+  std::call_once(once[k - 2], [k] { tables[k - 2] = build_mixed_tables(k); });
+  return tables[k - 2];
+}
+
+void element_divergence(const MixedTables& t, const ElementGeometry& g, Eigen::MatrixXd& Be) {
+  Be.setZero(t.np, 3 * t.nu);
+  const double v6 = 6.0 * g.volume;
+  for (int b = 0; b < t.np; ++b)
+    for (int a = 0; a < t.nu; ++a) {
+      const double* d = &t.D[(static_cast<size_t>(b) * t.nu + a) * 4];
+      for (int c = 0; c < 3; ++c)
+        Be(b, 3 * a + c) = v6 * (d[0] * g.grad(0, c) + d[1] * g.grad(1, c) + d[2] * g.grad(2, c) + d[3] * g.grad(3, c));
+    }
+}
+
+void check_mixed_material(const Material& m) {
+  if (!std::isfinite(m.young) || !(m.young > 0))
+    throw InputError("material: Young's modulus must be a positive number, got " + std::to_string(m.young));
+  if (!std::isfinite(m.poisson) || !(m.poisson > -1.0 && m.poisson <= 0.5))
+    throw InputError("material: Poisson's ratio must lie in (-1, 0.5] for the mixed formulation, got " +
+                     std::to_string(m.poisson));
+  if (!std::isfinite(m.density) || m.density < 0)
+    throw InputError("material: density must be >= 0, got " + std::to_string(m.density));
+}
+
+Material MixedElasticity::shear_material(const Material& m) {
+  Material s = m;
+  s.young = 2.0 * m.mu();
+  s.poisson = 0.0;
+  return s;
+}
+
+MixedElasticity::MixedElasticity(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
+                                 std::vector<char> components)
+    : material_((check_mixed_material(material), material)),
+      hierarchy_(std::make_unique<DegreeHierarchy>(mesh, (mixed_tables(degree), degree), shear_material(material),
+                                                   std::move(clamped), std::move(components))),
+      pressure_(mesh, degree - 1),
+      lambda_inverse_(material.poisson == 0.5 ? 0.0 : 1.0 / material.lambda()) {
+  assemble_blocks();
+}
+
+void MixedElasticity::assemble_blocks() {
+  const ElasticityModel& u = hierarchy_->finest();
+  const MixedTables& t = mixed_tables(u.space().degree());
+  const std::vector<index_t>& free = u.assembler().free_index();
+  const std::vector<char>& held = u.constrained_free_dofs();
+  const Eigen::MatrixXd& mass = element_tables(t.k - 1).mass;
+  std::vector<Triplet> b, bt, mp;
+  b.reserve(static_cast<size_t>(u.space().mesh().num_tets()) * t.np * 3 * t.nu);
+  bt.reserve(b.capacity());
+  mp.reserve(static_cast<size_t>(u.space().mesh().num_tets()) * t.np * t.np);
+  Eigen::MatrixXd Be;
+  for (index_t e = 0; e < u.space().mesh().num_tets(); ++e) {
+    const ElementGeometry& g = u.geometry(e);
+    element_divergence(t, g, Be);
+    for (int q = 0; q < t.np; ++q) {
+      const index_t row = pressure_.node(e, q);
+      for (int a = 0; a < t.nu; ++a) {
+        const index_t f = free[u.space().node(e, a)];
+        if (f < 0) continue;
+        for (int c = 0; c < 3; ++c) {
+          const index_t col = 3 * f + c;
+          if (!held.empty() && held[col]) continue;
+          b.emplace_back(row, col, Be(q, 3 * a + c));
+          bt.emplace_back(col, row, Be(q, 3 * a + c));
+        }
+      }
+      for (int q2 = 0; q2 < t.np; ++q2) mp.emplace_back(row, pressure_.node(e, q2), 6.0 * g.volume * mass(q, q2));
+    }
+  }
+  const index_t nu = num_displacement(), np = num_pressure();
+  B_ = Csr::from_triplets(np, nu, b);
+  Bt_ = Csr::from_triplets(nu, np, bt);
+  Mp_ = Csr::from_triplets(np, np, mp);
+  C_ = Mp_;
+  for (double& v : C_.values()) v *= lambda_inverse_;
+  blocks_.B = &B_;
+  blocks_.Bt = &Bt_;
+  blocks_.C = compressibility();
+  blocks_.pressure_mass = &Mp_;
+  blocks_.mass_lo = t.mass_lo;
+  blocks_.mass_hi = t.mass_hi;
+  blocks_.schur_scale = 1.0 / material_.mu() + lambda_inverse_;
+}
+
+Vector MixedElasticity::rhs(const Vector& f_full) const {
+  const ElasticityModel& u = hierarchy_->finest();
+  Vector fu = u.restrict_to_free(f_full);
+  u.constrain(fu);
+  Vector b = Vector::Zero(num_unknowns());
+  b.head(num_displacement()) = fu;
+  return b;
+}
+
+Csr MixedElasticity::assembled_system() {
+  const int top = hierarchy_->num_levels() - 1;
+  hierarchy_->assemble_level(top, nullptr);
+  const Csr A = hierarchy_->matrix(top).to_csr();
+  const index_t nu = num_displacement();
+  std::vector<Triplet> t;
+  t.reserve(static_cast<size_t>(A.nnz() + 2 * B_.nnz() + C_.nnz()));
+  auto add = [&t](const Csr& M, index_t r0, index_t c0, double s) {
+    const CsrPattern& p = M.pattern();
+    for (index_t i = 0; i < M.rows(); ++i)
+      for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) t.emplace_back(r0 + i, c0 + p.col_idx[k], s * M.values()[k]);
+  };
+  add(A, 0, 0, 1.0);
+  add(Bt_, 0, nu, 1.0);
+  add(B_, nu, 0, 1.0);
+  if (lambda_inverse_ > 0) add(C_, nu, nu, -1.0);
+  else
+    for (index_t i = 0; i < num_pressure(); ++i) t.emplace_back(nu + i, nu + i, 0.0);  // keep the diagonal
+  return Csr::from_triplets(num_unknowns(), num_unknowns(), t);
+}
+
+double MixedElasticity::pressure_at(const Vector& p, index_t e, const Eigen::Vector4d& l) const {
+  const auto& alpha = multi_indices(pressure_.degree());
+  double v = 0.0;
+  for (int b = 0; b < pressure_.nodes_per_element(); ++b) v += p[pressure_.node(e, b)] * bernstein(alpha[b], l);
+  return v;
+}
+
+MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& config, SolveMonitor* monitor) {
+  MixedResult out;
+  const Vector b = m.rhs(f_full);
+  SolverContext ctx;
+  ctx.levels = &m.hierarchy();
+  ctx.saddle_point = &m.blocks();
+  std::unique_ptr<Solver> solver = make_solver(config, ctx, "mixed-minres");
+  const auto t0 = Clock::now();
+  std::unique_ptr<SaddlePointOperator> K;
+  Csr assembled;
+  if (config.get_string("method", "mixed-minres") == "mixed-minres") {
+    BoundSystem bound = m.hierarchy().bind(*solver);
+    const LinearOperator& A = bound.prepare();
+    K = std::make_unique<SaddlePointOperator>(A, m.divergence(), m.divergence_transpose(), m.compressibility());
+    solver->setup(*K);
+  } else {
+    assembled = m.assembled_system();
+    solver->setup(assembled);
+  }
+  out.setup_seconds = seconds_since(t0);
+  Vector x = Vector::Zero(m.num_unknowns());
+  const auto t1 = Clock::now();
+  out.solve = solver->solve(b, x, monitor);
+  out.solve_seconds = seconds_since(t1);
+  out.description = solver->name() + (solver->describe().empty() ? "" : ": " + solver->describe());
+  const ElasticityModel& u = m.hierarchy().finest();
+  out.u = u.expand(x.head(m.num_displacement()), Vector::Zero(u.num_dofs()));
+  out.p = x.tail(m.num_pressure());
+  return out;
+}
+
+}  // namespace pmg::fem

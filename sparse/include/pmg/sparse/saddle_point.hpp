@@ -1,0 +1,174 @@
+// pmg/sparse/saddle_point.hpp — symmetric saddle-point systems and MINRES.
+//
+//   K = [ A  Bᵀ ]      A (n_u x n_u) symmetric positive definite, B (n_p x n_u), C (n_p x n_p)
+//       [ B  -C ]      symmetric positive semidefinite (C = 0 allowed),
+//
+// the systems of mixed finite elements (displacement–pressure elasticity, Stokes). K is symmetric
+// and indefinite, so CG does not apply; MINRES (Paige and Saunders, "Solution of sparse indefinite
+// systems of linear equations", SIAM J. Numer. Anal. 1975) does, with a symmetric positive definite
+// preconditioner. The block-diagonal one
+//
+//   P = diag(M_u, M_p),  M_u ≈ A⁻¹ (a multigrid cycle),  M_p ≈ S⁻¹,  S = C + B A⁻¹ Bᵀ,
+//
+// gives iteration counts bounded independently of the mesh and of the parameters when M_u and M_p
+// are spectrally equivalent to A⁻¹ and S⁻¹ (Silvester and Wathen, "Fast iterative solution of
+// stabilised Stokes systems part II", SIAM J. Numer. Anal. 1994; Elman, Silvester and Wathen,
+// "Finite Elements and Fast Iterative Solvers", ch. 4). For elasticity S is spectrally equivalent
+// to a multiple of the pressure mass matrix, whose inverse a few Chebyshev steps on D⁻¹M with
+// element-derived bounds replace (Wathen and Rees, "Chebyshev semi-iteration in preconditioning for
+// problems including the mass matrix", ETNA 2009).
+#pragma once
+
+#include "pmg/sparse/csr.hpp"
+#include "pmg/sparse/krylov.hpp"
+#include "pmg/sparse/operator.hpp"
+#include "pmg/sparse/solver.hpp"
+
+#include <memory>
+#include <string>
+
+namespace pmg {
+
+/// What a saddle-point solver reads besides the operator (SolverContext::saddle_point), filled by
+/// the discretisation (fem::MixedElasticity): the off-diagonal blocks, C, the pressure mass M_p with
+/// the bounds of the spectrum of D⁻¹M_p, and the scale s of the Schur complement S ≈ s M_p.
+struct SaddlePointBlocks {
+  const Csr* B = nullptr;              ///< n_p x n_u
+  const Csr* Bt = nullptr;             ///< its transpose, assembled
+  const Csr* C = nullptr;              ///< n_p x n_p, or nullptr for zero
+  const Csr* pressure_mass = nullptr;  ///< M_p
+  double mass_lo = 0.0, mass_hi = 0.0; ///< bounds of the spectrum of diag(M_p)⁻¹ M_p
+  double schur_scale = 1.0;            ///< s in S ≈ s M_p
+};
+
+/// Preconditioned MINRES for a symmetric (possibly indefinite) operator K with a symmetric positive
+/// definite preconditioner M (nullptr: none). x holds the initial guess and receives the answer.
+/// Stopping as pcg(): on the 2-norm residual ||b - K x|| (KrylovParams), which MINRES updates by
+/// the recurrence r -= φ K w alongside x += φ w (K w from the same three-term recurrence as w, so
+/// one product with K and one application of M per iteration); when it meets the tolerance the
+/// true residual is computed and, where it disagrees, MINRES restarts from the current x. A
+/// preconditioner that is not positive definite (rᵀ M r <= 0) is a breakdown. Cost per iteration:
+/// one K, one M, three inner products, about 10 vector updates.
+SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
+                   const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
+
+/// K = [A Bᵀ; B -C] on (u; p), u first (see the file comment). Holds references to A, B, Bᵀ and C,
+/// which must outlive it. Bᵀ is passed assembled (a row-wise product parallelises; the transposed
+/// product of B would not). C may be nullptr (zero).
+class SaddlePointOperator final : public LinearOperator {
+ public:
+  /// Throws InputError when the sizes do not fit together.
+  SaddlePointOperator(const LinearOperator& A, const Csr& B, const Csr& Bt, const Csr* C);
+  index_t rows() const override { return n_u_ + n_p_; }
+  index_t cols() const override { return rows(); }
+  /// Rows of the first block (u).
+  index_t first_rows() const { return n_u_; }
+  /// The blocks.
+  const LinearOperator& first_block() const { return A_; }
+  const Csr& off_diagonal() const { return B_; }
+  const Csr* second_block() const { return C_; }
+  const SaddlePointOperator* saddle_point_operator() const override { return this; }
+
+ protected:
+  void apply_impl(const Vector& x, Vector& y) const override;
+
+ private:
+  const LinearOperator& A_;
+  const Csr &B_, &Bt_;
+  const Csr* C_;
+  index_t n_u_, n_p_;
+  mutable Vector xu_, xp_, yu_, yp_;
+};
+
+/// diag(M_u, M_p) on (u; p): each block applied to its part. Holds references to both.
+class BlockDiagonalOperator final : public LinearOperator {
+ public:
+  BlockDiagonalOperator(const LinearOperator& first, const LinearOperator& second);
+  index_t rows() const override { return first_.rows() + second_.rows(); }
+  index_t cols() const override { return rows(); }
+
+ protected:
+  void apply_impl(const Vector& x, Vector& y) const override;
+
+ private:
+  const LinearOperator &first_, &second_;
+  mutable Vector x1_, x2_, y1_, y2_;
+};
+
+/// A fixed number of Chebyshev semi-iteration steps for M z = r from z = 0, preconditioned by the
+/// diagonal D of M (Golub and Varga; Wathen and Rees 2009), scaled by `scale`: z = scale p(D⁻¹M) D⁻¹ r.
+/// With bounds [lo, hi] that contain the spectrum of D⁻¹M (for a finite element mass matrix, the
+/// extreme eigenvalues of one element's D_e⁻¹M_e: Wathen 1987) it is a fixed symmetric positive
+/// definite operator, an approximation of scale M⁻¹ whose error in the M-norm drops by the
+/// Chebyshev factor 2 ρᵏ/(1 + ρ²ᵏ), ρ = (√κ - 1)/(√κ + 1), κ = hi/lo, after k steps.
+class ChebyshevMassInverse final : public LinearOperator {
+ public:
+  /// Throws InputError for steps < 1, bounds not 0 < lo < hi, scale <= 0, or a non-positive diagonal.
+  ChebyshevMassInverse(const Csr& M, double lo, double hi, int steps, double scale = 1.0);
+  index_t rows() const override { return M_.rows(); }
+  index_t cols() const override { return M_.cols(); }
+  /// The factor scale (S ≈ M / scale: the pressure Schur complement's multiple of the mass).
+  double scale() const { return scale_; }
+  int steps() const { return steps_; }
+
+ protected:
+  void apply_impl(const Vector& r, Vector& z) const override;
+
+ private:
+  const Csr& M_;
+  Vector inv_diag_;
+  double lo_, hi_, scale_;
+  int steps_;
+  mutable Vector res_, d_, q_;
+};
+
+/// The keys of mixed-minres beside its stopping rule and the displacement cycle's keys.
+struct MixedMinresParams {
+  /// Chebyshev steps of the pressure mass solve: 8 (MINRES took 55 iterations with 8 and 12, 69
+  /// with 4, on the cubic bar of tests/multigrid/test_mixed.cpp at ν = 0.3).
+  int pressure_steps = 8;
+  /// Factor of the Schur complement's approximation S ≈ pressure_scale s M_p.
+  double pressure_scale = 1.0;
+  void visit(ParamVisitor& v);
+};
+
+/// MINRES preconditioned by diag(M_u, M_p) (the file comment) as a Solver, set up on a
+/// SaddlePointOperator: M_u is a solver of the displacement block A (a multigrid cycle: linear and
+/// symmetric, else InputError), set up and updated with this one; M_p is `pressure_steps`
+/// Chebyshev steps on the pressure mass scaled by 1 / schur_scale. Registered as `mixed-minres` by
+/// the multigrid component, which builds M_u as mgpcg's cycle on the displacement levels.
+class MixedMinres final : public Solver {
+ public:
+  /// Takes ownership of the displacement block's solver. Throws InputError for a missing, nonlinear
+  /// or nonsymmetric one, blocks without B, Bᵀ or M_p, or pressure_steps < 1.
+  MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement, const SaddlePointBlocks& blocks,
+              int pressure_steps, double pressure_scale = 1.0);
+  std::string name() const override { return "mixed-minres"; }
+  bool is_linear() const override { return false; }
+  bool is_symmetric() const override { return false; }
+  SolverNeeds needs() const override { return M_u_->needs(); }
+  TimingBreakdown timings() const override { return M_u_->timings(); }
+  TimingBreakdown setup_timings() const override { return M_u_->setup_timings(); }
+  void reset_timings() const override { M_u_->reset_timings(); }
+  std::string describe() const override;
+  KrylovParams& params() { return params_; }
+  /// The displacement block's solver.
+  const Solver& displacement_solver() const { return *M_u_; }
+
+ protected:
+  void setup_impl(const LinearOperator& K) override;
+  void update_impl() override;
+  void apply_impl(const Vector& b, Vector& x) const override;
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+
+ private:
+  KrylovParams params_;
+  std::unique_ptr<Solver> M_u_;
+  SaddlePointBlocks blocks_;
+  int pressure_steps_;
+  double pressure_scale_;
+  std::unique_ptr<ChebyshevMassInverse> M_p_;
+  std::unique_ptr<BlockDiagonalOperator> P_;
+};
+
+}  // namespace pmg

@@ -1,0 +1,285 @@
+#include "pmg/sparse/saddle_point.hpp"
+
+#include "pmg/sparse/convergence.hpp"
+#include "pmg/sparse/params.hpp"
+#include "pmg/sparse/vector_ops.hpp"
+
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace pmg {
+
+namespace {
+
+void check_minres_inputs(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x) {
+  if (K.rows() != K.cols()) throw InputError("MINRES: operator is not square");
+  if (b.size() != K.rows())
+    throw InputError("MINRES: right-hand side has " + std::to_string(b.size()) + " entries, operator has " +
+                     std::to_string(K.rows()) + " rows");
+  if (M && (M->rows() != K.rows() || M->cols() != K.cols()))
+    throw InputError("MINRES: preconditioner size does not match the operator");
+  if (x.size() != b.size()) x = Vector::Zero(b.size());
+  if (!ops::all_finite(b)) throw InputError("MINRES: right-hand side has NaN/Inf");
+  if (!ops::all_finite(x)) throw InputError("MINRES: initial guess has NaN/Inf");
+}
+
+/// y = a x + b y + c z (the w recurrences).
+void combine(double a, const Vector& x, double b, Vector& y, double c, const Vector& z) {
+  const Eigen::Index n = x.size();
+#pragma omp parallel for schedule(static) if (n > 20000)
+  for (Eigen::Index i = 0; i < n; ++i) y[i] = a * x[i] + b * y[i] + c * z[i];
+}
+
+/// The state of one Lanczos run of MINRES (Paige and Saunders; the recurrences as in SciPy's and
+/// Elman–Silvester–Wathen's Algorithm 4.1), started from the residual r.
+struct MinresRun {
+  const LinearOperator& K;
+  const LinearOperator* M;
+  Vector r1, r2, y, v, q, w, w1, w2, kw, kw1, kw2;
+  double beta = 0, oldb = 0, dbar = 0, epsln = 0, phibar = 0, cs = -1, sn = 0;
+  int k = 0;
+
+  MinresRun(const LinearOperator& K_, const LinearOperator* M_, Eigen::Index n) : K(K_), M(M_) {
+    for (Vector* u : {&r1, &r2, &y, &v, &q, &w, &w1, &w2, &kw, &kw1, &kw2}) u->resize(n);
+  }
+  /// Starts from residual r; returns rᵀ M r (must be > 0).
+  double start(const Vector& r) {
+    r1 = r;
+    r2 = r;
+    if (M) M->apply(r, y);
+    else y = r;
+    const double b2 = ops::dot(r, y);
+    beta = b2 > 0 ? std::sqrt(b2) : 0.0;
+    oldb = dbar = epsln = 0;
+    phibar = beta;
+    cs = -1;
+    sn = 0;
+    w.setZero(), w2.setZero(), kw.setZero(), kw2.setZero();
+    k = 0;
+    return b2;
+  }
+  /// One step: x += φ w, r -= φ K w. Returns the new rᵀ M r of the Lanczos vector (its β²; <= 0:
+  /// breakdown or, when 0, an exhausted Krylov space).
+  double step(Vector& x, Vector& r) {
+    ++k;
+    v = y / beta;
+    K.apply(v, q);  // q = K v
+    y = q;
+    if (k >= 2) ops::axpy(-beta / oldb, r1, y);
+    const double alfa = ops::dot(v, y);
+    ops::axpy(-alfa / beta, r2, y);
+    std::swap(r1, r2);
+    std::swap(r2, y);  // r2 = the new Lanczos vector, y free
+    if (M) M->apply(r2, y);
+    else y = r2;
+    oldb = beta;
+    const double b2 = ops::dot(r2, y);
+    beta = b2 > 0 ? std::sqrt(b2) : 0.0;
+    const double oldeps = epsln;
+    const double delta = cs * dbar + sn * alfa;
+    const double gbar = sn * dbar - cs * alfa;
+    epsln = sn * beta;
+    dbar = -cs * beta;
+    const double gamma = std::max(std::hypot(gbar, beta), std::numeric_limits<double>::min());
+    cs = gbar / gamma;
+    sn = beta / gamma;
+    const double phi = cs * phibar;
+    phibar = sn * phibar;
+    // w = (v - ε w_{k-2} - δ w_{k-1}) / γ, and K w from K v alike.
+    std::swap(w1, w2), std::swap(w2, w);
+    std::swap(kw1, kw2), std::swap(kw2, kw);
+    w = v;
+    combine(-oldeps / gamma, w1, 1.0 / gamma, w, -delta / gamma, w2);
+    kw = q;
+    combine(-oldeps / gamma, kw1, 1.0 / gamma, kw, -delta / gamma, kw2);
+    ops::axpy(phi, w, x);
+    ops::axpy(-phi, kw, r);
+    return b2;
+  }
+};
+
+}  // namespace
+
+SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
+                   const KrylovParams& params, SolveMonitor* monitor) {
+  check_minres_inputs(K, M, b, x);
+  detail::ConvergenceTracker track("MINRES", params, monitor);
+  const Eigen::Index n = b.size();
+  Vector r(n);
+  K.residual(b, x, r);
+  if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
+  MinresRun run(K, M, n);
+  int it = 0;
+  bool restart = true;
+  while (restart && !track.done()) {
+    restart = false;
+    if (!track.check_positive(run.start(r), "r^T M^{-1} r", it)) break;
+    while (!track.done()) {
+      const double b2 = run.step(x, r);
+      ++it;
+      if (track.after_iteration(it, ops::norm2(r))) {
+        K.residual(b, x, r);  // the updated residual converged: confirm with the true one
+        restart = !track.accept_true_residual(ops::norm2(r));
+        break;
+      }
+      if (track.done()) break;
+      if (b2 == 0.0) {  // the Krylov space is exhausted: x solves the system up to rounding
+        K.residual(b, x, r);
+        restart = !track.accept_true_residual(ops::norm2(r));
+        break;
+      }
+      if (!track.check_positive(b2, "r^T M^{-1} r", it)) break;
+    }
+  }
+  if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
+  K.residual(b, x, r);
+  return track.finish(ops::norm2(r));
+}
+
+// ---- SaddlePointOperator ---------------------------------------------------------------------------
+
+SaddlePointOperator::SaddlePointOperator(const LinearOperator& A, const Csr& B, const Csr& Bt, const Csr* C)
+    : A_(A), B_(B), Bt_(Bt), C_(C), n_u_(A.rows()), n_p_(B.rows()) {
+  if (A.rows() != A.cols()) throw InputError("saddle point: A is not square");
+  if (B.cols() != n_u_ || Bt.rows() != n_u_ || Bt.cols() != n_p_)
+    throw InputError("saddle point: B is " + std::to_string(B.rows()) + " x " + std::to_string(B.cols()) +
+                     " and Bᵀ " + std::to_string(Bt.rows()) + " x " + std::to_string(Bt.cols()) + " for A of " +
+                     std::to_string(n_u_) + " rows");
+  if (C && (C->rows() != n_p_ || C->cols() != n_p_))
+    throw InputError("saddle point: C must be " + std::to_string(n_p_) + " x " + std::to_string(n_p_));
+}
+
+void SaddlePointOperator::apply_impl(const Vector& x, Vector& y) const {
+  xu_ = x.head(n_u_);
+  xp_ = x.tail(n_p_);
+  yu_.resize(n_u_), yp_.resize(n_p_);
+  A_.apply(xu_, yu_);
+  y.resize(rows());
+  Vector t(n_u_);
+  Bt_.multiply(xp_.data(), t.data());
+  y.head(n_u_) = yu_ + t;
+  B_.multiply(xu_.data(), yp_.data());
+  if (C_) {
+    Vector c(n_p_);
+    C_->multiply(xp_.data(), c.data());
+    yp_ -= c;
+  }
+  y.tail(n_p_) = yp_;
+}
+
+// ---- BlockDiagonalOperator -------------------------------------------------------------------------
+
+BlockDiagonalOperator::BlockDiagonalOperator(const LinearOperator& first, const LinearOperator& second)
+    : first_(first), second_(second) {
+  if (first.rows() != first.cols() || second.rows() != second.cols())
+    throw InputError("block diagonal operator: both blocks must be square");
+}
+
+void BlockDiagonalOperator::apply_impl(const Vector& x, Vector& y) const {
+  const index_t n1 = first_.rows(), n2 = second_.rows();
+  x1_ = x.head(n1);
+  x2_ = x.tail(n2);
+  y1_.resize(n1), y2_.resize(n2);
+  first_.apply(x1_, y1_);
+  second_.apply(x2_, y2_);
+  y.resize(n1 + n2);
+  y.head(n1) = y1_;
+  y.tail(n2) = y2_;
+}
+
+// ---- ChebyshevMassInverse --------------------------------------------------------------------------
+
+ChebyshevMassInverse::ChebyshevMassInverse(const Csr& M, double lo, double hi, int steps, double scale)
+    : M_(M), lo_(lo), hi_(hi), scale_(scale), steps_(steps) {
+  if (M.rows() != M.cols()) throw InputError("Chebyshev mass inverse: the matrix is not square");
+  if (steps < 1) throw InputError("Chebyshev mass inverse: steps must be >= 1");
+  if (!(lo > 0.0 && hi > lo && std::isfinite(hi)))
+    throw InputError("Chebyshev mass inverse: bounds must satisfy 0 < lo < hi");
+  if (!(scale > 0.0 && std::isfinite(scale))) throw InputError("Chebyshev mass inverse: scale must be > 0");
+  const Vector d = M.diagonal();
+  inv_diag_.resize(d.size());
+  for (Eigen::Index i = 0; i < d.size(); ++i) {
+    if (!(d[i] > 0.0 && std::isfinite(d[i])))
+      throw InputError("Chebyshev mass inverse: diagonal entry " + std::to_string(i) + " is not positive");
+    inv_diag_[i] = 1.0 / d[i];
+  }
+}
+
+void ChebyshevMassInverse::apply_impl(const Vector& r, Vector& z) const {
+  // Saad, "Iterative methods for sparse linear systems", Algorithm 12.1, on D⁻¹M.
+  const double theta = 0.5 * (hi_ + lo_), delta = 0.5 * (hi_ - lo_);
+  const double sigma = theta / delta;
+  double rho = 1.0 / sigma;
+  res_ = r;
+  d_ = inv_diag_.cwiseProduct(res_) / theta;
+  z.setZero(r.size());
+  q_.resize(r.size());
+  for (int k = 1; k <= steps_; ++k) {
+    z += d_;
+    if (k == steps_) break;
+    M_.multiply(d_.data(), q_.data());
+    res_ -= q_;
+    const double rho_new = 1.0 / (2.0 * sigma - rho);
+    d_ = (rho_new * rho) * d_ + (2.0 * rho_new / delta) * inv_diag_.cwiseProduct(res_);
+    rho = rho_new;
+  }
+  z *= scale_;
+}
+
+}  // namespace pmg
+
+// ---- MixedMinres -----------------------------------------------------------------------------------
+
+namespace pmg {
+
+void MixedMinresParams::visit(ParamVisitor& v) {
+  v.integer("pressure_steps", pressure_steps, 1, 1000,
+            "Chebyshev steps on the pressure mass matrix (the Schur complement's approximation)");
+  v.real("pressure_scale", pressure_scale, 1e-6, 1e6,
+         "factor of the Schur complement's approximation (1/mu + 1/lambda) M_p");
+}
+
+MixedMinres::MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement,
+                         const SaddlePointBlocks& blocks, int pressure_steps, double pressure_scale)
+    : params_(params), M_u_(std::move(displacement)), blocks_(blocks), pressure_steps_(pressure_steps),
+      pressure_scale_(pressure_scale) {
+  if (!M_u_) throw InputError("mixed-minres: no solver for the displacement block");
+  if (!M_u_->is_linear() || !M_u_->is_symmetric())
+    throw InputError("mixed-minres: the displacement block's solver '" + M_u_->name() +
+                     "' is not a fixed symmetric map; MINRES needs one (a multigrid cycle with R = Pᵀ)");
+  if (!blocks_.B || !blocks_.Bt || !blocks_.pressure_mass)
+    throw InputError("mixed-minres: the saddle-point blocks (B, Bᵀ, pressure mass) were not given");
+  if (pressure_steps < 1) throw InputError("mixed-minres: pressure_steps must be >= 1");
+}
+
+std::string MixedMinres::describe() const {
+  return "MINRES, block-diagonal preconditioner: displacement " +
+         (M_u_->describe().empty() ? M_u_->name() : M_u_->describe()) + "; pressure " +
+         std::to_string(pressure_steps_) + " Chebyshev steps on the mass, S ~ " +
+         std::to_string(blocks_.schur_scale) + " M_p";
+}
+
+void MixedMinres::setup_impl(const LinearOperator& K) {
+  const SaddlePointOperator* sp = K.saddle_point_operator();
+  if (!sp) throw InputError("mixed-minres: the system is not a saddle-point operator [A Bᵀ; B -C]");
+  if (&sp->off_diagonal() != blocks_.B || sp->second_block() != blocks_.C)
+    throw InputError("mixed-minres: the system's blocks are not those the solver was built for");
+  M_u_->setup(sp->first_block());
+  M_p_ = std::make_unique<ChebyshevMassInverse>(*blocks_.pressure_mass, blocks_.mass_lo, blocks_.mass_hi,
+                                                pressure_steps_, 1.0 / (pressure_scale_ * blocks_.schur_scale));
+  P_ = std::make_unique<BlockDiagonalOperator>(*M_u_, *M_p_);
+}
+
+void MixedMinres::update_impl() { M_u_->update(); }
+
+SolveResult MixedMinres::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);
+}
+
+void MixedMinres::apply_impl(const Vector& b, Vector& x) const {
+  x.setZero();
+  require_usable(solve_impl(b, x, nullptr));
+}
+
+}  // namespace pmg

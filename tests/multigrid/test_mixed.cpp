@@ -1,0 +1,221 @@
+// Mixed displacement–pressure elasticity (pmg/fem/mixed.hpp) solved by mixed-minres
+// (pmg/sparse/saddle_point.hpp): the element blocks against quadrature, the answers against a direct
+// solve of the assembled saddle point, iterations independent of ν, and the manufactured solution's
+// accuracy at ν = 0.3, 0.49 and 0.4999 against the displacement-only elements.
+#include "../fem/mixed_manufactured.hpp"
+#include "pmg/fem/generators.hpp"
+#include "pmg/fem/mixed.hpp"
+#include "pmg/fem/static_solve.hpp"
+#include "pmg/multigrid/factory.hpp"
+#include "pmg/sparse/config.hpp"
+
+#include <Eigen/SparseLU>
+#include <sstream>
+#include <catch2/catch.hpp>
+
+using namespace pmg;
+using namespace pmg::fem;
+
+namespace {
+
+Material rubber(double nu) { return Material{1.0, nu, 1.0}; }
+
+std::vector<char> clamp_x0(const TetMesh& m) {
+  std::vector<char> c(m.vertices.size());
+  for (size_t v = 0; v < m.vertices.size(); ++v) c[v] = m.vertices[v].x() < 1e-12;
+  return c;
+}
+
+std::vector<char> clamp_boundary(const TetMesh& m) {
+  std::vector<char> c(m.vertices.size());
+  for (size_t v = 0; v < m.vertices.size(); ++v)
+    for (int d = 0; d < 3; ++d) c[v] |= m.vertices[v][d] < 1e-12 || m.vertices[v][d] > 1 - 1e-12;
+  return c;
+}
+
+Config minres_config(double tol) {
+  std::ostringstream t;
+  t << "tol=" << tol;
+  return Config::from_pairs({"method=mixed-minres", t.str()}, "test");
+}
+
+/// The cantilever of the robustness study: a 4 x 1 x 1 bar clamped at x = 0, under gravity.
+struct Bar {
+  TetMesh mesh;
+  MixedElasticity m;
+  Vector f;
+  Bar(int degree, double nu, int n = 1)
+      : mesh(box_mesh_24(4 * n, n, n, 4.0, 1.0, 1.0)), m(mesh, degree, rubber(nu), clamp_x0(mesh)) {
+    f = m.hierarchy().finest().gravity(Vec3(0, 0, -1.0));
+  }
+};
+
+/// The unit cube in n³ cells of 6 Kuhn (Freudenthal) tetrahedra each, all sharing the cell's
+/// diagonal: a mesh without the 24-tet cells' rich divergence-free subspace, on which
+/// displacement-only elements lock.
+TetMesh kuhn_cube(int n) {
+  TetMesh m;
+  auto id = [n](int i, int j, int k) { return static_cast<index_t>((k * (n + 1) + j) * (n + 1) + i); };
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) m.vertices.emplace_back(double(i) / n, double(j) / n, double(k) / n);
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        for (const auto& p : perms) {
+          int c[3] = {i, j, k};
+          Tet t;
+          t[0] = id(c[0], c[1], c[2]);
+          for (int s = 0; s < 3; ++s) {
+            ++c[p[s]];
+            t[s + 1] = id(c[0], c[1], c[2]);
+          }
+          m.tets.push_back(t);
+          if (m.signed_volume(m.num_tets() - 1) < 0) std::swap(m.tets.back()[1], m.tets.back()[2]);
+        }
+  return m;
+}
+
+struct MmsErrors {
+  double u = 0, p = 0;
+};
+
+/// L2 errors of displacement and pressure against the manufactured solution (quadrature exact to
+/// degree 2k + 4); without a mixed model the pressure is λ div u_h of the displacement-only elements.
+MmsErrors mms_errors(const ElasticityModel& model, const Vector& u, const MixedElasticity* mixed, const Vector& p,
+                     double lambda_inverse) {
+  const BBSpace& s = model.space();
+  const TetMesh& mesh = s.mesh();
+  const QuadratureRule& q = tet_quadrature(2 * s.degree() + 4);
+  MmsErrors err;
+  for (index_t e = 0; e < mesh.num_tets(); ++e)
+    for (size_t k = 0; k < q.points.size(); ++k) {
+      const Eigen::Vector4d& l = q.points[k];
+      Vec3 x = Vec3::Zero();
+      for (int i = 0; i < 4; ++i) x += l[i] * mesh.vertices[mesh.tets[e][i]];
+      const double w = q.weights[k] * model.geometry(e).volume;
+      const Vec3 exact = test::mixed_mms::u_df(x) + lambda_inverse * test::mixed_mms::grad_phi(x);
+      err.u += w * (model.displacement_at(u, e, l) - exact).squaredNorm();
+      double ph = 0.0;
+      if (mixed) ph = mixed->pressure_at(p, e, l);
+      else
+        for (int a = 0; a < s.nodes_per_element(); ++a)
+          ph += u.segment<3>(3 * s.node(e, a)).dot(model.geometry(e).grad.transpose() *
+                                                    bernstein_gradient(multi_indices(s.degree())[a], l)) /
+                lambda_inverse;
+      err.p += w * std::pow(ph - test::mixed_mms::pressure(x), 2);
+    }
+  return {std::sqrt(err.u), std::sqrt(err.p)};
+}
+
+std::function<Vec3(const Vec3&)> mms_force(const Material& m) {
+  const double mu = m.mu(), li = m.poisson == 0.5 ? 0.0 : 1.0 / m.lambda();
+  return [mu, li](const Vec3& x) {
+    return Vec3(-mu * test::mixed_mms::lap_u_df(x) - (1 + 2 * mu * li) * test::mixed_mms::grad_lap_phi(x));
+  };
+}
+
+MmsErrors mixed_mms(int n, int k, double nu) {
+  const TetMesh mesh = kuhn_cube(n);
+  MixedElasticity m(mesh, k, rubber(nu), clamp_boundary(mesh));
+  const Vector f = m.hierarchy().finest().body_force(mms_force(m.material()), 2 * k + 2);
+  const MixedResult r = solve_mixed_static(m, f, minres_config(1e-11));
+  return mms_errors(m.hierarchy().finest(), r.u, &m, r.p, nu == 0.5 ? 0.0 : 1.0 / m.material().lambda());
+}
+
+MmsErrors displacement_mms(int n, int k, double nu) {
+  const TetMesh mesh = kuhn_cube(n);
+  ElasticityModel model(mesh, k, rubber(nu));
+  model.fix_vertices(clamp_boundary(mesh));
+  const Vector f = model.body_force(mms_force(model.material()), 2 * k + 2);
+  const Vector u = solve_static(model, f, false).u;
+  return mms_errors(model, u, nullptr, Vector(), 1.0 / model.material().lambda());
+}
+
+}  // namespace
+
+TEST_CASE("mixed: the divergence block equals quadrature of q div v", "[mixed]") {
+  const Vec3 X0(0.1, 0.0, -0.2), X1(1.3, 0.2, 0.1), X2(0.2, 0.9, 0.3), X3(-0.1, 0.3, 1.1);
+  const ElementGeometry g = element_geometry(X0, X1, X2, X3);
+  for (int k = 2; k <= 3; ++k) {
+    const MixedTables& t = mixed_tables(k);
+    Eigen::MatrixXd Be;
+    element_divergence(t, g, Be);
+    Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(t.np, 3 * t.nu);
+    const QuadratureRule& q = tet_quadrature(2 * k - 2);
+    for (size_t i = 0; i < q.points.size(); ++i)
+      for (int b = 0; b < t.np; ++b)
+        for (int a = 0; a < t.nu; ++a) {
+          const Vec3 grad = g.grad.transpose() * bernstein_gradient(multi_indices(k)[a], q.points[i]);
+          Q.block(b, 3 * a, 1, 3) +=
+              q.weights[i] * g.volume * bernstein(multi_indices(k - 1)[b], q.points[i]) * grad.transpose();
+        }
+    INFO("k = " << k);
+    CHECK((Be - Q).norm() <= 1e-13 * Q.norm());
+  }
+}
+
+TEST_CASE("mixed: pressure mass bounds are the element's (Wathen: [1/2, 5/2] for linear)", "[mixed]") {
+  CHECK(mixed_tables(2).mass_lo == Approx(0.5));
+  CHECK(mixed_tables(2).mass_hi == Approx(2.5));
+  CHECK(mixed_tables(3).mass_lo > 0.0);
+  CHECK(mixed_tables(3).mass_hi > mixed_tables(3).mass_lo);
+}
+
+TEST_CASE("mixed-minres answers equal a direct solve of the assembled saddle point", "[mixed]") {
+  for (int k = 2; k <= 3; ++k)
+    for (double nu : {0.3, 0.4999, 0.5}) {
+      Bar bar(k, nu);
+      const MixedResult r = solve_mixed_static(bar.m, bar.f, minres_config(1e-11));
+      const Csr K = bar.m.assembled_system();
+      Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(Eigen::SparseMatrix<double>(K.to_eigen()));
+      REQUIRE(lu.info() == Eigen::Success);
+      const Vector x = lu.solve(bar.m.rhs(bar.f));
+      Vector mine(bar.m.num_unknowns());
+      mine << bar.m.hierarchy().finest().restrict_to_free(r.u), r.p;
+      INFO("k = " << k << ", nu = " << nu << ", " << r.solve.iterations << " iterations");
+      CHECK(r.solve.ok());
+      CHECK((mine - x).norm() <= 1e-8 * x.norm());
+    }
+}
+
+TEST_CASE("mixed-minres: iterations bounded as nu -> 1/2 (0.49, 0.4999 and 0.5 alike)", "[mixed]") {
+  for (int k = 2; k <= 3; ++k) {
+    std::vector<int> its;
+    for (double nu : {0.3, 0.49, 0.4999, 0.5}) {
+      Bar bar(k, nu, 2);
+      its.push_back(solve_mixed_static(bar.m, bar.f, minres_config(1e-8)).solve.iterations);
+    }
+    INFO("k = " << k << ": " << its[0] << ", " << its[1] << ", " << its[2] << ", " << its[3] << " iterations");
+    CHECK(its[2] <= 1.1 * its[1]);
+    CHECK(its[3] <= 1.1 * its[1]);
+    // ν = 0.3 is easier (C = M_p / λ dominates the Schur complement): 1.5x (k = 2) and 1.8x (k = 3)
+    // here, against 4.5-9.6x for displacement-only MGPCG (docs/robustness.md).
+    CHECK(its[2] <= 2.0 * its[0]);
+  }
+}
+
+TEST_CASE("mixed: manufactured solution, no locking at nu = 0.4999 and the orders k + 1 and k", "[mixed]") {
+  const int k = 2;
+  const MmsErrors a3 = mixed_mms(4, k, 0.3), b3 = mixed_mms(8, k, 0.3);
+  const MmsErrors a = mixed_mms(4, k, 0.4999), b = mixed_mms(8, k, 0.4999);
+  const MmsErrors d3 = displacement_mms(8, k, 0.3), d = displacement_mms(8, k, 0.4999);
+  INFO("mixed u: " << a3.u << " -> " << b3.u << " (0.3), " << a.u << " -> " << b.u << " (0.4999); p: " << a.p << " -> "
+                   << b.p << "; displacement-only at n = 8, u: " << d3.u << " (0.3), " << d.u << " (0.4999), lambda div u: " << d3.p
+                   << " (0.3), " << d.p << " (0.4999)");
+  CHECK(b.u <= 2.0 * b3.u);                    // the target: within 2x of its own ν = 0.3 error
+  CHECK(std::log2(a.u / b.u) >= k + 1 - 0.5);  // L2 order k + 1
+  CHECK(std::log2(a.p / b.p) >= k - 0.5);      // pressure order k
+  CHECK(b.p <= 2.0 * b3.p);                    // the pressure too
+  CHECK(d.p >= 10.0 * b.p);                    // λ div u of the displacement-only elements is not
+  CHECK(d.u >= 3.0 * b.u);                     // and their displacement locks
+}
+
+TEST_CASE("mixed: bad input is refused by name", "[mixed]") {
+  const TetMesh mesh = box_mesh_24(1, 1, 1, 1, 1, 1);
+  CHECK_THROWS_WITH(MixedElasticity(mesh, 1, rubber(0.3), clamp_x0(mesh)), Catch::Contains("degree must be 2 or 3"));
+  CHECK_THROWS_WITH(MixedElasticity(mesh, 2, rubber(0.6), clamp_x0(mesh)), Catch::Contains("(-1, 0.5]"));
+  CHECK_THROWS_WITH(ElasticityModel(mesh, 2, rubber(0.5)), Catch::Contains("Poisson"));
+  CHECK_THROWS_WITH(make_solver(minres_config(1e-8), {}), Catch::Contains("formulation=mixed"));
+}
