@@ -10,6 +10,7 @@
 //      plot (--plot: from the history and a per-solver summary, temporary files unless --history).
 #include "process.hpp"
 #include "compare_distributed.hpp"
+#include "compare_mixed.hpp"
 #include "ranks.hpp"
 #include "pmg/sparse/defaults.hpp"
 #include "checks.hpp"
@@ -80,6 +81,7 @@ struct Options {
   int fixed_iterations = 0;
   int check_every = 1;
   bool warm_up = false;
+  std::string formulation = "displacement";  // mixed: the displacement-pressure system (compare_mixed)
   std::set<std::string> given;  // the stopping flags given on the command line
 };
 
@@ -578,6 +580,24 @@ void run(const Options& given) {
                          {o.json_report, o.save_mesh, o.history});
     return;
   }
+  if (o.formulation == "mixed") {
+    if (!o.fem || !o.matrix.empty() || !o.levels.empty())
+      throw InputError("--formulation mixed needs an FEM scene (--box or --mesh), not a matrix or user levels");
+    FilePlan plan;
+    plan.input(o.scene.mesh, "--mesh");
+    plan.output(o.json_report, "--json");
+    plan.check();
+    const Config set = Config::from_pairs(o.overrides, "--set");
+    std::vector<std::string> names = o.solvers;
+    if (names.empty()) {
+      names = {"mixed-minres"};
+      const auto all = registered_solvers();
+      if (std::any_of(all.begin(), all.end(), [](const SolverInfo& i) { return i.name == "mumps"; }))
+        names.push_back("mumps");
+    }
+    run_mixed(o.scene, solver_configs(o, names, set), o.json_report);
+    return;
+  }
   check_outputs(o);
   auto t0 = Clock::now();
   System sys = load_system(o);
@@ -714,6 +734,11 @@ void register_compare(CLI::App& app) {
   sub->add_option("-o", *dash_o)->expected(0, 1)->group("");
   sub->add_option("--json", opts->json_report,
                   "also write every figure of the table to this JSON file (units in the key names)");
+  sub->add_option("--formulation", opts->formulation,
+                  "displacement: the elasticity system K u = f; mixed: the displacement-pressure saddle point of "
+                  "Taylor-Hood elements (degree 2 or 3 with a pressure of one degree less, nu up to 0.5 allowed by the "
+                  "elements; solvers mixed-minres and direct ones on the assembled system)")
+      ->check(CLI::IsMember({"displacement", "mixed"}));
   sub->add_flag("--warm-up", opts->warm_up,
                 "run each solver once untimed first: warm timings, independent of the solvers' order");
   add_threads_option(sub);

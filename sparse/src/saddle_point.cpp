@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <utility>
 
 namespace pmg {
@@ -254,10 +255,11 @@ MixedMinres::MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> dis
 }
 
 std::string MixedMinres::describe() const {
+  std::ostringstream scale;
+  scale << pressure_scale_ * blocks_.schur_scale;
   return "MINRES, block-diagonal preconditioner: displacement " +
          (M_u_->describe().empty() ? M_u_->name() : M_u_->describe()) + "; pressure " +
-         std::to_string(pressure_steps_) + " Chebyshev steps on the mass, S ~ " +
-         std::to_string(blocks_.schur_scale) + " M_p";
+         std::to_string(pressure_steps_) + " Chebyshev steps on the mass, S ~ " + scale.str() + " M_p";
 }
 
 void MixedMinres::setup_impl(const LinearOperator& K) {

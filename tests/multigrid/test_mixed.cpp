@@ -2,7 +2,7 @@
 // (pmg/sparse/saddle_point.hpp): the element blocks against quadrature, the answers against a direct
 // solve of the assembled saddle point, iterations independent of ν, and the manufactured solution's
 // accuracy at ν = 0.3, 0.49 and 0.4999 against the displacement-only elements.
-#include "../fem/mixed_manufactured.hpp"
+#include "../fem/mixed_mms.hpp"
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mixed.hpp"
 #include "pmg/fem/static_solve.hpp"
@@ -15,10 +15,9 @@
 
 using namespace pmg;
 using namespace pmg::fem;
+using namespace pmg::fem::test;
 
 namespace {
-
-Material rubber(double nu) { return Material{1.0, nu, 1.0}; }
 
 std::vector<char> clamp_x0(const TetMesh& m) {
   std::vector<char> c(m.vertices.size());
@@ -26,18 +25,6 @@ std::vector<char> clamp_x0(const TetMesh& m) {
   return c;
 }
 
-std::vector<char> clamp_boundary(const TetMesh& m) {
-  std::vector<char> c(m.vertices.size());
-  for (size_t v = 0; v < m.vertices.size(); ++v)
-    for (int d = 0; d < 3; ++d) c[v] |= m.vertices[v][d] < 1e-12 || m.vertices[v][d] > 1 - 1e-12;
-  return c;
-}
-
-Config minres_config(double tol) {
-  std::ostringstream t;
-  t << "tol=" << tol;
-  return Config::from_pairs({"method=mixed-minres", t.str()}, "test");
-}
 
 /// The cantilever of the robustness study: a 4 x 1 x 1 bar clamped at x = 0, under gravity.
 struct Bar {
@@ -45,93 +32,10 @@ struct Bar {
   MixedElasticity m;
   Vector f;
   Bar(int degree, double nu, int n = 1)
-      : mesh(box_mesh_24(4 * n, n, n, 4.0, 1.0, 1.0)), m(mesh, degree, rubber(nu), clamp_x0(mesh)) {
+      : mesh(box_mesh_24(4 * n, n, n, 4.0, 1.0, 1.0)), m(mesh, degree, mms_material(nu), clamp_x0(mesh)) {
     f = m.hierarchy().finest().gravity(Vec3(0, 0, -1.0));
   }
 };
-
-/// The unit cube in n³ cells of 6 Kuhn (Freudenthal) tetrahedra each, all sharing the cell's
-/// diagonal: a mesh without the 24-tet cells' rich divergence-free subspace, on which
-/// displacement-only elements lock.
-TetMesh kuhn_cube(int n) {
-  TetMesh m;
-  auto id = [n](int i, int j, int k) { return static_cast<index_t>((k * (n + 1) + j) * (n + 1) + i); };
-  for (int k = 0; k <= n; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) m.vertices.emplace_back(double(i) / n, double(j) / n, double(k) / n);
-  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        for (const auto& p : perms) {
-          int c[3] = {i, j, k};
-          Tet t;
-          t[0] = id(c[0], c[1], c[2]);
-          for (int s = 0; s < 3; ++s) {
-            ++c[p[s]];
-            t[s + 1] = id(c[0], c[1], c[2]);
-          }
-          m.tets.push_back(t);
-          if (m.signed_volume(m.num_tets() - 1) < 0) std::swap(m.tets.back()[1], m.tets.back()[2]);
-        }
-  return m;
-}
-
-struct MmsErrors {
-  double u = 0, p = 0;
-};
-
-/// L2 errors of displacement and pressure against the manufactured solution (quadrature exact to
-/// degree 2k + 4); without a mixed model the pressure is λ div u_h of the displacement-only elements.
-MmsErrors mms_errors(const ElasticityModel& model, const Vector& u, const MixedElasticity* mixed, const Vector& p,
-                     double lambda_inverse) {
-  const BBSpace& s = model.space();
-  const TetMesh& mesh = s.mesh();
-  const QuadratureRule& q = tet_quadrature(2 * s.degree() + 4);
-  MmsErrors err;
-  for (index_t e = 0; e < mesh.num_tets(); ++e)
-    for (size_t k = 0; k < q.points.size(); ++k) {
-      const Eigen::Vector4d& l = q.points[k];
-      Vec3 x = Vec3::Zero();
-      for (int i = 0; i < 4; ++i) x += l[i] * mesh.vertices[mesh.tets[e][i]];
-      const double w = q.weights[k] * model.geometry(e).volume;
-      const Vec3 exact = test::mixed_mms::u_df(x) + lambda_inverse * test::mixed_mms::grad_phi(x);
-      err.u += w * (model.displacement_at(u, e, l) - exact).squaredNorm();
-      double ph = 0.0;
-      if (mixed) ph = mixed->pressure_at(p, e, l);
-      else
-        for (int a = 0; a < s.nodes_per_element(); ++a)
-          ph += u.segment<3>(3 * s.node(e, a)).dot(model.geometry(e).grad.transpose() *
-                                                    bernstein_gradient(multi_indices(s.degree())[a], l)) /
-                lambda_inverse;
-      err.p += w * std::pow(ph - test::mixed_mms::pressure(x), 2);
-    }
-  return {std::sqrt(err.u), std::sqrt(err.p)};
-}
-
-std::function<Vec3(const Vec3&)> mms_force(const Material& m) {
-  const double mu = m.mu(), li = m.poisson == 0.5 ? 0.0 : 1.0 / m.lambda();
-  return [mu, li](const Vec3& x) {
-    return Vec3(-mu * test::mixed_mms::lap_u_df(x) - (1 + 2 * mu * li) * test::mixed_mms::grad_lap_phi(x));
-  };
-}
-
-MmsErrors mixed_mms(int n, int k, double nu) {
-  const TetMesh mesh = kuhn_cube(n);
-  MixedElasticity m(mesh, k, rubber(nu), clamp_boundary(mesh));
-  const Vector f = m.hierarchy().finest().body_force(mms_force(m.material()), 2 * k + 2);
-  const MixedResult r = solve_mixed_static(m, f, minres_config(1e-11));
-  return mms_errors(m.hierarchy().finest(), r.u, &m, r.p, nu == 0.5 ? 0.0 : 1.0 / m.material().lambda());
-}
-
-MmsErrors displacement_mms(int n, int k, double nu) {
-  const TetMesh mesh = kuhn_cube(n);
-  ElasticityModel model(mesh, k, rubber(nu));
-  model.fix_vertices(clamp_boundary(mesh));
-  const Vector f = model.body_force(mms_force(model.material()), 2 * k + 2);
-  const Vector u = solve_static(model, f, false).u;
-  return mms_errors(model, u, nullptr, Vector(), 1.0 / model.material().lambda());
-}
 
 }  // namespace
 
@@ -167,7 +71,7 @@ TEST_CASE("mixed-minres answers equal a direct solve of the assembled saddle poi
   for (int k = 2; k <= 3; ++k)
     for (double nu : {0.3, 0.4999, 0.5}) {
       Bar bar(k, nu);
-      const MixedResult r = solve_mixed_static(bar.m, bar.f, minres_config(1e-11));
+      const MixedResult r = solve_mixed_static(bar.m, bar.f, mixed_minres_config(1e-11));
       const Csr K = bar.m.assembled_system();
       Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(Eigen::SparseMatrix<double>(K.to_eigen()));
       REQUIRE(lu.info() == Eigen::Success);
@@ -185,7 +89,7 @@ TEST_CASE("mixed-minres: iterations bounded as nu -> 1/2 (0.49, 0.4999 and 0.5 a
     std::vector<int> its;
     for (double nu : {0.3, 0.49, 0.4999, 0.5}) {
       Bar bar(k, nu, 2);
-      its.push_back(solve_mixed_static(bar.m, bar.f, minres_config(1e-8)).solve.iterations);
+      its.push_back(solve_mixed_static(bar.m, bar.f, mixed_minres_config(1e-8)).solve.iterations);
     }
     INFO("k = " << k << ": " << its[0] << ", " << its[1] << ", " << its[2] << ", " << its[3] << " iterations");
     CHECK(its[2] <= 1.1 * its[1]);
@@ -198,9 +102,9 @@ TEST_CASE("mixed-minres: iterations bounded as nu -> 1/2 (0.49, 0.4999 and 0.5 a
 
 TEST_CASE("mixed: manufactured solution, no locking at nu = 0.4999 and the orders k + 1 and k", "[mixed]") {
   const int k = 2;
-  const MmsErrors a3 = mixed_mms(4, k, 0.3), b3 = mixed_mms(8, k, 0.3);
-  const MmsErrors a = mixed_mms(4, k, 0.4999), b = mixed_mms(8, k, 0.4999);
-  const MmsErrors d3 = displacement_mms(8, k, 0.3), d = displacement_mms(8, k, 0.4999);
+  const MmsErrors a3 = mms_mixed(4, k, 0.3), b3 = mms_mixed(8, k, 0.3);
+  const MmsErrors a = mms_mixed(4, k, 0.4999), b = mms_mixed(8, k, 0.4999);
+  const MmsErrors d3 = mms_displacement(8, k, 0.3), d = mms_displacement(8, k, 0.4999);
   INFO("mixed u: " << a3.u << " -> " << b3.u << " (0.3), " << a.u << " -> " << b.u << " (0.4999); p: " << a.p << " -> "
                    << b.p << "; displacement-only at n = 8, u: " << d3.u << " (0.3), " << d.u << " (0.4999), lambda div u: " << d3.p
                    << " (0.3), " << d.p << " (0.4999)");
@@ -214,8 +118,8 @@ TEST_CASE("mixed: manufactured solution, no locking at nu = 0.4999 and the order
 
 TEST_CASE("mixed: bad input is refused by name", "[mixed]") {
   const TetMesh mesh = box_mesh_24(1, 1, 1, 1, 1, 1);
-  CHECK_THROWS_WITH(MixedElasticity(mesh, 1, rubber(0.3), clamp_x0(mesh)), Catch::Contains("degree must be 2 or 3"));
-  CHECK_THROWS_WITH(MixedElasticity(mesh, 2, rubber(0.6), clamp_x0(mesh)), Catch::Contains("(-1, 0.5]"));
-  CHECK_THROWS_WITH(ElasticityModel(mesh, 2, rubber(0.5)), Catch::Contains("Poisson"));
-  CHECK_THROWS_WITH(make_solver(minres_config(1e-8), {}), Catch::Contains("formulation=mixed"));
+  CHECK_THROWS_WITH(MixedElasticity(mesh, 1, mms_material(0.3), clamp_x0(mesh)), Catch::Contains("degree must be 2 or 3"));
+  CHECK_THROWS_WITH(MixedElasticity(mesh, 2, mms_material(0.6), clamp_x0(mesh)), Catch::Contains("(-1, 0.5]"));
+  CHECK_THROWS_WITH(ElasticityModel(mesh, 2, mms_material(0.5)), Catch::Contains("Poisson"));
+  CHECK_THROWS_WITH(make_solver(mixed_minres_config(1e-8), {}), Catch::Contains("formulation=mixed"));
 }

@@ -207,7 +207,7 @@ void PetscPreconditioner::setup_impl(const LinearOperator& A) {
   const bool blocks = n % 3 == 0;
   if (blocks) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
   check(MatSetOption(d.A, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
-  check(MatSetOption(d.A, MAT_SPD, PETSC_TRUE), "MatSetOption");
+  if (!params_.indefinite) check(MatSetOption(d.A, MAT_SPD, PETSC_TRUE), "MatSetOption");
   if (params_.type == "gamg" && params_.rigid_near_null_space) {
     if (!blocks || static_cast<PetscInt>(coordinates_.size()) != n)
       throw InputError("PETSc GAMG: the rigid-body near-null space needs the node coordinates of the "

@@ -31,6 +31,10 @@ std::unique_ptr<PetscPreconditioner> make(const Config& c, const SolverContext& 
     c.fail("near_null_space", "rigid needs node coordinates: an FEM scene (--box or --mesh) provides "
                               "them; a matrix read from a file does not (auto: rigid where known)");
   p.rigid_near_null_space = type == "gamg" && p.near_null_space != "none" && ctx.coordinates;
+  if (ctx.saddle_point && type != "mumps")
+    c.fail("method", "PETSc " + type + " needs a symmetric positive definite system; a saddle point takes "
+                     "mumps (LDLᵀ) or mixed-minres");
+  p.indefinite = ctx.saddle_point != nullptr;
   auto s = std::make_unique<PetscPreconditioner>(p);
   if (p.rigid_near_null_space) s->set_coordinates(*ctx.coordinates);
   return s;

@@ -40,6 +40,9 @@ struct PetscParams {
   /// Accept options PETSc does not read (else setup() throws InputError naming them); the
   /// factory sets it from unused_keys (known or ignore).
   bool allow_unused_options = false;
+  /// mumps: the system is symmetric indefinite (a saddle point): factorised as LDLᵀ with pivoting
+  /// (MUMPS's sym = 2) instead of as SPD. Set by the factory where SolverContext::saddle_point is.
+  bool indefinite = false;
   /// mumps and cholmod: how solve() checks (and refines) its answer.
   DirectSolveParams check;
   /// The keys near_null_space (gamg), options, and the check's (mumps, cholmod).
