@@ -87,23 +87,114 @@ MixedElasticity::MixedElasticity(const TetMesh& mesh, int degree, const Material
                                                    std::move(clamped), std::move(components))),
       pressure_(mesh, degree - 1),
       lambda_inverse_(material.poisson == 0.5 ? 0.0 : 1.0 / material.lambda()) {
-  assemble_blocks();
+  assemble_pressure_mass();
 }
 
-void MixedElasticity::assemble_blocks() {
+DivergenceCoupling::DivergenceCoupling(const ElasticityModel& u, const BBSpace& pressure) : u_(u), pressure_(pressure) {
+  const auto& lower = multi_indices(pressure.degree());
+  raise_.resize(lower.size() * 4);
+  for (size_t c = 0; c < lower.size(); ++c)
+    for (int i = 0; i < 4; ++i) {
+      MultiIndex a = lower[c];
+      ++a[i];
+      raise_[c * 4 + i] = local_index(a);
+    }
+  u.assembler().build_pattern();  // the colours and the free numbering
+  free_ = &u.assembler().free_index();
+  held_ = &u.constrained_free_dofs();
+  colors_ = &u.assembler().colors();
+  const Eigen::MatrixXd& M = element_tables(pressure.degree()).mass;
+  mass_.resize(M.size());
+  for (int b = 0; b < M.rows(); ++b)
+    for (int c = 0; c < M.cols(); ++c) mass_[b * M.cols() + c] = M(b, c);
+}
+
+template <int K>
+void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const {
+  constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6, NP = K * (K + 1) * (K + 2) / 6;
+  const double* M = mass_.data();  // row-major NP x NP
+  const int* raise = raise_.data();
+  const index_t* free = free_->data();
+  const bool any_held = !held_->empty();
+  const ElementGeometry& g = u_.geometry(e);
+  const double v6 = 6.0 * g.volume;
+  double gr[4][3];
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 3; ++j) gr[i][j] = g.grad(i, j);
+  const index_t* un = u_.space().element_nodes(e);
+  const index_t* pn = pressure_.element_nodes(e);
+  index_t dof[NU];
+  double ul[NU][3], ua[NU][3] = {}, d[NP], pl[NP], s[NP];
+  for (int a = 0; a < NU; ++a) {
+    const index_t f = free[un[a]];
+    dof[a] = f < 0 ? -1 : 3 * f;
+    for (int c = 0; c < 3; ++c) ul[a][c] = f < 0 ? 0.0 : x_u[3 * f + c];
+    if (any_held && f >= 0)
+      for (int c = 0; c < 3; ++c)
+        if ((*held_)[3 * f + c]) ul[a][c] = 0.0;
+  }
+  for (int c = 0; c < NP; ++c) pl[c] = x_p[pn[c]];
+  // d = k Σ_i ∇λ_i · u_{c+e_i}.
+  for (int c = 0; c < NP; ++c) {
+    double sum = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      const double* uu = ul[raise[c * 4 + i]];
+      sum += gr[i][0] * uu[0] + gr[i][1] * uu[1] + gr[i][2] * uu[2];
+    }
+    d[c] = K * sum;
+  }
+  // y_p += 6V M̂ d;  s = 6V M̂ p.
+  for (int b = 0; b < NP; ++b) {
+    double yb = 0.0, sb = 0.0;
+    for (int c = 0; c < NP; ++c) {
+      yb += M[b * NP + c] * d[c];
+      sb += M[b * NP + c] * pl[c];
+    }
+    y_p[pn[b]] += v6 * yb;
+    s[b] = K * v6 * sb;
+  }
+  // u_{c+e_i} += k s_c ∇λ_i.
+  for (int c = 0; c < NP; ++c)
+    for (int i = 0; i < 4; ++i) {
+      double* uu = ua[raise[c * 4 + i]];
+      for (int j = 0; j < 3; ++j) uu[j] += s[c] * gr[i][j];
+    }
+  for (int a = 0; a < NU; ++a) {
+    if (dof[a] < 0) continue;
+    for (int c = 0; c < 3; ++c)
+      if (!any_held || !(*held_)[dof[a] + c]) y_u[dof[a] + c] += ua[a][c];
+  }
+}
+
+void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const {
+  const index_t np = pressure_.num_nodes();
+  const auto& colors = *colors_;
+#pragma omp parallel
+  {
+#pragma omp for schedule(static)
+    for (index_t i = 0; i < np; ++i) y_p[i] = 0.0;
+    for (const auto& elements : colors) {  // the implicit barrier of each loop orders the colours
+      const index_t n = static_cast<index_t>(elements.size());
+#pragma omp for schedule(static)
+      for (index_t q = 0; q < n; ++q) {
+        if (u_.space().degree() == 2) element<2>(elements[q], x_u, x_p, y_u, y_p);
+        else element<3>(elements[q], x_u, x_p, y_u, y_p);
+      }
+    }
+  }
+}
+
+void MixedElasticity::assemble_divergence() const {
   const ElasticityModel& u = hierarchy_->finest();
   const MixedTables& t = mixed_tables(u.space().degree());
   const std::vector<index_t>& free = u.assembler().free_index();
   const std::vector<char>& held = u.constrained_free_dofs();
-  const Eigen::MatrixXd& mass = element_tables(t.k - 1).mass;
-  std::vector<Triplet> b, bt, mp;
+  std::vector<Triplet> b, bt;
   b.reserve(static_cast<size_t>(u.space().mesh().num_tets()) * t.np * 3 * t.nu);
   bt.reserve(b.capacity());
-  mp.reserve(static_cast<size_t>(u.space().mesh().num_tets()) * t.np * t.np);
   Eigen::MatrixXd Be;
   for (index_t e = 0; e < u.space().mesh().num_tets(); ++e) {
-    const ElementGeometry& g = u.geometry(e);
-    element_divergence(t, g, Be);
+    element_divergence(t, u.geometry(e), Be);
     for (int q = 0; q < t.np; ++q) {
       const index_t row = pressure_.node(e, q);
       for (int a = 0; a < t.nu; ++a) {
@@ -116,17 +207,38 @@ void MixedElasticity::assemble_blocks() {
           bt.emplace_back(col, row, Be(q, 3 * a + c));
         }
       }
-      for (int q2 = 0; q2 < t.np; ++q2) mp.emplace_back(row, pressure_.node(e, q2), 6.0 * g.volume * mass(q, q2));
     }
   }
-  const index_t nu = num_displacement(), np = num_pressure();
-  B_ = Csr::from_triplets(np, nu, b);
-  Bt_ = Csr::from_triplets(nu, np, bt);
-  Mp_ = Csr::from_triplets(np, np, mp);
+  B_ = Csr::from_triplets(num_pressure(), num_displacement(), b);
+  Bt_ = Csr::from_triplets(num_displacement(), num_pressure(), bt);
+}
+
+const Csr& MixedElasticity::divergence() const {
+  std::call_once(divergence_once_, [this] { assemble_divergence(); });
+  return B_;
+}
+
+const Csr& MixedElasticity::divergence_transpose() const {
+  std::call_once(divergence_once_, [this] { assemble_divergence(); });
+  return Bt_;
+}
+
+void MixedElasticity::assemble_pressure_mass() {
+  const ElasticityModel& u = hierarchy_->finest();
+  const int np = pressure_.nodes_per_element();
+  const Eigen::MatrixXd& mass = element_tables(pressure_.degree()).mass;
+  std::vector<Triplet> mp;
+  mp.reserve(static_cast<size_t>(u.space().mesh().num_tets()) * np * np);
+  for (index_t e = 0; e < u.space().mesh().num_tets(); ++e)
+    for (int q = 0; q < np; ++q)
+      for (int q2 = 0; q2 < np; ++q2)
+        mp.emplace_back(pressure_.node(e, q), pressure_.node(e, q2), 6.0 * u.geometry(e).volume * mass(q, q2));
+  Mp_ = Csr::from_triplets(num_pressure(), num_pressure(), mp);
   C_ = Mp_;
   for (double& v : C_.values()) v *= lambda_inverse_;
-  blocks_.B = &B_;
-  blocks_.Bt = &Bt_;
+  const MixedTables& t = mixed_tables(u.space().degree());
+  coupling_ = std::make_unique<DivergenceCoupling>(u, pressure_);
+  blocks_.coupling = coupling_.get();
   blocks_.C = compressibility();
   blocks_.pressure_mass = &Mp_;
   blocks_.mass_lo = t.mass_lo;
@@ -149,15 +261,15 @@ Csr MixedElasticity::assembled_system() {
   const Csr A = hierarchy_->matrix(top).to_csr();
   const index_t nu = num_displacement();
   std::vector<Triplet> t;
-  t.reserve(static_cast<size_t>(A.nnz() + 2 * B_.nnz() + C_.nnz()));
+  t.reserve(static_cast<size_t>(A.nnz() + 2 * divergence().nnz() + C_.nnz()));
   auto add = [&t](const Csr& M, index_t r0, index_t c0, double s) {
     const CsrPattern& p = M.pattern();
     for (index_t i = 0; i < M.rows(); ++i)
       for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) t.emplace_back(r0 + i, c0 + p.col_idx[k], s * M.values()[k]);
   };
   add(A, 0, 0, 1.0);
-  add(Bt_, 0, nu, 1.0);
-  add(B_, nu, 0, 1.0);
+  add(divergence_transpose(), 0, nu, 1.0);
+  add(divergence(), nu, 0, 1.0);
   if (lambda_inverse_ > 0) add(C_, nu, nu, -1.0);
   else
     for (index_t i = 0; i < num_pressure(); ++i) t.emplace_back(nu + i, nu + i, 0.0);  // keep the diagonal
@@ -184,7 +296,7 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
   if (config.get_string("method", "mixed-minres") == "mixed-minres") {
     BoundSystem bound = m.hierarchy().bind(*solver);
     const LinearOperator& A = bound.prepare();
-    K = std::make_unique<SaddlePointOperator>(A, m.divergence(), m.divergence_transpose(), m.compressibility());
+    K = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());
     solver->setup(*K);
   } else {
     assembled = m.assembled_system();

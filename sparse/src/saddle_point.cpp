@@ -25,24 +25,19 @@ void check_minres_inputs(const LinearOperator& K, const LinearOperator* M, const
   if (!ops::all_finite(x)) throw InputError("MINRES: initial guess has NaN/Inf");
 }
 
-/// y = a x + b y + c z (the w recurrences).
-void combine(double a, const Vector& x, double b, Vector& y, double c, const Vector& z) {
-  const Eigen::Index n = x.size();
-#pragma omp parallel for schedule(static) if (n > 20000)
-  for (Eigen::Index i = 0; i < n; ++i) y[i] = a * x[i] + b * y[i] + c * z[i];
-}
-
 /// The state of one Lanczos run of MINRES (Paige and Saunders; the recurrences as in SciPy's and
-/// Elman–Silvester–Wathen's Algorithm 4.1), started from the residual r.
+/// Elman–Silvester–Wathen's Algorithm 4.1), started from the residual r. Each step is one product
+/// with K, one application of M and three fused passes over the vectors (named in step()).
 struct MinresRun {
   const LinearOperator& K;
   const LinearOperator* M;
-  Vector r1, r2, y, v, q, w, w1, w2, kw, kw1, kw2;
+  Eigen::Index n;
+  Vector r1, r2, y, v, q, w1, w2, kw1, kw2;  // w1, w2: w_{k-2}, w_{k-1}; kw: K w alike
   double beta = 0, oldb = 0, dbar = 0, epsln = 0, phibar = 0, cs = -1, sn = 0;
   int k = 0;
 
-  MinresRun(const LinearOperator& K_, const LinearOperator* M_, Eigen::Index n) : K(K_), M(M_) {
-    for (Vector* u : {&r1, &r2, &y, &v, &q, &w, &w1, &w2, &kw, &kw1, &kw2}) u->resize(n);
+  MinresRun(const LinearOperator& K_, const LinearOperator* M_, Eigen::Index n_) : K(K_), M(M_), n(n_) {
+    for (Vector* u : {&r1, &r2, &y, &v, &q, &w1, &w2, &kw1, &kw2}) u->resize(n);
   }
   /// Starts from residual r; returns rᵀ M r (must be > 0).
   double start(const Vector& r) {
@@ -56,27 +51,34 @@ struct MinresRun {
     phibar = beta;
     cs = -1;
     sn = 0;
-    w.setZero(), w2.setZero(), kw.setZero(), kw2.setZero();
+    w1.setZero(), w2.setZero(), kw1.setZero(), kw2.setZero();
+    if (beta > 0) v = y / beta;
     k = 0;
     return b2;
   }
-  /// One step: x += φ w, r -= φ K w. Returns the new rᵀ M r of the Lanczos vector (its β²; <= 0:
-  /// breakdown or, when 0, an exhausted Krylov space).
-  double step(Vector& x, Vector& r) {
+  /// One step: x += φ w, r -= φ K w; rr receives ||r||². Returns the new Lanczos vector's rᵀ M r
+  /// (its β²; <= 0: breakdown or, when 0, an exhausted Krylov space).
+  double step(Vector& x, Vector& r, double& rr) {
     ++k;
-    v = y / beta;
-    K.apply(v, q);  // q = K v
-    y = q;
-    if (k >= 2) ops::axpy(-beta / oldb, r1, y);
-    const double alfa = ops::dot(v, y);
-    ops::axpy(-alfa / beta, r2, y);
+    K.apply(v, q);  // (1) q = K v
+    // (2) y = q - (β/β_old) r1, α = vᵀ y: one pass over q, r1, v.
+    const double c1 = k >= 2 ? beta / oldb : 0.0;
+    double alfa = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : alfa) if (n > 20000)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double yi = q[i] - c1 * r1[i];
+      y[i] = yi;
+      alfa += v[i] * yi;
+    }
+    ops::axpy(-alfa / beta, r2, y);  // (3) the new Lanczos vector y -= (α/β) r2
     std::swap(r1, r2);
-    std::swap(r2, y);  // r2 = the new Lanczos vector, y free
-    if (M) M->apply(r2, y);
+    std::swap(r2, y);  // r1, r2: the last two Lanczos vectors; y free
+    if (M) M->apply(r2, y);  // (4) y = M r2, β² = r2ᵀ y
     else y = r2;
     oldb = beta;
     const double b2 = ops::dot(r2, y);
     beta = b2 > 0 ? std::sqrt(b2) : 0.0;
+    // The Givens rotation of the tridiagonal's new column.
     const double oldeps = epsln;
     const double delta = cs * dbar + sn * alfa;
     const double gbar = sn * dbar - cs * alfa;
@@ -87,15 +89,26 @@ struct MinresRun {
     sn = beta / gamma;
     const double phi = cs * phibar;
     phibar = sn * phibar;
-    // w = (v - ε w_{k-2} - δ w_{k-1}) / γ, and K w from K v alike.
-    std::swap(w1, w2), std::swap(w2, w);
-    std::swap(kw1, kw2), std::swap(kw2, kw);
-    w = v;
-    combine(-oldeps / gamma, w1, 1.0 / gamma, w, -delta / gamma, w2);
-    kw = q;
-    combine(-oldeps / gamma, kw1, 1.0 / gamma, kw, -delta / gamma, kw2);
-    ops::axpy(phi, w, x);
-    ops::axpy(-phi, kw, r);
+    // (5) w = (v - ε w_{k-2} - δ w_{k-1}) / γ and K w = (K v - ε K w_{k-2} - δ K w_{k-1}) / γ
+    // (into the storage of w_{k-2}); x += φ w; r -= φ K w; rr = rᵀ r; v = y / β for the next
+    // step: one pass over 9 vectors.
+    const double ig = 1.0 / gamma, ib = beta > 0 ? 1.0 / beta : 0.0;
+    double sum = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : sum) if (n > 20000)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double wi = (v[i] - oldeps * w1[i] - delta * w2[i]) * ig;
+      const double kwi = (q[i] - oldeps * kw1[i] - delta * kw2[i]) * ig;
+      w1[i] = wi;
+      kw1[i] = kwi;
+      x[i] += phi * wi;
+      const double ri = r[i] - phi * kwi;
+      r[i] = ri;
+      sum += ri * ri;
+      v[i] = y[i] * ib;
+    }
+    std::swap(w1, w2);
+    std::swap(kw1, kw2);
+    rr = sum;
     return b2;
   }
 };
@@ -117,9 +130,10 @@ SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vecto
     restart = false;
     if (!track.check_positive(run.start(r), "r^T M^{-1} r", it)) break;
     while (!track.done()) {
-      const double b2 = run.step(x, r);
+      double rr = 0.0;
+      const double b2 = run.step(x, r, rr);
       ++it;
-      if (track.after_iteration(it, ops::norm2(r))) {
+      if (track.after_iteration(it, std::sqrt(rr))) {
         K.residual(b, x, r);  // the updated residual converged: confirm with the true one
         restart = !track.accept_true_residual(ops::norm2(r));
         break;
@@ -140,33 +154,47 @@ SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vecto
 
 // ---- SaddlePointOperator ---------------------------------------------------------------------------
 
-SaddlePointOperator::SaddlePointOperator(const LinearOperator& A, const Csr& B, const Csr& Bt, const Csr* C)
-    : A_(A), B_(B), Bt_(Bt), C_(C), n_u_(A.rows()), n_p_(B.rows()) {
-  if (A.rows() != A.cols()) throw InputError("saddle point: A is not square");
-  if (B.cols() != n_u_ || Bt.rows() != n_u_ || Bt.cols() != n_p_)
+CsrCoupling::CsrCoupling(const Csr& B, const Csr& Bt) : B_(B), Bt_(Bt) {
+  if (Bt.rows() != B.cols() || Bt.cols() != B.rows())
     throw InputError("saddle point: B is " + std::to_string(B.rows()) + " x " + std::to_string(B.cols()) +
-                     " and Bᵀ " + std::to_string(Bt.rows()) + " x " + std::to_string(Bt.cols()) + " for A of " +
-                     std::to_string(n_u_) + " rows");
+                     " and Bᵀ " + std::to_string(Bt.rows()) + " x " + std::to_string(Bt.cols()));
+}
+
+void CsrCoupling::apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const {
+  const CsrPattern& p = Bt_.pattern();
+  const double* v = Bt_.values().data();
+#pragma omp parallel for schedule(static)
+  for (index_t i = 0; i < p.rows; ++i) {
+    double sum = 0.0;
+    for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) sum += v[k] * x_p[p.col_idx[k]];
+    y_u[i] += sum;
+  }
+  B_.multiply(x_u, y_p);
+}
+
+SaddlePointOperator::SaddlePointOperator(const LinearOperator& A, const SaddlePointCoupling& B, const Csr* C)
+    : A_(A), B_(B), C_(C), n_u_(A.rows()), n_p_(B.rows()) {
+  if (A.rows() != A.cols()) throw InputError("saddle point: A is not square");
+  if (B.cols() != n_u_)
+    throw InputError("saddle point: B has " + std::to_string(B.cols()) + " columns for A of " + std::to_string(n_u_) +
+                     " rows");
   if (C && (C->rows() != n_p_ || C->cols() != n_p_))
     throw InputError("saddle point: C must be " + std::to_string(n_p_) + " x " + std::to_string(n_p_));
 }
 
 void SaddlePointOperator::apply_impl(const Vector& x, Vector& y) const {
+  // y_u = A x_u + Bᵀ x_p, y_p = B x_u - C x_p; A takes Vectors, so x_u and y_u are copied once.
   xu_ = x.head(n_u_);
-  xp_ = x.tail(n_p_);
-  yu_.resize(n_u_), yp_.resize(n_p_);
+  yu_.resize(n_u_);
   A_.apply(xu_, yu_);
   y.resize(rows());
-  Vector t(n_u_);
-  Bt_.multiply(xp_.data(), t.data());
-  y.head(n_u_) = yu_ + t;
-  B_.multiply(xu_.data(), yp_.data());
+  B_.apply(x.data(), x.data() + n_u_, yu_.data(), y.data() + n_u_);
+  y.head(n_u_) = yu_;
   if (C_) {
-    Vector c(n_p_);
-    C_->multiply(xp_.data(), c.data());
-    yp_ -= c;
+    cp_.resize(n_p_);
+    C_->multiply(x.data() + n_u_, cp_.data());
+    y.tail(n_p_) -= cp_;
   }
-  y.tail(n_p_) = yp_;
 }
 
 // ---- BlockDiagonalOperator -------------------------------------------------------------------------
@@ -249,8 +277,8 @@ MixedMinres::MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> dis
   if (!M_u_->is_linear() || !M_u_->is_symmetric())
     throw InputError("mixed-minres: the displacement block's solver '" + M_u_->name() +
                      "' is not a fixed symmetric map; MINRES needs one (a multigrid cycle with R = Pᵀ)");
-  if (!blocks_.B || !blocks_.Bt || !blocks_.pressure_mass)
-    throw InputError("mixed-minres: the saddle-point blocks (B, Bᵀ, pressure mass) were not given");
+  if (!blocks_.coupling || !blocks_.pressure_mass)
+    throw InputError("mixed-minres: the saddle-point blocks (B and Bᵀ, pressure mass) were not given");
   if (pressure_steps < 1) throw InputError("mixed-minres: pressure_steps must be >= 1");
 }
 
@@ -265,7 +293,7 @@ std::string MixedMinres::describe() const {
 void MixedMinres::setup_impl(const LinearOperator& K) {
   const SaddlePointOperator* sp = K.saddle_point_operator();
   if (!sp) throw InputError("mixed-minres: the system is not a saddle-point operator [A Bᵀ; B -C]");
-  if (&sp->off_diagonal() != blocks_.B || sp->second_block() != blocks_.C)
+  if (&sp->coupling() != blocks_.coupling || sp->second_block() != blocks_.C)
     throw InputError("mixed-minres: the system's blocks are not those the solver was built for");
   M_u_->setup(sp->first_block());
   M_p_ = std::make_unique<ChebyshevMassInverse>(*blocks_.pressure_mass, blocks_.mass_lo, blocks_.mass_hi,

@@ -60,6 +60,25 @@ TEST_CASE("mixed: the divergence block equals quadrature of q div v", "[mixed]")
   }
 }
 
+TEST_CASE("mixed: the matrix-free coupling equals the assembled B and Bᵀ, held components included", "[mixed]") {
+  const TetMesh mesh = box_mesh_24(2, 1, 2, 1.0, 0.5, 1.0);
+  std::vector<char> held(mesh.vertices.size(), 0);
+  for (size_t v = 0; v < held.size(); ++v) held[v] = mesh.vertices[v].y() < 1e-12 ? 2 : 0;  // a symmetry plane
+  for (int k = 2; k <= 3; ++k) {
+    MixedElasticity m(mesh, k, mms_material(0.3), clamp_x0(mesh), held);
+    const Vector xu = Vector::Random(m.num_displacement()), xp = Vector::Random(m.num_pressure());
+    Vector yu = Vector::Random(m.num_displacement()), yp(m.num_pressure());
+    const Vector yu0 = yu;
+    m.coupling().apply(xu.data(), xp.data(), yu.data(), yp.data());
+    Vector Bx(m.num_pressure()), Btp(m.num_displacement());
+    m.divergence().multiply(xu.data(), Bx.data());
+    m.divergence_transpose().multiply(xp.data(), Btp.data());
+    INFO("k = " << k);
+    CHECK((yp - Bx).norm() <= 1e-13 * Bx.norm());
+    CHECK((yu - yu0 - Btp).norm() <= 1e-13 * Btp.norm());
+  }
+}
+
 TEST_CASE("mixed: pressure mass bounds are the element's (Wathen: [1/2, 5/2] for linear)", "[mixed]") {
   CHECK(mixed_tables(2).mass_lo == Approx(0.5));
   CHECK(mixed_tables(2).mass_hi == Approx(2.5));

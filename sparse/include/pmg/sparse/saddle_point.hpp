@@ -29,12 +29,37 @@
 
 namespace pmg {
 
+/// The off-diagonal blocks of a saddle point in one product: y_u += Bᵀ x_p and y_p = B x_u (a
+/// matrix-free discretisation computes both in one pass over its elements).
+class SaddlePointCoupling {
+ public:
+  virtual ~SaddlePointCoupling() = default;
+  /// Rows of B (the second unknowns, n_p) and its columns (the first, n_u).
+  virtual index_t rows() const = 0;
+  virtual index_t cols() const = 0;
+  /// y_u += Bᵀ x_p and y_p = B x_u (sizes unchecked: n_u, n_p, n_u, n_p).
+  virtual void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const = 0;
+};
+
+/// The coupling of assembled B and Bᵀ (Bᵀ assembled: a row-wise product parallelises). Holds
+/// references to both.
+class CsrCoupling final : public SaddlePointCoupling {
+ public:
+  /// Throws InputError when Bt is not B's shape transposed.
+  CsrCoupling(const Csr& B, const Csr& Bt);
+  index_t rows() const override { return B_.rows(); }
+  index_t cols() const override { return B_.cols(); }
+  void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const override;
+
+ private:
+  const Csr &B_, &Bt_;
+};
+
 /// What a saddle-point solver reads besides the operator (SolverContext::saddle_point), filled by
 /// the discretisation (fem::MixedElasticity): the off-diagonal blocks, C, the pressure mass M_p with
 /// the bounds of the spectrum of D⁻¹M_p, and the scale s of the Schur complement S ≈ s M_p.
 struct SaddlePointBlocks {
-  const Csr* B = nullptr;              ///< n_p x n_u
-  const Csr* Bt = nullptr;             ///< its transpose, assembled
+  const SaddlePointCoupling* coupling = nullptr;  ///< B and Bᵀ
   const Csr* C = nullptr;              ///< n_p x n_p, or nullptr for zero
   const Csr* pressure_mass = nullptr;  ///< M_p
   double mass_lo = 0.0, mass_hi = 0.0; ///< bounds of the spectrum of diag(M_p)⁻¹ M_p
@@ -52,20 +77,19 @@ struct SaddlePointBlocks {
 SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
                    const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
 
-/// K = [A Bᵀ; B -C] on (u; p), u first (see the file comment). Holds references to A, B, Bᵀ and C,
-/// which must outlive it. Bᵀ is passed assembled (a row-wise product parallelises; the transposed
-/// product of B would not). C may be nullptr (zero).
+/// K = [A Bᵀ; B -C] on (u; p), u first (see the file comment). Holds references to A, the coupling
+/// (B and Bᵀ) and C, which must outlive it. C may be nullptr (zero).
 class SaddlePointOperator final : public LinearOperator {
  public:
   /// Throws InputError when the sizes do not fit together.
-  SaddlePointOperator(const LinearOperator& A, const Csr& B, const Csr& Bt, const Csr* C);
+  SaddlePointOperator(const LinearOperator& A, const SaddlePointCoupling& B, const Csr* C);
   index_t rows() const override { return n_u_ + n_p_; }
   index_t cols() const override { return rows(); }
   /// Rows of the first block (u).
   index_t first_rows() const { return n_u_; }
   /// The blocks.
   const LinearOperator& first_block() const { return A_; }
-  const Csr& off_diagonal() const { return B_; }
+  const SaddlePointCoupling& coupling() const { return B_; }
   const Csr* second_block() const { return C_; }
   const SaddlePointOperator* saddle_point_operator() const override { return this; }
 
@@ -74,10 +98,10 @@ class SaddlePointOperator final : public LinearOperator {
 
  private:
   const LinearOperator& A_;
-  const Csr &B_, &Bt_;
+  const SaddlePointCoupling& B_;
   const Csr* C_;
   index_t n_u_, n_p_;
-  mutable Vector xu_, xp_, yu_, yp_;
+  mutable Vector xu_, yu_, cp_;
 };
 
 /// diag(M_u, M_p) on (u; p): each block applied to its part. Holds references to both.
@@ -92,7 +116,7 @@ class BlockDiagonalOperator final : public LinearOperator {
 
  private:
   const LinearOperator &first_, &second_;
-  mutable Vector x1_, x2_, y1_, y2_;
+  mutable Vector x1_, x2_, y1_, y2_;  // contiguous copies of the parts (the blocks take Vectors)
 };
 
 /// A fixed number of Chebyshev semi-iteration steps for M z = r from z = 0, preconditioned by the
@@ -140,7 +164,7 @@ struct MixedMinresParams {
 class MixedMinres final : public Solver {
  public:
   /// Takes ownership of the displacement block's solver. Throws InputError for a missing, nonlinear
-  /// or nonsymmetric one, blocks without B, Bᵀ or M_p, or pressure_steps < 1.
+  /// or nonsymmetric one, blocks without a coupling or M_p, or pressure_steps < 1.
   MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement, const SaddlePointBlocks& blocks,
               int pressure_steps, double pressure_scale = 1.0);
   std::string name() const override { return "mixed-minres"; }
