@@ -5,6 +5,7 @@
 #include "table.hpp"
 
 #include "pmg/fem/mixed.hpp"
+#include "pmg/fem/simulation.hpp"
 #include "pmg/sim/setup.hpp"
 #include "pmg/sparse/factory.hpp"
 #include "pmg/sparse/file_io.hpp"
@@ -71,7 +72,6 @@ void write_json(const std::string& path, const std::string& description, const f
 
 void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, Config>>& configs,
                const std::string& json_report) {
-  if (o.dt > 0) throw InputError("--formulation mixed: static systems only (--dt is not supported yet)");
   if (o.degree != 2 && o.degree != 3)
     throw InputError("--formulation mixed needs --degree 2 or 3 (Taylor-Hood: a pressure of degree k - 1 >= 1)");
   for (const auto& nc : configs) start_libraries(nc.second);
@@ -80,11 +80,19 @@ void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, C
   fem::Material material{o.young, o.poisson, o.density};
   fem::MixedElasticity m(*setup.mesh, o.degree, material, setup.hierarchy->clamped_vertices(),
                          setup.hierarchy->component_masks());
+  Vector f = setup.f_ext;
+  if (o.dt > 0) {  // the system of one undamped implicit-Euler step, as sim::system_of makes it
+    fem::SimulationParams sp;
+    sp.dt = o.dt;
+    const fem::StepWeights w = fem::step_weights(sp);
+    m.set_weights({w.mass, w.stiffness});
+    f *= o.dt;
+  }
   const double load_s = seconds_since(t0);
   const std::string description = (o.mesh.empty() ? "box bar" : o.mesh) + ", degree " + std::to_string(o.degree) +
                                   "/" + std::to_string(o.degree - 1) + " Taylor-Hood, " +
                                   std::to_string(setup.mesh->num_tets()) + " tets, nu = " + fmt("%g", o.poisson) + ", " +
-                                  o.load;
+                                  o.load + (o.dt > 0 ? ", implicit-Euler step dt = " + fmt("%g", o.dt) : ", static");
   std::cout << "system: mixed displacement-pressure, " << description << "\n"
             << "unknowns: " << m.num_displacement() << " displacement + " << m.num_pressure() << " pressure\n"
             << "load: " << fmt("%.3f", load_s) << " s\n";
@@ -95,7 +103,7 @@ void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, C
     MixedRow row;
     row.name = name;
     try {
-      row.r = fem::solve_mixed_static(m, setup.f_ext, config);
+      row.r = fem::solve_mixed_static(m, f, config);
       row.ok = row.r.solve.ok();
       row.message = row.r.solve.message;
     } catch (const SolveError& e) {

@@ -235,7 +235,6 @@ void MixedElasticity::assemble_pressure_mass() {
         mp.emplace_back(pressure_.node(e, q), pressure_.node(e, q2), 6.0 * u.geometry(e).volume * mass(q, q2));
   Mp_ = Csr::from_triplets(num_pressure(), num_pressure(), mp);
   C_ = Mp_;
-  for (double& v : C_.values()) v *= lambda_inverse_;
   const MixedTables& t = mixed_tables(u.space().degree());
   coupling_ = std::make_unique<DivergenceCoupling>(u, pressure_);
   blocks_.coupling = coupling_.get();
@@ -243,7 +242,17 @@ void MixedElasticity::assemble_pressure_mass() {
   blocks_.pressure_mass = &Mp_;
   blocks_.mass_lo = t.mass_lo;
   blocks_.mass_hi = t.mass_hi;
-  blocks_.schur_scale = 1.0 / material_.mu() + lambda_inverse_;
+  set_weights(weights_);
+}
+
+void MixedElasticity::set_weights(SystemWeights w) {
+  if (!(w.stiffness > 0 && std::isfinite(w.stiffness)) || !(w.mass >= 0 && std::isfinite(w.mass)))
+    throw InputError("mixed elements: the weights need a stiffness weight > 0 and a mass weight >= 0");
+  weights_ = w;
+  const std::vector<double>& mp = Mp_.values();
+  std::vector<double>& c = C_.values();
+  for (size_t i = 0; i < c.size(); ++i) c[i] = mp[i] * lambda_inverse_ / w.stiffness;
+  blocks_.schur_scale = (1.0 / material_.mu() + lambda_inverse_) / w.stiffness;
 }
 
 Vector MixedElasticity::rhs(const Vector& f_full) const {
@@ -257,7 +266,7 @@ Vector MixedElasticity::rhs(const Vector& f_full) const {
 
 Csr MixedElasticity::assembled_system() {
   const int top = hierarchy_->num_levels() - 1;
-  hierarchy_->assemble_level(top, nullptr);
+  hierarchy_->assemble_level(top, nullptr, nullptr, weights_.mass, weights_.stiffness);
   const Csr A = hierarchy_->matrix(top).to_csr();
   const index_t nu = num_displacement();
   std::vector<Triplet> t;
@@ -295,7 +304,7 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
   Csr assembled;
   if (config.get_string("method", "mixed-minres") == "mixed-minres") {
     BoundSystem bound = m.hierarchy().bind(*solver);
-    const LinearOperator& A = bound.prepare();
+    const LinearOperator& A = bound.prepare(nullptr, m.weights());
     K = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());
     solver->setup(*K);
   } else {
@@ -310,7 +319,7 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
   out.description = solver->name() + (solver->describe().empty() ? "" : ": " + solver->describe());
   const ElasticityModel& u = m.hierarchy().finest();
   out.u = u.expand(x.head(m.num_displacement()), Vector::Zero(u.num_dofs()));
-  out.p = x.tail(m.num_pressure());
+  out.p = x.tail(m.num_pressure()) / m.weights().stiffness;
   return out;
 }
 

@@ -86,21 +86,24 @@ TEST_CASE("mixed: pressure mass bounds are the element's (Wathen: [1/2, 5/2] for
   CHECK(mixed_tables(3).mass_hi > mixed_tables(3).mass_lo);
 }
 
-TEST_CASE("mixed-minres answers equal a direct solve of the assembled saddle point", "[mixed]") {
+TEST_CASE("mixed-minres answers equal a direct solve of the assembled saddle point, static and a step", "[mixed]") {
   for (int k = 2; k <= 3; ++k)
-    for (double nu : {0.3, 0.4999, 0.5}) {
-      Bar bar(k, nu);
-      const MixedResult r = solve_mixed_static(bar.m, bar.f, mixed_minres_config(1e-11));
-      const Csr K = bar.m.assembled_system();
-      Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(Eigen::SparseMatrix<double>(K.to_eigen()));
-      REQUIRE(lu.info() == Eigen::Success);
-      const Vector x = lu.solve(bar.m.rhs(bar.f));
-      Vector mine(bar.m.num_unknowns());
-      mine << bar.m.hierarchy().finest().restrict_to_free(r.u), r.p;
-      INFO("k = " << k << ", nu = " << nu << ", " << r.solve.iterations << " iterations");
-      CHECK(r.solve.ok());
-      CHECK((mine - x).norm() <= 1e-8 * x.norm());
-    }
+    for (double nu : {0.3, 0.4999, 0.5})
+      for (SystemWeights w : {SystemWeights{0.0, 1.0}, SystemWeights{1.0, 1e-4}}) {
+        Bar bar(k, nu);
+        bar.m.set_weights(w);
+        const MixedResult r = solve_mixed_static(bar.m, bar.f, mixed_minres_config(1e-11));
+        const Csr K = bar.m.assembled_system();
+        Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(Eigen::SparseMatrix<double>(K.to_eigen()));
+        REQUIRE(lu.info() == Eigen::Success);
+        const Vector x = lu.solve(bar.m.rhs(bar.f));
+        Vector mine(bar.m.num_unknowns());
+        mine << bar.m.hierarchy().finest().restrict_to_free(r.u), w.stiffness * r.p;  // the system's p̃ = s p
+        INFO("k = " << k << ", nu = " << nu << ", weights " << w.mass << ", " << w.stiffness << ": "
+                    << r.solve.iterations << " iterations");
+        CHECK(r.solve.ok());
+        CHECK((mine - x).norm() <= 1e-8 * x.norm());
+      }
 }
 
 TEST_CASE("mixed-minres: iterations bounded as nu -> 1/2 (0.49, 0.4999 and 0.5 alike)", "[mixed]") {
@@ -141,4 +144,6 @@ TEST_CASE("mixed: bad input is refused by name", "[mixed]") {
   CHECK_THROWS_WITH(MixedElasticity(mesh, 2, mms_material(0.6), clamp_x0(mesh)), Catch::Contains("(-1, 0.5]"));
   CHECK_THROWS_WITH(ElasticityModel(mesh, 2, mms_material(0.5)), Catch::Contains("Poisson"));
   CHECK_THROWS_WITH(make_solver(mixed_minres_config(1e-8), {}), Catch::Contains("formulation=mixed"));
+  MixedElasticity m(mesh, 2, mms_material(0.3), clamp_x0(mesh));
+  CHECK_THROWS_WITH(m.set_weights({1.0, 0.0}), Catch::Contains("stiffness weight > 0"));
 }

@@ -12,6 +12,9 @@
 // (β the discrete inf-sup constant; |div u|² <= |∇u|² <= 2|ε(u)|² on clamped fields), so it is
 // replaced by (1/μ + 1/λ) M_p in the preconditioner (pmg/sparse/saddle_point.hpp).
 //
+// The system of an implicit-Euler step (SystemWeights m, s: mass m M + stiffness s A) keeps the
+// saddle-point form with p̃ = s p:  [m M + s A, Bᵀ; B, -C/s] [u; p̃] = [f; 0],  S ≈ (1/μ + 1/λ) M_p / s.
+//
 // Closed-form element blocks (element.hpp's integrals):
 //   B_e(b, 3a+c) = ∫ B^{k-1}_b ∂_c B^k_a = 6V Σ_i (∇λ_i)_c D(b, a, i),
 //   D(b, a, i)   = k ∫ B^{k-1}_b B^{k-1}_{a-e_i} / (6V)  (0 where a_i = 0),
@@ -111,6 +114,10 @@ class MixedElasticity {
   const SaddlePointCoupling& coupling() const { return *coupling_; }
   const Csr* compressibility() const { return lambda_inverse_ > 0 ? &C_ : nullptr; }
   const Csr& pressure_mass() const { return Mp_; }
+  /// The weights of the displacement block m M + s A (static: (0, 1)); C and the Schur scale follow
+  /// (the file comment). Throws InputError for s <= 0 or m < 0.
+  void set_weights(SystemWeights w);
+  SystemWeights weights() const { return weights_; }
   /// What a saddle-point solver reads (SolverContext::saddle_point): the blocks, the mass bounds
   /// and the Schur complement's scale 1/μ + 1/λ.
   const SaddlePointBlocks& blocks() const { return blocks_; }
@@ -127,6 +134,7 @@ class MixedElasticity {
   std::unique_ptr<DegreeHierarchy> hierarchy_;
   BBSpace pressure_;
   double lambda_inverse_ = 0.0;
+  SystemWeights weights_;
   mutable std::once_flag divergence_once_;
   mutable Csr B_, Bt_;
   Csr C_, Mp_;
@@ -139,16 +147,17 @@ class MixedElasticity {
 /// What a mixed static solve reports.
 struct MixedResult {
   Vector u;                ///< full displacement (3 per node, zero on the fixed nodes)
-  Vector p;                ///< pressure, one per pressure node
+  Vector p;                ///< pressure, one per pressure node (p̃ / s: the pressure itself)
   SolveResult solve;       ///< iterations and residuals of the whole system's solve
   double setup_seconds = 0.0;
   double solve_seconds = 0.0;
   std::string description; ///< the solver's name and description
 };
 
-/// The linear static solve of the mixed system for the full load f_full with the solver the
-/// config names (the factory; `mixed-minres` by default, or a direct method such as mumps on the
-/// assembled system). Throws what the solver throws (SolveError on failure).
+/// The linear solve of the mixed system at its weights (static, or one implicit-Euler step's
+/// system) for the full load f_full with the solver the config names (the factory; `mixed-minres`
+/// by default, or a direct method such as mumps on the assembled system). Throws what the solver
+/// throws (SolveError on failure).
 MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& solver,
                                SolveMonitor* monitor = nullptr);
 
