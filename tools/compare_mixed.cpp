@@ -76,7 +76,11 @@ void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, C
     throw InputError("--formulation mixed needs --degree 2 or 3 (Taylor-Hood: a pressure of degree k - 1 >= 1)");
   for (const auto& nc : configs) start_libraries(nc.second);
   const auto t0 = Clock::now();
-  sim::SceneSetup setup = sim::set_up(scene_of(o));
+  sim::Scene scene = scene_of(o);
+  // set_up() also builds the displacement-only hierarchy, whose material cannot be incompressible;
+  // only its mesh, clamp, held components and loads are read here, none of which depends on ν.
+  if (scene.poisson >= 0.5) scene.poisson = 0.3;
+  sim::SceneSetup setup = sim::set_up(scene);
   fem::Material material{o.young, o.poisson, o.density};
   fem::MixedElasticity m(*setup.mesh, o.degree, material, setup.hierarchy->clamped_vertices(),
                          setup.hierarchy->component_masks());

@@ -38,8 +38,8 @@ void add_scene_options(CLI::App* sub, SceneOptions& o) {
       ->capture_default_str();
   sub->add_option("-p,--degree", o.degree, "element degree")->check(CLI::Range(1, 3))->capture_default_str();
   sub->add_option("--young", o.young, "Young's modulus [Pa]")->check(FinitePositive())->capture_default_str();
-  sub->add_option("--poisson", o.poisson, "Poisson's ratio")
-      ->check(FiniteRange(-1.0, 0.5, true, true))
+  sub->add_option("--poisson", o.poisson, "Poisson's ratio (0.5: the mixed formulation only)")
+      ->check(FiniteRange(-1.0, 0.5, true, false))
       ->capture_default_str();
   sub->add_option("--density", o.density, "density [kg/m^3]")->check(FiniteNonNegative())->capture_default_str();
   sub->add_option("--fix", o.fix, "clamp the minimum face of this axis")

@@ -13,7 +13,10 @@ void Material::check() const {
   if (!std::isfinite(young) || !(young > 0))
     throw InputError("material: Young's modulus must be a positive number, got " + std::to_string(young));
   if (!std::isfinite(poisson) || !(poisson > -1.0 && poisson < 0.5))
-    throw InputError("material: Poisson's ratio must lie in (-1, 0.5), got " + std::to_string(poisson));
+    throw InputError("material: Poisson's ratio must lie in (-1, 0.5), got " + std::to_string(poisson) +
+                     (poisson == 0.5 ? " (an incompressible material needs the mixed displacement-pressure "
+                                       "formulation: fem::MixedElasticity, pmg compare --formulation mixed)"
+                                     : ""));
   if (!std::isfinite(density) || density < 0)
     throw InputError("material: density must be >= 0, got " + std::to_string(density));
 }
