@@ -734,11 +734,7 @@ void register_compare(CLI::App& app) {
   sub->add_option("-o", *dash_o)->expected(0, 1)->group("");
   sub->add_option("--json", opts->json_report,
                   "also write every figure of the table to this JSON file (units in the key names)");
-  sub->add_option("--formulation", opts->formulation,
-                  "displacement: the elasticity system K u = f; mixed: the displacement-pressure saddle point of "
-                  "Taylor-Hood elements (degree 2 or 3 with a pressure of one degree less, nu up to 0.5 allowed by the "
-                  "elements; solvers mixed-minres and direct ones on the assembled system)")
-      ->check(CLI::IsMember({"displacement", "mixed"}));
+  add_formulation_option(sub, opts->formulation);
   sub->add_flag("--warm-up", opts->warm_up,
                 "run each solver once untimed first: warm timings, independent of the solvers' order");
   add_threads_option(sub);

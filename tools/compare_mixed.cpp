@@ -70,6 +70,15 @@ void write_json(const std::string& path, const std::string& description, const f
 
 }  // namespace
 
+void add_formulation_option(CLI::App* sub, std::string& formulation) {
+  sub->add_option("--formulation", formulation,
+                  "displacement: the elasticity system K u = f; mixed: the displacement-pressure saddle point of "
+                  "Taylor-Hood elements (degree 2 or 3 with a pressure of one degree less, nu up to 0.5; solvers "
+                  "mixed-minres and mumps on the assembled system)")
+      ->check(CLI::IsMember({"displacement", "mixed"}))
+      ->capture_default_str();
+}
+
 void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, Config>>& configs,
                const std::string& json_report) {
   if (o.degree != 2 && o.degree != 3)

@@ -13,6 +13,9 @@
 
 namespace pmg::tools {
 
+/// Registers --formulation displacement|mixed on pmg compare.
+void add_formulation_option(CLI::App* sub, std::string& formulation);
+
 /// Runs every (name, config) on the scene's mixed system and prints one row each; writes the
 /// rows to `json_report` (atomically) when it is not empty. Throws Exit{kSolveFailed} after the
 /// table when a solve failed, InputError for a scene the mixed formulation cannot take.

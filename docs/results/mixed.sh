@@ -3,7 +3,8 @@
 # elements, mixed-minres and MUMPS's LDLᵀ on the assembled saddle point) against the
 # displacement-only elements (mgpcg) on the quadratic bar of the stress matrix (4 x 1 x 1 m, 8 x 2 x 2
 # boxes, clamped at x = 0, gravity) and the cubic Homer (clamped at the feet, gravity), static, at
-# ν = 0.3, 0.49, 0.499 and 0.4999; iterations to 1e-8 (the robustness target) and times to 1e-6.
+# ν = 0.3, 0.49, 0.499 and 0.4999; iterations to 1e-8 (the robustness target) and times to 1e-6;
+# then one implicit-Euler step's system on Homer.
 # Usage: docs/results/mixed.sh > docs/results/mixed_$(date +%F).txt   (after scripts/build.sh and
 # scripts/get_models.sh with the Homer mesh made as the README says)
 set -euo pipefail
@@ -23,4 +24,13 @@ for tol in 1e-8 1e-6; do
       sleep 2
     done
   done
+done
+# One implicit-Euler step's system (M + dt^2 K from rest, dt = 0.01 s) on Homer P3, to 1e-8.
+for nu in 0.3 0.4999; do
+  echo "## homer, nu = $nu, tol = 1e-8, one step dt = 0.01: displacement-only mgpcg"
+  "$pmg" compare "${homer[@]}" --poisson "$nu" --tol 1e-8 --dt 0.01 --solvers mgpcg --no-reference | grep -E "^(size:|mgpcg )"
+  sleep 2
+  echo "## homer, nu = $nu, tol = 1e-8, one step dt = 0.01: mixed"
+  "$pmg" compare "${homer[@]}" --poisson "$nu" --tol 1e-8 --dt 0.01 --formulation mixed | grep -vE "^(mixed-minres: MINRES|mumps: PETSc)"
+  sleep 2
 done

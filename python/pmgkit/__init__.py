@@ -72,10 +72,10 @@ try:
 except ImportError as _e:
     raise _missing_core(_e) from _e
 from ._core import (BinBcsr, Error, InputError, Material, Mesh, SolveError, ElasticModel,
-                    DegreeHierarchy)
+                    DegreeHierarchy, MixedElasticity)
 
 __all__ = ["make_solver", "multigrid", "methods", "study", "study_scene", "solve_distributed", "Solver", "Csr", "Bcsr", "BinBcsr", "Mesh",
-           "Material", "ElasticModel", "DegreeHierarchy", "simulate", "read_petsc", "write_petsc",
+           "Material", "ElasticModel", "DegreeHierarchy", "MixedElasticity", "simulate", "read_petsc", "write_petsc",
            "Error", "InputError",
            "SolveError"]
 

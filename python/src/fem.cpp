@@ -7,6 +7,7 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/locator.hpp"
 #include "pmg/fem/mesh_io.hpp"
+#include "pmg/fem/mixed.hpp"
 #include "pmg/fem/static_solve.hpp"
 #include "pmg/sim/run.hpp"
 #include "pmg/sim/scene.hpp"
@@ -477,6 +478,82 @@ void register_hierarchy(py::module_& m) {
       });
 }
 
+/// MixedElasticity: the displacement-pressure saddle point of Taylor-Hood elements.
+struct PyMixed {
+  std::shared_ptr<const fem::TetMesh> mesh;
+  std::unique_ptr<fem::MixedElasticity> m;
+};
+
+void register_mixed(py::module_& m) {
+  py::class_<PyMixed>(m, "MixedElasticity",
+                      "Mixed displacement-pressure elasticity on Taylor-Hood Bernstein-Bezier tetrahedra: displacement "
+                      "of degree 2 or 3, continuous pressure one degree lower, nu up to 0.5 (nearly incompressible and "
+                      "incompressible material without locking). Solved by mixed-minres (MINRES with the p-multigrid on "
+                      "the nu-independent displacement block) or mumps on the assembled saddle point.")
+      .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material,
+                       py::object poisson, py::object clamp, py::object components) {
+             fem::Material mat = material;
+             if (!poisson.is_none()) mat.poisson = poisson.cast<double>();
+             auto mixed = std::make_unique<fem::MixedElasticity>(*mesh, degree, mat, clamp_mask(*mesh, clamp),
+                                                                 component_masks(*mesh, components));
+             return PyMixed{mesh, std::move(mixed)};
+           }),
+           py::arg("mesh"), py::arg("degree"), py::arg("material") = fem::Material{}, py::arg("poisson") = py::none(),
+           py::arg("clamp") = py::none(), py::arg("components") = py::none(),
+           "The mixed system on mesh (degree 2 or 3) with material; poisson overrides the material's Poisson's ratio "
+           "and may be 0.5, which Material refuses. clamp and components as for DegreeHierarchy. Raises InputError "
+           "for another degree or a material out of range.")
+      .def_property_readonly("num_displacement", [](const PyMixed& s) { return s.m->num_displacement(); },
+                             "Displacement unknowns (3 per free node).")
+      .def_property_readonly("num_pressure", [](const PyMixed& s) { return s.m->num_pressure(); },
+                             "Pressure unknowns (one per node of degree - 1).")
+      .def("gravity", [](const PyMixed& s, std::vector<double> g) {
+        return to_numpy(s.m->hierarchy().finest().gravity(vec3(g, "gravity")));
+      }, py::arg("g"), "The load of gravity g (3 numbers, m/s^2) as a full displacement vector.")
+      .def("set_weights", [](PyMixed& s, double mass, double stiffness) { s.m->set_weights({mass, stiffness}); },
+           py::arg("mass"), py::arg("stiffness"),
+           "The system of an implicit-Euler step: displacement block mass M + stiffness A (static: 0, 1).")
+      .def("rhs", [](const PyMixed& s, const DoubleArray& f) {
+        return to_numpy(s.m->rhs(to_vector(f, s.m->hierarchy().finest().num_dofs(), "force (full vector)")));
+      }, py::arg("f"), "The right-hand side (displacement, then zeros for the pressure) of a full load f.")
+      .def("system", [](PyMixed& s) {
+        Csr K;
+        {
+          py::gil_scoped_release nogil;
+          K = s.m->assembled_system();
+        }
+        return csr_copy(K);
+      }, "The saddle point [A B^T; B -C/s] assembled as CSR arrays (displacement first; the pressure unknowns are "
+         "s p), for SciPy or a direct solver.")
+      .def("solve", [](PyMixed& s, const DoubleArray& f, py::dict config) {
+        const Vector ff = to_vector(f, s.m->hierarchy().finest().num_dofs(), "force (full vector)");
+        const std::string json = py::module_::import("json").attr("dumps")(config).cast<std::string>();
+        const Config c = Config::from_json(json, "MixedElasticity.solve");
+        fem::MixedResult r;
+        {
+          py::gil_scoped_release nogil;
+          r = fem::solve_mixed_static(*s.m, ff, c);
+        }
+        py::dict info;
+        info["status"] = to_string(r.solve.status);
+        info["iterations"] = r.solve.iterations;
+        info["true_rel_residual"] = r.solve.true_rel_residual;
+        info["setup_seconds"] = r.setup_seconds;
+        info["solve_seconds"] = r.solve_seconds;
+        info["description"] = r.description;
+        return py::make_tuple(to_numpy(std::move(r.u)), to_numpy(std::move(r.p)), info);
+      }, py::arg("f"), py::arg("config") = py::dict(),
+         "Solves for the full load f with the solver config (a dict: method mixed-minres by default, or mumps; "
+         "tol, max_iterations and the cycle's keys). Returns (u as a full vector, p per pressure node, info). "
+         "Raises SolveError when the solve fails.")
+      .def("__repr__", [](const PyMixed& s) {
+        return "<pmgkit.MixedElasticity: degree " + std::to_string(s.m->hierarchy().num_levels()) + "/" +
+               std::to_string(s.m->hierarchy().num_levels() - 1) + " on " + grouped(s.mesh->num_tets()) +
+               " tetrahedra, " + grouped(s.m->num_displacement()) + " displacement + " +
+               grouped(s.m->num_pressure()) + " pressure unknowns>";
+      });
+}
+
 /// simulate(): a scene run from Python.
 void register_simulation(py::module_& m) {
   // ---- simulation ----
@@ -527,6 +604,7 @@ void register_fem(py::module_& m) {
   register_mesh(m);
   register_model(m);
   register_hierarchy(m);
+  register_mixed(m);
   register_simulation(m);
 }
 

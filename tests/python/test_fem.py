@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import pmgkit
@@ -192,3 +193,24 @@ def test_a_refined_hierarchy_keeps_its_coarser_meshes_under_the_linear_level():
     with pytest.raises(pmgkit.InputError, match="refine"):
         pmgkit.DegreeHierarchy(mesh, 2, material, clamp=flags, refine=5)
 
+
+
+def test_mixed_elasticity_solves_the_saddle_point_without_locking():
+    mesh = pmgkit.Mesh.box(4, 1, 1, 2.0, 0.5, 0.5)
+    clamp = lambda X: X[0] < 1e-12
+    for nu in (0.3, 0.4999, 0.5):
+        m = pmgkit.MixedElasticity(mesh, 2, pmgkit.Material(1e5, 0.3, 1e3), poisson=nu, clamp=clamp)
+        f = m.gravity([0.0, 0.0, -9.81])
+        u, p, info = m.solve(f, {"method": "mixed-minres", "tol": 1e-11})
+        assert info["status"] == "converged"
+        indptr, indices, data, shape = m.system()
+        K = sp.csr_matrix((data, indices, indptr), shape=shape)
+        x = spla.spsolve(K.tocsc(), m.rhs(f))
+        # The system's pressure unknowns are s p, s = 1 for the static system.
+        # MINRES stops at 1e-11 of the residual; the pressure, the worse conditioned part, agrees to 1e-7.
+        assert np.linalg.norm(x[m.num_displacement:] - p) <= 1e-7 * np.linalg.norm(p)
+        assert p.shape == (m.num_pressure,) and u.shape == f.shape
+    with pytest.raises(pmgkit.InputError, match="degree must be 2 or 3"):
+        pmgkit.MixedElasticity(mesh, 1, clamp=clamp)
+    with pytest.raises(pmgkit.InputError, match=r"\(-1, 0.5\]"):
+        pmgkit.MixedElasticity(mesh, 2, poisson=0.7, clamp=clamp)

@@ -41,7 +41,8 @@ namespace pmg::fem {
 /// constant of the degree, since M_e is 6V times a table).
 struct MixedTables {
   int k = 0;               ///< displacement degree
-  int nu = 0, np = 0;      ///< displacement and pressure nodes per element
+  int nu = 0;              ///< displacement nodes per element
+  int np = 0;              ///< pressure nodes per element
   std::vector<double> D;   ///< D[(b nu + a) 4 + i]
   double mass_lo = 0.0;    ///< smallest eigenvalue of D_e⁻¹ M_e (pressure degree k - 1)
   double mass_hi = 0.0;    ///< largest
@@ -60,8 +61,11 @@ void element_divergence(const MixedTables& t, const ElementGeometry& g, Eigen::M
 /// zero. Holds references to the model and the pressure space.
 class DivergenceCoupling final : public SaddlePointCoupling {
  public:
+  /// The coupling of the model's free displacement unknowns with every node of `pressure` (the same
+  /// mesh, degree one less).
   DivergenceCoupling(const ElasticityModel& u, const BBSpace& pressure);
   index_t rows() const override { return pressure_.num_nodes(); }
+  /// The model's free unknowns.
   index_t cols() const override { return u_.num_free_dofs(); }
   void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const override;
 
@@ -99,24 +103,31 @@ class MixedElasticity {
   static Material shear_material(const Material& m);
   /// The displacement levels (degree k down to 1) on the shear material.
   DegreeHierarchy& hierarchy() { return *hierarchy_; }
+  /// The displacement levels.
   const DegreeHierarchy& hierarchy() const { return *hierarchy_; }
   /// The pressure's BB space (degree k - 1).
   const BBSpace& pressure_space() const { return pressure_; }
-  /// Unknowns of the displacement block (3 per free node) and of the pressure (one per node).
+  /// Unknowns of the displacement block (3 per free node).
   index_t num_displacement() const { return hierarchy_->finest().num_free_dofs(); }
+  /// Unknowns of the pressure (one per node).
   index_t num_pressure() const { return pressure_.num_nodes(); }
+  /// Both.
   index_t num_unknowns() const { return num_displacement() + num_pressure(); }
   /// B (pressure x displacement) and Bᵀ assembled (on first use: direct solvers and tests; the
   /// iterative solve multiplies with coupling()), C = M_p / λ (nullptr at ν = 1/2) and M_p.
   const Csr& divergence() const;
+  /// Bᵀ assembled (on first use).
   const Csr& divergence_transpose() const;
   /// B and Bᵀ matrix-free (DivergenceCoupling).
   const SaddlePointCoupling& coupling() const { return *coupling_; }
+  /// C = M_p / (λ s) at the weights' stiffness s (nullptr at ν = 1/2).
   const Csr* compressibility() const { return lambda_inverse_ > 0 ? &C_ : nullptr; }
+  /// The pressure mass M_p.
   const Csr& pressure_mass() const { return Mp_; }
   /// The weights of the displacement block m M + s A (static: (0, 1)); C and the Schur scale follow
   /// (the file comment). Throws InputError for s <= 0 or m < 0.
   void set_weights(SystemWeights w);
+  /// The weights of the last set_weights() ((0, 1) before).
   SystemWeights weights() const { return weights_; }
   /// What a saddle-point solver reads (SolverContext::saddle_point): the blocks, the mass bounds
   /// and the Schur complement's scale 1/μ + 1/λ.
@@ -149,8 +160,8 @@ struct MixedResult {
   Vector u;                ///< full displacement (3 per node, zero on the fixed nodes)
   Vector p;                ///< pressure, one per pressure node (p̃ / s: the pressure itself)
   SolveResult solve;       ///< iterations and residuals of the whole system's solve
-  double setup_seconds = 0.0;
-  double solve_seconds = 0.0;
+  double setup_seconds = 0.0;  ///< the levels prepared and the solver set up
+  double solve_seconds = 0.0;  ///< the solve
   std::string description; ///< the solver's name and description
 };
 

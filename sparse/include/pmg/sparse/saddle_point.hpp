@@ -34,8 +34,9 @@ namespace pmg {
 class SaddlePointCoupling {
  public:
   virtual ~SaddlePointCoupling() = default;
-  /// Rows of B (the second unknowns, n_p) and its columns (the first, n_u).
+  /// Rows of B: the second unknowns, n_p.
   virtual index_t rows() const = 0;
+  /// Columns of B: the first unknowns, n_u.
   virtual index_t cols() const = 0;
   /// y_u += Bᵀ x_p and y_p = B x_u (sizes unchecked: n_u, n_p, n_u, n_p).
   virtual void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const = 0;
@@ -48,6 +49,7 @@ class CsrCoupling final : public SaddlePointCoupling {
   /// Throws InputError when Bt is not B's shape transposed.
   CsrCoupling(const Csr& B, const Csr& Bt);
   index_t rows() const override { return B_.rows(); }
+  /// B's columns.
   index_t cols() const override { return B_.cols(); }
   void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const override;
 
@@ -62,7 +64,8 @@ struct SaddlePointBlocks {
   const SaddlePointCoupling* coupling = nullptr;  ///< B and Bᵀ
   const Csr* C = nullptr;              ///< n_p x n_p, or nullptr for zero
   const Csr* pressure_mass = nullptr;  ///< M_p
-  double mass_lo = 0.0, mass_hi = 0.0; ///< bounds of the spectrum of diag(M_p)⁻¹ M_p
+  double mass_lo = 0.0;                ///< lower bound of the spectrum of diag(M_p)⁻¹ M_p
+  double mass_hi = 0.0;                ///< its upper bound
   double schur_scale = 1.0;            ///< s in S ≈ s M_p
 };
 
@@ -87,9 +90,11 @@ class SaddlePointOperator final : public LinearOperator {
   index_t cols() const override { return rows(); }
   /// Rows of the first block (u).
   index_t first_rows() const { return n_u_; }
-  /// The blocks.
+  /// The block A.
   const LinearOperator& first_block() const { return A_; }
+  /// B and Bᵀ.
   const SaddlePointCoupling& coupling() const { return B_; }
+  /// C (nullptr: zero).
   const Csr* second_block() const { return C_; }
   const SaddlePointOperator* saddle_point_operator() const override { return this; }
 
@@ -107,6 +112,7 @@ class SaddlePointOperator final : public LinearOperator {
 /// diag(M_u, M_p) on (u; p): each block applied to its part. Holds references to both.
 class BlockDiagonalOperator final : public LinearOperator {
  public:
+  /// Throws InputError when a block is not square.
   BlockDiagonalOperator(const LinearOperator& first, const LinearOperator& second);
   index_t rows() const override { return first_.rows() + second_.rows(); }
   index_t cols() const override { return rows(); }
@@ -133,6 +139,7 @@ class ChebyshevMassInverse final : public LinearOperator {
   index_t cols() const override { return M_.cols(); }
   /// The factor scale (S ≈ M / scale: the pressure Schur complement's multiple of the mass).
   double scale() const { return scale_; }
+  /// The number of Chebyshev steps.
   int steps() const { return steps_; }
 
  protected:
@@ -153,6 +160,7 @@ struct MixedMinresParams {
   int pressure_steps = 8;
   /// Factor of the Schur complement's approximation S ≈ pressure_scale s M_p.
   double pressure_scale = 1.0;
+  /// The keys pressure_steps and pressure_scale.
   void visit(ParamVisitor& v);
 };
 
@@ -175,6 +183,7 @@ class MixedMinres final : public Solver {
   TimingBreakdown setup_timings() const override { return M_u_->setup_timings(); }
   void reset_timings() const override { M_u_->reset_timings(); }
   std::string describe() const override;
+  /// The stopping rules (read at each solve).
   KrylovParams& params() { return params_; }
   /// The displacement block's solver.
   const Solver& displacement_solver() const { return *M_u_; }
