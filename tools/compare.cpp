@@ -566,8 +566,22 @@ void write_report(const Options& o, const System& sys, const std::vector<study::
   std::cout << "report:  " << o.json_report << "\n";
 }
 
+/// --formulation mixed takes an FEM scene and writes only the table and --json: the options it
+/// cannot honour are refused by name.
+void check_mixed_options(const Options& o) {
+  if (!o.fem || !o.matrix.empty() || !o.levels.empty())
+    throw InputError("--formulation mixed needs an FEM scene (--box or --mesh), not a matrix or user levels");
+  const std::pair<bool, const char*> refused[] = {
+      {o.distributed_mesh, "--distributed-mesh"}, {!o.history.empty(), "--history"}, {!o.plot.empty(), "--plot"},
+      {!o.solution_out.empty(), "--solution-out"}, {!o.export_levels.empty(), "--export-levels"},
+      {!o.export_petsc.empty(), "--export-petsc"}, {o.warm_up, "--warm-up"}, {!o.save_mesh.empty(), "--save-mesh"}};
+  for (const auto& [given, name] : refused)
+    if (given) throw InputError(std::string("--formulation mixed does not take ") + name);
+}
+
 void run(const Options& given) {
   Options o = given;
+  if (o.formulation == "mixed") check_mixed_options(o);
   if (o.distributed_mesh) {
     FilePlan plan;  // no output may be the mesh read or the other output
     plan.input(o.scene.mesh, "--mesh");
@@ -581,8 +595,6 @@ void run(const Options& given) {
     return;
   }
   if (o.formulation == "mixed") {
-    if (!o.fem || !o.matrix.empty() || !o.levels.empty())
-      throw InputError("--formulation mixed needs an FEM scene (--box or --mesh), not a matrix or user levels");
     FilePlan plan;
     plan.input(o.scene.mesh, "--mesh");
     plan.output(o.json_report, "--json");

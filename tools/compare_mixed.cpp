@@ -119,11 +119,13 @@ void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, C
       row.r = fem::solve_mixed_static(m, f, config);
       row.ok = row.r.solve.ok();
       row.message = row.r.solve.message;
-    } catch (const SolveError& e) {
-      row.message = e.what();
+    } catch (const InputError&) {
+      throw;  // bad input ends the run (exit 2)
+    } catch (const Error& e) {
+      row.message = e.what();  // a failed solve or set-up (a factorisation): this row only
     }
     if (row.ok && first) {
-      row.du = (row.r.u - first->r.u).norm() / first->r.u.norm();
+      row.du = (row.r.u - first->r.u).norm() / std::max(first->r.u.norm(), 1e-300);
       row.dp = (row.r.p - first->r.p).norm() / std::max(first->r.p.norm(), 1e-300);
     }
     rows.push_back(std::move(row));

@@ -66,9 +66,10 @@ void element_divergence(const MixedTables& t, const ElementGeometry& g, Eigen::M
 void check_mixed_material(const Material& m) {
   if (!std::isfinite(m.young) || !(m.young > 0))
     throw InputError("material: Young's modulus must be a positive number, got " + std::to_string(m.young));
-  if (!std::isfinite(m.poisson) || !(m.poisson > -1.0 && m.poisson <= 0.5))
-    throw InputError("material: Poisson's ratio must lie in (-1, 0.5] for the mixed formulation, got " +
-                     std::to_string(m.poisson));
+  if (!std::isfinite(m.poisson) || !(m.poisson > 0.0 && m.poisson <= 0.5))
+    throw InputError("material: Poisson's ratio must lie in (0, 0.5] for the mixed formulation (λ > 0: the "
+                     "pressure is λ div u), got " + std::to_string(m.poisson) +
+                     "; at ν <= 0 the displacement formulation does not lock");
   if (!std::isfinite(m.density) || m.density < 0)
     throw InputError("material: density must be >= 0, got " + std::to_string(m.density));
 }
@@ -91,6 +92,11 @@ MixedElasticity::MixedElasticity(const TetMesh& mesh, int degree, const Material
 }
 
 DivergenceCoupling::DivergenceCoupling(const ElasticityModel& u, const BBSpace& pressure) : u_(u), pressure_(pressure) {
+  const int k = u.space().degree();
+  if ((k != 2 && k != 3) || pressure.degree() != k - 1 || &pressure.mesh() != &u.space().mesh())
+    throw InputError("divergence coupling: needs displacement of degree 2 or 3 and a pressure of one degree less "
+                     "on the same mesh (got degrees " + std::to_string(k) + " and " +
+                     std::to_string(pressure.degree()) + ")");
   const auto& lower = multi_indices(pressure.degree());
   raise_.resize(lower.size() * 4);
   for (size_t c = 0; c < lower.size(); ++c)
@@ -99,8 +105,7 @@ DivergenceCoupling::DivergenceCoupling(const ElasticityModel& u, const BBSpace& 
       ++a[i];
       raise_[c * 4 + i] = local_index(a);
     }
-  u.assembler().build_pattern();  // the colours and the free numbering
-  free_ = &u.assembler().free_index();
+  free_ = &u.assembler().free_index();  // the assembler (built on first use) numbers and colours
   held_ = &u.constrained_free_dofs();
   colors_ = &u.assembler().colors();
   const Eigen::MatrixXd& M = element_tables(pressure.degree()).mass;
@@ -293,6 +298,16 @@ double MixedElasticity::pressure_at(const Vector& p, index_t e, const Eigen::Vec
 }
 
 MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& config, SolveMonitor* monitor) {
+  const ElasticityModel& model = m.hierarchy().finest();
+  if (f_full.size() != model.num_dofs())
+    throw InputError("mixed solve: force vector has " + std::to_string(f_full.size()) + " entries, model has " +
+                     std::to_string(model.num_dofs()) + " dofs");
+  if (!f_full.allFinite()) throw InputError("mixed solve: force vector has NaN/Inf");
+  if (m.num_displacement() == 0)
+    throw InputError("mixed solve: every displacement node is fixed: nothing to solve; fix part of the boundary");
+  if (model.num_fixed() == 0 && m.weights().mass == 0.0)
+    throw InputError("mixed solve: no node is fixed, so the static displacement block is singular (rigid motions); "
+                     "fix part of the boundary");
   MixedResult out;
   const Vector b = m.rhs(f_full);
   SolverContext ctx;

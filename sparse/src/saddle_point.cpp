@@ -27,7 +27,7 @@ void check_minres_inputs(const LinearOperator& K, const LinearOperator* M, const
 
 /// The state of one Lanczos run of MINRES (Paige and Saunders; the recurrences as in SciPy's and
 /// Elman–Silvester–Wathen's Algorithm 4.1), started from the residual r. Each step is one product
-/// with K, one application of M and three fused passes over the vectors (named in step()).
+/// with K, one application of M, and four passes over the vectors (two of them fused: step()).
 struct MinresRun {
   const LinearOperator& K;
   const LinearOperator* M;
@@ -84,7 +84,7 @@ struct MinresRun {
     const double gbar = sn * dbar - cs * alfa;
     epsln = sn * beta;
     dbar = -cs * beta;
-    const double gamma = std::max(std::hypot(gbar, beta), std::numeric_limits<double>::min());
+    const double gamma = std::max(std::hypot(gbar, beta), std::numeric_limits<double>::epsilon());  // as SciPy
     cs = gbar / gamma;
     sn = beta / gamma;
     const double phi = cs * phibar;
@@ -271,20 +271,20 @@ void MixedMinresParams::visit(ParamVisitor& v) {
 
 MixedMinres::MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement,
                          const SaddlePointBlocks& blocks, int pressure_steps, double pressure_scale)
-    : params_(params), M_u_(std::move(displacement)), blocks_(blocks), pressure_steps_(pressure_steps),
+    : params_(params), M_u_(std::move(displacement)), blocks_(&blocks), pressure_steps_(pressure_steps),
       pressure_scale_(pressure_scale) {
   if (!M_u_) throw InputError("mixed-minres: no solver for the displacement block");
   if (!M_u_->is_linear() || !M_u_->is_symmetric())
     throw InputError("mixed-minres: the displacement block's solver '" + M_u_->name() +
                      "' is not a fixed symmetric map; MINRES needs one (a multigrid cycle with R = Pᵀ)");
-  if (!blocks_.coupling || !blocks_.pressure_mass)
+  if (!blocks.coupling || !blocks.pressure_mass)
     throw InputError("mixed-minres: the saddle-point blocks (B and Bᵀ, pressure mass) were not given");
   if (pressure_steps < 1) throw InputError("mixed-minres: pressure_steps must be >= 1");
 }
 
 std::string MixedMinres::describe() const {
   std::ostringstream scale;
-  scale << pressure_scale_ * blocks_.schur_scale;
+  scale << pressure_scale_ * blocks_->schur_scale;
   return "MINRES, block-diagonal preconditioner: displacement " +
          (M_u_->describe().empty() ? M_u_->name() : M_u_->describe()) + "; pressure " +
          std::to_string(pressure_steps_) + " Chebyshev steps on the mass, S ~ " + scale.str() + " M_p";
@@ -293,15 +293,23 @@ std::string MixedMinres::describe() const {
 void MixedMinres::setup_impl(const LinearOperator& K) {
   const SaddlePointOperator* sp = K.saddle_point_operator();
   if (!sp) throw InputError("mixed-minres: the system is not a saddle-point operator [A Bᵀ; B -C]");
-  if (&sp->coupling() != blocks_.coupling || sp->second_block() != blocks_.C)
+  if (&sp->coupling() != blocks_->coupling || sp->second_block() != blocks_->C)
     throw InputError("mixed-minres: the system's blocks are not those the solver was built for");
   M_u_->setup(sp->first_block());
-  M_p_ = std::make_unique<ChebyshevMassInverse>(*blocks_.pressure_mass, blocks_.mass_lo, blocks_.mass_hi,
-                                                pressure_steps_, 1.0 / (pressure_scale_ * blocks_.schur_scale));
+  set_up_pressure();
+}
+
+void MixedMinres::set_up_pressure() {
+  // The Schur scale is read afresh: the blocks' weights may have changed (a time step's).
+  M_p_ = std::make_unique<ChebyshevMassInverse>(*blocks_->pressure_mass, blocks_->mass_lo, blocks_->mass_hi,
+                                                pressure_steps_, 1.0 / (pressure_scale_ * blocks_->schur_scale));
   P_ = std::make_unique<BlockDiagonalOperator>(*M_u_, *M_p_);
 }
 
-void MixedMinres::update_impl() { M_u_->update(); }
+void MixedMinres::update_impl() {
+  M_u_->update();
+  set_up_pressure();
+}
 
 SolveResult MixedMinres::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);

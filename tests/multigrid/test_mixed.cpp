@@ -141,7 +141,8 @@ TEST_CASE("mixed: manufactured solution, no locking at nu = 0.4999 and the order
 TEST_CASE("mixed: bad input is refused by name", "[mixed]") {
   const TetMesh mesh = box_mesh_24(1, 1, 1, 1, 1, 1);
   CHECK_THROWS_WITH(MixedElasticity(mesh, 1, mms_material(0.3), clamp_x0(mesh)), Catch::Contains("degree must be 2 or 3"));
-  CHECK_THROWS_WITH(MixedElasticity(mesh, 2, mms_material(0.6), clamp_x0(mesh)), Catch::Contains("(-1, 0.5]"));
+  CHECK_THROWS_WITH(MixedElasticity(mesh, 2, mms_material(0.6), clamp_x0(mesh)), Catch::Contains("(0, 0.5]"));
+  CHECK_THROWS_WITH(MixedElasticity(mesh, 2, mms_material(-0.2), clamp_x0(mesh)), Catch::Contains("(0, 0.5]"));
   CHECK_THROWS_WITH(ElasticityModel(mesh, 2, mms_material(0.5)), Catch::Contains("Poisson"));
   CHECK_THROWS_WITH(make_solver(mixed_minres_config(1e-8), {}), Catch::Contains("formulation=mixed"));
   MixedElasticity m(mesh, 2, mms_material(0.3), clamp_x0(mesh));

@@ -119,6 +119,7 @@ def samples():
         pmgkit.Solver: solver, _core.Solver: solver._core, _core.Csr: pmgkit.Csr(A)._m, _core.Bcsr: bcsr._m,
         "multigrid": pmgkit.multigrid(levels=h.levels(), prolongations=h.prolongations()),
         "hierarchy solver": h.solver({"method": "mgpcg"}),
+        pmgkit.MixedElasticity: pmgkit.MixedElasticity(mesh, 2, material, clamp=lambda x: x[0] < 1e-9),
     }
 
 

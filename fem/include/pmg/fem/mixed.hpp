@@ -8,9 +8,11 @@
 //
 // whose displacement block A is the elasticity operator with λ = 0 (E' = 2μ, ν' = 0): independent of
 // ν, the operator that pmgkit's p-multigrid solves well. ν = 1/2 is allowed (C = 0). The pressure
-// Schur complement S = C + B A⁻¹ Bᵀ lies between multiples of (1/λ + β²/μ) M_p and (1/λ + 1/μ) M_p
-// (β the discrete inf-sup constant; |div u|² <= |∇u|² <= 2|ε(u)|² on clamped fields), so it is
-// replaced by (1/μ + 1/λ) M_p in the preconditioner (pmg/sparse/saddle_point.hpp).
+// Schur complement S = C + B A⁻¹ Bᵀ lies between (1/λ + c β²/μ) M_p and (1/λ + 3/(2μ)) M_p (β the
+// discrete inf-sup constant, c from Korn's inequality; (div u)² = (tr ε)² <= 3|ε|²), so it is
+// replaced by (1/μ + 1/λ) M_p in the preconditioner (pmg/sparse/saddle_point.hpp). In a step
+// system the mass m M also enters S (towards B (mM)⁻¹ Bᵀ for small steps or heavy material, the
+// regime of Cahouet–Chabard preconditioners); the approximation ignores it.
 //
 // The system of an implicit-Euler step (SystemWeights m, s: mass m M + stiffness s A) keeps the
 // saddle-point form with p̃ = s p:  [m M + s A, Bᵀ; B, -C/s] [u; p̃] = [f; 0],  S ≈ (1/μ + 1/λ) M_p / s.
@@ -56,7 +58,8 @@ void element_divergence(const MixedTables& t, const ElementGeometry& g, Eigen::M
 /// B and Bᵀ without a matrix (SaddlePointCoupling), from the BB derivative: div u of a degree-k
 /// BB field is the degree-(k-1) BB field with coefficients d_c = k Σ_i ∇λ_i · u_{c+e_i}, so per
 /// element  B_e u = 6V M̂ d  and  Bᵀ_e p: u_{c+e_i} += k (6V M̂ p)_c ∇λ_i  (M̂ the pressure mass
-/// table): about 2 (np² + 12 np) flops per element and product, against the 6 np nu entries of B_e.
+/// table): about 2 np² + 12 np multiply-adds per element and product (440 for cubics), against the
+/// 3 np nu entries of B_e.
 /// Element colours (BlockAssembler) keep the scatters race-free. Held components read and write
 /// zero. Holds references to the model and the pressure space.
 class DivergenceCoupling final : public SaddlePointCoupling {
@@ -81,13 +84,14 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   void element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const;
 };
 
-/// Checks a material for the mixed formulation: E > 0, ν in (-1, 1/2] (1/2 allowed: C = 0), ρ >= 0.
+/// Checks a material for the mixed formulation: E > 0, ν in (0, 1/2] (1/2 allowed: C = 0; λ > 0),
+/// ρ >= 0.
 void check_mixed_material(const Material& m);
 
 /// Mixed elasticity on one mesh (see the file comment): the displacement degree hierarchy on the
 /// shear material (E' = 2μ, ν' = 0) with the clamp and held components, the pressure space of
-/// degree k - 1 (every node free), and the assembled blocks B, Bᵀ, C and M_p. A held displacement
-/// component has a zero column in B. Holds references to the mesh, which must outlive it.
+/// degree k - 1 (every node free), C and M_p assembled, B and Bᵀ matrix-free (coupling()) and
+/// assembled on first use (divergence()). A held displacement component has a zero column in B. Holds references to the mesh, which must outlive it.
 class MixedElasticity {
  public:
   /// Throws InputError for a degree other than 2 or 3 and for a material out of range
@@ -167,8 +171,10 @@ struct MixedResult {
 
 /// The linear solve of the mixed system at its weights (static, or one implicit-Euler step's
 /// system) for the full load f_full with the solver the config names (the factory; `mixed-minres`
-/// by default, or a direct method such as mumps on the assembled system). Throws what the solver
-/// throws (SolveError on failure).
+/// by default, or a direct method such as mumps on the assembled system). Throws InputError for a
+/// load of the wrong size or with NaN/Inf, no free unknown, or a static system with nothing fixed,
+/// and what the solver throws (SolveError on failure). At ν = 1/2 with every boundary node fixed the
+/// pressure is defined up to a constant: MINRES still returns a solution of the singular system.
 MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& solver,
                                SolveMonitor* monitor = nullptr);
 

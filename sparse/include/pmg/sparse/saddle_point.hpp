@@ -171,8 +171,9 @@ struct MixedMinresParams {
 /// the multigrid component, which builds M_u as mgpcg's cycle on the displacement levels.
 class MixedMinres final : public Solver {
  public:
-  /// Takes ownership of the displacement block's solver. Throws InputError for a missing, nonlinear
-  /// or nonsymmetric one, blocks without a coupling or M_p, or pressure_steps < 1.
+  /// Takes ownership of the displacement block's solver and keeps a reference to the blocks, which
+  /// must outlive it (their scale is read at each set-up and update). Throws InputError for a
+  /// missing, nonlinear or nonsymmetric solver, blocks without a coupling or M_p, or pressure_steps < 1.
   MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement, const SaddlePointBlocks& blocks,
               int pressure_steps, double pressure_scale = 1.0);
   std::string name() const override { return "mixed-minres"; }
@@ -197,11 +198,12 @@ class MixedMinres final : public Solver {
  private:
   KrylovParams params_;
   std::unique_ptr<Solver> M_u_;
-  SaddlePointBlocks blocks_;
+  const SaddlePointBlocks* blocks_;  // the discretisation's: read at set-up and update
   int pressure_steps_;
   double pressure_scale_;
   std::unique_ptr<ChebyshevMassInverse> M_p_;
   std::unique_ptr<BlockDiagonalOperator> P_;
+  void set_up_pressure();
 };
 
 }  // namespace pmg

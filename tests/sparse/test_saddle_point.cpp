@@ -1,0 +1,144 @@
+// MINRES and the saddle-point building blocks (pmg/sparse/saddle_point.hpp) on small random
+// systems [A Bᵀ; B -C]: exact block-diagonal preconditioning ends in three iterations (C = 0), any
+// initial guess reaches the tolerance on the true residual, the Chebyshev mass inverse contracts
+// as its bound says, and a preconditioner that is not positive definite is a named breakdown.
+#include "pmg/sparse/saddle_point.hpp"
+
+#include <Eigen/Dense>
+#include <catch2/catch.hpp>
+
+#include <random>
+
+using namespace pmg;
+
+namespace {
+
+/// A dense matrix as an operator (the exact preconditioner blocks of the tests).
+class Dense final : public LinearOperator {
+ public:
+  explicit Dense(Eigen::MatrixXd M) : M_(std::move(M)) {}
+  index_t rows() const override { return static_cast<index_t>(M_.rows()); }
+  index_t cols() const override { return static_cast<index_t>(M_.cols()); }
+
+ protected:
+  void apply_impl(const Vector& x, Vector& y) const override { y = M_ * x; }
+
+ private:
+  Eigen::MatrixXd M_;
+};
+
+Csr to_csr(const Eigen::MatrixXd& M) {
+  std::vector<Triplet> t;
+  for (Eigen::Index i = 0; i < M.rows(); ++i)
+    for (Eigen::Index j = 0; j < M.cols(); ++j)
+      if (M(i, j) != 0.0) t.emplace_back(static_cast<index_t>(i), static_cast<index_t>(j), M(i, j));
+  return Csr::from_triplets(static_cast<index_t>(M.rows()), static_cast<index_t>(M.cols()), t);
+}
+
+/// A random saddle point: A SPD (n_u), B (n_p x n_u) of full row rank, C SPD times c (0: none).
+struct Saddle {
+  Eigen::MatrixXd A, B, C;
+  Csr a, b, bt, c;
+  std::unique_ptr<CsrCoupling> coupling;
+  std::unique_ptr<SaddlePointOperator> K;
+  Saddle(int nu, int np, double c_scale, unsigned seed) {
+    std::mt19937 gen(seed);
+    std::normal_distribution<double> normal;
+    Eigen::MatrixXd G(nu, nu), H(np, nu), E(np, np);
+    for (auto* M : {&G, &H, &E})
+      for (Eigen::Index i = 0; i < M->size(); ++i) M->data()[i] = normal(gen);
+    A = G * G.transpose() + nu * Eigen::MatrixXd::Identity(nu, nu);
+    B = H;
+    C = c_scale * (E * E.transpose() + Eigen::MatrixXd::Identity(np, np));
+    a = to_csr(A), b = to_csr(B), bt = to_csr(B.transpose()), c = to_csr(C);
+    coupling = std::make_unique<CsrCoupling>(b, bt);
+    K = std::make_unique<SaddlePointOperator>(a, *coupling, c_scale > 0 ? &c : nullptr);
+  }
+  Eigen::MatrixXd dense() const {
+    Eigen::MatrixXd k(A.rows() + B.rows(), A.rows() + B.rows());
+    k << A, B.transpose(), B, -C;
+    return k;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("saddle point: the operator applies [A Bᵀ; B -C]", "[saddle]") {
+  const Saddle s(12, 5, 0.1, 3);
+  const Vector x = Vector::Random(17);
+  Vector y;
+  s.K->apply(x, y);
+  CHECK((y - s.dense() * x).norm() <= 1e-13 * y.norm());
+}
+
+TEST_CASE("MINRES with the exact block-diagonal preconditioner ends in three iterations (C = 0)", "[saddle]") {
+  // Murphy, Golub and Wathen (2000): P⁻¹K has the three eigenvalues 1 and (1 ± √5)/2.
+  const Saddle s(30, 10, 0.0, 5);
+  const Eigen::MatrixXd Ainv = s.A.inverse();
+  const Dense Mu(Ainv), Mp((s.B * Ainv * s.B.transpose()).inverse());
+  const BlockDiagonalOperator P(Mu, Mp);
+  const Vector b = Vector::Random(40);
+  Vector x;
+  KrylovParams k;
+  k.rel_tol = 1e-10;
+  const SolveResult r = minres(*s.K, &P, b, x, k);
+  CHECK(r.ok());
+  CHECK(r.iterations <= 3);
+  CHECK((b - s.dense() * x).norm() <= 2e-10 * b.norm());
+}
+
+TEST_CASE("MINRES reaches the tolerance on the true residual from any guess, with and without M", "[saddle]") {
+  const Saddle s(25, 8, 0.01, 7);
+  const Eigen::MatrixXd k = s.dense();
+  const Dense Mu(s.A.diagonal().cwiseInverse().asDiagonal().toDenseMatrix()),
+      Mp(Eigen::MatrixXd::Identity(8, 8) * (1.0 / 25));
+  const BlockDiagonalOperator P(Mu, Mp);
+  for (double tol : {1e-4, 1e-8, 1e-11})
+    for (int guess = 0; guess < 3; ++guess)
+      // (A guess 1e3 times the answer leaves rounding of eps ||K|| ||x_k|| in the updated residual,
+      // about 1e-11 here: the far guess is asked for tolerances down to 1e-8.)
+      if (guess < 2 || tol >= 1e-8)
+      for (const LinearOperator* M : {static_cast<const LinearOperator*>(nullptr), static_cast<const LinearOperator*>(&P)}) {
+        const Vector b = Vector::Random(33);
+        Vector x = guess == 0 ? Vector() : guess == 1 ? Vector(Vector::Random(33)) : Vector(1e3 * Vector::Random(33));
+        KrylovParams p;
+        p.rel_tol = tol;
+        const SolveResult r = minres(*s.K, M, b, x, p);
+        INFO("tol " << tol << ", guess " << guess << (M ? ", preconditioned" : ""));
+        CHECK(r.ok());
+        CHECK((b - k * x).norm() <= 2 * tol * b.norm());
+      }
+}
+
+TEST_CASE("MINRES: a preconditioner that is not positive definite is a named breakdown", "[saddle]") {
+  const Saddle s(10, 4, 0.0, 11);
+  const Dense bad(-Eigen::MatrixXd::Identity(14, 14));
+  const Vector b = Vector::Random(14);
+  Vector x;
+  CHECK_THROWS_WITH(minres(*s.K, &bad, b, x), Catch::Contains("not symmetric positive definite"));
+  CHECK_THROWS_WITH(minres(*s.K, nullptr, Vector::Random(3), x), Catch::Contains("right-hand side has 3 entries"));
+}
+
+TEST_CASE("Chebyshev mass inverse: the M-norm error contracts by the Chebyshev bound", "[saddle]") {
+  // A mass-like SPD matrix with D⁻¹M's spectrum inside [lo, hi].
+  const int n = 20;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Identity(n, n) * 2.0;
+  for (int i = 0; i + 1 < n; ++i) M(i, i + 1) = M(i + 1, i) = 0.9;
+  const Csr m = to_csr(M);
+  const Eigen::VectorXd d = M.diagonal();
+  const Eigen::MatrixXd S = d.cwiseSqrt().cwiseInverse().asDiagonal() * M * d.cwiseSqrt().cwiseInverse().asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S);
+  const double lo = eig.eigenvalues().minCoeff() * 0.99, hi = eig.eigenvalues().maxCoeff() * 1.01;
+  const Vector x_star = Vector::Random(n), r = M * x_star;
+  for (int steps : {1, 4, 8}) {
+    const ChebyshevMassInverse inv(m, lo, hi, steps);
+    Vector z;
+    inv.apply(r, z);
+    const double kappa = hi / lo, rho = (std::sqrt(kappa) - 1) / (std::sqrt(kappa) + 1);
+    const double bound = 2 * std::pow(rho, steps) / (1 + std::pow(rho, 2 * steps));
+    const Vector e = z - x_star;
+    INFO(steps << " steps");
+    CHECK(std::sqrt(e.dot(M * e)) <= bound * std::sqrt(x_star.dot(M * x_star)) * (1 + 1e-10));
+  }
+  CHECK_THROWS_WITH(ChebyshevMassInverse(m, 1.0, 0.5, 4), Catch::Contains("0 < lo < hi"));
+}
