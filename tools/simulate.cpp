@@ -95,10 +95,12 @@ void run_static(const sim::Scene& s, sim::SceneSetup& b, const Cli& cli, json& r
             << r.result.iterations << " iteration(s)"
             << (r.method == "cholmod" ? std::string() : ", " + std::to_string(r.result.solver_iterations) + " solver iterations")
             << ", " << fmt("%.3f", r.seconds) << " s\n"
+            << (r.summary.empty() ? std::string() : r.summary + "\n")
             << "probe (" << b.probe.point.transpose() << ") displacement: " << r.probe.transpose() << "\n"
             << "skipped: mass matrix, time loop (static scene)\n";
   report["static"] = {{"solver", r.method}, {"settings", r.settings}, {"iterations", r.result.iterations},
                       {"solver_iterations", r.result.solver_iterations}, {"seconds", r.seconds}};
+  if (!r.summary.empty()) report["static"]["summary"] = r.summary;
   report["probe"] = {{"point_m", vec3(b.probe.point)}, {"displacement_m", vec3(r.probe)}};
   for (const auto& f : r.outputs) std::cout << "wrote " << f << "\n";
   if (!r.outputs.empty()) report["outputs"] = r.outputs;

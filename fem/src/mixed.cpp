@@ -290,6 +290,20 @@ Csr MixedElasticity::assembled_system() {
   return Csr::from_triplets(num_unknowns(), num_unknowns(), t);
 }
 
+Vector MixedElasticity::pressure_on_displacement_nodes(const Vector& p) const {
+  if (p.size() != num_pressure())
+    throw InputError("pressure: " + std::to_string(p.size()) + " values for " + std::to_string(num_pressure()) +
+                     " pressure nodes");
+  const BBSpace& fine = hierarchy_->finest().space();
+  std::vector<index_t> all_fine(fine.num_nodes()), all_coarse(pressure_.num_nodes());
+  for (index_t i = 0; i < fine.num_nodes(); ++i) all_fine[i] = i;
+  for (index_t i = 0; i < pressure_.num_nodes(); ++i) all_coarse[i] = i;
+  const Csr E = degree_elevation(fine, all_fine, pressure_, all_coarse);
+  Vector out(fine.num_nodes());
+  E.multiply(p.data(), out.data());
+  return out;
+}
+
 double MixedElasticity::pressure_at(const Vector& p, index_t e, const Eigen::Vector4d& l) const {
   const auto& alpha = multi_indices(pressure_.degree());
   double v = 0.0;

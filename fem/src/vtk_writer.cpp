@@ -62,8 +62,11 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
   if (options.load.size() != 0 && options.load.size() != 3 * nn)
     throw InputError("VTK output: the load has " + std::to_string(options.load.size()) + " entries, expected " +
                      std::to_string(3 * nn));
+  if (options.pressure.size() != 0 && options.pressure.size() != nn)
+    throw InputError("VTK output: the pressure has " + std::to_string(options.pressure.size()) + " entries, expected " +
+                     std::to_string(nn));
   const bool load = options.load.size() != 0 && options.load.cwiseAbs().maxCoeff() > 0;
-  if (u.size() != 0 || !options.fixed.empty() || load) {
+  if (u.size() != 0 || !options.fixed.empty() || load || options.pressure.size() != 0) {
     out << "<PointData" << (u.size() != 0 ? " Vectors=\"displacement\"" : "") << ">\n";
     if (u.size() != 0) {
       out << "<DataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\" format=\"ascii\">\n";
@@ -79,6 +82,11 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
       out << "<DataArray type=\"Float64\" Name=\"load\" NumberOfComponents=\"3\" format=\"ascii\">\n";
       for (index_t i = 0; i < nn; ++i)
         out << options.load[3 * i] << " " << options.load[3 * i + 1] << " " << options.load[3 * i + 2] << "\n";
+      out << "</DataArray>\n";
+    }
+    if (options.pressure.size() != 0) {
+      out << "<DataArray type=\"Float64\" Name=\"pressure\" format=\"ascii\">\n";
+      for (index_t i = 0; i < nn; ++i) out << options.pressure[i] << (i + 1 < nn ? " " : "\n");
       out << "</DataArray>\n";
     }
     out << "</PointData>\n";

@@ -1,6 +1,7 @@
 #include "pmg/sim/run.hpp"
 #include "pmg/sparse/threads.hpp"
 
+#include "pmg/fem/mixed.hpp"
 #include "pmg/fem/vtk_writer.hpp"
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
@@ -494,7 +495,46 @@ StaticOutcome solve_static_on_ranks(const Scene& scene, SceneSetup& setup, const
 }  // namespace
 #endif
 
+/// A static scene of the mixed formulation (pmg/fem/mixed.hpp): the saddle point on the scene's
+/// mesh, clamp and supports, solved by the scene's saddle-point method; static.vtu gains the
+/// pressure (raised to the displacement's degree).
+StaticOutcome solve_static_mixed(const Scene& scene, SceneSetup& setup, const std::string& output_dir) {
+  if (setup.on_ranks) throw InputError("formulation mixed: not across MPI ranks yet");
+  fem::MixedElasticity mixed(*setup.mesh, scene.degree, fem::Material{scene.young, scene.poisson, scene.density},
+                             setup.hierarchy->clamped_vertices(), setup.hierarchy->component_masks());
+  StaticOutcome out;
+  Config c = scene.solver.clone();
+  out.method = c.get_string("method", "mixed-minres");
+  out.settings = c.to_string();
+  start_libraries(c);
+  const auto t0 = Clock::now();
+  const fem::MixedResult r = fem::solve_mixed_static(mixed, setup.f_ext, c);
+  out.seconds = seconds_since(t0);
+  out.result.u = r.u;
+  out.result.iterations = 1;
+  out.result.solver_iterations = r.solve.iterations;
+  const fem::ElasticityModel& m = mixed.hierarchy().finest();
+  out.probe = setup.probe.displacement(m, out.result.u);
+  std::ostringstream note;
+  note << "mixed formulation: " << mixed.num_displacement() << " displacement + " << mixed.num_pressure()
+       << " pressure unknowns, " << r.solve.iterations << " iterations; pressure in [" << r.p.minCoeff() << ", "
+       << r.p.maxCoeff() << "] Pa";
+  out.summary = note.str();
+  if (!output_dir.empty()) {
+    make_dir(output_dir);
+    fem::VtuOptions vo;
+    vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
+    for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
+    vo.load = setup.f_ext;
+    vo.pressure = mixed.pressure_on_displacement_nodes(r.p);
+    fem::write_vtu(output_dir + "/static.vtu", m.space(), out.result.u, vo);
+    out.outputs.push_back(output_dir + "/static.vtu");
+  }
+  return out;
+}
+
 StaticOutcome solve_static(const Scene& scene, SceneSetup& setup, const std::string& output_dir) {
+  if (scene.formulation == "mixed") return solve_static_mixed(scene, setup, output_dir);
 #ifdef PMG_HAVE_DISTRIBUTED
   if (setup.on_ranks) return solve_static_on_ranks(scene, setup, output_dir);
 #endif

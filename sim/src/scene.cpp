@@ -184,7 +184,7 @@ void read_material(Section& root, Scene& s) {
     s.corotational = m.string("model", "corotational", {"corotational", "linear"}) == "corotational";
     s.young = m.positive("young", s.young);
     s.poisson = m.number("poisson", s.poisson);
-    if (!(s.poisson > -1.0 && s.poisson < 0.5)) m.fail_key("poisson", "must lie in (-1, 0.5)");
+    if (!(s.poisson > -1.0 && s.poisson <= 0.5)) m.fail_key("poisson", "must lie in (-1, 0.5)");
     s.density = m.nonnegative("density", s.density);
     if (m.has("inclusion")) {
       Section inc = m.sub("inclusion");
@@ -289,9 +289,9 @@ void read_solver_and_output(Section& root, const std::string& path, Scene& s) {
                                                             std::string(new_key).substr(0, std::string(new_key).find('.')) +
                                                             "\": {...}})");
     s.solver = Config::from_json(sj.dump(), path + ": solver");
-    Scene::set_solver_defaults(s.solver, s.dynamic);
-  } else if (!s.dynamic) {
-    s.solver = Scene::default_solver(false);
+    Scene::set_solver_defaults(s.solver, s.dynamic, s.formulation == "mixed");
+  } else if (!s.dynamic || s.formulation == "mixed") {
+    s.solver = Scene::default_solver(s.dynamic, s.formulation == "mixed");
   }
   if (root.has("output")) {
     Section o = root.sub("output");
@@ -311,6 +311,19 @@ void check_combinations(Section& root, const Scene& s) {
     root.fail("initial.state spinning needs \"clamp\": \"none\" (a clamped body cannot spin freely)");
   if ((s.initial == "deflected" || s.initial == "compressed" || s.initial == "twisted") && s.clamp_axis < 0)
     root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
+  if (s.poisson == 0.5 && s.formulation != "mixed")
+    root.fail("material.poisson 0.5 (incompressible) needs \"formulation\": \"mixed\": displacement-only "
+              "elements lock");
+  if (s.formulation == "mixed") {
+    const char* why = s.dynamic ? "static scenes only (\"time\": \"static\")"
+                      : s.corotational ? "linear material only (material.model \"linear\")"
+                      : s.degree < 2 ? "degree 2 or 3 (a pressure of degree k - 1 >= 1)"
+                      : !(s.poisson > 0) ? "material.poisson in (0, 0.5]"
+                      : s.inclusion ? "no material.inclusion"
+                      : s.initial != "rest" ? "initial.state rest"
+                                            : nullptr;
+    if (why) root.fail(std::string("formulation mixed: ") + why + " (the mixed route's scope for now)");
+  }
   if (!s.supports.empty() && (s.initial == "compressed" || s.initial == "twisted" || s.initial == "spinning"))
     root.fail("initial.state " + s.initial + " prescribes a displacement or motion that supports and symmetry "
               "planes would contradict: use rest or deflected with them");
@@ -327,6 +340,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   Section root(path, "", j);
   read_mesh(root, path, s);
   s.degree = root.integer("degree", s.degree, 1, 3);
+  s.formulation = root.string("formulation", s.formulation, {"displacement", "mixed"});
   read_material(root, s);
   read_constraints(root, path, s);
   read_loads_and_time(root, s);
@@ -365,14 +379,22 @@ Scene table_bar() {
   return s;
 }
 
-Config Scene::default_solver(bool dynamic) {
+Config Scene::default_solver(bool dynamic, bool mixed) {
   Config c = Config::from_pairs({}, "scene solver");
-  set_solver_defaults(c, dynamic);
+  set_solver_defaults(c, dynamic, mixed);
   return c;
 }
 
-void Scene::set_solver_defaults(Config& c, bool dynamic) {
+void Scene::set_solver_defaults(Config& c, bool dynamic, bool mixed) {
   register_all_solvers();
+  if (mixed) {
+    c.set_default("method", "mixed-minres");
+    if (method_accepts_key(c.get_string("method", "mixed-minres"), "max_iterations")) {
+      c.set_default("tol", "1e-10");
+      c.set_default("max_iterations", "10000");
+    }
+    return;
+  }
   // Dynamic: PMG to 1e-3 per step (the seed's setting), at most 1000 iterations. Static: CHOLMOD,
   // or an iterative method to 1e-10 (the fixed point's accuracy is the solves').
   c.set_default("method", dynamic ? kDefaultDynamicMethod : kDefaultDirectMethod);
@@ -392,6 +414,7 @@ std::string scene_to_json(const Scene& s) {
   if (s.refine > 0) j["mesh"]["refine"] = s.refine;
   if (const auto allowed = fem::allowed_mesh_defects(s.mesh_checks); !allowed.empty()) j["mesh"]["allow"] = allowed;
   j["degree"] = s.degree;
+  if (s.formulation != "displacement") j["formulation"] = s.formulation;
   j["material"] = {{"model", s.corotational ? "corotational" : "linear"},
                    {"young", s.young}, {"poisson", s.poisson}, {"density", s.density}};
   if (s.inclusion)

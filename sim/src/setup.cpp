@@ -1,4 +1,5 @@
 #include "pmg/sim/setup.hpp"
+#include "pmg/fem/mixed.hpp"
 #include "pmg/sparse/defaults.hpp"
 
 #include "pmg/fem/generators.hpp"
@@ -99,8 +100,10 @@ SceneSetup set_up(const Scene& s) {
         if (std::abs(mesh.vertices[v][sup.axis] - face) <= tol) held[v] = static_cast<char>(held[v] | sup.components);
     }
   }
+  // A mixed scene's displacement levels carry the shear material (E' = 2μ, ν' = 0; pmg/fem/mixed.hpp).
+  const fem::Material material{s.young, s.poisson, s.density};
   b.hierarchy = std::make_unique<fem::DegreeHierarchy>(
-      mesh, s.degree, fem::Material{s.young, s.poisson, s.density},
+      mesh, s.degree, s.formulation == "mixed" ? fem::MixedElasticity::shear_material(material) : material,
       [axis, limit](const fem::Vec3& X) { return axis >= 0 && X[axis] <= limit; }, std::move(held));
   b.hierarchy->set_refinements(refinements);  // the coarser meshes' linear levels (coarse_meshes)
   stage("degree hierarchy");

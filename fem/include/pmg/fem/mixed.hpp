@@ -141,6 +141,9 @@ class MixedElasticity {
   /// The whole system K assembled as one scalar matrix (displacement first), for direct solvers:
   /// the finest displacement matrix is assembled for it (linear elasticity).
   Csr assembled_system();
+  /// The pressure p (one value per pressure node) raised to the displacement's degree: one BB
+  /// coefficient per displacement node, the same polynomial (degree elevation is exact), for VTK.
+  Vector pressure_on_displacement_nodes(const Vector& p) const;
   /// The pressure (one value per pressure node) at barycentric point l of element e.
   double pressure_at(const Vector& p, index_t e, const Eigen::Vector4d& l) const;
 

@@ -27,6 +27,9 @@ struct VtuOptions {
   /// The external force, 3 per node, written as the point array "load" (Float64, 3 components,
   /// in N); empty or zero: not written. What `pmg render` draws as load arrows.
   Vector load;
+  /// A scalar per node (the pressure of the mixed elements, raised to the space's degree: its BB
+  /// coefficients), written as the point array "pressure"; empty: not written.
+  Vector pressure;
 };
 
 /// Writes the mesh of `space` with the displacement u (3 per node; may be empty).

@@ -155,6 +155,9 @@ struct StaticOutcome {
   fem::Vec3 probe = fem::Vec3::Zero();
   /// Files written (output_dir/static.vtu; empty when output_dir is empty).
   std::vector<std::string> outputs;
+  /// What the solve found beyond u, in words (the mixed formulation: its unknowns and the
+  /// pressure's range); empty otherwise.
+  std::string summary;
 };
 
 /// A static scene: solved by the scene's solver (any method of the factory; CHOLMOD when the scene

@@ -29,11 +29,15 @@ struct Scene {
   fem::MeshCheckOptions mesh_checks;
   /// Polynomial degree of the finest level, 1 to 3 (the hierarchy holds degrees 1 to this).
   int degree = 3;
+  /// "displacement" (the default) or "mixed": the displacement-pressure elements of
+  /// pmg/fem/mixed.hpp (degree 2 or 3, a static linear scene, ν in (0, 0.5]; solver mixed-minres
+  /// unless the scene names mumps).
+  std::string formulation = "displacement";
   // material
   /// Corotational material (material.model "corotational"); false: linear.
   bool corotational = true;
   /// \var poisson
-  /// Poisson's ratio, in (-1, 0.5).
+  /// Poisson's ratio, in (-1, 0.5); up to 0.5 with the mixed formulation.
 
   /// Young's modulus E in Pa (> 0).
   double young = 5e6, poisson = 0.3, density = 1000.0;  ///< mass density in kg/m³ (>= 0)
@@ -89,10 +93,11 @@ struct Scene {
   Config solver = default_solver();
   /// A solver Config holding only the defaults of set_solver_defaults() for a dynamic or static
   /// scene.
-  static Config default_solver(bool dynamic = true);
+  static Config default_solver(bool dynamic = true, bool mixed = false);
   /// Where the scene sets none: dynamic, method pmg, tol 1e-3, max_iterations 1000; static, method
   /// cholmod (an iterative method: tol 1e-10, max_iterations 10000).
-  static void set_solver_defaults(Config& c, bool dynamic = true);
+  /// A mixed scene's method is mixed-minres (tol 1e-10) unless it names one.
+  static void set_solver_defaults(Config& c, bool dynamic = true, bool mixed = false);
   // output
   std::string output;  ///< directory; empty: nothing written
   /// A .vtu frame every this many steps, and after the last step (0: no frames).
