@@ -81,10 +81,23 @@ Material MixedElasticity::shear_material(const Material& m) {
   return s;
 }
 
+namespace {
+/// The material, checked before any level is built (InputError otherwise).
+const Material& checked(const Material& m) {
+  check_mixed_material(m);
+  return m;
+}
+/// The degree, checked before any level is built (InputError otherwise).
+int checked_degree(int k) {
+  mixed_tables(k);
+  return k;
+}
+}  // namespace
+
 MixedElasticity::MixedElasticity(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
                                  std::vector<char> components)
-    : material_((check_mixed_material(material), material)),
-      hierarchy_(std::make_unique<DegreeHierarchy>(mesh, (mixed_tables(degree), degree), shear_material(material),
+    : material_(checked(material)),
+      hierarchy_(std::make_unique<DegreeHierarchy>(mesh, checked_degree(degree), shear_material(material),
                                                    std::move(clamped), std::move(components))),
       pressure_(mesh, degree - 1),
       lambda_inverse_(material.poisson == 0.5 ? 0.0 : 1.0 / material.lambda()) {
