@@ -312,8 +312,8 @@ void check_combinations(Section& root, const Scene& s) {
   if ((s.initial == "deflected" || s.initial == "compressed" || s.initial == "twisted") && s.clamp_axis < 0)
     root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
   if (s.poisson == 0.5 && s.formulation != "mixed")
-    root.fail("material.poisson 0.5 (incompressible) needs \"formulation\": \"mixed\": displacement-only "
-              "elements lock");
+    root.fail("material.poisson: must lie in (-1, 0.5) for the displacement formulation; 0.5 (incompressible) "
+              "needs \"formulation\": \"mixed\"");
   if (s.formulation == "mixed") {
     const char* why = s.dynamic ? "static scenes only (\"time\": \"static\")"
                       : s.corotational ? "linear material only (material.model \"linear\")"
