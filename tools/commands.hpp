@@ -26,7 +26,7 @@ void register_render(CLI::App& app);
 
 /// What pmg render and pmg simulate --render pass to render.py.
 struct RenderOptions {
-  std::string field = "displacement";  ///< displacement | von_mises
+  std::string field = "displacement";  ///< displacement | von_mises | pressure
   int every = 0;                        ///< every k-th frame; 0: the renderer's (at most ~50 stills)
   std::string size;                     ///< WxH pixels; empty: the script's default
   bool gif = true;                      ///< also write OUTDIR/animation.gif

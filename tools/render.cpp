@@ -131,7 +131,7 @@ void register_render(CLI::App& app) {
                   "write OUTDIR/frame_XXXX.png and OUTDIR/animation.gif here")
       ->required();
   sub->add_option("--field", a->render.field, "colour by this field")
-      ->check(CLI::IsMember({"displacement", "von_mises"}))
+      ->check(CLI::IsMember({"displacement", "von_mises", "pressure"}))
       ->capture_default_str();
   sub->add_option("--every", a->render.every,
                   "render every k-th frame (default: at most about 50 stills)")

@@ -47,6 +47,7 @@ __all__ = ["render", "find_frames", "main", "FIELDS"]
 FIELDS = {
     "displacement": ("|displacement| [m]", "a 3-component point array 'displacement'"),
     "von_mises": ("von Mises stress [Pa]", "a 'von_mises' scalar or a 6/9-component 'stress' array"),
+    "pressure": ("pressure [Pa]", "a 'pressure' point scalar (the mixed formulation's static.vtu)"),
 }
 
 _MAX_STILLS = 50            # default every: ceil(frames / this)
@@ -287,6 +288,11 @@ def _load_frame(time, path, field, cache):
 
     if field == "displacement":
         v = np.linalg.norm(u[used], axis=1)[compact].mean(axis=1)
+    elif field == "pressure":
+        # BB coefficients: at the corners (the surface's points) they are the pressure's values.
+        if "pressure" not in pd or pd["pressure"].ndim != 1:
+            raise ValueError(f"{path}: no 'pressure' point scalar for field pressure ({_describe(pd, cd)})")
+        v = pd["pressure"].astype(float)[used][compact].mean(axis=1)
     else:
         found = None
         for arrays, at_points in ((pd, True), (cd, False)):
@@ -502,7 +508,8 @@ def _draw(frames, field, size, view, outdir, gif, source):
 def render(source, outdir, field="displacement", every=None, size=(800, 600), gif=True, *, view=None):
     """Draws the frames of `source` (a `pmg simulate -o` folder, a .pvd, .vtu or .pvtu) into `outdir`.
 
-    field: "displacement" (its magnitude) or "von_mises" (needs a stress array in the frames).
+    field: "displacement" (its magnitude), "von_mises" (needs a stress array in the frames) or
+        "pressure" (a 'pressure' point scalar: the mixed formulation's output).
     every: draw every every-th frame (default: at most ~50 stills). size: (width, height) in pixels.
     gif: also write outdir/animation.gif. view: (elevation, azimuth) in degrees.
     Returns the written paths: the stills in order, then the GIF.
