@@ -86,13 +86,9 @@ void run_mixed(const SceneOptions& o, const std::vector<std::pair<std::string, C
   for (const auto& nc : configs) start_libraries(nc.second);
   const auto t0 = Clock::now();
   sim::Scene scene = scene_of(o);
-  // set_up() also builds the displacement-only hierarchy, whose material cannot be incompressible;
-  // only its mesh, clamp, held components and loads are read here, none of which depends on ν.
-  if (scene.poisson >= 0.5) scene.poisson = 0.3;
+  scene.formulation = "mixed";  // set_up() builds the displacement levels on the shear material
   sim::SceneSetup setup = sim::set_up(scene);
-  fem::Material material{o.young, o.poisson, o.density};
-  fem::MixedElasticity m(*setup.mesh, o.degree, material, setup.hierarchy->clamped_vertices(),
-                         setup.hierarchy->component_masks());
+  fem::MixedElasticity m(fem::Material{o.young, o.poisson, o.density}, *setup.hierarchy);
   Vector f = setup.f_ext;
   if (o.dt > 0) {  // the system of one undamped implicit-Euler step, as sim::system_of makes it
     fem::SimulationParams sp;

@@ -97,9 +97,31 @@ int checked_degree(int k) {
 MixedElasticity::MixedElasticity(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
                                  std::vector<char> components)
     : material_(checked(material)),
-      hierarchy_(std::make_unique<DegreeHierarchy>(mesh, checked_degree(degree), shear_material(material),
-                                                   std::move(clamped), std::move(components))),
+      owned_(std::make_unique<DegreeHierarchy>(mesh, checked_degree(degree), shear_material(material),
+                                               std::move(clamped), std::move(components))),
+      hierarchy_(owned_.get()),
       pressure_(mesh, degree - 1),
+      lambda_inverse_(material.poisson == 0.5 ? 0.0 : 1.0 / material.lambda()) {
+  assemble_pressure_mass();
+}
+
+namespace {
+/// The hierarchy, checked to be the displacement levels of `material` (InputError otherwise).
+DegreeHierarchy& shear_levels(const Material& material, DegreeHierarchy& h) {
+  const Material& m = h.finest().material();
+  const Material s = MixedElasticity::shear_material(checked(material));
+  if (m.young != s.young || m.poisson != s.poisson || m.density != s.density)
+    throw InputError("mixed elements: the displacement hierarchy must be built on the shear material (E' = 2μ, "
+                     "ν' = 0) of the mixed material");
+  checked_degree(h.num_levels());
+  return h;
+}
+}  // namespace
+
+MixedElasticity::MixedElasticity(const Material& material, DegreeHierarchy& hierarchy)
+    : material_(material),
+      hierarchy_(&shear_levels(material, hierarchy)),
+      pressure_(hierarchy.finest().space().mesh(), hierarchy.num_levels() - 1),
       lambda_inverse_(material.poisson == 0.5 ? 0.0 : 1.0 / material.lambda()) {
   assemble_pressure_mass();
 }
@@ -344,7 +366,9 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
   const auto t0 = Clock::now();
   std::unique_ptr<SaddlePointOperator> K;
   Csr assembled;
-  if (config.get_string("method", "mixed-minres") == "mixed-minres") {
+  // A method on the levels (mixed-minres) multiplies with the operator; any other (a direct solver)
+  // reads the assembled saddle point.
+  if (method_uses_levels(config.get_string("method", "mixed-minres"))) {
     BoundSystem bound = m.hierarchy().bind(*solver);
     const LinearOperator& A = bound.prepare(nullptr, m.weights());
     K = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());

@@ -513,6 +513,10 @@ void register_mixed(py::module_& m) {
       .def("set_weights", [](PyMixed& s, double mass, double stiffness) { s.m->set_weights({mass, stiffness}); },
            py::arg("mass"), py::arg("stiffness"),
            "The system of an implicit-Euler step: displacement block mass M + stiffness A (static: 0, 1).")
+      .def("restrict_to_free", [](const PyMixed& s, const DoubleArray& u) {
+        return to_numpy(s.m->hierarchy().finest().restrict_to_free(
+            to_vector(u, s.m->hierarchy().finest().num_dofs(), "full vector")));
+      }, py::arg("u"), "The free displacement entries of a full vector u: the first part of the system's unknowns.")
       .def("rhs", [](const PyMixed& s, const DoubleArray& f) {
         return to_numpy(s.m->rhs(to_vector(f, s.m->hierarchy().finest().num_dofs(), "force (full vector)")));
       }, py::arg("f"), "The right-hand side (displacement, then zeros for the pressure) of a full load f.")

@@ -500,8 +500,7 @@ StaticOutcome solve_static_on_ranks(const Scene& scene, SceneSetup& setup, const
 /// pressure (raised to the displacement's degree).
 StaticOutcome solve_static_mixed(const Scene& scene, SceneSetup& setup, const std::string& output_dir) {
   if (setup.on_ranks) throw InputError("formulation mixed: not across MPI ranks yet");
-  fem::MixedElasticity mixed(*setup.mesh, scene.degree, fem::Material{scene.young, scene.poisson, scene.density},
-                             setup.hierarchy->clamped_vertices(), setup.hierarchy->component_masks());
+  fem::MixedElasticity mixed(fem::Material{scene.young, scene.poisson, scene.density}, *setup.hierarchy);
   StaticOutcome out;
   Config c = scene.solver.clone();
   out.method = c.get_string("method", "mixed-minres");

@@ -98,6 +98,10 @@ class MixedElasticity {
   /// (check_mixed_material); MeshError for a degenerate element.
   MixedElasticity(const TetMesh& mesh, int degree, const Material& material, std::vector<char> clamped,
                   std::vector<char> components = {});
+  /// The same on a displacement hierarchy built elsewhere (a scene's set-up) on shear_material(
+  /// material), which it uses without a copy and which must outlive it. Throws InputError for a
+  /// hierarchy of another degree or material.
+  MixedElasticity(const Material& material, DegreeHierarchy& hierarchy);
   MixedElasticity(const MixedElasticity&) = delete;
   MixedElasticity& operator=(const MixedElasticity&) = delete;
 
@@ -149,7 +153,8 @@ class MixedElasticity {
 
  private:
   Material material_;
-  std::unique_ptr<DegreeHierarchy> hierarchy_;
+  std::unique_ptr<DegreeHierarchy> owned_;  ///< the first constructor's hierarchy
+  DegreeHierarchy* hierarchy_;              ///< owned_ or the caller's
   BBSpace pressure_;
   double lambda_inverse_ = 0.0;
   SystemWeights weights_;
