@@ -2,6 +2,7 @@
 
 #include "pmg/sparse/config.hpp"
 #include "pmg/sparse/factory.hpp"
+#include "pmg/sparse/krylov.hpp"
 #include "pmg/sparse/timer.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -149,6 +150,18 @@ DivergenceCoupling::DivergenceCoupling(const ElasticityModel& u, const BBSpace& 
     for (int c = 0; c < M.cols(); ++c) mass_[b * M.cols() + c] = M(b, c);
 }
 
+void DivergenceCoupling::gradients(index_t e, double gr[4][3]) const {
+  const ElementGeometry& g = u_.geometry(e);
+  if (!R_) {
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 3; ++j) gr[i][j] = g.grad(i, j);
+    return;
+  }
+  const Mat3& R = (*R_)[static_cast<size_t>(e)];
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 3; ++j) gr[i][j] = R(j, 0) * g.grad(i, 0) + R(j, 1) * g.grad(i, 1) + R(j, 2) * g.grad(i, 2);
+}
+
 template <int K>
 void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const {
   constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6, NP = K * (K + 1) * (K + 2) / 6;
@@ -156,11 +169,9 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   const int* raise = raise_.data();
   const index_t* free = free_->data();
   const bool any_held = !held_->empty();
-  const ElementGeometry& g = u_.geometry(e);
-  const double v6 = 6.0 * g.volume;
+  const double v6 = 6.0 * u_.geometry(e).volume;
   double gr[4][3];
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 3; ++j) gr[i][j] = g.grad(i, j);
+  gradients(e, gr);
   const index_t* un = u_.space().element_nodes(e);
   const index_t* pn = pressure_.element_nodes(e);
   index_t dof[NU];
@@ -220,6 +231,59 @@ void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u
         if (u_.space().degree() == 2) element<2>(elements[q], x_u, x_p, y_u, y_p);
         else element<3>(elements[q], x_u, x_p, y_u, y_p);
       }
+    }
+  }
+}
+
+template <int K>
+void DivergenceCoupling::element_state(index_t e, const double* u_full, double* g) const {
+  constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6, NP = K * (K + 1) * (K + 2) / 6;
+  const double* M = mass_.data();
+  const int* raise = raise_.data();
+  const ElementGeometry& geo = u_.geometry(e);
+  const index_t* un = u_.space().element_nodes(e);
+  const index_t* pn = pressure_.element_nodes(e);
+  // w_a = R_eᵀ x_a - X_a (u_a without rotations); d = k Σ_i ∇λ_i · w_{c+e_i}; g += 6V M̂ d.
+  double w[NU][3], d[NP];
+  const Mat3* R = R_ ? &(*R_)[static_cast<size_t>(e)] : nullptr;
+  for (int a = 0; a < NU; ++a) {
+    const Vec3 u(u_full[3 * un[a]], u_full[3 * un[a] + 1], u_full[3 * un[a] + 2]);
+    Vec3 wa = u;
+    if (R) {
+      const Vec3& X = u_.space().positions()[static_cast<size_t>(un[a])];
+      wa = R->transpose() * (X + u) - X;
+    }
+    for (int c = 0; c < 3; ++c) w[a][c] = wa[c];
+  }
+  for (int c = 0; c < NP; ++c) {
+    double sum = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      const double* ww = w[raise[c * 4 + i]];
+      sum += geo.grad(i, 0) * ww[0] + geo.grad(i, 1) * ww[1] + geo.grad(i, 2) * ww[2];
+    }
+    d[c] = K * sum;
+  }
+  const double v6 = 6.0 * geo.volume;
+  for (int b = 0; b < NP; ++b) {
+    double yb = 0.0;
+    for (int c = 0; c < NP; ++c) yb += M[b * NP + c] * d[c];
+    g[pn[b]] += v6 * yb;
+  }
+}
+
+void DivergenceCoupling::state_divergence(const Vector& u_full, Vector& g) const {
+  if (u_full.size() != u_.num_dofs())
+    throw InputError("state divergence: the displacement has " + std::to_string(u_full.size()) + " entries for " +
+                     std::to_string(u_.num_dofs()));
+  g = Vector::Zero(pressure_.num_nodes());
+  const auto& colors = *colors_;
+#pragma omp parallel
+  for (const auto& elements : colors) {
+    const index_t n = static_cast<index_t>(elements.size());
+#pragma omp for schedule(static)
+    for (index_t q = 0; q < n; ++q) {
+      if (u_.space().degree() == 2) element_state<2>(elements[q], u_full.data(), g.data());
+      else element_state<3>(elements[q], u_full.data(), g.data());
     }
   }
 }
@@ -346,7 +410,128 @@ double MixedElasticity::pressure_at(const Vector& p, index_t e, const Eigen::Vec
   return v;
 }
 
-MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& config, SolveMonitor* monitor) {
+Vector MixedElasticity::state_divergence(const Vector& u_full) const {
+  Vector g;
+  coupling_->state_divergence(u_full, g);
+  return g;
+}
+
+Vector MixedElasticity::pressure_of(const Vector& u_full) const {
+  if (lambda_inverse_ == 0)
+    throw InputError("mixed elements: at nu = 0.5 the pressure is not a function of the displacement (a "
+                     "deformed initial state has no finite energy); start at rest");
+  const Vector b = state_divergence(u_full) / lambda_inverse_;
+  const MixedTables& t = mixed_tables(hierarchy_->finest().space().degree());
+  const ChebyshevMassInverse M(Mp_, t.mass_lo, t.mass_hi, 8);
+  KrylovParams kp;
+  kp.rel_tol = 1e-12;
+  kp.max_iterations = 1000;
+  Vector p = Vector::Zero(num_pressure());
+  const SolveResult r = pcg(Mp_, &M, b, p, kp);
+  if (!r.ok()) throw Error("mixed elements: the pressure of the state: " + r.message);
+  return p;
+}
+
+MixedSolver::MixedSolver(MixedElasticity& m, const Config& config) : m_(m) {
+  SolverContext ctx;
+  ctx.levels = &m.hierarchy();
+  ctx.saddle_point = &m.blocks();
+  solver_ = make_solver(config, ctx, "mixed-minres");
+  bound_ = std::make_unique<BoundSystem>(m.hierarchy().bind(*solver_));
+  const auto t0 = Clock::now();
+  // A method on the levels (mixed-minres) multiplies with the operator; any other (a direct solver)
+  // reads the assembled saddle point.
+  if (method_uses_levels(config.get_string("method", "mixed-minres"))) {
+    const LinearOperator& A = bound_->prepare(nullptr, m.weights());
+    K_ = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());
+    solver_->setup(*K_);
+  } else {
+    assembled_ = m.assembled_system();
+    solver_->setup(assembled_);
+  }
+  setup_seconds_ = seconds_since(t0);
+}
+
+MixedSolver::~MixedSolver() = default;
+
+void MixedSolver::rotate(const Rotations* R, bool finest) {
+  if (!K_)
+    throw InputError("mixed elements: " + solver_->name() +
+                     " factorises the assembled linear saddle point; corotational material needs mixed-minres");
+  m_.set_rotations(R);
+  bound_->prepare(R, m_.weights(), finest);
+  solver_->update();
+}
+
+SolveResult MixedSolver::solve(const Vector& b, Vector& x, SolveMonitor* monitor) {
+  return solver_->solve(b, x, monitor);
+}
+
+double MixedSolver::residual_norm(const Vector& b, const Vector& x) const {
+  Vector r(b.size());
+  if (K_) K_->apply(x, r);
+  else assembled_.multiply(x.data(), r.data());
+  return (b - r).norm();
+}
+
+std::string MixedSolver::description() const {
+  return solver_->name() + (solver_->describe().empty() ? "" : ": " + solver_->describe());
+}
+
+namespace {
+
+/// The corotational fixed point of solve_mixed_static() on z = (u full, p): each correction solves
+/// the system at the rotations of u (see mixed.hpp); the norm is the displacement's.
+class MixedStaticPart final : public StaticPart {
+ public:
+  MixedStaticPart(MixedElasticity& m, MixedSolver& solver, const Vector& f, SolveMonitor* monitor, MixedResult& out)
+      : m_(m), solver_(solver), f_(f), monitor_(monitor), out_(out) {}
+  Vector correction(const Vector& z, int iteration) override {
+    const ElasticityModel& model = m_.hierarchy().finest();
+    const index_t n = model.num_dofs(), nu = m_.num_displacement(), np = m_.num_pressure();
+    const Vector u = z.head(n), p = z.tail(np);
+    R_ = model.rotations(u);
+    Vector force(n);
+    solver_.bound().evaluate(u, &R_, m_.weights(), &force, nullptr);
+    solver_.rotate(&R_, false);
+    Vector b(nu + np), btp = Vector::Zero(nu), scratch(np);
+    const Vector zero_u = Vector::Zero(nu);
+    m_.coupling().apply(zero_u.data(), p.data(), btp.data(), scratch.data());
+    b.head(nu) = model.restrict_to_free(f_ + force) - btp;
+    b.tail(np) = -m_.state_divergence(u);
+    if (const Csr* C = m_.compressibility()) {
+      Vector cp(np);
+      C->multiply(p.data(), cp.data());
+      b.tail(np) += cp;
+    }
+    Vector x = Vector::Zero(nu + np);
+    try {
+      out_.solve = solver_.solve(b, x, monitor_);
+    } catch (const SolveError& e) {
+      SolveResult r = e.result;
+      r.message = "mixed static solve: fixed-point iteration " + std::to_string(iteration) + ": " + e.what();
+      throw SolveError(r);
+    }
+    out_.solver_iterations += out_.solve.iterations;
+    Vector step(n + np);
+    step << model.expand(x.head(nu), Vector::Zero(n)), x.tail(np);
+    return step;
+  }
+  double norm(const Vector& z) const override { return z.head(m_.hierarchy().finest().num_dofs()).norm(); }
+
+ private:
+  MixedElasticity& m_;
+  MixedSolver& solver_;
+  const Vector& f_;
+  SolveMonitor* monitor_;
+  MixedResult& out_;
+  Rotations R_;  // the last correction's, read by the coupling until the next
+};
+
+}  // namespace
+
+MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& config, SolveMonitor* monitor,
+                               bool corotational, const StaticOptions& fixed_point) {
   const ElasticityModel& model = m.hierarchy().finest();
   if (f_full.size() != model.num_dofs())
     throw InputError("mixed solve: force vector has " + std::to_string(f_full.size()) + " entries, model has " +
@@ -357,34 +542,36 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
   if (model.num_fixed() == 0 && m.weights().mass == 0.0)
     throw InputError("mixed solve: no node is fixed, so the static displacement block is singular (rigid motions); "
                      "fix part of the boundary");
+  if (corotational && (m.weights().mass != 0.0 || m.weights().stiffness != 1.0))
+    throw InputError("mixed solve: the corotational fixed point is a static solve (set_weights({0, 1}))");
   MixedResult out;
-  const Vector b = m.rhs(f_full);
-  SolverContext ctx;
-  ctx.levels = &m.hierarchy();
-  ctx.saddle_point = &m.blocks();
-  std::unique_ptr<Solver> solver = make_solver(config, ctx, "mixed-minres");
-  const auto t0 = Clock::now();
-  std::unique_ptr<SaddlePointOperator> K;
-  Csr assembled;
-  // A method on the levels (mixed-minres) multiplies with the operator; any other (a direct solver)
-  // reads the assembled saddle point.
-  if (method_uses_levels(config.get_string("method", "mixed-minres"))) {
-    BoundSystem bound = m.hierarchy().bind(*solver);
-    const LinearOperator& A = bound.prepare(nullptr, m.weights());
-    K = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());
-    solver->setup(*K);
-  } else {
-    assembled = m.assembled_system();
-    solver->setup(assembled);
+  MixedSolver solver(m, config);
+  out.description = solver.description();
+  if (corotational) {
+    const auto t1 = Clock::now();
+    MixedStaticPart part(m, solver, f_full, monitor, out);
+    Vector z = Vector::Zero(model.num_dofs() + m.num_pressure());
+    try {
+      out.fixed_point_iterations = corotational_fixed_point(part, z, true, fixed_point, "mixed static solve").iterations;
+    } catch (...) {
+      m.set_rotations(nullptr);  // the part's rotations die with it
+      throw;
+    }
+    m.set_rotations(nullptr);
+    out.setup_seconds = solver.setup_seconds();
+    out.solve_seconds = seconds_since(t1);
+    out.u = z.head(model.num_dofs());
+    out.p = z.tail(m.num_pressure());
+    return out;
   }
-  out.setup_seconds = seconds_since(t0);
+  const Vector b = m.rhs(f_full);
+  out.setup_seconds = solver.setup_seconds();
   Vector x = Vector::Zero(m.num_unknowns());
   const auto t1 = Clock::now();
-  out.solve = solver->solve(b, x, monitor);
+  out.solve = solver.solve(b, x, monitor);
+  out.solver_iterations = out.solve.iterations;
   out.solve_seconds = seconds_since(t1);
-  out.description = solver->name() + (solver->describe().empty() ? "" : ": " + solver->describe());
-  const ElasticityModel& u = m.hierarchy().finest();
-  out.u = u.expand(x.head(m.num_displacement()), Vector::Zero(u.num_dofs()));
+  out.u = model.expand(x.head(m.num_displacement()), Vector::Zero(model.num_dofs()));
   out.p = x.tail(m.num_pressure()) / m.weights().stiffness;
   return out;
 }

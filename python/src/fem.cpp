@@ -529,27 +529,30 @@ void register_mixed(py::module_& m) {
         return csr_copy(K);
       }, "The saddle point [A B^T; B -C/s] assembled as CSR arrays (displacement first; the pressure unknowns are "
          "s p), for SciPy or a direct solver.")
-      .def("solve", [](PyMixed& s, const DoubleArray& f, py::dict config) {
+      .def("solve", [](PyMixed& s, const DoubleArray& f, py::dict config, bool corotational) {
         const Vector ff = to_vector(f, s.m->hierarchy().finest().num_dofs(), "force (full vector)");
         const std::string json = py::module_::import("json").attr("dumps")(config).cast<std::string>();
         const Config c = Config::from_json(json, "MixedElasticity.solve");
         fem::MixedResult r;
         {
           py::gil_scoped_release nogil;
-          r = fem::solve_mixed_static(*s.m, ff, c);
+          r = fem::solve_mixed_static(*s.m, ff, c, nullptr, corotational);
         }
         py::dict info;
         info["status"] = to_string(r.solve.status);
         info["iterations"] = r.solve.iterations;
         info["true_rel_residual"] = r.solve.true_rel_residual;
+        info["fixed_point_iterations"] = r.fixed_point_iterations;
+        info["solver_iterations"] = r.solver_iterations;
         info["setup_seconds"] = r.setup_seconds;
         info["solve_seconds"] = r.solve_seconds;
         info["description"] = r.description;
         return py::make_tuple(to_numpy(std::move(r.u)), to_numpy(std::move(r.p)), info);
-      }, py::arg("f"), py::arg("config") = py::dict(),
+      }, py::arg("f"), py::arg("config") = py::dict(), py::arg("corotational") = false,
          "Solves for the full load f with the solver config (a dict: method mixed-minres by default, or mumps; "
-         "tol, max_iterations and the cycle's keys). Returns (u as a full vector, p per pressure node, info). "
-         "Raises SolveError when the solve fails.")
+         "tol, max_iterations and the cycle's keys). corotational=True: the fixed point on the rotations "
+         "(static weights and mixed-minres only; info['fixed_point_iterations'] says how many). Returns (u as a "
+         "full vector, p per pressure node, info). Raises SolveError when the solve fails.")
       .def("__repr__", [](const PyMixed& s) {
         return "<pmgkit.MixedElasticity: degree " + std::to_string(s.m->hierarchy().num_levels()) + "/" +
                std::to_string(s.m->hierarchy().num_levels() - 1) + " on " + grouped(s.mesh->num_tets()) +

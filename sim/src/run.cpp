@@ -2,6 +2,7 @@
 #include "pmg/sparse/threads.hpp"
 
 #include "pmg/fem/mixed.hpp"
+#include "pmg/fem/mixed_euler.hpp"
 #include "pmg/fem/vtk_writer.hpp"
 #include "pmg/solvers.hpp"
 #include "pmg/sparse/file_io.hpp"
@@ -29,6 +30,13 @@ namespace {
 void make_dir(const std::string& dir) {
   if (mkdir(dir.c_str(), 0777) != 0 && errno != EEXIST)
     throw InputError("output.directory: cannot create '" + dir + "'");
+}
+
+/// v with `digits` decimals.
+std::string fixed(double v, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
 }
 
 std::string frame_stem(int step) {
@@ -109,6 +117,62 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
   mutable fem::VtuOptions frame_options_;  // the clamp and loads of every frame, made with the first
   SceneSetup& setup_;
   std::unique_ptr<Solver> solver_;
+};
+
+/// A dynamic scene of the mixed formulation in this process (pmg/fem/mixed_euler.hpp): the
+/// saddle point of each step on the scene's displacement hierarchy (set up on the shear material),
+/// its solver set up once; a deflected start is the mixed static solve under the initial force;
+/// every frame carries the pressure.
+class MixedStepper final : public SteppingWith<fem::MixedEuler> {
+ public:
+  MixedStepper(const Scene& scene, SceneSetup& setup, const fem::SimulationParams& sp, std::string& method,
+               std::string& settings)
+      : setup_(setup), mixed_(fem::Material{scene.young, scene.poisson, scene.density}, *setup.hierarchy) {
+    const fem::ElasticityModel& m = setup.finest();
+    auto [u0, v0] = formula_state(scene, m, setup.lo, setup.hi);  // rest and deflected: zero
+    Vector p0;
+    Config c = scene.solver.clone();
+    method = c.get_string("method", "mixed-minres");
+    start_libraries(c);
+    if (scene.initial == "deflected") {
+      const auto t0 = Clock::now();
+      const int axis = scene.clamp_axis;
+      const Vector f = end_force(m, axis, setup.hi[axis], 1e-9 * (setup.hi[axis] - setup.lo[axis]), scene.initial_force);
+      Config statics = c.clone();
+      if (method_accepts_key(method, "tol")) statics.set("tol", "1e-10");
+      fem::StaticOptions so;
+      so.corotational_tol = 1e-6;  // as the displacement-only deflected start
+      const fem::MixedResult r = fem::solve_mixed_static(mixed_, f, statics, nullptr, scene.corotational, so);
+      u0 = r.u, p0 = r.p;
+      setup.notes.push_back("initial state: the mixed static deflection under the end force, " +
+                            std::to_string(r.fixed_point_iterations) + " fixed-point iterations, " +
+                            std::to_string(r.solver_iterations) + " solver iterations, " + fixed(seconds_since(t0), 2) +
+                            " s");
+    }
+    sim_ = std::make_unique<fem::MixedEuler>(mixed_, c, setup.f_ext, sp);
+    sim_->set_state(u0, v0, p0);
+    settings = c.to_string();
+    setup.notes.push_back("mixed formulation: " + std::to_string(mixed_.num_displacement()) + " displacement + " +
+                          std::to_string(mixed_.num_pressure()) + " pressure unknowns; the solver set up in " +
+                          fixed(sim_->setup_seconds(), 2) + " s" +
+                          (scene.corotational ? ", updated to each step's rotations (coupling B_R included)"
+                                              : " once for every step") + ", each step warm-started");
+  }
+  fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
+  std::string write_frame(const std::string& directory, const std::string& stem) const override {
+    const fem::ElasticityModel& m = setup_.finest();
+    fem::VtuOptions vo;
+    vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
+    for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
+    vo.load = setup_.f_ext;
+    vo.pressure = mixed_.pressure_on_displacement_nodes(sim_->pressure());
+    fem::write_vtu(directory + "/" + stem + ".vtu", m.space(), sim_->displacement(), vo);
+    return stem + ".vtu";
+  }
+
+ private:
+  SceneSetup& setup_;
+  fem::MixedElasticity mixed_;
 };
 
 #ifdef PMG_HAVE_DISTRIBUTED
@@ -295,8 +359,12 @@ DynamicRun::DynamicRun(const Scene& scene, SceneSetup& setup, const std::string&
   sp.rayleigh_alpha = scene.rayleigh_alpha;
   sp.rayleigh_beta = scene.rayleigh_beta;
   sp.corotational = scene.corotational;
+  if (scene.formulation == "mixed") {
+    if (setup.on_ranks) throw InputError("formulation mixed: not across MPI ranks yet");
+    stepper_ = std::make_unique<detail::MixedStepper>(scene, setup, sp, method_, settings_);
+  }
 #ifdef PMG_HAVE_DISTRIBUTED
-  if (setup.on_ranks) {
+  else if (setup.on_ranks) {
     method_ = "petsc-mgpcg";
     stepper_ = std::make_unique<detail::RankMeshStepper>(scene, setup, sp, settings_);
   } else if (runs_across_ranks(scene)) {
@@ -507,16 +575,18 @@ StaticOutcome solve_static_mixed(const Scene& scene, SceneSetup& setup, const st
   out.settings = c.to_string();
   start_libraries(c);
   const auto t0 = Clock::now();
-  const fem::MixedResult r = fem::solve_mixed_static(mixed, setup.f_ext, c);
+  fem::StaticOptions so;
+  so.corotational_tol = 1e-6;  // as the displacement-only static scenes
+  const fem::MixedResult r = fem::solve_mixed_static(mixed, setup.f_ext, c, nullptr, scene.corotational, so);
   out.seconds = seconds_since(t0);
   out.result.u = r.u;
-  out.result.iterations = 1;
-  out.result.solver_iterations = r.solve.iterations;
+  out.result.iterations = r.fixed_point_iterations;
+  out.result.solver_iterations = static_cast<int>(r.solver_iterations);
   const fem::ElasticityModel& m = mixed.hierarchy().finest();
   out.probe = setup.probe.displacement(m, out.result.u);
   std::ostringstream note;
   note << "mixed formulation: " << mixed.num_displacement() << " displacement + " << mixed.num_pressure()
-       << " pressure unknowns, " << r.solve.iterations << " iterations; pressure in [" << r.p.minCoeff() << ", "
+       << " pressure unknowns, " << r.solver_iterations << " iterations; pressure in [" << r.p.minCoeff() << ", "
        << r.p.maxCoeff() << "] Pa";
   out.summary = note.str();
   if (!output_dir.empty()) {

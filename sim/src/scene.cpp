@@ -302,6 +302,27 @@ void read_solver_and_output(Section& root, const std::string& path, Scene& s) {
   }
 }
 
+/// "formulation": "auto" made concrete (Scene::formulation_choice says why).
+void resolve_auto_formulation(Scene& s) {
+  if (s.formulation != "auto") return;
+  char nu[32];
+  std::snprintf(nu, sizeof nu, "%g", s.poisson);
+  char limit[32];
+  std::snprintf(limit, sizeof limit, "%g", kMixedFromPoisson);
+  const char* why = outside_mixed_scope(s);
+  if (s.poisson < kMixedFromPoisson) {
+    s.formulation = "displacement";
+    s.formulation_choice = std::string("formulation auto: displacement (nu = ") + nu + " < " + limit + ")";
+  } else if (why) {
+    s.formulation = "displacement";
+    s.formulation_choice = std::string("formulation auto: displacement, although nu = ") + nu + " >= " + limit +
+                           " (the mixed formulation needs " + why + "); expect locking and slow solves";
+  } else {
+    s.formulation = "mixed";
+    s.formulation_choice = std::string("formulation auto: mixed (nu = ") + nu + " >= " + limit + ")";
+  }
+}
+
 /// Combinations of sections, checked before any work.
 void check_combinations(Section& root, const Scene& s) {
   // Combinations, checked before any work.
@@ -315,14 +336,8 @@ void check_combinations(Section& root, const Scene& s) {
     root.fail("material.poisson: must lie in (-1, 0.5) for the displacement formulation; 0.5 (incompressible) "
               "needs \"formulation\": \"mixed\"");
   if (s.formulation == "mixed") {
-    const char* why = s.dynamic ? "static scenes only (\"time\": \"static\")"
-                      : s.corotational ? "linear material only (material.model \"linear\")"
-                      : s.degree < 2 ? "degree 2 or 3 (a pressure of degree k - 1 >= 1)"
-                      : !(s.poisson > 0) ? "material.poisson in (0, 0.5]"
-                      : s.inclusion ? "no material.inclusion"
-                      : s.initial != "rest" ? "initial.state rest"
-                                            : nullptr;
-    if (why) root.fail(std::string("formulation mixed: ") + why + " (the mixed route's scope for now)");
+    if (const char* why = outside_mixed_scope(s))
+      root.fail(std::string("formulation mixed: ") + why + " (the mixed route's scope for now)");
   }
   if (!s.supports.empty() && (s.initial == "compressed" || s.initial == "twisted" || s.initial == "spinning"))
     root.fail("initial.state " + s.initial + " prescribes a displacement or motion that supports and symmetry "
@@ -340,14 +355,23 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   Section root(path, "", j);
   read_mesh(root, path, s);
   s.degree = root.integer("degree", s.degree, 1, 3);
-  s.formulation = root.string("formulation", s.formulation, {"displacement", "mixed"});
+  s.formulation = root.string("formulation", s.formulation, {"displacement", "mixed", "auto"});
   read_material(root, s);
   read_constraints(root, path, s);
   read_loads_and_time(root, s);
+  resolve_auto_formulation(s);  // before the solver's defaults, which depend on it
   read_solver_and_output(root, path, s);
   if (root.has("name")) s.source = root.string("name", s.source) + " (" + path + ")";
   check_combinations(root, s);
   return s;
+}
+
+const char* outside_mixed_scope(const Scene& s) {
+  return s.degree < 2 ? "degree 2 or 3 (a pressure of degree k - 1 >= 1)"
+         : !(s.poisson > 0) ? "material.poisson in (0, 0.5]"
+         : s.inclusion ? "no material.inclusion"
+         : s.rayleigh_beta != 0 ? "no stiffness-proportional damping (damping.beta 0)"
+                                : nullptr;
 }
 
 std::string Scene::check_time() const {
@@ -389,9 +413,10 @@ void Scene::set_solver_defaults(Config& c, bool dynamic, bool mixed) {
   register_all_solvers();
   if (mixed) {
     c.set_default("method", "mixed-minres");
+    // As the displacement-only scenes: 1e-3 per step, 1e-10 for a static solve.
     if (method_accepts_key(c.get_string("method", "mixed-minres"), "max_iterations")) {
-      c.set_default("tol", "1e-10");
-      c.set_default("max_iterations", "10000");
+      c.set_default("tol", dynamic ? "1e-3" : "1e-10");
+      c.set_default("max_iterations", dynamic ? "1000" : "10000");
     }
     return;
   }

@@ -69,6 +69,7 @@ void check_size(double tets, const Scene& s) {
 
 SceneSetup set_up(const Scene& s) {
   SceneSetup b;
+  if (!s.formulation_choice.empty()) b.notes.push_back(s.formulation_choice);
   auto t0 = Clock::now();
   auto stage = [&](const char* name) {  // the seconds since the previous stage's end
     b.stages.emplace_back(name, seconds_since(t0));

@@ -5,6 +5,7 @@
 #include "../fem/mixed_mms.hpp"
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mixed.hpp"
+#include "pmg/fem/mixed_euler.hpp"
 #include "pmg/fem/static_solve.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/sparse/config.hpp"
@@ -147,4 +148,196 @@ TEST_CASE("mixed: bad input is refused by name", "[mixed]") {
   CHECK_THROWS_WITH(make_solver(mixed_minres_config(1e-8), {}), Catch::Contains("formulation=mixed"));
   MixedElasticity m(mesh, 2, mms_material(0.3), clamp_x0(mesh));
   CHECK_THROWS_WITH(m.set_weights({1.0, 0.0}), Catch::Contains("stiffness weight > 0"));
+}
+
+TEST_CASE("mixed time step: each step solves the implicit-Euler equations with the constraint on the new state",
+          "[mixed]") {
+  for (int k = 2; k <= 3; ++k)
+    for (double nu : {0.3, 0.4999, 0.5}) {
+      Bar bar(k, nu);
+      // The equations checked with matrices built apart from the step: A and M of the shear
+      // material on the same mesh and clamp, B and C assembled.
+      ElasticityModel ref(bar.mesh, k, MixedElasticity::shear_material(bar.m.material()));
+      ref.fix_vertices(clamp_x0(bar.mesh));
+      Bcsr A = ref.assembler().make_matrix(), M = ref.assembler().make_matrix();
+      ref.assemble(nullptr, Vector(), A, nullptr);
+      ref.assemble_mass(M);
+      SimulationParams sp;
+      sp.dt = 0.01, sp.rayleigh_alpha = 0.5, sp.corotational = false;
+      MixedEuler euler(bar.m, mixed_minres_config(1e-11), bar.f, sp);
+      const Csr& B = bar.m.divergence();
+      const double lambda = bar.m.material().lambda();
+      const index_t nu_ = bar.m.num_displacement(), np = bar.m.num_pressure();
+      for (int n = 0; n < 3; ++n) {
+        const Vector u = ref.restrict_to_free(euler.displacement()), v = ref.restrict_to_free(euler.velocity());
+        const StepStats st = euler.step();
+        const Vector u1 = ref.restrict_to_free(euler.displacement()), v1 = ref.restrict_to_free(euler.velocity());
+        const Vector& p1 = euler.pressure();
+        // (1 + Δt α) M v⁺ - M v + Δt (A u⁺ + Bᵀ p⁺ - f) = 0
+        Vector Mv1(nu_), Mv(nu_), Au1(nu_), Btp(nu_), Bu1(np), Mpp(np);
+        M.multiply(v1.data(), Mv1.data());
+        M.multiply(v.data(), Mv.data());
+        A.multiply(u1.data(), Au1.data());
+        bar.m.divergence_transpose().multiply(p1.data(), Btp.data());
+        B.multiply(u1.data(), Bu1.data());
+        bar.m.pressure_mass().multiply(p1.data(), Mpp.data());
+        // The step's right-hand side (mixed_euler.hpp): b = (M v + Δt (f - A u), -B u / Δt). Its
+        // residual is (-momentum, constraint / Δt); MINRES's contract: <= 2 tol ||b||.
+        Vector Au(nu_), Bu(np);
+        A.multiply(u.data(), Au.data());
+        B.multiply(u.data(), Bu.data());
+        const double bn = std::sqrt((Mv + sp.dt * (ref.restrict_to_free(bar.f) - Au)).squaredNorm() +
+                                    (Bu / sp.dt).squaredNorm());
+        const Vector momentum = (1 + sp.dt * sp.rayleigh_alpha) * Mv1 - Mv + sp.dt * (Au1 + Btp - ref.restrict_to_free(bar.f));
+        const Vector constraint = nu == 0.5 ? Vector(Bu1) : Vector(Bu1 - Mpp / lambda);
+        INFO("k = " << k << ", nu = " << nu << ", step " << n + 1 << ": " << st.iterations << " iterations");
+        CHECK(st.iterations > 0);
+        CHECK((u1 - u - sp.dt * v1).norm() <= 1e-14 * u1.norm());
+        CHECK(std::hypot(momentum.norm(), constraint.norm() / sp.dt) <= 2e-11 * bn);
+      }
+    }
+}
+
+TEST_CASE("mixed time step: the total energy never rises, and stiffness damping is refused by name", "[mixed]") {
+  Bar bar(2, 0.4999);
+  SimulationParams sp;
+  sp.dt = 0.02, sp.corotational = false;
+  {
+    MixedEuler euler(bar.m, mixed_minres_config(1e-10), bar.f, sp);
+    // Released at rest under gravity: implicit Euler dissipates, so E = kinetic + elastic - f·u
+    // falls from 0 at every step (by the square of the velocity change, in exact arithmetic).
+    double previous = euler.kinetic_energy() + euler.elastic_energy() - euler.external_work();
+    CHECK(previous == 0.0);
+    double scale = 0.0;
+    for (int n = 0; n < 20; ++n) {
+      euler.step();
+      const double e = euler.kinetic_energy() + euler.elastic_energy() - euler.external_work();
+      scale = std::max(scale, euler.kinetic_energy() + euler.elastic_energy());
+      INFO("step " << n + 1 << ": " << previous << " -> " << e);
+      CHECK(e <= previous + 1e-9 * scale);
+      previous = e;
+    }
+    CHECK(previous < -1e-4 * scale);  // a loss far above rounding: the energies are not trivially zero
+    CHECK(euler.pressure().allFinite());
+    CHECK(euler.pressure().cwiseAbs().maxCoeff() > 0);
+    CHECK_THROWS_WITH(euler.set_state(euler.displacement(), euler.velocity(), Vector::Zero(3)),
+                      Catch::Contains("pressure has 3 values"));
+  }
+  sp.rayleigh_beta = 0.01;
+  CHECK_THROWS_WITH(MixedEuler(bar.m, mixed_minres_config(1e-8), bar.f, sp), Catch::Contains("beta"));
+  sp.rayleigh_beta = 0.0;
+  CHECK_THROWS_WITH(MixedEuler(bar.m, mixed_minres_config(1e-8), Vector::Zero(3), sp), Catch::Contains("external force"));
+}
+
+TEST_CASE("corotational mixed: a rigid rotation has no divergence, no deviatoric force and no pressure", "[mixed]") {
+  Bar bar(2, 0.4);
+  const ElasticityModel& model = bar.m.hierarchy().finest();
+  const Mat3 Q = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  Vector u(model.num_dofs());
+  for (index_t i = 0; i < model.num_nodes(); ++i) {
+    const Vec3& X = model.space().positions()[static_cast<size_t>(i)];
+    u.segment<3>(3 * i) = Q * X - X;
+  }
+  // Linear: div((Q - I) X) = tr Q - 3 != 0; corotated, R_eᵀ x_e - X_e = 0 in every element.
+  const Vector linear = bar.m.state_divergence(u);
+  const Rotations R = model.rotations(u);
+  bar.m.set_rotations(&R);
+  const Vector corotated = bar.m.state_divergence(u);
+  const Vector p = bar.m.pressure_of(u);
+  const Vector force = model.elastic_force(u, &R);
+  bar.m.set_rotations(nullptr);
+  INFO("linear ||g|| " << linear.norm() << ", corotated " << corotated.norm());
+  CHECK(linear.norm() > 0.1);
+  CHECK(corotated.norm() <= 1e-13 * linear.norm());
+  CHECK(p.norm() <= 1e-10 * bar.m.pressure_of(u).norm() + 1e-12 * bar.m.material().lambda() * linear.norm());
+  CHECK(force.norm() <= 1e-12 * model.material().young * u.norm());
+}
+
+TEST_CASE("corotational mixed: the static fixed point equals the linear solve for small loads and converges for large",
+          "[mixed]") {
+  for (double nu : {0.3, 0.5}) {
+    Bar bar(2, nu);
+    StaticOptions so;
+    so.corotational_tol = 1e-9;
+    // Unit gravity on E = 1 sags the bar's tip by about 384 m (q L⁴ / 8EI). Small loads: the
+    // rotations are O(load), so the corotational answer differs from the linear one by O(load²): a
+    // hundredth of the load, a hundredth of the relative difference.
+    double relative[2];
+    for (int i = 0; i < 2; ++i) {
+      const Vector small = (i == 0 ? 1e-6 : 1e-8) * bar.f;
+      const MixedResult lin = solve_mixed_static(bar.m, small, mixed_minres_config(1e-13));
+      const MixedResult rot = solve_mixed_static(bar.m, small, mixed_minres_config(1e-13), nullptr, true, so);
+      relative[i] = (rot.u - lin.u).norm() / lin.u.norm();
+      INFO("nu = " << nu << ": " << rot.fixed_point_iterations << " fixed-point iterations");
+      CHECK((rot.p - lin.p).norm() <= 10 * relative[i] * lin.p.norm());
+    }
+    INFO("relative difference " << relative[0] << " at 1e-6 g, " << relative[1] << " at 1e-8 g");
+    CHECK(relative[1] <= 0.02 * relative[0]);
+    CHECK(relative[1] >= 0.005 * relative[0]);
+    // Large: the tip sags by about the bar's depth; the fixed point converges to a state whose
+    // corotated equations hold: deviatoric force + pressure force + load = 0 and g(u) = C p.
+    const Vector big = 2e-3 * bar.f;
+    const MixedResult r = solve_mixed_static(bar.m, big, mixed_minres_config(1e-12), nullptr, true, so);
+    const ElasticityModel& model = bar.m.hierarchy().finest();
+    const Rotations R = model.rotations(r.u);
+    bar.m.set_rotations(&R);
+    Vector btp = Vector::Zero(bar.m.num_displacement()), scratch(bar.m.num_pressure());
+    const Vector zero_u = Vector::Zero(bar.m.num_displacement());
+    bar.m.coupling().apply(zero_u.data(), r.p.data(), btp.data(), scratch.data());
+    const Vector g = bar.m.state_divergence(r.u);
+    bar.m.set_rotations(nullptr);
+    const Vector fb = model.restrict_to_free(big);
+    const Vector balance = model.restrict_to_free(model.elastic_force(r.u, &R) + big) - btp;
+    Vector cp = Vector::Zero(bar.m.num_pressure());
+    if (nu < 0.5) bar.m.pressure_mass().multiply(r.p.data(), cp.data()), cp /= bar.m.material().lambda();
+    INFO("large: " << r.fixed_point_iterations << " fixed-point iterations, tip sag " << -r.u.minCoeff());
+    CHECK(r.fixed_point_iterations > 2);
+    CHECK(-r.u.minCoeff() > 0.5);
+    CHECK(balance.norm() <= 1e-6 * fb.norm());
+    CHECK((g - cp).norm() <= 1e-6 * g.norm() + 1e-9 * fb.norm());
+  }
+}
+
+TEST_CASE("corotational mixed time step: each step solves the equations linearised at the state's rotations",
+          "[mixed]") {
+  Bar bar(2, 0.4999);
+  const ElasticityModel& model = bar.m.hierarchy().finest();
+  ElasticityModel ref(bar.mesh, 2, MixedElasticity::shear_material(bar.m.material()));
+  ref.fix_vertices(clamp_x0(bar.mesh));
+  // Released from the corotational static deflection under twice the load: large rotations.
+  StaticOptions so;
+  so.corotational_tol = 1e-12;  // so that g(u) = C p holds at u's own rotations to rounding
+  const MixedResult start = solve_mixed_static(bar.m, 4e-3 * bar.f, mixed_minres_config(1e-13), nullptr, true, so);
+  SimulationParams sp;
+  sp.dt = 0.5, sp.corotational = true;  // E = 1, ρ = 1, L = 4: the first period is about 30 s
+  MixedEuler euler(bar.m, mixed_minres_config(1e-11), 2e-3 * bar.f, sp);
+  euler.set_state(start.u, Vector::Zero(model.num_dofs()));  // p from the state (pressure_of)
+  CHECK((euler.pressure() - start.p).norm() <= 1e-6 * start.p.norm());
+  const index_t nu_ = bar.m.num_displacement(), np = bar.m.num_pressure();
+  for (int n = 0; n < 3; ++n) {
+    const Vector u = euler.displacement(), v = ref.restrict_to_free(euler.velocity());
+    const StepStats st = euler.step();
+    const Vector v1 = ref.restrict_to_free(euler.velocity()), p1 = euler.pressure();
+    const Rotations R = model.rotations(u);
+    Bcsr K = ref.assembler().make_matrix(), M = ref.assembler().make_matrix();
+    ref.assemble(&R, Vector(), K, nullptr);
+    ref.assemble_mass(M);
+    // m M v⁺ + Δt² K_R v⁺ + Δt B_Rᵀ p⁺ = M v + Δt (f + f_el(u)),   g_R(u⁺) = C p⁺.
+    Vector Mv1(nu_), Mv(nu_), Kv1(nu_), btp = Vector::Zero(nu_), scratch(np), cp(np);
+    M.multiply(v1.data(), Mv1.data());
+    M.multiply(v.data(), Mv.data());
+    K.multiply(v1.data(), Kv1.data());
+    const Vector zero_u = Vector::Zero(nu_);
+    bar.m.set_rotations(&R);
+    bar.m.coupling().apply(zero_u.data(), p1.data(), btp.data(), scratch.data());
+    const Vector g1 = bar.m.state_divergence(euler.displacement()), g0 = bar.m.state_divergence(u);
+    bar.m.set_rotations(nullptr);
+    bar.m.pressure_mass().multiply(p1.data(), cp.data());
+    cp /= bar.m.material().lambda();
+    const Vector rhs = Mv + sp.dt * ref.restrict_to_free(2e-3 * bar.f + ref.elastic_force(u, &R));
+    const Vector momentum = Mv1 + sp.dt * sp.dt * Kv1 + sp.dt * btp - rhs;
+    const double bn = std::hypot(rhs.norm(), g0.norm() / sp.dt);
+    INFO("step " << n + 1 << ": " << st.iterations << " iterations");
+    CHECK(std::hypot(momentum.norm(), (g1 - cp).norm() / sp.dt) <= 2e-11 * bn);
+  }
 }

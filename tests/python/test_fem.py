@@ -215,3 +215,23 @@ def test_mixed_elasticity_solves_the_saddle_point_without_locking():
         pmgkit.MixedElasticity(mesh, 1, clamp=clamp)
     with pytest.raises(pmgkit.InputError, match=r"\(0, 0.5\]"):
         pmgkit.MixedElasticity(mesh, 2, poisson=0.7, clamp=clamp)
+
+
+def test_mixed_elasticity_corotational_fixed_point():
+    mesh = pmgkit.Mesh.box(4, 1, 1, 2.0, 0.5, 0.5)
+    m = pmgkit.MixedElasticity(mesh, 2, pmgkit.Material(1e5, 0.4999, 1e3), clamp=lambda X: X[0] < 1e-12)
+    f = m.gravity([0.0, 0.0, -9.81])
+    # Small loads: the rotations are O(load), so the corotational answer differs from the linear one
+    # by O(load^2): a hundredth of the load, a hundredth of the relative difference. (At 1e-3 g
+    # the tip already sags 2 cm: the bar is soft.)
+    relative = []
+    for scale in (1e-4, 1e-6):
+        u_lin, _, _ = m.solve(scale * f, {"tol": 1e-13})
+        u_rot, _, info = m.solve(scale * f, {"tol": 1e-13}, corotational=True)
+        assert info["fixed_point_iterations"] >= 2
+        relative.append(np.linalg.norm(u_rot - u_lin) / np.linalg.norm(u_lin))
+    assert 0.005 * relative[0] <= relative[1] <= 0.02 * relative[0]
+    _, _, big = m.solve(1e-2 * f, {"tol": 1e-10}, corotational=True)
+    assert big["fixed_point_iterations"] > info["fixed_point_iterations"]
+    with pytest.raises(pmgkit.InputError, match="corotational material needs mixed-minres"):
+        m.solve(f, {"method": "mumps"}, corotational=True)

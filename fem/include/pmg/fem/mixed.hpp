@@ -24,6 +24,7 @@
 #pragma once
 
 #include "pmg/fem/hierarchy.hpp"
+#include "pmg/fem/static_solve.hpp"
 #include "pmg/sparse/csr.hpp"
 #include "pmg/sparse/saddle_point.hpp"
 
@@ -71,9 +72,20 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   /// The model's free unknowns.
   index_t cols() const override { return u_.num_free_dofs(); }
   void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const override;
+  /// Corotational coupling: B_R,e = B_e R_eᵀ (the divergence of the element's displacement rotated
+  /// back), which is B_e with each gradient ∇λ_i replaced by R_e ∇λ_i, as the stiffness of
+  /// ElasticityModel::evaluate. nullptr: R = I. The rotations must outlive their use.
+  void set_rotations(const Rotations* R) { R_ = R; }
+  /// The rotations set (nullptr: none).
+  const Rotations* rotations() const { return R_; }
+  /// The divergence of a state: g = Σ_e B_e (R_eᵀ x_e - X_e) over every node of each element (fixed
+  /// ones at their positions), x = X + u_full; with no rotations, Σ_e B_e u_e. One value per pressure
+  /// node; the constraint of a state is g(u) = C p.
+  void state_divergence(const Vector& u_full, Vector& g) const;
 
  private:
   const ElasticityModel& u_;
+  const Rotations* R_ = nullptr;
   const BBSpace& pressure_;
   std::vector<int> raise_;     ///< raise_[c 4 + i]: the degree-k local index of c + e_i
   std::vector<double> mass_;   ///< M̂, row-major
@@ -82,6 +94,10 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   const std::vector<std::vector<index_t>>* colors_ = nullptr;  ///< its element colours
   template <int K>
   void element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const;
+  template <int K>
+  void element_state(index_t e, const double* u_full, double* g) const;
+  /// The element's gradients ∇λ_i, rotated to R_e ∇λ_i when rotations are set.
+  void gradients(index_t e, double gr[4][3]) const;
 };
 
 /// Checks a material for the mixed formulation: E > 0, ν in (0, 1/2] (1/2 allowed: C = 0; λ > 0),
@@ -126,8 +142,19 @@ class MixedElasticity {
   const Csr& divergence() const;
   /// Bᵀ assembled (on first use).
   const Csr& divergence_transpose() const;
-  /// B and Bᵀ matrix-free (DivergenceCoupling).
+  /// B and Bᵀ matrix-free (DivergenceCoupling), rotated where set_rotations() gave rotations.
   const SaddlePointCoupling& coupling() const { return *coupling_; }
+  /// Corotational coupling (DivergenceCoupling::set_rotations): coupling() and state_divergence()
+  /// become B_R; the assembled divergence() stays the linear B. nullptr: linear. The rotations
+  /// must outlive their use.
+  void set_rotations(const Rotations* R) { coupling_->set_rotations(R); }
+  /// g(u) = Σ_e B_e (R_eᵀ x_e - X_e) of a full displacement, one value per pressure node, with the
+  /// rotations set (none: B u); the constraint of a state is g(u) = C p.
+  Vector state_divergence(const Vector& u_full) const;
+  /// The pressure of a displacement: p with C p = g(u) (M_p p = λ g(u), solved by CG to 1e-12 with
+  /// the Chebyshev mass preconditioner). Throws InputError at ν = 1/2 (the pressure is not a
+  /// function of the state there).
+  Vector pressure_of(const Vector& u_full) const;
   /// C = M_p / (λ s) at the weights' stiffness s (nullptr at ν = 1/2).
   const Csr* compressibility() const { return lambda_inverse_ > 0 ? &C_ : nullptr; }
   /// The pressure mass M_p.
@@ -167,23 +194,77 @@ class MixedElasticity {
   void assemble_pressure_mass();
 };
 
+/// A saddle-point solver set up on a MixedElasticity's system at its weights, through the factory
+/// (`mixed-minres` by default): a method on the levels (registry: uses_levels) multiplies with the
+/// operator [A, Bᵀ; B, -C] (A matrix-free where the method reads operators), any other (a direct
+/// solver) factorises the assembled saddle point. The binding of the displacement hierarchy is kept
+/// for the finest mass and the elastic force of a state (the time step of pmg/fem/mixed_euler.hpp).
+/// Holds a reference to the mixed system, which must outlive it; call set_weights() before.
+class MixedSolver {
+ public:
+  /// Makes and sets up the solver the config names. Throws InputError for a method that cannot
+  /// solve a saddle point, and what the set-up throws.
+  MixedSolver(MixedElasticity& m, const Config& config);
+  ~MixedSolver();
+  MixedSolver(const MixedSolver&) = delete;
+  MixedSolver& operator=(const MixedSolver&) = delete;
+  /// Brings the system to the rotations R (nullptr: linear): the coupling rotated, the displacement
+  /// levels the solver reads prepared at R and the system's weights (the finest too unless `finest`
+  /// is false: a caller whose BoundSystem::evaluate() brought it there), the solver updated.
+  /// Throws InputError on the assembled route (a direct solver takes linear material only).
+  void rotate(const Rotations* R, bool finest = true);
+  /// Solves K x = b from the guess x (displacement first, then p̃ = s p).
+  SolveResult solve(const Vector& b, Vector& x, SolveMonitor* monitor = nullptr);
+  /// ‖b − K x‖ with K the system the solver was set up on.
+  double residual_norm(const Vector& b, const Vector& x) const;
+  /// The solver ("name: description").
+  std::string description() const;
+  /// True where the solver multiplies with the operator (mixed-minres), false where it factorised
+  /// the assembled saddle point (rotate() needs the first).
+  bool on_operator() const { return K_ != nullptr; }
+  /// Seconds of the levels' preparation and the solver's set-up.
+  double setup_seconds() const { return setup_seconds_; }
+  /// The displacement hierarchy bound to the solver (its mass, a state's force and energy).
+  BoundSystem& bound() { return *bound_; }
+  /// The solver.
+  Solver& solver() { return *solver_; }
+
+ private:
+  MixedElasticity& m_;
+  std::unique_ptr<Solver> solver_;
+  std::unique_ptr<BoundSystem> bound_;
+  std::unique_ptr<SaddlePointOperator> K_;
+  Csr assembled_;
+  double setup_seconds_ = 0.0;
+};
+
 /// What a mixed static solve reports.
 struct MixedResult {
   Vector u;                ///< full displacement (3 per node, zero on the fixed nodes)
   Vector p;                ///< pressure, one per pressure node (p̃ / s: the pressure itself)
-  SolveResult solve;       ///< iterations and residuals of the whole system's solve
+  SolveResult solve;       ///< iterations and residuals of the whole system's (last) solve
+  int fixed_point_iterations = 1;  ///< corotational fixed-point iterations (1: linear)
+  long solver_iterations = 0;      ///< the solver's iterations summed over them
   double setup_seconds = 0.0;  ///< the levels prepared and the solver set up
   double solve_seconds = 0.0;  ///< the solve
   std::string description; ///< the solver's name and description
 };
 
-/// The linear solve of the mixed system at its weights (static, or one implicit-Euler step's
-/// system) for the full load f_full with the solver the config names (the factory; `mixed-minres`
-/// by default, or a direct method such as mumps on the assembled system). Throws InputError for a
-/// load of the wrong size or with NaN/Inf, no free unknown, or a static system with nothing fixed,
-/// and what the solver throws (SolveError on failure). At ν = 1/2 with every boundary node fixed the
-/// pressure is defined up to a constant: MINRES still returns a solution of the singular system.
+/// The solve of the mixed system at its weights (static, or one implicit-Euler step's system) for
+/// the full load f_full with the solver the config names (the factory; `mixed-minres` by default,
+/// or a direct method such as mumps on the assembled system). Linear: one solve. Corotational
+/// (`corotational` true, the operator route only): the fixed point of pmg/fem/static_solve.hpp on
+/// (u, p) — with R from u_k, the system at R solved for the correction of
+///   [K_R  B_Rᵀ] [δu]   [ (f_ext + f_el(u_k))|free - B_Rᵀ p_k ]
+///   [B_R  -C  ] [δp] = [ C p_k - g(u_k)                     ],
+/// f_el the deviatoric force -Σ_e R K_e (Rᵀ x_e - X_e), g(u) = Σ_e B_e (R_eᵀ x_e - X_e), until
+/// ‖δu‖ <= fixed_point.corotational_tol ‖u‖ (relaxed as there). Throws InputError for a load of the
+/// wrong size or with NaN/Inf, no free unknown, or a static system with nothing fixed; what the
+/// solver throws (SolveError on failure); pmg::Error when the fixed point does not converge. At
+/// ν = 1/2 with every boundary node fixed the pressure is defined up to a constant: MINRES still
+/// returns a solution of the singular system.
 MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const Config& solver,
-                               SolveMonitor* monitor = nullptr);
+                               SolveMonitor* monitor = nullptr, bool corotational = false,
+                               const StaticOptions& fixed_point = {});
 
 }  // namespace pmg::fem

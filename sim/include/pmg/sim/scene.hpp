@@ -30,9 +30,12 @@ struct Scene {
   /// Polynomial degree of the finest level, 1 to 3 (the hierarchy holds degrees 1 to this).
   int degree = 3;
   /// "displacement" (the default) or "mixed": the displacement-pressure elements of
-  /// pmg/fem/mixed.hpp (degree 2 or 3, a static linear scene, ν in (0, 0.5]; solver mixed-minres
-  /// unless the scene names mumps).
+  /// pmg/fem/mixed.hpp (outside_mixed_scope() says what they take; solver mixed-minres unless the
+  /// scene names mumps). A scene's "auto" is made concrete when it is read: mixed from ν >=
+  /// kMixedFromPoisson where the scene is in the mixed scope, displacement otherwise.
   std::string formulation = "displacement";
+  /// How "auto" was made concrete, in words (empty when the scene named its formulation).
+  std::string formulation_choice;
   // material
   /// Corotational material (material.model "corotational"); false: linear.
   bool corotational = true;
@@ -96,7 +99,7 @@ struct Scene {
   static Config default_solver(bool dynamic = true, bool mixed = false);
   /// Where the scene sets none: dynamic, method pmg, tol 1e-3, max_iterations 1000; static, method
   /// cholmod (an iterative method: tol 1e-10, max_iterations 10000).
-  /// A mixed scene's method is mixed-minres (tol 1e-10) unless it names one.
+  /// A mixed scene's method is mixed-minres (tol 1e-3 per step, 1e-10 static) unless it names one.
   static void set_solver_defaults(Config& c, bool dynamic = true, bool mixed = false);
   // output
   std::string output;  ///< directory; empty: nothing written
@@ -111,6 +114,15 @@ struct Scene {
 /// (E = 500 kPa, ν = 0.3, ρ = 1000 kg/m³), clamped at x = 0, 10 N downwards spread over the far
 /// face, static. (Scene{} is the built-in simulation scene, the larger 4 m cantilever.)
 Scene table_bar();
+
+/// The Poisson's ratio from which "formulation": "auto" takes the mixed elements. Measured
+/// (docs/robustness.md, "Choosing"): below it the displacement-only elements are within 1.7x of the
+/// mixed displacement error and faster; at ν = 0.49 their quadratic displacement error is 2.5x and
+/// their pressure error 3.5x the mixed ones.
+inline constexpr double kMixedFromPoisson = 0.49;
+/// Why the scene is outside what the mixed formulation takes (a phrase for a message), or nullptr:
+/// degree 2 or 3, ν in (0, 1/2], no inclusion, no stiffness damping.
+const char* outside_mixed_scope(const Scene& s);
 
 /// Reads and checks a scene; `path` names the file in every message.
 Scene read_scene(const std::string& path);
