@@ -1,5 +1,5 @@
 """Stability stress matrix for pmg simulate: near-incompressible material (point and vertex-patch
-smoothers), time steps from 1e-4 to 0.1 s, large compression, flat and needle elements, a thin
+smoothers, and the mixed displacement-pressure formulation up to nu = 0.5), time steps from 1e-4 to 0.1 s, large compression, flat and needle elements, a thin
 plate with holes, a spinning free body over 10,000 steps; in the full run (not --quick) also the
 cubic Homer (models/homer.ele, scripts/get_models.sh and the README's mesh command) at
 nu = 0.3, 0.45, 0.49 and 0.499 with both smoothers.
@@ -104,6 +104,24 @@ def cases(quick, only=None):
                                     material__poisson=nu, initial={"state": "rest"}, loads={"gravity": [0, 0, -9.81]},
                                     time={"dt": 0.01, "duration": 0.03},
                                     solver={"method": method, "tol": 1e-3, key: value}))
+    # The mixed displacement-pressure formulation (docs/robustness.md): the same bar up to nu = 0.5,
+    # large compression and twist released, the thin plate, and the cubic Homer in the full run.
+    mixed = {"formulation": "mixed", "solver": {"method": "mixed-minres", "tol": 1e-3}}
+    for nu in (0.49, 0.499, 0.4999, 0.5):
+        out.append(case("mixed, Poisson %g" % nu, material__poisson=nu, **mixed))
+    out.append(case("mixed, Poisson 0.499, compressed 50% and released", material__poisson=0.499,
+                    initial={"state": "compressed", "strain": 0.5}, time={"dt": 0.005, "duration": 0.5}, **mixed))
+    out.append(case("mixed, Poisson 0.499, twisted 180 degrees and released", material__poisson=0.499,
+                    initial={"state": "twisted", "degrees": 180}, **mixed))
+    out.append(case("mixed, Poisson 0.5, compressed (no finite energy: refused)", material__poisson=0.5,
+                    initial={"state": "compressed", "strain": 0.1}, **mixed))
+    out.append(case("mixed, Poisson 0.499, plate from rest under gravity", mesh={"box": [8, 2, 1], "size": [4, 1, 0.01]},
+                    material__poisson=0.499, initial={"state": "rest"}, loads={"gravity": [0, 0, -9.81]}, **mixed))
+    if not quick and os.path.exists(homer):
+        for nu in (0.499, 0.4999):
+            out.append(case("mixed, Homer P3, Poisson %g" % nu, mesh={"file": os.path.abspath(homer)}, degree=3,
+                            clamp={"axis": "z", "fraction": 0.05}, material__poisson=nu, initial={"state": "rest"},
+                            loads={"gravity": [0, 0, -9.81]}, time={"dt": 0.01, "duration": 0.03}, **mixed))
     spin = {"mesh": {"box": [4, 1, 1], "size": [2, 0.5, 0.5]}, "degree": 2,
             "material": {"model": "corotational", "young": 5e5, "poisson": 0.3, "density": 1000},
             "clamp": "none", "initial": {"state": "spinning", "omega": [0, 0, 3]},

@@ -416,11 +416,16 @@ Vector MixedElasticity::state_divergence(const Vector& u_full) const {
   return g;
 }
 
-Vector MixedElasticity::pressure_of(const Vector& u_full) const {
+Vector MixedElasticity::pressure_of(const Vector& u_full) const { return pressure_from_divergence(state_divergence(u_full)); }
+
+Vector MixedElasticity::pressure_from_divergence(const Vector& g) const {
   if (lambda_inverse_ == 0)
     throw InputError("mixed elements: at nu = 0.5 the pressure is not a function of the displacement (a "
                      "deformed initial state has no finite energy); start at rest");
-  const Vector b = state_divergence(u_full) / lambda_inverse_;
+  if (g.size() != num_pressure())
+    throw InputError("mixed elements: a divergence of " + std::to_string(g.size()) + " values for " +
+                     std::to_string(num_pressure()) + " pressure nodes");
+  const Vector b = g / lambda_inverse_;
   const MixedTables& t = mixed_tables(hierarchy_->finest().space().degree());
   const ChebyshevMassInverse M(Mp_, t.mass_lo, t.mass_hi, 8);
   KrylovParams kp;
@@ -433,6 +438,7 @@ Vector MixedElasticity::pressure_of(const Vector& u_full) const {
 }
 
 MixedSolver::MixedSolver(MixedElasticity& m, const Config& config) : m_(m) {
+  m_.set_rotations(nullptr);  // linear until rotate() says otherwise
   SolverContext ctx;
   ctx.levels = &m.hierarchy();
   ctx.saddle_point = &m.blocks();
@@ -513,6 +519,12 @@ class MixedStaticPart final : public StaticPart {
       throw SolveError(r);
     }
     out_.solver_iterations += out_.solve.iterations;
+    if (!out_.solve.ok()) {  // a solver that does not throw on failure (throw_on_failure=false)
+      SolveResult r = out_.solve;
+      r.message = "mixed static solve: fixed-point iteration " + std::to_string(iteration) + ": " +
+                  (r.message.empty() ? std::string("the solver ended with ") + to_string(r.status) : r.message);
+      throw SolveError(r);
+    }
     Vector step(n + np);
     step << model.expand(x.head(nu), Vector::Zero(n)), x.tail(np);
     return step;
@@ -544,6 +556,9 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
                      "fix part of the boundary");
   if (corotational && (m.weights().mass != 0.0 || m.weights().stiffness != 1.0))
     throw InputError("mixed solve: the corotational fixed point is a static solve (set_weights({0, 1}))");
+  if (corotational && !method_uses_levels(config.get_string("method", "mixed-minres")))
+    throw InputError("mixed solve: " + config.get_string("method", "mixed-minres") +
+                     " factorises the assembled linear saddle point; corotational material needs mixed-minres");
   MixedResult out;
   MixedSolver solver(m, config);
   out.description = solver.description();

@@ -35,21 +35,32 @@ MixedElasticity& with_step_weights(MixedElasticity& m, const SimulationParams& p
 }  // namespace
 
 MixedEuler::MixedEuler(MixedElasticity& m, const Config& solver, const Vector& f_ext, const SimulationParams& p)
-    : m_(with_step_weights(m, p, f_ext)), params_(p), f_ext_(f_ext) {
+    : m_(m), params_(p), f_ext_(f_ext), weights_before_(m.weights()) {
   const ElasticityModel& model = m_.hierarchy().finest();
+  const std::string method = solver.get_string("method", "mixed-minres");
+  if (p.corotational && !method_uses_levels(method))
+    throw InputError("mixed time step: " + method +
+                     " factorises the linear saddle point once; corotational material needs mixed-minres");
   if (m_.num_displacement() == 0)
     throw InputError("mixed time step: every displacement node is fixed: nothing moves");
-  solver_ = std::make_unique<MixedSolver>(m_, step_config(solver));
-  if (p.corotational && !solver_->on_operator())
-    throw InputError("mixed time step: " + solver_->description() +
-                     " factorises the linear saddle point once; corotational material needs mixed-minres");
+  with_step_weights(m_, p, f_ext);
+  try {
+    solver_ = std::make_unique<MixedSolver>(m_, step_config(solver));
+  } catch (...) {
+    m_.set_weights(weights_before_);
+    throw;
+  }
   f_free_ = model.restrict_to_free(f_ext);
   u_ = v_ = Vector::Zero(model.num_dofs());
   pressure_ = Vector::Zero(m_.num_pressure());
   x_ = Vector::Zero(m_.num_unknowns());
 }
 
-MixedEuler::~MixedEuler() { m_.set_rotations(nullptr); }  // R_ dies here
+MixedEuler::~MixedEuler() {
+  // The system as it was lent: its weights, and no rotations pointing into R_, which dies here.
+  if (m_.coupling_rotations() == &R_) m_.set_rotations(nullptr);
+  m_.set_weights(weights_before_);
+}
 
 void MixedEuler::set_state(const Vector& u, const Vector& v, const Vector& p) {
   const ElasticityModel& model = m_.hierarchy().finest();
@@ -58,14 +69,25 @@ void MixedEuler::set_state(const Vector& u, const Vector& v, const Vector& p) {
     throw InputError("mixed time step: the pressure has " + std::to_string(p.size()) + " values for " +
                      std::to_string(m_.num_pressure()) + " pressure nodes");
   if (!p.allFinite()) throw InputError("mixed time step: the initial pressure is not finite");
-  u_ = u, v_ = v;
-  energy_valid_ = false;
-  if (p.size()) pressure_ = p;
-  else if (u.isZero(0.0)) pressure_ = Vector::Zero(m_.num_pressure());
-  else {
-    if (params_.corotational) evaluate(), m_.set_rotations(&R_), levels_current_ = false;  // g(u) at u's R
-    pressure_ = m_.pressure_of(u);
+  const bool deformed = !u.isZero(0.0);
+  if (p.size() == 0 && deformed && !m_.compressibility())
+    throw InputError("mixed time step: at nu = 0.5 the pressure is not a function of the displacement (a deformed "
+                     "initial state has no finite energy); start at rest, or give the pressure");
+  Vector pressure = p;
+  if (pressure.size() == 0) {
+    if (!deformed) pressure = Vector::Zero(m_.num_pressure());
+    else if (!params_.corotational) pressure = m_.pressure_of(u);
+    else {  // g(u) at u's own rotations, on a coupling of its own (the stepper's stays as it is)
+      const Rotations R = model.rotations(u);
+      DivergenceCoupling coupling(model, m_.pressure_space());
+      coupling.set_rotations(&R);
+      Vector g;
+      coupling.state_divergence(u, g);
+      pressure = m_.pressure_from_divergence(g);
+    }
   }
+  u_ = u, v_ = v, pressure_ = std::move(pressure);
+  energy_valid_ = false;
   x_.head(m_.num_displacement()) = model.restrict_to_free(v);
   x_.tail(m_.num_pressure()) = params_.dt * pressure_;
 }
@@ -120,7 +142,7 @@ StepStats MixedEuler::step() {
   const double bn = b.norm();
   // As the displacement-only step (euler_step.cpp): the last solution is the guess only where it
   // beats zero, so every accepted step has ‖b − K x‖ <= tol ‖b‖.
-  if (solver_->residual_norm(b, x_) > bn) x_.setZero();
+  if (!(solver_->residual_norm(b, x_) <= bn)) x_.setZero();  // NaN included
   SolveResult res;
   try {
     res = solver_->solve(b, x_);

@@ -149,8 +149,10 @@ class MixedStepper final : public SteppingWith<fem::MixedEuler> {
                             std::to_string(r.solver_iterations) + " solver iterations, " + fixed(seconds_since(t0), 2) +
                             " s");
     }
-    sim_ = std::make_unique<fem::MixedEuler>(mixed_, c, setup.f_ext, sp);
-    sim_->set_state(u0, v0, p0);
+    // Made whole before it is kept: were set_state() to throw, the stepper dies before mixed_.
+    auto euler = std::make_unique<fem::MixedEuler>(mixed_, c, setup.f_ext, sp);
+    euler->set_state(u0, v0, p0);
+    sim_ = std::move(euler);
     settings = c.to_string();
     setup.notes.push_back("mixed formulation: " + std::to_string(mixed_.num_displacement()) + " displacement + " +
                           std::to_string(mixed_.num_pressure()) + " pressure unknowns; the solver set up in " +
@@ -158,6 +160,8 @@ class MixedStepper final : public SteppingWith<fem::MixedEuler> {
                           (scene.corotational ? ", updated to each step's rotations (coupling B_R included)"
                                               : " once for every step") + ", each step warm-started");
   }
+  /// The stepper (in the base) refers to mixed_, a member of this class: it goes first.
+  ~MixedStepper() override { sim_.reset(); }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
     const fem::ElasticityModel& m = setup_.finest();

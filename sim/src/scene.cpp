@@ -334,10 +334,14 @@ void check_combinations(Section& root, const Scene& s) {
     root.fail("initial.state " + s.initial + " is measured from the clamp: give a clamp");
   if (s.poisson == 0.5 && s.formulation != "mixed")
     root.fail("material.poisson: must lie in (-1, 0.5) for the displacement formulation; 0.5 (incompressible) "
-              "needs \"formulation\": \"mixed\"");
+              "needs \"formulation\": \"mixed\"" +
+              (s.formulation_choice.empty() ? std::string() : " (" + s.formulation_choice + ")"));
   if (s.formulation == "mixed") {
     if (const char* why = outside_mixed_scope(s))
       root.fail(std::string("formulation mixed: ") + why + " (the mixed route's scope for now)");
+    if (s.poisson == 0.5 && (s.initial == "compressed" || s.initial == "twisted"))
+      root.fail("initial.state " + s.initial + " at material.poisson 0.5: a deformed start changes the volume, which "
+                "an incompressible material cannot (no finite energy); start at rest or deflected");
   }
   if (!s.supports.empty() && (s.initial == "compressed" || s.initial == "twisted" || s.initial == "spinning"))
     root.fail("initial.state " + s.initial + " prescribes a displacement or motion that supports and symmetry "

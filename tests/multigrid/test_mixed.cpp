@@ -192,7 +192,6 @@ TEST_CASE("mixed time step: each step solves the implicit-Euler equations with t
         const Vector constraint = nu == 0.5 ? Vector(Bu1) : Vector(Bu1 - Mpp / lambda);
         INFO("k = " << k << ", nu = " << nu << ", step " << n + 1 << ": " << st.iterations << " iterations");
         CHECK(st.iterations > 0);
-        CHECK((u1 - u - sp.dt * v1).norm() <= 1e-14 * u1.norm());
         CHECK(std::hypot(momentum.norm(), constraint.norm() / sp.dt) <= 2e-11 * bn);
       }
     }
@@ -227,6 +226,17 @@ TEST_CASE("mixed time step: the total energy never rises, and stiffness damping 
   CHECK_THROWS_WITH(MixedEuler(bar.m, mixed_minres_config(1e-8), bar.f, sp), Catch::Contains("beta"));
   sp.rayleigh_beta = 0.0;
   CHECK_THROWS_WITH(MixedEuler(bar.m, mixed_minres_config(1e-8), Vector::Zero(3), sp), Catch::Contains("external force"));
+  // The system as lent: the stepper's weights are gone with it, so a static solve is static again.
+  CHECK(bar.m.weights().mass == 0.0);
+  CHECK(bar.m.weights().stiffness == 1.0);
+  // At ν = 1/2 a deformed start without its pressure is refused, and the state stays as it was.
+  Bar incompressible(2, 0.5);
+  MixedEuler euler(incompressible.m, mixed_minres_config(1e-8), incompressible.f, sp);
+  const Vector deformed = Vector::Constant(euler.displacement().size(), 1e-3);
+  Vector u = incompressible.m.hierarchy().finest().expand(incompressible.m.hierarchy().finest().restrict_to_free(deformed),
+                                                          Vector::Zero(deformed.size()));
+  CHECK_THROWS_WITH(euler.set_state(u, Vector::Zero(u.size())), Catch::Contains("nu = 0.5"));
+  CHECK(euler.displacement().isZero(0.0));
 }
 
 TEST_CASE("corotational mixed: a rigid rotation has no divergence, no deviatoric force and no pressure", "[mixed]") {
@@ -249,7 +259,8 @@ TEST_CASE("corotational mixed: a rigid rotation has no divergence, no deviatoric
   INFO("linear ||g|| " << linear.norm() << ", corotated " << corotated.norm());
   CHECK(linear.norm() > 0.1);
   CHECK(corotated.norm() <= 1e-13 * linear.norm());
-  CHECK(p.norm() <= 1e-10 * bar.m.pressure_of(u).norm() + 1e-12 * bar.m.material().lambda() * linear.norm());
+  // p solves M_p p = λ g with g ~ 1e-13 ‖g_lin‖: the pressure of the linear divergence, times that.
+  CHECK(p.norm() <= 1e-12 * bar.m.pressure_from_divergence(linear).norm());
   CHECK(force.norm() <= 1e-12 * model.material().young * u.norm());
 }
 
@@ -293,8 +304,13 @@ TEST_CASE("corotational mixed: the static fixed point equals the linear solve fo
     INFO("large: " << r.fixed_point_iterations << " fixed-point iterations, tip sag " << -r.u.minCoeff());
     CHECK(r.fixed_point_iterations > 2);
     CHECK(-r.u.minCoeff() > 0.5);
-    CHECK(balance.norm() <= 1e-6 * fb.norm());
-    CHECK((g - cp).norm() <= 1e-6 * g.norm() + 1e-9 * fb.norm());
+    // The fixed point stops at a change ‖δ‖ <= tol ‖u‖ (tol = 1e-9): the residuals at the final state
+    // are the operators times such a change (K u ~ f, and ‖B_R‖_F = ‖B‖_F element by element), with
+    // a factor 100 for the relaxation and the rotations' change.
+    const double b_norm = Eigen::Map<const Vector>(bar.m.divergence().values().data(),
+                                                   static_cast<Eigen::Index>(bar.m.divergence().values().size())).norm();
+    CHECK(balance.norm() <= 100 * so.corotational_tol * fb.norm());
+    CHECK((g - cp).norm() <= 100 * so.corotational_tol * b_norm * r.u.norm());
   }
 }
 
@@ -306,13 +322,18 @@ TEST_CASE("corotational mixed time step: each step solves the equations linearis
   ref.fix_vertices(clamp_x0(bar.mesh));
   // Released from the corotational static deflection under twice the load: large rotations.
   StaticOptions so;
-  so.corotational_tol = 1e-12;  // so that g(u) = C p holds at u's own rotations to rounding
+  so.corotational_tol = 1e-12;  // so that g(u) = C p holds at u's own rotations nearly to rounding
   const MixedResult start = solve_mixed_static(bar.m, 4e-3 * bar.f, mixed_minres_config(1e-13), nullptr, true, so);
   SimulationParams sp;
   sp.dt = 0.5, sp.corotational = true;  // E = 1, ρ = 1, L = 4: the first period is about 30 s
   MixedEuler euler(bar.m, mixed_minres_config(1e-11), 2e-3 * bar.f, sp);
   euler.set_state(start.u, Vector::Zero(model.num_dofs()));  // p from the state (pressure_of)
-  CHECK((euler.pressure() - start.p).norm() <= 1e-6 * start.p.norm());
+  // Both pressures satisfy C p = g(u), the static one at the rotations of the fixed point's last
+  // iterate: they differ by the last change (<= tol ‖u‖) times p = λ div u's amplification λ / μ,
+  // with a factor 100 as above.
+  const double lambda_over_mu = bar.m.material().lambda() / bar.m.material().mu();
+  INFO("the state's pressure against the static solve's: " << (euler.pressure() - start.p).norm() / start.p.norm());
+  CHECK((euler.pressure() - start.p).norm() <= 100 * so.corotational_tol * lambda_over_mu * start.p.norm());
   const index_t nu_ = bar.m.num_displacement(), np = bar.m.num_pressure();
   for (int n = 0; n < 3; ++n) {
     const Vector u = euler.displacement(), v = ref.restrict_to_free(euler.velocity());
@@ -328,10 +349,12 @@ TEST_CASE("corotational mixed time step: each step solves the equations linearis
     M.multiply(v.data(), Mv.data());
     K.multiply(v1.data(), Kv1.data());
     const Vector zero_u = Vector::Zero(nu_);
-    bar.m.set_rotations(&R);
-    bar.m.coupling().apply(zero_u.data(), p1.data(), btp.data(), scratch.data());
-    const Vector g1 = bar.m.state_divergence(euler.displacement()), g0 = bar.m.state_divergence(u);
-    bar.m.set_rotations(nullptr);
+    DivergenceCoupling coupling(model, bar.m.pressure_space());  // B_R apart from the stepper's
+    coupling.set_rotations(&R);
+    coupling.apply(zero_u.data(), p1.data(), btp.data(), scratch.data());
+    Vector g1, g0;
+    coupling.state_divergence(euler.displacement(), g1);
+    coupling.state_divergence(u, g0);
     bar.m.pressure_mass().multiply(p1.data(), cp.data());
     cp /= bar.m.material().lambda();
     const Vector rhs = Mv + sp.dt * ref.restrict_to_free(2e-3 * bar.f + ref.elastic_force(u, &R));

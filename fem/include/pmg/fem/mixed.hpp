@@ -148,6 +148,8 @@ class MixedElasticity {
   /// become B_R; the assembled divergence() stays the linear B. nullptr: linear. The rotations
   /// must outlive their use.
   void set_rotations(const Rotations* R) { coupling_->set_rotations(R); }
+  /// The rotations set_rotations() gave (nullptr: none).
+  const Rotations* coupling_rotations() const { return coupling_->rotations(); }
   /// g(u) = Σ_e B_e (R_eᵀ x_e - X_e) of a full displacement, one value per pressure node, with the
   /// rotations set (none: B u); the constraint of a state is g(u) = C p.
   Vector state_divergence(const Vector& u_full) const;
@@ -155,6 +157,8 @@ class MixedElasticity {
   /// the Chebyshev mass preconditioner). Throws InputError at ν = 1/2 (the pressure is not a
   /// function of the state there).
   Vector pressure_of(const Vector& u_full) const;
+  /// p with C p = g for a divergence g (one value per pressure node): pressure_of()'s solve.
+  Vector pressure_from_divergence(const Vector& g) const;
   /// C = M_p / (λ s) at the weights' stiffness s (nullptr at ν = 1/2).
   const Csr* compressibility() const { return lambda_inverse_ > 0 ? &C_ : nullptr; }
   /// The pressure mass M_p.

@@ -43,23 +43,26 @@ class Config;
 namespace pmg::fem {
 
 /// Implicit Euler on the mixed formulation (see the file comment). Holds references to the mixed
-/// system, which must outlive it; it sets the system's weights to the step's.
+/// system, which must outlive it; it sets the system's weights to the step's (and its coupling's
+/// rotations to each state's) while it lives, and restores the weights and clears its rotations
+/// when it dies.
 class MixedEuler {
  public:
   /// f_ext: full external force (constant in time). The step solver is the one the config names
   /// (mixed-minres by default; a rounding floor rhs_floor = 1e-12 is added for warm starts where
   /// the method reads it), set up here. Throws InputError for the checks of check_simulation(),
-  /// stiffness-proportional damping (not built), corotational material with a direct solver, and
-  /// what the solver's set-up throws.
+  /// stiffness-proportional damping (not built), corotational material with a direct solver
+  /// (before any factorisation), and what the solver's set-up throws.
   MixedEuler(MixedElasticity& m, const Config& solver, const Vector& f_ext, const SimulationParams& p);
   ~MixedEuler();
   MixedEuler(const MixedEuler&) = delete;
   MixedEuler& operator=(const MixedEuler&) = delete;
 
   /// The state: full displacement and velocity (check_state()), and the pressure of u (one value
-  /// per pressure node; empty: MixedElasticity::pressure_of(u), zero for a state at rest). The
-  /// pressure only enters the elastic energy of this state and the first solve's guess: every step
-  /// imposes the constraint.
+  /// per pressure node; empty: the pressure of u, C p = g(u) at u's rotations, zero for a state at
+  /// rest). The pressure only enters the elastic energy of this state and the first solve's guess:
+  /// every step imposes the constraint. Throws InputError (the state unchanged) for a bad state,
+  /// and for a deformed u without a pressure at ν = 1/2.
   void set_state(const Vector& u, const Vector& v, const Vector& p = {});
   /// Current full displacement (3 per node, zero on clamped nodes).
   const Vector& displacement() const { return u_; }
@@ -86,6 +89,7 @@ class MixedEuler {
  private:
   MixedElasticity& m_;
   SimulationParams params_;
+  SystemWeights weights_before_;  ///< the system's weights before: restored by the destructor
   std::unique_ptr<MixedSolver> solver_;
   Vector f_ext_, f_free_;  ///< full, and on the free unknowns (held components zero)
   Vector u_, v_, pressure_;  ///< full displacement and velocity, pressure
