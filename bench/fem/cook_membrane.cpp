@@ -10,9 +10,11 @@
 //
 //   bench/fem/cook_membrane [--degrees 2,3] [--cells 2,4,8,16] [--nu 0.4999] [--reference-cells 32]
 //                           [--cells-kind kuhn|box24]
+#include "../../tests/fem/mixed_mms.hpp"
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mixed.hpp"
 #include "pmg/fem/static_solve.hpp"
+#include "list_option.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/sparse/config.hpp"
 
@@ -27,49 +29,11 @@ namespace {
 using namespace pmg;
 using namespace pmg::fem;
 
-std::vector<double> parse_list(const char* text) {
-  std::vector<double> v;
-  std::string s(text);
-  size_t start = 0;
-  while (start <= s.size()) {
-    const size_t end = s.find(',', start);
-    v.push_back(std::stod(s.substr(start, end - start)));
-    if (end == std::string::npos) break;
-    start = end + 1;
-  }
-  return v;
-}
-
-/// n x n x 1 cells of 6 Kuhn tetrahedra each (all sharing the cell's main diagonal) on the unit
-/// square: the mesh on which displacement-only elements lock (tests/fem/mixed_mms.hpp).
-TetMesh kuhn_square(int n) {
-  TetMesh m;
-  auto id = [n](int i, int j, int k) { return static_cast<index_t>((k * (n + 1) + j) * (n + 1) + i); };
-  for (int k = 0; k <= 1; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) m.vertices.emplace_back(double(i) / n, double(j) / n, double(k));
-  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i)
-      for (const auto& p : perms) {
-        int c[3] = {i, j, 0};
-        Tet t;
-        t[0] = id(c[0], c[1], c[2]);
-        for (int q = 0; q < 3; ++q) {
-          ++c[p[q]];
-          t[q + 1] = id(c[0], c[1], c[2]);
-        }
-        m.tets.push_back(t);
-        if (m.signed_volume(m.num_tets() - 1) < 0) std::swap(m.tets.back()[1], m.tets.back()[2]);
-      }
-  return m;
-}
-
 bool g_kuhn = true;  ///< --cells-kind: kuhn (the default) or box24
 
 /// The panel: the unit square's n x n x 1 cells, (ξ, η) -> (48 ξ, 44 ξ + η (44 + 16 ξ - 44 ξ)).
 TetMesh cook_mesh(int n) {
-  TetMesh mesh = g_kuhn ? kuhn_square(n) : box_mesh_24(n, n, 1, 1.0, 1.0, 1.0);
+  TetMesh mesh = g_kuhn ? test::kuhn_grid(n, n, 1) : box_mesh_24(n, n, 1, 1.0, 1.0, 1.0);
   for (Vec3& v : mesh.vertices) {
     const double xi = v.x(), eta = v.y();
     v = Vec3(48.0 * xi, 44.0 * xi + eta * (44.0 + 16.0 * xi - 44.0 * xi), v.z());

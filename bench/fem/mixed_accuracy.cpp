@@ -6,6 +6,7 @@
 //   bench/fem/mixed_accuracy [--degrees 2,3] [--cells 2,4,8] [--nu 0.3,0.49,0.4999]
 #include "../../tests/fem/mixed_mms.hpp"
 
+#include "list_option.hpp"
 #include "pmg/multigrid/factory.hpp"
 
 #include <cstdio>
@@ -14,19 +15,6 @@
 #include <vector>
 
 namespace {
-
-std::vector<double> parse_list(const char* text) {
-  std::vector<double> v;
-  std::string s(text);
-  size_t start = 0;
-  while (start <= s.size()) {
-    const size_t end = s.find(',', start);
-    v.push_back(std::stod(s.substr(start, end - start)));
-    if (end == std::string::npos) break;
-    start = end + 1;
-  }
-  return v;
-}
 
 int run(int argc, char** argv) {
   using namespace pmg::fem::test;

@@ -28,19 +28,19 @@ inline Config mixed_minres_config(double tol) {
   return Config::from_pairs({"method=mixed-minres", t.str()}, "test");
 }
 
-/// The unit cube in n³ cells of 6 Kuhn (Freudenthal) tetrahedra each, all sharing the cell's
-/// diagonal: a mesh without the 24-tet cells' rich divergence-free subspace, on which
-/// displacement-only elements lock.
-inline TetMesh kuhn_cube(int n) {
+/// The unit cube in nx x ny x nz cells of 6 Kuhn (Freudenthal) tetrahedra each, all sharing the cell's diagonal: a
+/// mesh without the 24-tet cells' rich divergence-free subspace, on which displacement-only
+/// elements lock.
+inline TetMesh kuhn_grid(int nx, int ny, int nz) {
   TetMesh m;
-  auto id = [n](int i, int j, int k) { return static_cast<index_t>((k * (n + 1) + j) * (n + 1) + i); };
-  for (int k = 0; k <= n; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) m.vertices.emplace_back(double(i) / n, double(j) / n, double(k) / n);
+  auto id = [nx, ny](int i, int j, int k) { return static_cast<index_t>((k * (ny + 1) + j) * (nx + 1) + i); };
+  for (int k = 0; k <= nz; ++k)
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= nx; ++i) m.vertices.emplace_back(double(i) / nx, double(j) / ny, double(k) / nz);
   const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
         for (const auto& p : perms) {
           int c[3] = {i, j, k};
           Tet t;
@@ -54,6 +54,9 @@ inline TetMesh kuhn_cube(int n) {
         }
   return m;
 }
+
+/// The unit cube in n³ Kuhn cells.
+inline TetMesh kuhn_cube(int n) { return kuhn_grid(n, n, n); }
 
 struct MmsErrors {
   double u = 0, p = 0;
