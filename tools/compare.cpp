@@ -559,7 +559,7 @@ void run(const Options& given) {
     const Config set = Config::from_pairs(o.overrides, "--set");
     std::vector<std::string> names = o.solvers;
     if (names.empty()) {
-      names = {"mixed-minres"};
+      names = {"mixed-gmres", "mixed-minres"};
       const auto all = registered_solvers();
       if (std::any_of(all.begin(), all.end(), [](const SolverInfo& i) { return i.name == "mumps"; }))
         names.push_back("mumps");

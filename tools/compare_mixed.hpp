@@ -1,5 +1,5 @@
 // pmg compare --formulation mixed: the mixed displacement–pressure system (pmg/fem/mixed.hpp) of a
-// compare scene, solved by each named solver (mixed-minres, a direct method on the assembled
+// compare scene, solved by each named solver (mixed-gmres, mixed-minres, a direct method on the assembled
 // saddle point), with set-up and solve times, true residuals and the answers' differences.
 #pragma once
 

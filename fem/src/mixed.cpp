@@ -176,9 +176,11 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   const index_t* pn = pressure_.element_nodes(e);
   index_t dof[NU];
   double ul[NU][3], ua[NU][3] = {}, d[NP], pl[NP], s[NP];
+  const bool with_b = x_u != nullptr;  // else Bᵀ alone
   for (int a = 0; a < NU; ++a) {
     const index_t f = free[un[a]];
     dof[a] = f < 0 ? -1 : 3 * f;
+    if (!with_b) continue;
     for (int c = 0; c < 3; ++c) ul[a][c] = f < 0 ? 0.0 : x_u[3 * f + c];
     if (any_held && f >= 0)
       for (int c = 0; c < 3; ++c)
@@ -186,7 +188,7 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   }
   for (int c = 0; c < NP; ++c) pl[c] = x_p[pn[c]];
   // d = k Σ_i ∇λ_i · u_{c+e_i}.
-  for (int c = 0; c < NP; ++c) {
+  for (int c = 0; c < NP && with_b; ++c) {
     double sum = 0.0;
     for (int i = 0; i < 4; ++i) {
       const double* uu = ul[raise[c * 4 + i]];
@@ -198,10 +200,10 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   for (int b = 0; b < NP; ++b) {
     double yb = 0.0, sb = 0.0;
     for (int c = 0; c < NP; ++c) {
-      yb += M[b * NP + c] * d[c];
+      if (with_b) yb += M[b * NP + c] * d[c];
       sb += M[b * NP + c] * pl[c];
     }
-    y_p[pn[b]] += v6 * yb;
+    if (with_b) y_p[pn[b]] += v6 * yb;
     s[b] = K * v6 * sb;
   }
   // u_{c+e_i} += k s_c ∇λ_i.
@@ -222,8 +224,10 @@ void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u
   const auto& colors = *colors_;
 #pragma omp parallel
   {
+    if (x_u) {
 #pragma omp for schedule(static)
-    for (index_t i = 0; i < np; ++i) y_p[i] = 0.0;
+      for (index_t i = 0; i < np; ++i) y_p[i] = 0.0;
+    }
     for (const auto& elements : colors) {  // the implicit barrier of each loop orders the colours
       const index_t n = static_cast<index_t>(elements.size());
 #pragma omp for schedule(static)
@@ -442,12 +446,12 @@ MixedSolver::MixedSolver(MixedElasticity& m, const Config& config) : m_(m) {
   SolverContext ctx;
   ctx.levels = &m.hierarchy();
   ctx.saddle_point = &m.blocks();
-  solver_ = make_solver(config, ctx, "mixed-minres");
+  solver_ = make_solver(config, ctx, "mixed-gmres");
   bound_ = std::make_unique<BoundSystem>(m.hierarchy().bind(*solver_));
   const auto t0 = Clock::now();
   // A method on the levels (mixed-minres) multiplies with the operator; any other (a direct solver)
   // reads the assembled saddle point.
-  if (method_uses_levels(config.get_string("method", "mixed-minres"))) {
+  if (method_uses_levels(config.get_string("method", "mixed-gmres"))) {
     const LinearOperator& A = bound_->prepare(nullptr, m.weights());
     K_ = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());
     solver_->setup(*K_);
@@ -463,7 +467,7 @@ MixedSolver::~MixedSolver() = default;
 void MixedSolver::rotate(const Rotations* R, bool finest) {
   if (!K_)
     throw InputError("mixed elements: " + solver_->name() +
-                     " factorises the assembled linear saddle point; corotational material needs mixed-minres");
+                     " factorises the assembled linear saddle point; corotational material needs mixed-gmres or mixed-minres");
   m_.set_rotations(R);
   bound_->prepare(R, m_.weights(), finest);
   solver_->update();
@@ -556,9 +560,9 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
                      "fix part of the boundary");
   if (corotational && (m.weights().mass != 0.0 || m.weights().stiffness != 1.0))
     throw InputError("mixed solve: the corotational fixed point is a static solve (set_weights({0, 1}))");
-  if (corotational && !method_uses_levels(config.get_string("method", "mixed-minres")))
-    throw InputError("mixed solve: " + config.get_string("method", "mixed-minres") +
-                     " factorises the assembled linear saddle point; corotational material needs mixed-minres");
+  if (corotational && !method_uses_levels(config.get_string("method", "mixed-gmres")))
+    throw InputError("mixed solve: " + config.get_string("method", "mixed-gmres") +
+                     " factorises the assembled linear saddle point; corotational material needs mixed-gmres or mixed-minres");
   MixedResult out;
   MixedSolver solver(m, config);
   out.description = solver.description();

@@ -17,7 +17,7 @@ namespace {
 /// methods are registered by the caller (pmg::register_all_solvers), as for make_solver.
 Config step_config(const Config& c) {
   Config out = c.clone();
-  if (method_accepts_key(out.get_string("method", "mixed-minres"), "rhs_floor")) out.set_default("rhs_floor", "1e-12");
+  if (method_accepts_key(out.get_string("method", "mixed-gmres"), "rhs_floor")) out.set_default("rhs_floor", "1e-12");
   return out;
 }
 
@@ -35,12 +35,12 @@ MixedElasticity& with_step_weights(MixedElasticity& m, const SimulationParams& p
 }  // namespace
 
 MixedEuler::MixedEuler(MixedElasticity& m, const Config& solver, const Vector& f_ext, const SimulationParams& p)
-    : m_(m), params_(p), f_ext_(f_ext), weights_before_(m.weights()) {
+    : m_(m), params_(p), weights_before_(m.weights()), f_ext_(f_ext) {
   const ElasticityModel& model = m_.hierarchy().finest();
-  const std::string method = solver.get_string("method", "mixed-minres");
+  const std::string method = solver.get_string("method", "mixed-gmres");
   if (p.corotational && !method_uses_levels(method))
     throw InputError("mixed time step: " + method +
-                     " factorises the linear saddle point once; corotational material needs mixed-minres");
+                     " factorises the linear saddle point once; corotational material needs mixed-gmres or mixed-minres");
   if (m_.num_displacement() == 0)
     throw InputError("mixed time step: every displacement node is fixed: nothing moves");
   with_step_weights(m_, p, f_ext);

@@ -413,19 +413,31 @@ void register_all() {
                     const KrylovParams k = read_krylov(c);
                     return std::make_unique<Cg>(k, build_cycle(c, ctx, true, KrylovParams{}));
                   });
+  // The saddle-point methods of mixed elasticity: mgpcg's cycle on the displacement block.
+  auto mixed = [](MixedKrylov::Kind kind) {
+    return [kind](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
+      const std::string me = kind == MixedKrylov::Kind::minres ? "mixed-minres" : "mixed-gmres";
+      if (!ctx.saddle_point)
+        c.fail("method", me + " solves a mixed (displacement-pressure) system: use it with formulation=mixed");
+      const KrylovParams k = read_krylov(c);
+      const MixedKrylovParams mp = read_params<MixedKrylovParams>(c);
+      const int restart = kind == MixedKrylov::Kind::gmres ? read_params<GmresParams>(c).restart : 50;
+      return std::make_unique<MixedKrylov>(kind, k, build_cycle(c, ctx, true, KrylovParams{}), *ctx.saddle_point, mp,
+                                           restart);
+    };
+  };
   register_builtin_solver({"mixed-minres",
                    "MINRES on a displacement-pressure saddle point, preconditioned by mgpcg's cycle on the "
                    "displacement block and Chebyshev on the scaled pressure mass (mixed elasticity)",
-                   krylov_keys() + cycle_keys + list_params<MixedMinresParams>(), true, true, "multigrid"},
-                  [](const Config& c, const SolverContext& ctx) -> std::unique_ptr<Solver> {
-                    if (!ctx.saddle_point)
-                      c.fail("method", "mixed-minres solves a mixed (displacement-pressure) system: use it with "
-                                       "formulation=mixed");
-                    const KrylovParams k = read_krylov(c);
-                    const MixedMinresParams mp = read_params<MixedMinresParams>(c);
-                    return std::make_unique<MixedMinres>(k, build_cycle(c, ctx, true, KrylovParams{}),
-                                                         *ctx.saddle_point, mp.pressure_steps, mp.pressure_scale);
-                  });
+                   krylov_keys() + cycle_keys + list_params<MixedKrylovParams>(), true, true, "multigrid"},
+                  mixed(MixedKrylov::Kind::minres));
+  register_builtin_solver({"mixed-gmres",
+                   "GMRES on a displacement-pressure saddle point with the block-triangular preconditioner: "
+                   "Chebyshev on the scaled pressure mass, then mgpcg's cycle on the displacement block (mixed "
+                   "elasticity)",
+                   krylov_keys() + cycle_keys + list_params<MixedKrylovParams>() + list_params<GmresParams>(), true,
+                   true, "multigrid"},
+                  mixed(MixedKrylov::Kind::gmres));
   auto gauss_seidel = [](bool pointwise) {
     return [pointwise](const Config& c, const SolverContext&) {
       GaussSeidelParams p;

@@ -488,8 +488,9 @@ void register_mixed(py::module_& m) {
   py::class_<PyMixed>(m, "MixedElasticity",
                       "Mixed displacement-pressure elasticity on Taylor-Hood Bernstein-Bezier tetrahedra: displacement "
                       "of degree 2 or 3, continuous pressure one degree lower, nu up to 0.5 (nearly incompressible and "
-                      "incompressible material without locking). Solved by mixed-minres (MINRES with the p-multigrid on "
-                      "the nu-independent displacement block) or mumps on the assembled saddle point.")
+                      "incompressible material without locking). Solved by mixed-gmres (GMRES with the block-triangular "
+                      "preconditioner: the p-multigrid on the nu-independent displacement block), mixed-minres, or mumps "
+                      "on the assembled saddle point.")
       .def(py::init([](std::shared_ptr<const fem::TetMesh> mesh, int degree, const fem::Material& material,
                        py::object poisson, py::object clamp, py::object components) {
              fem::Material mat = material;
@@ -549,9 +550,9 @@ void register_mixed(py::module_& m) {
         info["description"] = r.description;
         return py::make_tuple(to_numpy(std::move(r.u)), to_numpy(std::move(r.p)), info);
       }, py::arg("f"), py::arg("config") = py::dict(), py::arg("corotational") = false,
-         "Solves for the full load f with the solver config (a dict: method mixed-minres by default, or mumps; "
+         "Solves for the full load f with the solver config (a dict: method mixed-gmres by default, mixed-minres or mumps; "
          "tol, max_iterations and the cycle's keys). corotational=True: the fixed point on the rotations "
-         "(static weights and mixed-minres only; info['fixed_point_iterations'] says how many). Returns (u as a "
+         "(static weights, mixed-gmres or mixed-minres only; info['fixed_point_iterations'] says how many). Returns (u as a "
          "full vector, p per pressure node, info). Raises SolveError when the solve fails.")
       .def("__repr__", [](const PyMixed& s) {
         return "<pmgkit.MixedElasticity: degree " + std::to_string(s.m->hierarchy().num_levels()) + "/" +

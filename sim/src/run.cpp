@@ -132,7 +132,7 @@ class MixedStepper final : public SteppingWith<fem::MixedEuler> {
     auto [u0, v0] = formula_state(scene, m, setup.lo, setup.hi);  // rest and deflected: zero
     Vector p0;
     Config c = scene.solver.clone();
-    method = c.get_string("method", "mixed-minres");
+    method = c.get_string("method", "mixed-gmres");
     start_libraries(c);
     if (scene.initial == "deflected") {
       const auto t0 = Clock::now();
@@ -575,7 +575,7 @@ StaticOutcome solve_static_mixed(const Scene& scene, SceneSetup& setup, const st
   fem::MixedElasticity mixed(fem::Material{scene.young, scene.poisson, scene.density}, *setup.hierarchy);
   StaticOutcome out;
   Config c = scene.solver.clone();
-  out.method = c.get_string("method", "mixed-minres");
+  out.method = c.get_string("method", "mixed-gmres");
   out.settings = c.to_string();
   start_libraries(c);
   const auto t0 = Clock::now();

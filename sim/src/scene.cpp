@@ -416,9 +416,9 @@ Config Scene::default_solver(bool dynamic, bool mixed) {
 void Scene::set_solver_defaults(Config& c, bool dynamic, bool mixed) {
   register_all_solvers();
   if (mixed) {
-    c.set_default("method", "mixed-minres");
+    c.set_default("method", "mixed-gmres");
     // As the displacement-only scenes: 1e-3 per step, 1e-10 for a static solve.
-    if (method_accepts_key(c.get_string("method", "mixed-minres"), "max_iterations")) {
+    if (method_accepts_key(c.get_string("method", "mixed-gmres"), "max_iterations")) {
       c.set_default("tol", dynamic ? "1e-3" : "1e-10");
       c.set_default("max_iterations", dynamic ? "1000" : "10000");
     }

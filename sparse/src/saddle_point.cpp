@@ -4,25 +4,30 @@
 #include "pmg/sparse/params.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
+#include <Eigen/Dense>
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <utility>
+#include <vector>
 
 namespace pmg {
 
 namespace {
 
-void check_minres_inputs(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x) {
-  if (K.rows() != K.cols()) throw InputError("MINRES: operator is not square");
+void check_krylov_inputs(const std::string& method, const LinearOperator& K, const LinearOperator* M, const Vector& b,
+                         Vector& x) {
+  if (K.rows() != K.cols()) throw InputError(method + ": operator is not square");
   if (b.size() != K.rows())
-    throw InputError("MINRES: right-hand side has " + std::to_string(b.size()) + " entries, operator has " +
+    throw InputError(method + ": right-hand side has " + std::to_string(b.size()) + " entries, operator has " +
                      std::to_string(K.rows()) + " rows");
   if (M && (M->rows() != K.rows() || M->cols() != K.cols()))
-    throw InputError("MINRES: preconditioner size does not match the operator");
+    throw InputError(method + ": preconditioner size does not match the operator");
   if (x.size() != b.size()) x = Vector::Zero(b.size());
-  if (!ops::all_finite(b)) throw InputError("MINRES: right-hand side has NaN/Inf");
-  if (!ops::all_finite(x)) throw InputError("MINRES: initial guess has NaN/Inf");
+  if (!ops::all_finite(b)) throw InputError(method + ": right-hand side has NaN/Inf");
+  if (!ops::all_finite(x)) throw InputError(method + ": initial guess has NaN/Inf");
 }
 
 /// The state of one Lanczos run of MINRES (Paige and Saunders; the recurrences as in SciPy's and
@@ -117,7 +122,7 @@ struct MinresRun {
 
 SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
                    const KrylovParams& params, SolveMonitor* monitor) {
-  check_minres_inputs(K, M, b, x);
+  check_krylov_inputs("MINRES", K, M, b, x);
   detail::ConvergenceTracker track("MINRES", params, monitor);
   const Eigen::Index n = b.size();
   Vector r(n);
@@ -152,6 +157,160 @@ SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vecto
   return track.finish(ops::norm2(r));
 }
 
+// ---- GMRES -------------------------------------------------------------------------------------------
+
+namespace {
+
+constexpr Eigen::Index kChunk = 2048;  // entries of a pass's block: the block of w stays in cache
+
+/// h[i] = V[i]·w for i < m, in one pass over the vectors (blocks of w, each against every V[i]).
+void fused_dots(const std::vector<Vector>& V, int m, const Vector& w, double* h) {
+  const Eigen::Index n = w.size();
+  const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
+  std::vector<double> total(static_cast<size_t>(m), 0.0);
+#pragma omp parallel
+  {
+    std::vector<double> mine(static_cast<size_t>(m), 0.0);
+#pragma omp for schedule(static)
+    for (Eigen::Index q = 0; q < blocks; ++q) {
+      const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
+      for (int i = 0; i < m; ++i) {
+        const double* v = V[static_cast<size_t>(i)].data();
+        double sum = 0.0;
+        for (Eigen::Index k = k0; k < k1; ++k) sum += v[k] * w[k];
+        mine[static_cast<size_t>(i)] += sum;
+      }
+    }
+#pragma omp critical
+    for (int i = 0; i < m; ++i) total[static_cast<size_t>(i)] += mine[static_cast<size_t>(i)];
+  }
+  for (int i = 0; i < m; ++i) h[i] = total[static_cast<size_t>(i)];
+}
+
+/// w -= Σ_{i<m} h[i] V[i] in one pass; returns ‖w‖ after it.
+double fused_subtract(const std::vector<Vector>& V, int m, const double* h, Vector& w) {
+  const Eigen::Index n = w.size();
+  const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
+  double sq = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : sq)
+  for (Eigen::Index q = 0; q < blocks; ++q) {
+    const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
+    for (int i = 0; i < m; ++i) {
+      const double* v = V[static_cast<size_t>(i)].data();
+      const double c = h[i];
+      for (Eigen::Index k = k0; k < k1; ++k) w[k] -= c * v[k];
+    }
+    for (Eigen::Index k = k0; k < k1; ++k) sq += w[k] * w[k];
+  }
+  return std::sqrt(sq);
+}
+
+}  // namespace
+
+SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
+                  const KrylovParams& params, int restart, SolveMonitor* monitor) {
+  check_krylov_inputs("GMRES", K, M, b, x);
+  if (restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(restart));
+  detail::ConvergenceTracker track("GMRES", params, monitor);
+  const Eigen::Index n = b.size();
+  Vector r(n);
+  K.residual(b, x, r);
+  if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
+  const int m = restart;
+  std::vector<Vector> V(1, Vector(n)), Z;  // the Krylov basis, and M v_i (flexible GMRES)
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);
+  Eigen::VectorXd g(m + 1), cs(m), sn(m), h(m + 1), h2(m + 1);
+  Vector w(n);
+  int it = 0;
+  while (!track.done()) {
+    const double beta = ops::norm2(r);
+    V[0] = r / beta;
+    g.setZero();
+    g[0] = beta;
+    int j = 0;
+    bool converged = false;
+    for (; j < m && !track.done(); ) {
+      if (M) {
+        if (static_cast<int>(Z.size()) < j + 1) Z.emplace_back(n);
+        M->apply(V[static_cast<size_t>(j)], Z[static_cast<size_t>(j)]);
+      }
+      K.apply(M ? Z[static_cast<size_t>(j)] : V[static_cast<size_t>(j)], w);
+      // Classical Gram–Schmidt, twice where the first pass lost more than 30% of ‖w‖.
+      const double before = ops::norm2(w);
+      fused_dots(V, j + 1, w, h.data());
+      double after = fused_subtract(V, j + 1, h.data(), w);
+      if (after < 0.7 * before) {
+        fused_dots(V, j + 1, w, h2.data());
+        after = fused_subtract(V, j + 1, h2.data(), w);
+        h.head(j + 1) += h2.head(j + 1);
+      }
+      H.col(j).head(j + 1) = h.head(j + 1);
+      H(j + 1, j) = after;
+      if (static_cast<int>(V.size()) < j + 2) V.emplace_back(n);
+      if (after > 0) V[static_cast<size_t>(j + 1)] = w / after;
+      // The Givens rotations of the columns before, then this column's own.
+      for (int i = 0; i < j; ++i) {
+        const double a = H(i, j), c = H(i + 1, j);
+        H(i, j) = cs[i] * a + sn[i] * c;
+        H(i + 1, j) = -sn[i] * a + cs[i] * c;
+      }
+      const double rho = std::hypot(H(j, j), H(j + 1, j));
+      cs[j] = rho > 0 ? H(j, j) / rho : 1.0;
+      sn[j] = rho > 0 ? H(j + 1, j) / rho : 0.0;
+      H(j, j) = rho;
+      H(j + 1, j) = 0.0;
+      g[j + 1] = -sn[j] * g[j];
+      g[j] = cs[j] * g[j];
+      ++j, ++it;
+      if (track.after_iteration(it, std::abs(g[j]))) {
+        converged = true;
+        break;
+      }
+      if (after == 0.0 || !(rho > 0)) break;  // the Krylov space is exhausted (or singular): form x
+    }
+    if (j > 0) {
+      // y = R⁻¹ g (R the rotated upper triangle), x += M (V y).
+      Eigen::VectorXd y = g.head(j);
+      for (int i = j - 1; i >= 0; --i) {
+        for (int k = i + 1; k < j; ++k) y[i] -= H(i, k) * y[k];
+        y[i] = H(i, i) != 0 ? y[i] / H(i, i) : 0.0;
+      }
+      const std::vector<Vector>& basis = M ? Z : V;
+      for (int i = 0; i < j; ++i) x += y[i] * basis[static_cast<size_t>(i)];
+    }
+    // Converged: the true residual confirms it, or the next cycle starts from it (as at a restart,
+    // or after an exhausted Krylov space).
+    K.residual(b, x, r);
+    if (converged && track.accept_true_residual(ops::norm2(r))) break;
+  }
+  if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
+  return track.finish(ops::norm2(r));
+}
+
+// ---- BlockTriangularOperator -----------------------------------------------------------------------
+
+BlockTriangularOperator::BlockTriangularOperator(const LinearOperator& M_u, const LinearOperator& M_p,
+                                                 const SaddlePointCoupling& B)
+    : M_u_(M_u), M_p_(M_p), B_(B) {
+  if (M_u.rows() != M_u.cols() || M_p.rows() != M_p.cols())
+    throw InputError("block triangular operator: both blocks must be square");
+  if (B.rows() != M_p.rows() || B.cols() != M_u.rows())
+    throw InputError("block triangular operator: B is " + std::to_string(B.rows()) + " x " + std::to_string(B.cols()) +
+                     " for blocks of " + std::to_string(M_u.rows()) + " and " + std::to_string(M_p.rows()));
+}
+
+void BlockTriangularOperator::apply_impl(const Vector& x, Vector& y) const {
+  const index_t nu = M_u_.rows(), np = M_p_.rows();
+  rp_ = x.tail(np);
+  M_p_.apply(rp_, zp_);  // z_p = -M_p r_p, so r_u - Bᵀ z_p = r_u + Bᵀ (M_p r_p)
+  ru_ = x.head(nu);
+  B_.apply(nullptr, zp_.data(), ru_.data(), nullptr);
+  M_u_.apply(ru_, zu_);
+  y.resize(nu + np);
+  y.head(nu) = zu_;
+  y.tail(np) = -zp_;
+}
+
 // ---- SaddlePointOperator ---------------------------------------------------------------------------
 
 CsrCoupling::CsrCoupling(const Csr& B, const Csr& Bt) : B_(B), Bt_(Bt) {
@@ -169,7 +328,7 @@ void CsrCoupling::apply(const double* x_u, const double* x_p, double* y_u, doubl
     for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) sum += v[k] * x_p[p.col_idx[k]];
     y_u[i] += sum;
   }
-  B_.multiply(x_u, y_p);
+  if (x_u) B_.multiply(x_u, y_p);
 }
 
 SaddlePointOperator::SaddlePointOperator(const LinearOperator& A, const SaddlePointCoupling& B, const Csr* C)
@@ -258,64 +417,74 @@ void ChebyshevMassInverse::apply_impl(const Vector& r, Vector& z) const {
 
 }  // namespace pmg
 
-// ---- MixedMinres -----------------------------------------------------------------------------------
+// ---- MixedKrylov -----------------------------------------------------------------------------------
 
 namespace pmg {
 
-void MixedMinresParams::visit(ParamVisitor& v) {
+void MixedKrylovParams::visit(ParamVisitor& v) {
   v.integer("pressure_steps", pressure_steps, 1, 1000,
             "Chebyshev steps on the pressure mass matrix (the Schur complement's approximation)");
   v.real("pressure_scale", pressure_scale, 1e-6, 1e6,
          "factor of the Schur complement's approximation (1/mu + 1/lambda) M_p");
 }
 
-MixedMinres::MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement,
-                         const SaddlePointBlocks& blocks, int pressure_steps, double pressure_scale)
-    : params_(params), M_u_(std::move(displacement)), blocks_(&blocks), pressure_steps_(pressure_steps),
-      pressure_scale_(pressure_scale) {
-  if (!M_u_) throw InputError("mixed-minres: no solver for the displacement block");
+void GmresParams::visit(ParamVisitor& v) {
+  v.integer("restart", restart, 1, 10000, "Krylov vectors kept before GMRES restarts (memory: restart + 1 vectors)");
+}
+
+MixedKrylov::MixedKrylov(Kind kind, const KrylovParams& params, std::unique_ptr<Solver> displacement,
+                         const SaddlePointBlocks& blocks, const MixedKrylovParams& mixed, int restart)
+    : kind_(kind), params_(params), M_u_(std::move(displacement)), blocks_(&blocks), mixed_(mixed), restart_(restart) {
+  const std::string me = name();
+  if (!M_u_) throw InputError(me + ": no solver for the displacement block");
   if (!M_u_->is_linear() || !M_u_->is_symmetric())
-    throw InputError("mixed-minres: the displacement block's solver '" + M_u_->name() +
-                     "' is not a fixed symmetric map; MINRES needs one (a multigrid cycle with R = Pᵀ)");
+    throw InputError(me + ": the displacement block's solver '" + M_u_->name() +
+                     "' is not a fixed symmetric map; the block preconditioner needs one (a multigrid cycle with "
+                     "R = Pᵀ)");
   if (!blocks.coupling || !blocks.pressure_mass)
-    throw InputError("mixed-minres: the saddle-point blocks (B and Bᵀ, pressure mass) were not given");
-  if (pressure_steps < 1) throw InputError("mixed-minres: pressure_steps must be >= 1");
+    throw InputError(me + ": the saddle-point blocks (B and Bᵀ, pressure mass) were not given");
+  if (mixed.pressure_steps < 1) throw InputError(me + ": pressure_steps must be >= 1");
+  if (restart < 1) throw InputError(me + ": restart must be >= 1");
 }
 
-std::string MixedMinres::describe() const {
+std::string MixedKrylov::describe() const {
   std::ostringstream scale;
-  scale << pressure_scale_ * blocks_->schur_scale;
-  return "MINRES, block-diagonal preconditioner: displacement " +
+  scale << mixed_.pressure_scale * blocks_->schur_scale;
+  return (kind_ == Kind::minres ? "MINRES, block-diagonal preconditioner: displacement "
+                                : "GMRES(" + std::to_string(restart_) + "), block-triangular preconditioner: displacement ") +
          (M_u_->describe().empty() ? M_u_->name() : M_u_->describe()) + "; pressure " +
-         std::to_string(pressure_steps_) + " Chebyshev steps on the mass, S ~ " + scale.str() + " M_p";
+         std::to_string(mixed_.pressure_steps) + " Chebyshev steps on the mass, S ~ " + scale.str() + " M_p";
 }
 
-void MixedMinres::setup_impl(const LinearOperator& K) {
+void MixedKrylov::setup_impl(const LinearOperator& K) {
   const SaddlePointOperator* sp = K.saddle_point_operator();
-  if (!sp) throw InputError("mixed-minres: the system is not a saddle-point operator [A Bᵀ; B -C]");
+  if (!sp) throw InputError(name() + ": the system is not a saddle-point operator [A Bᵀ; B -C]");
   if (&sp->coupling() != blocks_->coupling || sp->second_block() != blocks_->C)
-    throw InputError("mixed-minres: the system's blocks are not those the solver was built for");
+    throw InputError(name() + ": the system's blocks are not those the solver was built for");
   M_u_->setup(sp->first_block());
   set_up_pressure();
 }
 
-void MixedMinres::set_up_pressure() {
+void MixedKrylov::set_up_pressure() {
   // The Schur scale is read afresh: the blocks' weights may have changed (a time step's).
   M_p_ = std::make_unique<ChebyshevMassInverse>(*blocks_->pressure_mass, blocks_->mass_lo, blocks_->mass_hi,
-                                                pressure_steps_, 1.0 / (pressure_scale_ * blocks_->schur_scale));
-  P_ = std::make_unique<BlockDiagonalOperator>(*M_u_, *M_p_);
+                                                mixed_.pressure_steps,
+                                                1.0 / (mixed_.pressure_scale * blocks_->schur_scale));
+  if (kind_ == Kind::minres) P_ = std::make_unique<BlockDiagonalOperator>(*M_u_, *M_p_);
+  else P_ = std::make_unique<BlockTriangularOperator>(*M_u_, *M_p_, *blocks_->coupling);
 }
 
-void MixedMinres::update_impl() {
+void MixedKrylov::update_impl() {
   M_u_->update();
   set_up_pressure();
 }
 
-SolveResult MixedMinres::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
-  return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);
+SolveResult MixedKrylov::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  if (kind_ == Kind::minres) return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);
+  return gmres(system(), P_.get(), b, x, with_rhs_floor(params_, b), restart_, monitor);
 }
 
-void MixedMinres::apply_impl(const Vector& b, Vector& x) const {
+void MixedKrylov::apply_impl(const Vector& b, Vector& x) const {
   x.setZero();
   require_usable(solve_impl(b, x, nullptr));
 }

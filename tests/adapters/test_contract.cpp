@@ -91,10 +91,10 @@ bool testable(const SolverInfo& s) {
   // petsc-mgpcg partitions a mesh, which these user levels lack: its contract cases (guesses,
   // tolerances, a scaled system) are in tests/distributed, on 1 to 4 ranks.
   if (s.component == "distributed") return false;
-  // mixed-minres solves saddle points [A Bᵀ; B -C], not SPD systems: its cases (guesses, tolerances,
-  // breakdown, the blocks' answers against a direct solve) are in tests/sparse/test_saddle_point.cpp
-  // and tests/multigrid/test_mixed.cpp.
-  if (s.name == "mixed-minres") return false;
+  // mixed-minres and mixed-gmres solve saddle points [A Bᵀ; B -C], not SPD systems: their cases
+  // (guesses, tolerances, breakdown, the blocks' answers against a direct solve) are in
+  // tests/sparse/test_saddle_point.cpp and tests/multigrid/test_mixed.cpp.
+  if (s.name == "mixed-minres" || s.name == "mixed-gmres") return false;
   return s.component != "petsc" || mg::petsc_available();
 }
 

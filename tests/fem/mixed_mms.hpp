@@ -22,11 +22,13 @@ inline std::vector<char> clamp_cube_boundary(const TetMesh& m) {
   return c;
 }
 
-inline Config mixed_minres_config(double tol) {
+inline Config mixed_config(const std::string& method, double tol) {
   std::ostringstream t;
   t << "tol=" << tol;
-  return Config::from_pairs({"method=mixed-minres", t.str()}, "test");
+  return Config::from_pairs({"method=" + method, t.str()}, "test");
 }
+
+inline Config mixed_minres_config(double tol) { return mixed_config("mixed-minres", tol); }
 
 /// The unit cube in nx x ny x nz cells of 6 Kuhn (Freudenthal) tetrahedra each, all sharing the cell's diagonal: a
 /// mesh without the 24-tet cells' rich divergence-free subspace, on which displacement-only

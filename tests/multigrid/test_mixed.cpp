@@ -87,20 +87,22 @@ TEST_CASE("mixed: pressure mass bounds are the element's (Wathen: [1/2, 5/2] for
   CHECK(mixed_tables(3).mass_hi > mixed_tables(3).mass_lo);
 }
 
-TEST_CASE("mixed-minres answers equal a direct solve of the assembled saddle point, static and a step", "[mixed]") {
+TEST_CASE("mixed-minres and mixed-gmres answers equal a direct solve of the assembled saddle point, static and a step",
+          "[mixed]") {
+  for (const char* method : {"mixed-minres", "mixed-gmres"})
   for (int k = 2; k <= 3; ++k)
     for (double nu : {0.3, 0.4999, 0.5})
       for (SystemWeights w : {SystemWeights{0.0, 1.0}, SystemWeights{1.0, 1e-4}}) {
         Bar bar(k, nu);
         bar.m.set_weights(w);
-        const MixedResult r = solve_mixed_static(bar.m, bar.f, mixed_minres_config(1e-11));
+        const MixedResult r = solve_mixed_static(bar.m, bar.f, mixed_config(method, 1e-11));
         const Csr K = bar.m.assembled_system();
         Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(Eigen::SparseMatrix<double>(K.to_eigen()));
         REQUIRE(lu.info() == Eigen::Success);
         const Vector x = lu.solve(bar.m.rhs(bar.f));
         Vector mine(bar.m.num_unknowns());
         mine << bar.m.hierarchy().finest().restrict_to_free(r.u), w.stiffness * r.p;  // the system's p̃ = s p
-        INFO("k = " << k << ", nu = " << nu << ", weights " << w.mass << ", " << w.stiffness << ": "
+        INFO(method << ", k = " << k << ", nu = " << nu << ", weights " << w.mass << ", " << w.stiffness << ": "
                     << r.solve.iterations << " iterations");
         CHECK(r.solve.ok());
         CHECK((mine - x).norm() <= 1e-8 * x.norm());
@@ -120,6 +122,20 @@ TEST_CASE("mixed-minres: iterations bounded as nu -> 1/2 (0.49, 0.4999 and 0.5 a
     // ν = 0.3 is easier (C = M_p / λ dominates the Schur complement): 1.5x (k = 2) and 1.8x (k = 3)
     // here, against 4.5-9.6x for displacement-only MGPCG; the issue's 1.5x is not claimed
     // (docs/robustness.md measures it).
+  }
+}
+
+TEST_CASE("mixed-gmres: iterations at nu = 0.4999 and 0.5 within 1.5x of those at nu = 0.3 (issue 50's target)",
+          "[mixed]") {
+  for (int k = 2; k <= 3; ++k) {
+    std::vector<int> its;
+    for (double nu : {0.3, 0.4999, 0.5}) {
+      Bar bar(k, nu, 2);
+      its.push_back(solve_mixed_static(bar.m, bar.f, mixed_config("mixed-gmres", 1e-8)).solve.iterations);
+    }
+    INFO("k = " << k << ": " << its[0] << ", " << its[1] << ", " << its[2] << " iterations");
+    CHECK(its[1] <= 1.5 * its[0]);
+    CHECK(its[2] <= 1.5 * its[0]);
   }
 }
 

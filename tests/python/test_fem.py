@@ -233,5 +233,5 @@ def test_mixed_elasticity_corotational_fixed_point():
     assert 0.005 * relative[0] <= relative[1] <= 0.02 * relative[0]
     _, _, big = m.solve(1e-2 * f, {"tol": 1e-10}, corotational=True)
     assert big["fixed_point_iterations"] > info["fixed_point_iterations"]
-    with pytest.raises(pmgkit.InputError, match="corotational material needs mixed-minres"):
+    with pytest.raises(pmgkit.InputError, match="corotational material needs mixed-gmres or mixed-minres"):
         m.solve(f, {"method": "mumps"}, corotational=True)

@@ -142,3 +142,69 @@ TEST_CASE("Chebyshev mass inverse: the M-norm error contracts by the Chebyshev b
   }
   CHECK_THROWS_WITH(ChebyshevMassInverse(m, 1.0, 0.5, 4), Catch::Contains("0 < lo < hi"));
 }
+
+TEST_CASE("GMRES with the exact block-triangular preconditioner ends in two iterations", "[saddle]") {
+  // Murphy, Golub and Wathen (2000): K P has the single eigenvalue 1 and a minimal polynomial of
+  // degree 2, with and without C.
+  for (double c : {0.0, 0.3}) {
+    const Saddle s(30, 10, c, 5);
+    const Eigen::MatrixXd Ainv = s.A.inverse();
+    const Dense Mu(Ainv), Mp((s.C + s.B * Ainv * s.B.transpose()).inverse());
+    const BlockTriangularOperator P(Mu, Mp, *s.coupling);
+    const Vector b = Vector::Random(40);
+    Vector x;
+    KrylovParams k;
+    k.rel_tol = 1e-10;
+    const SolveResult r = gmres(*s.K, &P, b, x, k);
+    INFO("C scale " << c);
+    CHECK(r.ok());
+    CHECK(r.iterations <= 2);
+    CHECK((b - s.dense() * x).norm() <= 2e-10 * b.norm());
+  }
+}
+
+TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, restarted or not, with and without M",
+          "[saddle]") {
+  const Saddle s(25, 8, 0.01, 7);
+  const Eigen::MatrixXd k = s.dense();
+  const Dense Mu(s.A.diagonal().cwiseInverse().asDiagonal().toDenseMatrix()),
+      Mp(Eigen::MatrixXd::Identity(8, 8) * (1.0 / 25));
+  const BlockTriangularOperator P(Mu, Mp, *s.coupling);
+  for (double tol : {1e-4, 1e-8, 1e-11})
+    for (int restart : {3, 10, 50})
+      for (int guess = 0; guess < 2; ++guess)
+        for (const LinearOperator* M : {static_cast<const LinearOperator*>(nullptr), static_cast<const LinearOperator*>(&P)}) {
+          const Vector b = Vector::Random(33);
+          Vector x = guess == 0 ? Vector() : Vector(Vector::Random(33));
+          KrylovParams p;
+          p.rel_tol = tol;
+          p.max_iterations = 5000;
+          const SolveResult r = gmres(*s.K, M, b, x, p, restart);
+          INFO("tol " << tol << ", restart " << restart << ", guess " << guess << (M ? ", preconditioned" : ""));
+          CHECK(r.ok());
+          CHECK((b - k * x).norm() <= 2 * tol * b.norm());
+          // Without restarts GMRES ends within the dimension (33), in exact arithmetic.
+          if (restart == 50 && tol >= 1e-8) CHECK(r.iterations <= 33);
+        }
+}
+
+TEST_CASE("GMRES: a nonsymmetric system, the iteration limit and bad input are named", "[saddle]") {
+  // A nonsymmetric, nonnormal matrix: MINRES does not apply, GMRES does.
+  Eigen::MatrixXd A = Eigen::MatrixXd::Identity(20, 20) * 4.0;
+  for (int i = 0; i + 1 < 20; ++i) A(i, i + 1) = 2.0;
+  const Dense K(A);
+  const Vector b = Vector::Ones(20);
+  Vector x;
+  KrylovParams p;
+  p.rel_tol = 1e-12;
+  CHECK(gmres(K, nullptr, b, x, p).ok());
+  CHECK((b - A * x).norm() <= 2e-12 * b.norm());
+  p.max_iterations = 3;
+  p.throw_on_failure = false;
+  x.setZero();
+  const SolveResult r = gmres(K, nullptr, b, x, p, 2);
+  CHECK(r.status == SolveStatus::iteration_limit);
+  CHECK(r.iterations == 3);
+  CHECK_THROWS_WITH(gmres(K, nullptr, b, x, KrylovParams{}, 0), Catch::Contains("restart must be >= 1"));
+  CHECK_THROWS_WITH(gmres(K, nullptr, Vector::Random(3), x), Catch::Contains("GMRES: right-hand side has 3 entries"));
+}

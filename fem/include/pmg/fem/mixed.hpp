@@ -199,7 +199,7 @@ class MixedElasticity {
 };
 
 /// A saddle-point solver set up on a MixedElasticity's system at its weights, through the factory
-/// (`mixed-minres` by default): a method on the levels (registry: uses_levels) multiplies with the
+/// (`mixed-gmres` by default): a method on the levels (registry: uses_levels) multiplies with the
 /// operator [A, Bᵀ; B, -C] (A matrix-free where the method reads operators), any other (a direct
 /// solver) factorises the assembled saddle point. The binding of the displacement hierarchy is kept
 /// for the finest mass and the elastic force of a state (the time step of pmg/fem/mixed_euler.hpp).
@@ -223,7 +223,7 @@ class MixedSolver {
   double residual_norm(const Vector& b, const Vector& x) const;
   /// The solver ("name: description").
   std::string description() const;
-  /// True where the solver multiplies with the operator (mixed-minres), false where it factorised
+  /// True where the solver multiplies with the operator (mixed-gmres, mixed-minres), false where it factorised
   /// the assembled saddle point (rotate() needs the first).
   bool on_operator() const { return K_ != nullptr; }
   /// Seconds of the levels' preparation and the solver's set-up.
@@ -255,7 +255,7 @@ struct MixedResult {
 };
 
 /// The solve of the mixed system at its weights (static, or one implicit-Euler step's system) for
-/// the full load f_full with the solver the config names (the factory; `mixed-minres` by default,
+/// the full load f_full with the solver the config names (the factory; `mixed-gmres` by default,
 /// or a direct method such as mumps on the assembled system). Linear: one solve. Corotational
 /// (`corotational` true, the operator route only): the fixed point of pmg/fem/static_solve.hpp on
 /// (u, p) — with R from u_k, the system at R solved for the correction of

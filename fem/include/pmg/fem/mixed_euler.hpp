@@ -26,7 +26,7 @@
 // f_el(u) = -Σ_e R K_e (Rᵀ x_e - X_e) (deviatoric), g(u) = Σ_e B_e (R_eᵀ x_e - X_e): the linearised
 // step of pmg/fem/simulation.hpp with the pressure's incompressibility on the rotated-back strain.
 // Per step the finest level is brought to R in the pass that gives f_el and the energy, the lower
-// levels and the coupling follow, and the solver is updated (the operator route, mixed-minres,
+// levels and the coupling follow, and the solver is updated (the operator route, mixed-gmres or mixed-minres,
 // only). Linear material: the solver is set up once; each step's solve is warm-started from the
 // last velocity and pressure.
 #pragma once
@@ -49,7 +49,7 @@ namespace pmg::fem {
 class MixedEuler {
  public:
   /// f_ext: full external force (constant in time). The step solver is the one the config names
-  /// (mixed-minres by default; a rounding floor rhs_floor = 1e-12 is added for warm starts where
+  /// (mixed-gmres by default; a rounding floor rhs_floor = 1e-12 is added for warm starts where
   /// the method reads it), set up here. Throws InputError for the checks of check_simulation(),
   /// stiffness-proportional damping (not built), corotational material with a direct solver
   /// (before any factorisation), and what the solver's set-up throws.

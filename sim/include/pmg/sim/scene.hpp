@@ -30,7 +30,7 @@ struct Scene {
   /// Polynomial degree of the finest level, 1 to 3 (the hierarchy holds degrees 1 to this).
   int degree = 3;
   /// "displacement" (the default) or "mixed": the displacement-pressure elements of
-  /// pmg/fem/mixed.hpp (outside_mixed_scope() says what they take; solver mixed-minres unless the
+  /// pmg/fem/mixed.hpp (outside_mixed_scope() says what they take; solver mixed-gmres unless the
   /// scene names mumps). A scene's "auto" is made concrete when it is read: mixed from ν >=
   /// kMixedFromPoisson where the scene is in the mixed scope, displacement otherwise.
   std::string formulation = "displacement";
@@ -99,7 +99,7 @@ struct Scene {
   static Config default_solver(bool dynamic = true, bool mixed = false);
   /// Where the scene sets none: dynamic, method pmg, tol 1e-3, max_iterations 1000; static, method
   /// cholmod (an iterative method: tol 1e-10, max_iterations 10000).
-  /// A mixed scene's method is mixed-minres (tol 1e-3 per step, 1e-10 static) unless it names one.
+  /// A mixed scene's method is mixed-gmres (tol 1e-3 per step, 1e-10 static) unless it names one.
   static void set_solver_defaults(Config& c, bool dynamic = true, bool mixed = false);
   // output
   std::string output;  ///< directory; empty: nothing written

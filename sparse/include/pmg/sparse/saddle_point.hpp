@@ -17,6 +17,17 @@
 // to a multiple of the pressure mass matrix, whose inverse a few Chebyshev steps on D⁻¹M with
 // element-derived bounds replace (Wathen and Rees, "Chebyshev semi-iteration in preconditioning for
 // problems including the mass matrix", ETNA 2009).
+//
+// The block upper-triangular preconditioner
+//
+//   P = [ M_u⁻¹  Bᵀ   ]⁻¹,   P r:  z_p = -M_p r_p,  z_u = M_u (r_u - Bᵀ z_p),
+//       [ 0     -M_p⁻¹ ]
+//
+// is not symmetric, so it pairs with GMRES; with exact blocks K P has the single eigenvalue 1 and a
+// minimal polynomial of degree 2 (Murphy, Golub and Wathen, "A note on preconditioning for
+// indefinite linear systems", SIAM J. Sci. Comput. 2000), and with approximate ones GMRES typically
+// needs fewer iterations than MINRES with the block-diagonal P, for one more product with Bᵀ per
+// iteration and the orthogonalisation (Elman, Silvester and Wathen, ch. 4 and 9).
 #pragma once
 
 #include "pmg/sparse/csr.hpp"
@@ -38,7 +49,8 @@ class SaddlePointCoupling {
   virtual index_t rows() const = 0;
   /// Columns of B: the first unknowns, n_u.
   virtual index_t cols() const = 0;
-  /// y_u += Bᵀ x_p and y_p = B x_u (sizes unchecked: n_u, n_p, n_u, n_p).
+  /// y_u += Bᵀ x_p and y_p = B x_u (sizes unchecked: n_u, n_p, n_u, n_p). x_u == nullptr: only
+  /// y_u += Bᵀ x_p (y_p unused).
   virtual void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const = 0;
 };
 
@@ -79,6 +91,21 @@ struct SaddlePointBlocks {
 /// one K, one M, three inner products, about 10 vector updates.
 SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
                    const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
+
+/// Right-preconditioned restarted GMRES in its flexible form (Saad, "A flexible inner-outer
+/// preconditioned GMRES algorithm", SIAM J. Sci. Comput. 1993; Algorithm 9.6 of his "Iterative
+/// methods for sparse linear systems") for any operator K and preconditioner M (nullptr: none): the
+/// vectors z_i = M v_i are kept and x = x0 + Z y minimises ‖b − K x‖ over their span, so the
+/// residual it estimates (Givens rotations of the Hessenberg matrix) is the true residual of K up
+/// to rounding even where M is applied in lower precision (a multigrid cycle with float levels).
+/// Stopping as pcg() on ‖b − K x‖ (KrylovParams); when the estimate meets the tolerance x is formed
+/// and the true residual computed and, where it disagrees, GMRES restarts from x. Memory: `restart`
+/// (>= 1) vectors z_i and restart + 1 vectors v_i of the system's size. The orthogonalisation is classical Gram–Schmidt in fused passes, repeated once where it lost more
+/// than 30% of the norm ("twice is enough": Giraud, Langou and Rozložník 2005). Cost per iteration:
+/// one K, one M, and 2–4 passes over the j + 1 Krylov vectors of iteration j. x holds the initial
+/// guess and receives the answer.
+SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
+                  const KrylovParams& params = {}, int restart = 50, SolveMonitor* monitor = nullptr);
 
 /// K = [A Bᵀ; B -C] on (u; p), u first (see the file comment). Holds references to A, the coupling
 /// (B and Bᵀ) and C, which must outlive it. C may be nullptr (zero).
@@ -125,6 +152,25 @@ class BlockDiagonalOperator final : public LinearOperator {
   mutable Vector x1_, x2_, y1_, y2_;  // contiguous copies of the parts (the blocks take Vectors)
 };
 
+/// The block upper-triangular preconditioner of the file comment on (u; p): z_p = -M_p r_p, then
+/// z_u = M_u (r_u - Bᵀ z_p). Linear and fixed when M_u and M_p are; not symmetric (for GMRES).
+/// Holds references to M_u, M_p and the coupling, which must outlive it.
+class BlockTriangularOperator final : public LinearOperator {
+ public:
+  /// Throws InputError when a block is not square or the coupling's shape does not fit.
+  BlockTriangularOperator(const LinearOperator& M_u, const LinearOperator& M_p, const SaddlePointCoupling& B);
+  index_t rows() const override { return M_u_.rows() + M_p_.rows(); }
+  index_t cols() const override { return rows(); }
+
+ protected:
+  void apply_impl(const Vector& x, Vector& y) const override;
+
+ private:
+  const LinearOperator &M_u_, &M_p_;
+  const SaddlePointCoupling& B_;
+  mutable Vector ru_, rp_, zu_, zp_;
+};
+
 /// A fixed number of Chebyshev semi-iteration steps for M z = r from z = 0, preconditioned by the
 /// diagonal D of M (Golub and Varga; Wathen and Rees 2009), scaled by `scale`: z = scale p(D⁻¹M) D⁻¹ r.
 /// With bounds [lo, hi] that contain the spectrum of D⁻¹M (for a finite element mass matrix, the
@@ -153,8 +199,9 @@ class ChebyshevMassInverse final : public LinearOperator {
   mutable Vector res_, d_, q_;
 };
 
-/// The keys of mixed-minres beside its stopping rule and the displacement cycle's keys.
-struct MixedMinresParams {
+/// The keys of mixed-minres and mixed-gmres beside their stopping rule and the displacement cycle's
+/// keys.
+struct MixedKrylovParams {
   /// Chebyshev steps of the pressure mass solve: 8 (MINRES took 55 iterations with 8 and 12, 69
   /// with 4, on the cubic bar of tests/multigrid/test_mixed.cpp at ν = 0.3).
   int pressure_steps = 8;
@@ -164,19 +211,31 @@ struct MixedMinresParams {
   void visit(ParamVisitor& v);
 };
 
-/// MINRES preconditioned by diag(M_u, M_p) (the file comment) as a Solver, set up on a
-/// SaddlePointOperator: M_u is a solver of the displacement block A (a multigrid cycle: linear and
-/// symmetric, else InputError), set up and updated with this one; M_p is `pressure_steps`
-/// Chebyshev steps on the pressure mass scaled by 1 / schur_scale. Registered as `mixed-minres` by
+/// The key of mixed-gmres beside MixedKrylovParams.
+struct GmresParams {
+  /// Krylov vectors kept before a restart (memory: restart + 1 vectors of the system's size).
+  int restart = 50;
+  /// The key restart.
+  void visit(ParamVisitor& v);
+};
+
+/// A Krylov method on a saddle point with a block preconditioner (the file comment), as a Solver set
+/// up on a SaddlePointOperator: MINRES with diag(M_u, M_p) (`mixed-minres`), or GMRES with the block
+/// upper-triangular P (`mixed-gmres`). M_u is a solver of the displacement block A (a multigrid
+/// cycle: linear and symmetric, else InputError), set up and updated with this one; M_p is
+/// `pressure_steps` Chebyshev steps on the pressure mass scaled by 1 / schur_scale. Registered by
 /// the multigrid component, which builds M_u as mgpcg's cycle on the displacement levels.
-class MixedMinres final : public Solver {
+class MixedKrylov final : public Solver {
  public:
+  /// MINRES with the block-diagonal preconditioner, or GMRES with the block-triangular one.
+  enum class Kind { minres, gmres };
   /// Takes ownership of the displacement block's solver and keeps a reference to the blocks, which
   /// must outlive it (their scale is read at each set-up and update). Throws InputError for a
-  /// missing, nonlinear or nonsymmetric solver, blocks without a coupling or M_p, or pressure_steps < 1.
-  MixedMinres(const KrylovParams& params, std::unique_ptr<Solver> displacement, const SaddlePointBlocks& blocks,
-              int pressure_steps, double pressure_scale = 1.0);
-  std::string name() const override { return "mixed-minres"; }
+  /// missing, nonlinear or nonsymmetric solver, blocks without a coupling or M_p, pressure_steps
+  /// < 1 or restart < 1.
+  MixedKrylov(Kind kind, const KrylovParams& params, std::unique_ptr<Solver> displacement,
+              const SaddlePointBlocks& blocks, const MixedKrylovParams& mixed, int restart = 50);
+  std::string name() const override { return kind_ == Kind::minres ? "mixed-minres" : "mixed-gmres"; }
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
   SolverNeeds needs() const override { return M_u_->needs(); }
@@ -196,13 +255,14 @@ class MixedMinres final : public Solver {
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
 
  private:
+  Kind kind_;
   KrylovParams params_;
   std::unique_ptr<Solver> M_u_;
   const SaddlePointBlocks* blocks_;  // the discretisation's: read at set-up and update
-  int pressure_steps_;
-  double pressure_scale_;
+  MixedKrylovParams mixed_;
+  int restart_;
   std::unique_ptr<ChebyshevMassInverse> M_p_;
-  std::unique_ptr<BlockDiagonalOperator> P_;
+  std::unique_ptr<LinearOperator> P_;
   void set_up_pressure();
 };
 
