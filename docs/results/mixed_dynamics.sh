@@ -6,8 +6,8 @@
 #      gravity (3 steps);
 #   2. whole runs at nu = 0.4999 to the scenes' 1e-3 per step: scenes/rubber_mixed.json (100 steps),
 #      the free spinning bar of scenes/spinning.json (400 steps) and the cubic Homer twisted 30 degrees
-#      and released (scenes/homer_twisted.json, 5 steps): mixed-minres against pmg (the scenes'
-#      method; vertex patches from nu = 0.495 on) and mgpcg with point and patch smoothers.
+#      and released (scenes/homer_twisted.json, 5 steps): mixed-gmres and mixed-minres against pmg
+#      (the scenes' method; vertex patches from nu = 0.495 on) and mgpcg with point and patch smoothers.
 # One run each; the time is the time loop's wall time ("steps: N in T s wall").
 # Usage: docs/results/mixed_dynamics.sh > docs/results/mixed_dynamics_$(date +%F).txt   (after
 # scripts/build.sh, and scripts/get_models.sh with the Homer mesh made as the README says)
@@ -51,12 +51,14 @@ run() {  # LABEL SCENE [ARGS...]: the steps and energy lines of one run
 
 echo "# 1. Iterations per step to 1e-8"
 for nu in 0.3 0.4999; do
-  run "rubber bar (corotational, deflected), nu = $nu, mixed-minres tol 1e-8, 10 steps" \
-    "$(scene scenes/rubber_mixed.json material="{\"poisson\": $nu}" solver='{"method": "mixed-minres", "tol": 1e-8}')" --duration 0.1
+  for m in mixed-gmres mixed-minres; do
+    run "rubber bar (corotational, deflected), nu = $nu, $m tol 1e-8, 10 steps" \
+      "$(scene scenes/rubber_mixed.json material="{\"poisson\": $nu}" solver="{\"method\": \"$m\", \"tol\": 1e-8}")" --duration 0.1
+  done
   run "rubber bar (corotational, deflected), nu = $nu, displacement-only mgpcg tol 1e-8, 10 steps" \
     "$(scene scenes/rubber_mixed.json formulation='"displacement"' material="{\"poisson\": $nu}" solver='{"method": "mgpcg", "tol": 1e-8}')" --duration 0.1
-  for f in mixed displacement; do
-    [ $f = mixed ] && m=mixed-minres || m=mgpcg
+  for m in mixed-gmres mixed-minres mgpcg; do
+    [ $m = mgpcg ] && f=displacement || f=mixed
     run "Homer P3 from rest under gravity, nu = $nu, $f ($m) tol 1e-8, 3 steps" \
       "$(scene scenes/homer_twisted.json formulation="\"$f\"" material="{\"model\": \"linear\", \"poisson\": $nu}" \
          initial='{"state": "rest"}' loads='{"gravity": [0, 0, -9.81]}' time='{"dt": 0.01, "duration": 0.03}' \
@@ -65,20 +67,20 @@ for nu in 0.3 0.4999; do
 done
 
 echo "# 2. Whole runs at nu = 0.4999, 1e-3 per step"
-bar_solvers=('{"method": "mixed-minres", "tol": 1e-3}' '{"method": "pmg", "tol": 1e-3}'
+bar_solvers=('{"method": "mixed-gmres", "tol": 1e-3}' '{"method": "mixed-minres", "tol": 1e-3}' '{"method": "pmg", "tol": 1e-3}'
              '{"method": "mgpcg", "tol": 1e-3}' '{"method": "mgpcg", "tol": 1e-3, "smoother.preconditioner.method": "patch"}')
 for src in scenes/rubber_mixed.json scenes/spinning.json; do
   for s in "${bar_solvers[@]}"; do
-    [[ $s == *mixed-minres* ]] && f=mixed || f=displacement
+    [[ $s == *mixed-* ]] && f=mixed || f=displacement
     [ "$src" = scenes/spinning.json ] && s=${s/1e-3/1e-6}  # the scene's tolerance
     run "$(basename "$src"), nu = 0.4999, $f, solver $s" \
       "$(scene "$src" formulation="\"$f\"" material='{"poisson": 0.4999}' solver="$s")"
   done
 done
-homer_solvers=('{"method": "mixed-minres", "tol": 1e-3}' '{"method": "pmg", "tol": 1e-3, "operator": "assembled"}'
+homer_solvers=('{"method": "mixed-gmres", "tol": 1e-3}' '{"method": "mixed-minres", "tol": 1e-3}' '{"method": "pmg", "tol": 1e-3, "operator": "assembled"}'
                '{"method": "mgpcg", "tol": 1e-3}' '{"method": "mgpcg", "tol": 1e-3, "smoother.preconditioner.method": "patch"}')
 for s in "${homer_solvers[@]}"; do
-  [[ $s == *mixed-minres* ]] && f=mixed || f=displacement
+  [[ $s == *mixed-* ]] && f=mixed || f=displacement
   run "homer_twisted.json, nu = 0.4999, $f, solver $s, 5 steps" \
     "$(scene scenes/homer_twisted.json formulation="\"$f\"" material='{"poisson": 0.4999}' solver="$s")" --duration 0.05
 done

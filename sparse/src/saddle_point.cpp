@@ -208,19 +208,26 @@ double fused_subtract(const std::vector<Vector>& V, int m, const double* h, Vect
 }  // namespace
 
 SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
-                  const KrylovParams& params, int restart, SolveMonitor* monitor) {
+                  const KrylovParams& params, int restart, SolveMonitor* monitor, GmresWorkspace* work) {
   check_krylov_inputs("GMRES", K, M, b, x);
   if (restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(restart));
   detail::ConvergenceTracker track("GMRES", params, monitor);
   const Eigen::Index n = b.size();
-  Vector r(n);
+  GmresWorkspace own;
+  GmresWorkspace& ws = work ? *work : own;
+  for (auto* vs : {&ws.V, &ws.Z})  // vectors of another size are of no use
+    if (!vs->empty() && vs->front().size() != n) vs->clear();
+  Vector& r = ws.r;
+  Vector& w = ws.w;
+  r.resize(n), w.resize(n);
   K.residual(b, x, r);
   if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
   const int m = restart;
-  std::vector<Vector> V(1, Vector(n)), Z;  // the Krylov basis, and M v_i (flexible GMRES)
+  std::vector<Vector>& V = ws.V;  // the Krylov basis
+  std::vector<Vector>& Z = ws.Z;  // M v_i (flexible GMRES)
+  if (V.empty()) V.emplace_back(n);
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);
   Eigen::VectorXd g(m + 1), cs(m), sn(m), h(m + 1), h2(m + 1);
-  Vector w(n);
   int it = 0;
   while (!track.done()) {
     const double beta = ops::norm2(r);
@@ -481,7 +488,7 @@ void MixedKrylov::update_impl() {
 
 SolveResult MixedKrylov::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   if (kind_ == Kind::minres) return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);
-  return gmres(system(), P_.get(), b, x, with_rhs_floor(params_, b), restart_, monitor);
+  return gmres(system(), P_.get(), b, x, with_rhs_floor(params_, b), restart_, monitor, &work_);
 }
 
 void MixedKrylov::apply_impl(const Vector& b, Vector& x) const {
