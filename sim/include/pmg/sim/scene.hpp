@@ -99,7 +99,7 @@ struct Scene {
   static Config default_solver(bool dynamic = true, bool mixed = false);
   /// Where the scene sets none: dynamic, method pmg, tol 1e-3, max_iterations 1000; static, method
   /// cholmod (an iterative method: tol 1e-10, max_iterations 10000).
-  /// A mixed scene's method is mixed-gmres (tol 1e-3 per step, 1e-10 static) unless it names one.
+  /// A mixed scene's method is mixed-gmres (tol 1e-5 per step, 1e-10 static) unless it names one.
   static void set_solver_defaults(Config& c, bool dynamic = true, bool mixed = false);
   // output
   std::string output;  ///< directory; empty: nothing written
