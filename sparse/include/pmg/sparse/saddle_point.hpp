@@ -96,8 +96,10 @@ SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vecto
 /// The vectors of gmres(), kept between solves by a caller that solves many times (each solve
 /// would otherwise allocate, and fault in, 2 restart + 1 vectors of the system's size).
 struct GmresWorkspace {
-  std::vector<Vector> V, Z;  ///< the Krylov basis and the preconditioned vectors M v_i
-  Vector r, w;               ///< the residual and the new direction
+  std::vector<Vector> V;  ///< the Krylov basis
+  std::vector<Vector> Z;  ///< the preconditioned vectors M v_i
+  Vector r;               ///< the residual
+  Vector w;               ///< the new direction
 };
 
 /// Right-preconditioned restarted GMRES in its flexible form (Saad, "A flexible inner-outer
