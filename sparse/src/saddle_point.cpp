@@ -231,6 +231,10 @@ SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector
   int it = 0;
   while (!track.done()) {
     const double beta = ops::norm2(r);
+    if (beta == 0.0) {  // x solves the system exactly (a cycle ended on it)
+      track.accept_true_residual(0.0);
+      break;
+    }
     V[0] = r / beta;
     g.setZero();
     g[0] = beta;
@@ -276,7 +280,7 @@ SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector
       if (after == 0.0 || !(rho > 0)) break;  // the Krylov space is exhausted (or singular): form x
     }
     if (j > 0) {
-      // y = R⁻¹ g (R the rotated upper triangle), x += M (V y).
+      // y = R⁻¹ g (R the rotated upper triangle), x += Z y (V y without M).
       Eigen::VectorXd y = g.head(j);
       for (int i = j - 1; i >= 0; --i) {
         for (int k = i + 1; k < j; ++k) y[i] -= H(i, k) * y[k];
