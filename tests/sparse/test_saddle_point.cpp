@@ -170,12 +170,25 @@ TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, rest
   const Dense Mu(s.A.diagonal().cwiseInverse().asDiagonal().toDenseMatrix()),
       Mp(Eigen::MatrixXd::Identity(8, 8) * (1.0 / 25));
   const BlockTriangularOperator P(Mu, Mp, *s.coupling);
+  std::mt19937 gen(13);
+  std::normal_distribution<double> normal;
+  auto random = [&] {
+    Vector v(33);
+    for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = normal(gen);
+    return v;
+  };
   for (double tol : {1e-4, 1e-8, 1e-11})
     for (int restart : {3, 10, 50})
       for (int guess = 0; guess < 2; ++guess)
         for (const LinearOperator* M : {static_cast<const LinearOperator*>(nullptr), static_cast<const LinearOperator*>(&P)}) {
-          const Vector b = Vector::Random(33);
-          Vector x = guess == 0 ? Vector() : Vector(Vector::Random(33));
+          // Restarted GMRES may stagnate on an indefinite system (a restart throws away the space
+          // that held the negative eigenvalues): without a preconditioner only the full space
+          // (restart >= 33) is asked for. With the block-triangular preconditioner the spectrum of
+          // K P lies near those of A Ã⁻¹ and S S̃⁻¹ (exactly, when Ã = A), positive for these crude
+          // blocks (Jacobi, a scaled identity), and every restart is asked to converge.
+          if (!M && restart < 33) continue;
+          const Vector b = random();
+          Vector x = guess == 0 ? Vector() : random();
           KrylovParams p;
           p.rel_tol = tol;
           p.max_iterations = 5000;
