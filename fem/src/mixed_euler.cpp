@@ -86,7 +86,9 @@ void MixedEuler::set_state(const Vector& u, const Vector& v, const Vector& p) {
       pressure = m_.pressure_from_divergence(g);
     }
   }
-  u_ = u, v_ = v, pressure_ = std::move(pressure);
+  u_ = u;
+  v_ = v;
+  pressure_ = std::move(pressure);
   energy_valid_ = false;
   x_.head(m_.num_displacement()) = model.restrict_to_free(v);
   x_.tail(m_.num_pressure()) = params_.dt * pressure_;
@@ -102,12 +104,15 @@ void MixedEuler::evaluate() const {
     R_ = m_.hierarchy().finest().rotations(u_);
     rotations_s_ = seconds_since(t0);
     const EvaluateSeconds es = solver_->bound().evaluate(u_, &R_, m_.weights(), &force_, &energy_, true);
-    finest_s_ = es.finest, force_s_ = es.force;
+    finest_s_ = es.finest;
+    force_s_ = es.force;
     levels_current_ = false;
   } else {
     // -A u and ½ uᵀ A u in one pass over the elements; the operator itself is current (linear).
     const EvaluateSeconds es = solver_->bound().evaluate(u_, nullptr, m_.weights(), &force_, &energy_, false);
-    rotations_s_ = 0.0, finest_s_ = 0.0, force_s_ = es.force;
+    rotations_s_ = 0.0;
+    finest_s_ = 0.0;
+    force_s_ = es.force;
   }
   energy_valid_ = true;
 }
@@ -122,7 +127,9 @@ StepStats MixedEuler::step() {
   // The state's force and energy (and rotations: the finest operator with them), then the lower
   // levels, the coupling and the solver at the same rotations.
   evaluate();  // (or elastic_energy() did, after the last step: its seconds are this step's)
-  st.seconds[kRotations] = rotations_s_, st.seconds[kAssembly] = finest_s_, st.seconds[kForces] = force_s_;
+  st.seconds[kRotations] = rotations_s_;
+  st.seconds[kAssembly] = finest_s_;
+  st.seconds[kForces] = force_s_;
   if (!levels_current_) {
     const auto t0 = Clock::now();
     solver_->rotate(&R_, false);

@@ -143,7 +143,8 @@ class MixedStepper final : public SteppingWith<fem::MixedEuler> {
       fem::StaticOptions so;
       so.corotational_tol = 1e-6;  // as the displacement-only deflected start
       const fem::MixedResult r = fem::solve_mixed_static(mixed_, f, statics, nullptr, scene.corotational, so);
-      u0 = r.u, p0 = r.p;
+      u0 = r.u;
+      p0 = r.p;
       setup.notes.push_back("initial state: the mixed static deflection under the end force, " +
                             std::to_string(r.fixed_point_iterations) + " fixed-point iterations, " +
                             std::to_string(r.solver_iterations) + " solver iterations, " + fixed(seconds_since(t0), 2) +
