@@ -163,6 +163,28 @@ void DivergenceCoupling::gradients(index_t e, double gr[4][3]) const {
 }
 
 template <int K>
+void DivergenceCoupling::add_divergence(const double gr[4][3], const double (*w)[3], double v6, const index_t* pn,
+                                        double* y_p) const {
+  constexpr int NP = K * (K + 1) * (K + 2) / 6;
+  const double* M = mass_.data();  // row-major NP x NP
+  const int* raise = raise_.data();
+  double d[NP];
+  for (int c = 0; c < NP; ++c) {
+    double sum = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      const double* ww = w[raise[c * 4 + i]];
+      sum += gr[i][0] * ww[0] + gr[i][1] * ww[1] + gr[i][2] * ww[2];
+    }
+    d[c] = K * sum;
+  }
+  for (int b = 0; b < NP; ++b) {
+    double yb = 0.0;
+    for (int c = 0; c < NP; ++c) yb += M[b * NP + c] * d[c];
+    y_p[pn[b]] += v6 * yb;
+  }
+}
+
+template <int K>
 void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const {
   constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6, NP = K * (K + 1) * (K + 2) / 6;
   const double* M = mass_.data();  // row-major NP x NP
@@ -175,7 +197,7 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   const index_t* un = u_.space().element_nodes(e);
   const index_t* pn = pressure_.element_nodes(e);
   index_t dof[NU];
-  double ul[NU][3], ua[NU][3] = {}, d[NP], pl[NP], s[NP];
+  double ul[NU][3], ua[NU][3] = {}, pl[NP], s[NP];
   const bool with_b = x_u != nullptr;  // else Bᵀ alone
   for (int a = 0; a < NU; ++a) {
     const index_t f = free[un[a]];
@@ -186,24 +208,12 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
       for (int c = 0; c < 3; ++c)
         if ((*held_)[3 * f + c]) ul[a][c] = 0.0;
   }
+  if (with_b) add_divergence<K>(gr, ul, v6, pn, y_p);
+  // s = 6V M̂ p.
   for (int c = 0; c < NP; ++c) pl[c] = x_p[pn[c]];
-  // d = k Σ_i ∇λ_i · u_{c+e_i}.
-  for (int c = 0; c < NP && with_b; ++c) {
-    double sum = 0.0;
-    for (int i = 0; i < 4; ++i) {
-      const double* uu = ul[raise[c * 4 + i]];
-      sum += gr[i][0] * uu[0] + gr[i][1] * uu[1] + gr[i][2] * uu[2];
-    }
-    d[c] = K * sum;
-  }
-  // y_p += 6V M̂ d;  s = 6V M̂ p.
   for (int b = 0; b < NP; ++b) {
-    double yb = 0.0, sb = 0.0;
-    for (int c = 0; c < NP; ++c) {
-      if (with_b) yb += M[b * NP + c] * d[c];
-      sb += M[b * NP + c] * pl[c];
-    }
-    if (with_b) y_p[pn[b]] += v6 * yb;
+    double sb = 0.0;
+    for (int c = 0; c < NP; ++c) sb += M[b * NP + c] * pl[c];
     s[b] = K * v6 * sb;
   }
   // u_{c+e_i} += k s_c ∇λ_i.
@@ -240,45 +250,33 @@ void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u
 }
 
 template <int K>
-void DivergenceCoupling::element_state(index_t e, const double* u_full, double* g) const {
-  constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6, NP = K * (K + 1) * (K + 2) / 6;
-  const double* M = mass_.data();
-  const int* raise = raise_.data();
+void DivergenceCoupling::element_state(index_t e, const double* u_full, const Rotations* R, double* g) const {
+  constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6;
   const ElementGeometry& geo = u_.geometry(e);
   const index_t* un = u_.space().element_nodes(e);
-  const index_t* pn = pressure_.element_nodes(e);
-  // w_a = R_eᵀ x_a - X_a (u_a without rotations); d = k Σ_i ∇λ_i · w_{c+e_i}; g += 6V M̂ d.
-  double w[NU][3], d[NP];
-  const Mat3* R = R_ ? &(*R_)[static_cast<size_t>(e)] : nullptr;
+  // w_a = R_eᵀ x_a - X_a (u_a without rotations), tested with the unrotated gradients.
+  double w[NU][3], gr[4][3];
+  const Mat3* Re = R ? &(*R)[static_cast<size_t>(e)] : nullptr;
   for (int a = 0; a < NU; ++a) {
-    const Vec3 u(u_full[3 * un[a]], u_full[3 * un[a] + 1], u_full[3 * un[a] + 2]);
-    Vec3 wa = u;
-    if (R) {
+    Vec3 wa(u_full[3 * un[a]], u_full[3 * un[a] + 1], u_full[3 * un[a] + 2]);
+    if (Re) {
       const Vec3& X = u_.space().positions()[static_cast<size_t>(un[a])];
-      wa = R->transpose() * (X + u) - X;
+      wa = Re->transpose() * (X + wa) - X;
     }
     for (int c = 0; c < 3; ++c) w[a][c] = wa[c];
   }
-  for (int c = 0; c < NP; ++c) {
-    double sum = 0.0;
-    for (int i = 0; i < 4; ++i) {
-      const double* ww = w[raise[c * 4 + i]];
-      sum += geo.grad(i, 0) * ww[0] + geo.grad(i, 1) * ww[1] + geo.grad(i, 2) * ww[2];
-    }
-    d[c] = K * sum;
-  }
-  const double v6 = 6.0 * geo.volume;
-  for (int b = 0; b < NP; ++b) {
-    double yb = 0.0;
-    for (int c = 0; c < NP; ++c) yb += M[b * NP + c] * d[c];
-    g[pn[b]] += v6 * yb;
-  }
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 3; ++j) gr[i][j] = geo.grad(i, j);
+  add_divergence<K>(gr, w, 6.0 * geo.volume, pressure_.element_nodes(e), g);
 }
 
-void DivergenceCoupling::state_divergence(const Vector& u_full, Vector& g) const {
+void DivergenceCoupling::state_divergence(const Vector& u_full, const Rotations* R, Vector& g) const {
   if (u_full.size() != u_.num_dofs())
     throw InputError("state divergence: the displacement has " + std::to_string(u_full.size()) + " entries for " +
                      std::to_string(u_.num_dofs()));
+  if (R && R->size() != static_cast<size_t>(u_.space().mesh().num_tets()))
+    throw InputError("state divergence: " + std::to_string(R->size()) + " rotations for " +
+                     std::to_string(u_.space().mesh().num_tets()) + " elements");
   g = Vector::Zero(pressure_.num_nodes());
   const auto& colors = *colors_;
 #pragma omp parallel
@@ -286,8 +284,8 @@ void DivergenceCoupling::state_divergence(const Vector& u_full, Vector& g) const
     const index_t n = static_cast<index_t>(elements.size());
 #pragma omp for schedule(static)
     for (index_t q = 0; q < n; ++q) {
-      if (u_.space().degree() == 2) element_state<2>(elements[q], u_full.data(), g.data());
-      else element_state<3>(elements[q], u_full.data(), g.data());
+      if (u_.space().degree() == 2) element_state<2>(elements[q], u_full.data(), R, g.data());
+      else element_state<3>(elements[q], u_full.data(), R, g.data());
     }
   }
 }
@@ -398,12 +396,14 @@ Vector MixedElasticity::pressure_on_displacement_nodes(const Vector& p) const {
     throw InputError("pressure: " + std::to_string(p.size()) + " values for " + std::to_string(num_pressure()) +
                      " pressure nodes");
   const BBSpace& fine = hierarchy_->finest().space();
-  std::vector<index_t> all_fine(fine.num_nodes()), all_coarse(pressure_.num_nodes());
-  for (index_t i = 0; i < fine.num_nodes(); ++i) all_fine[i] = i;
-  for (index_t i = 0; i < pressure_.num_nodes(); ++i) all_coarse[i] = i;
-  const Csr E = degree_elevation(fine, all_fine, pressure_, all_coarse);
+  std::call_once(elevation_once_, [&] {  // built once: every frame of a run raises its pressure
+    std::vector<index_t> all_fine(fine.num_nodes()), all_coarse(pressure_.num_nodes());
+    for (index_t i = 0; i < fine.num_nodes(); ++i) all_fine[i] = i;
+    for (index_t i = 0; i < pressure_.num_nodes(); ++i) all_coarse[i] = i;
+    elevation_ = degree_elevation(fine, all_fine, pressure_, all_coarse);
+  });
   Vector out(fine.num_nodes());
-  E.multiply(p.data(), out.data());
+  elevation_.multiply(p.data(), out.data());
   return out;
 }
 
@@ -414,13 +414,15 @@ double MixedElasticity::pressure_at(const Vector& p, index_t e, const Eigen::Vec
   return v;
 }
 
-Vector MixedElasticity::state_divergence(const Vector& u_full) const {
+Vector MixedElasticity::state_divergence(const Vector& u_full, const Rotations* R) const {
   Vector g;
-  coupling_->state_divergence(u_full, g);
+  coupling_->state_divergence(u_full, R, g);
   return g;
 }
 
-Vector MixedElasticity::pressure_of(const Vector& u_full) const { return pressure_from_divergence(state_divergence(u_full)); }
+Vector MixedElasticity::pressure_of(const Vector& u_full, const Rotations* R) const {
+  return pressure_from_divergence(state_divergence(u_full, R));
+}
 
 Vector MixedElasticity::pressure_from_divergence(const Vector& g) const {
   if (lambda_inverse_ == 0)
@@ -441,7 +443,18 @@ Vector MixedElasticity::pressure_from_divergence(const Vector& g) const {
   return p;
 }
 
-MixedSolver::MixedSolver(MixedElasticity& m, const Config& config) : m_(m) {
+namespace {
+/// The one refusal of a direct method for corotational material (before it factorises anything).
+void refuse_direct_with_rotations(const std::string& method) {
+  throw InputError("mixed elements: " + method +
+                   " factorises the assembled linear saddle point once; corotational material needs mixed-gmres or "
+                   "mixed-minres");
+}
+}  // namespace
+
+MixedSolver::MixedSolver(MixedElasticity& m, const Config& config, bool corotational) : m_(m) {
+  const std::string method = config.get_string("method", "mixed-gmres");
+  if (corotational && !method_uses_levels(method)) refuse_direct_with_rotations(method);
   m_.set_rotations(nullptr);  // linear until rotate() says otherwise
   SolverContext ctx;
   ctx.levels = &m.hierarchy();
@@ -451,7 +464,7 @@ MixedSolver::MixedSolver(MixedElasticity& m, const Config& config) : m_(m) {
   const auto t0 = Clock::now();
   // A method on the levels (mixed-minres) multiplies with the operator; any other (a direct solver)
   // reads the assembled saddle point.
-  if (method_uses_levels(config.get_string("method", "mixed-gmres"))) {
+  if (method_uses_levels(method)) {
     const LinearOperator& A = bound_->prepare(nullptr, m.weights());
     K_ = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());
     solver_->setup(*K_);
@@ -465,9 +478,7 @@ MixedSolver::MixedSolver(MixedElasticity& m, const Config& config) : m_(m) {
 MixedSolver::~MixedSolver() = default;
 
 void MixedSolver::rotate(const Rotations* R, bool finest) {
-  if (!K_)
-    throw InputError("mixed elements: " + solver_->name() +
-                     " factorises the assembled linear saddle point; corotational material needs mixed-gmres or mixed-minres");
+  if (!K_) refuse_direct_with_rotations(solver_->name());
   m_.set_rotations(R);
   bound_->prepare(R, m_.weights(), finest);
   solver_->update();
@@ -504,11 +515,10 @@ class MixedStaticPart final : public StaticPart {
     Vector force(n);
     solver_.bound().evaluate(u, &R_, m_.weights(), &force, nullptr);
     solver_.rotate(&R_, false);
-    Vector b(nu + np), btp = Vector::Zero(nu), scratch(np);
-    const Vector zero_u = Vector::Zero(nu);
-    m_.coupling().apply(zero_u.data(), p.data(), btp.data(), scratch.data());
+    Vector b(nu + np), btp = Vector::Zero(nu);
+    m_.coupling().apply(nullptr, p.data(), btp.data(), nullptr);  // B_Rᵀ p
     b.head(nu) = model.restrict_to_free(f_ + force) - btp;
-    b.tail(np) = -m_.state_divergence(u);
+    b.tail(np) = -m_.state_divergence(u, &R_);
     if (const Csr* C = m_.compressibility()) {
       Vector cp(np);
       C->multiply(p.data(), cp.data());
@@ -560,11 +570,8 @@ MixedResult solve_mixed_static(MixedElasticity& m, const Vector& f_full, const C
                      "fix part of the boundary");
   if (corotational && (m.weights().mass != 0.0 || m.weights().stiffness != 1.0))
     throw InputError("mixed solve: the corotational fixed point is a static solve (set_weights({0, 1}))");
-  if (corotational && !method_uses_levels(config.get_string("method", "mixed-gmres")))
-    throw InputError("mixed solve: " + config.get_string("method", "mixed-gmres") +
-                     " factorises the assembled linear saddle point; corotational material needs mixed-gmres or mixed-minres");
   MixedResult out;
-  MixedSolver solver(m, config);
+  MixedSolver solver(m, config, corotational);
   out.description = solver.description();
   if (corotational) {
     const auto t1 = Clock::now();

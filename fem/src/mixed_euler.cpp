@@ -22,14 +22,13 @@ Config step_config(const Config& c) {
 }
 
 /// The system's weights set to the step's: m = 1 + Δt α, s = Δt² (no stiffness damping).
-MixedElasticity& with_step_weights(MixedElasticity& m, const SimulationParams& p, const Vector& f_ext) {
+void set_step_weights(MixedElasticity& m, const SimulationParams& p, const Vector& f_ext) {
   check_simulation(m.hierarchy().finest(), f_ext, p);
   if (p.rayleigh_beta != 0)
     throw InputError("mixed time step: stiffness-proportional Rayleigh damping (beta) is not built for the mixed "
                      "formulation (it needs a viscous pressure); use rayleigh_alpha");
   const StepWeights w = step_weights(p);
   m.set_weights({w.mass, w.stiffness});
-  return m;
 }
 
 }  // namespace
@@ -37,15 +36,11 @@ MixedElasticity& with_step_weights(MixedElasticity& m, const SimulationParams& p
 MixedEuler::MixedEuler(MixedElasticity& m, const Config& solver, const Vector& f_ext, const SimulationParams& p)
     : m_(m), params_(p), weights_before_(m.weights()), f_ext_(f_ext) {
   const ElasticityModel& model = m_.hierarchy().finest();
-  const std::string method = solver.get_string("method", "mixed-gmres");
-  if (p.corotational && !method_uses_levels(method))
-    throw InputError("mixed time step: " + method +
-                     " factorises the linear saddle point once; corotational material needs mixed-gmres or mixed-minres");
   if (m_.num_displacement() == 0)
     throw InputError("mixed time step: every displacement node is fixed: nothing moves");
-  with_step_weights(m_, p, f_ext);
+  set_step_weights(m_, p, f_ext);
   try {
-    solver_ = std::make_unique<MixedSolver>(m_, step_config(solver));
+    solver_ = std::make_unique<MixedSolver>(m_, step_config(solver), p.corotational);
   } catch (...) {
     m_.set_weights(weights_before_);
     throw;
@@ -77,13 +72,9 @@ void MixedEuler::set_state(const Vector& u, const Vector& v, const Vector& p) {
   if (pressure.size() == 0) {
     if (!deformed) pressure = Vector::Zero(m_.num_pressure());
     else if (!params_.corotational) pressure = m_.pressure_of(u);
-    else {  // g(u) at u's own rotations, on a coupling of its own (the stepper's stays as it is)
-      const Rotations R = model.rotations(u);
-      DivergenceCoupling coupling(model, m_.pressure_space());
-      coupling.set_rotations(&R);
-      Vector g;
-      coupling.state_divergence(u, g);
-      pressure = m_.pressure_from_divergence(g);
+    else {
+      const Rotations R = model.rotations(u);  // g(u) at u's own rotations
+      pressure = m_.pressure_of(u, &R);
     }
   }
   u_ = u;
@@ -142,7 +133,7 @@ StepStats MixedEuler::step() {
   Vector b(nu + np), mv(nu);
   solver_->bound().mass().apply(v_free, mv);
   b.head(nu) = mv + dt * (f_free_ + model.restrict_to_free(force_));
-  b.tail(np) = -m_.state_divergence(u_) / dt;
+  b.tail(np) = -m_.state_divergence(u_, params_.corotational ? &R_ : nullptr) / dt;
   st.seconds[kForces] += seconds_since(t0);
 
   t0 = Clock::now();

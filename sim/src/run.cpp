@@ -39,6 +39,16 @@ std::string fixed(double v, int digits) {
   return buf;
 }
 
+/// The clamp and the loads of a scene's outputs (static.vtu, the frames), for pictures (pmg render).
+fem::VtuOptions clamp_and_loads(const SceneSetup& setup) {
+  const fem::ElasticityModel& m = setup.finest();
+  fem::VtuOptions vo;
+  vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
+  for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
+  vo.load = setup.f_ext;
+  return vo;
+}
+
 std::string frame_stem(int step) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "frame_%06d", step);
@@ -103,12 +113,7 @@ class SerialStepper final : public SteppingWith<fem::ImplicitEuler> {
   }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
-    if (frame_options_.fixed.empty()) {  // the clamp and the loads, for pictures (pmg render)
-      const fem::ElasticityModel& m = setup_.finest();
-      frame_options_.fixed.resize(static_cast<size_t>(m.num_nodes()));
-      for (index_t i = 0; i < m.num_nodes(); ++i) frame_options_.fixed[i] = m.is_fixed(i) ? 1 : 0;
-      frame_options_.load = setup_.f_ext;
-    }
+    if (frame_options_.fixed.empty()) frame_options_ = clamp_and_loads(setup_);
     fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement(), frame_options_);
     return stem + ".vtu";
   }
@@ -165,19 +170,15 @@ class MixedStepper final : public SteppingWith<fem::MixedEuler> {
   ~MixedStepper() override { sim_.reset(); }
   fem::Vec3 probe() const override { return setup_.probe.displacement(setup_.finest(), sim_->displacement()); }
   std::string write_frame(const std::string& directory, const std::string& stem) const override {
-    const fem::ElasticityModel& m = setup_.finest();
-    fem::VtuOptions vo;
-    vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
-    for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
-    vo.load = setup_.f_ext;
-    vo.pressure = mixed_.pressure_on_displacement_nodes(sim_->pressure());
-    fem::write_vtu(directory + "/" + stem + ".vtu", m.space(), sim_->displacement(), vo);
+    frame_options_.pressure = mixed_.pressure_on_displacement_nodes(sim_->pressure());
+    fem::write_vtu(directory + "/" + stem + ".vtu", setup_.finest().space(), sim_->displacement(), frame_options_);
     return stem + ".vtu";
   }
 
  private:
   SceneSetup& setup_;
   fem::MixedElasticity mixed_;
+  mutable fem::VtuOptions frame_options_ = clamp_and_loads(setup_);  // the clamp, loads and pressure
 };
 
 #ifdef PMG_HAVE_DISTRIBUTED
@@ -596,10 +597,7 @@ StaticOutcome solve_static_mixed(const Scene& scene, SceneSetup& setup, const st
   out.summary = note.str();
   if (!output_dir.empty()) {
     make_dir(output_dir);
-    fem::VtuOptions vo;
-    vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
-    for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
-    vo.load = setup.f_ext;
+    fem::VtuOptions vo = clamp_and_loads(setup);
     vo.pressure = mixed.pressure_on_displacement_nodes(r.p);
     fem::write_vtu(output_dir + "/static.vtu", m.space(), out.result.u, vo);
     out.outputs.push_back(output_dir + "/static.vtu");
@@ -624,11 +622,7 @@ StaticOutcome solve_static(const Scene& scene, SceneSetup& setup, const std::str
   out.probe = setup.probe.displacement(m, out.result.u);
   if (!output_dir.empty()) {
     make_dir(output_dir);
-    fem::VtuOptions vo;  // the clamp and the loads, for pictures (pmg render)
-    vo.fixed.resize(static_cast<size_t>(m.num_nodes()));
-    for (index_t i = 0; i < m.num_nodes(); ++i) vo.fixed[i] = m.is_fixed(i) ? 1 : 0;
-    vo.load = setup.f_ext;
-    fem::write_vtu(output_dir + "/static.vtu", m.space(), out.result.u, vo);
+    fem::write_vtu(output_dir + "/static.vtu", m.space(), out.result.u, clamp_and_loads(setup));
     out.outputs.push_back(output_dir + "/static.vtu");
   }
   return out;

@@ -78,10 +78,11 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   void set_rotations(const Rotations* R) { R_ = R; }
   /// The rotations set (nullptr: none).
   const Rotations* rotations() const { return R_; }
-  /// The divergence of a state: g = Σ_e B_e (R_eᵀ x_e - X_e) over every node of each element (fixed
-  /// ones at their positions), x = X + u_full; with no rotations, Σ_e B_e u_e. One value per pressure
+  /// The divergence of a state at rotations R (one per element; nullptr: R = I, whatever
+  /// set_rotations() gave): g = Σ_e B_e (R_eᵀ x_e - X_e) over every node of each element (fixed ones
+  /// at their positions), x = X + u_full; with no rotations, Σ_e B_e u_e. One value per pressure
   /// node; the constraint of a state is g(u) = C p.
-  void state_divergence(const Vector& u_full, Vector& g) const;
+  void state_divergence(const Vector& u_full, const Rotations* R, Vector& g) const;
 
  private:
   const ElasticityModel& u_;
@@ -95,9 +96,13 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   template <int K>
   void element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const;
   template <int K>
-  void element_state(index_t e, const double* u_full, double* g) const;
+  void element_state(index_t e, const double* u_full, const Rotations* R, double* g) const;
   /// The element's gradients ∇λ_i, rotated to R_e ∇λ_i when rotations are set.
   void gradients(index_t e, double gr[4][3]) const;
+  /// y_p += 6V M̂ d with d_c = k Σ_i gr_i · w_{c+e_i}: the divergence of the element's BB field w
+  /// (its nodes' vectors) tested against its pressure nodes pn.
+  template <int K>
+  void add_divergence(const double gr[4][3], const double (*w)[3], double v6, const index_t* pn, double* y_p) const;
 };
 
 /// Checks a material for the mixed formulation: E > 0, ν in (0, 1/2] (1/2 allowed: C = 0; λ > 0),
@@ -144,19 +149,20 @@ class MixedElasticity {
   const Csr& divergence_transpose() const;
   /// B and Bᵀ matrix-free (DivergenceCoupling), rotated where set_rotations() gave rotations.
   const SaddlePointCoupling& coupling() const { return *coupling_; }
-  /// Corotational coupling (DivergenceCoupling::set_rotations): coupling() and state_divergence()
-  /// become B_R; the assembled divergence() stays the linear B. nullptr: linear. The rotations
-  /// must outlive their use.
+  /// Corotational coupling (DivergenceCoupling::set_rotations): coupling() becomes B_R; the
+  /// assembled divergence() stays the linear B. nullptr: linear. The rotations must outlive their
+  /// use.
   void set_rotations(const Rotations* R) { coupling_->set_rotations(R); }
   /// The rotations set_rotations() gave (nullptr: none).
   const Rotations* coupling_rotations() const { return coupling_->rotations(); }
-  /// g(u) = Σ_e B_e (R_eᵀ x_e - X_e) of a full displacement, one value per pressure node, with the
-  /// rotations set (none: B u); the constraint of a state is g(u) = C p.
-  Vector state_divergence(const Vector& u_full) const;
-  /// The pressure of a displacement: p with C p = g(u) (M_p p = λ g(u), solved by CG to 1e-12 with
-  /// the Chebyshev mass preconditioner). Throws InputError at ν = 1/2 (the pressure is not a
-  /// function of the state there).
-  Vector pressure_of(const Vector& u_full) const;
+  /// g(u) = Σ_e B_e (R_eᵀ x_e - X_e) of a full displacement at rotations R (nullptr: B u), one
+  /// value per pressure node (DivergenceCoupling::state_divergence); the constraint of a state is
+  /// g(u) = C p.
+  Vector state_divergence(const Vector& u_full, const Rotations* R = nullptr) const;
+  /// The pressure of a displacement at rotations R (nullptr: linear): p with C p = g(u) (M_p p =
+  /// λ g(u), solved by CG to 1e-12 with the Chebyshev mass preconditioner). Throws InputError at
+  /// ν = 1/2 (the pressure is not a function of the state there).
+  Vector pressure_of(const Vector& u_full, const Rotations* R = nullptr) const;
   /// p with C p = g for a divergence g (one value per pressure node): pressure_of()'s solve.
   Vector pressure_from_divergence(const Vector& g) const;
   /// C = M_p / (λ s) at the weights' stiffness s (nullptr at ν = 1/2).
@@ -191,6 +197,8 @@ class MixedElasticity {
   SystemWeights weights_;
   mutable std::once_flag divergence_once_;
   mutable Csr B_, Bt_;
+  mutable std::once_flag elevation_once_;
+  mutable Csr elevation_;  ///< pressure -> displacement degree (pressure_on_displacement_nodes)
   Csr C_, Mp_;
   std::unique_ptr<DivergenceCoupling> coupling_;
   SaddlePointBlocks blocks_;
@@ -206,16 +214,18 @@ class MixedElasticity {
 /// Holds a reference to the mixed system, which must outlive it; call set_weights() before.
 class MixedSolver {
  public:
-  /// Makes and sets up the solver the config names. Throws InputError for a method that cannot
-  /// solve a saddle point, and what the set-up throws.
-  MixedSolver(MixedElasticity& m, const Config& config);
+  /// Makes and sets up the solver the config names; `corotational`: it will be rotate()d. Throws
+  /// InputError for a method that cannot solve a saddle point, and, before any factorisation, for a
+  /// direct method with `corotational` (it factorises the linear saddle point once); and what the
+  /// set-up throws.
+  MixedSolver(MixedElasticity& m, const Config& config, bool corotational = false);
   ~MixedSolver();
   MixedSolver(const MixedSolver&) = delete;
   MixedSolver& operator=(const MixedSolver&) = delete;
   /// Brings the system to the rotations R (nullptr: linear): the coupling rotated, the displacement
   /// levels the solver reads prepared at R and the system's weights (the finest too unless `finest`
   /// is false: a caller whose BoundSystem::evaluate() brought it there), the solver updated.
-  /// Throws InputError on the assembled route (a direct solver takes linear material only).
+  /// Throws InputError for a solver not made `corotational`.
   void rotate(const Rotations* R, bool finest = true);
   /// Solves K x = b from the guess x (displacement first, then p̃ = s p).
   SolveResult solve(const Vector& b, Vector& x, SolveMonitor* monitor = nullptr);
@@ -223,9 +233,6 @@ class MixedSolver {
   double residual_norm(const Vector& b, const Vector& x) const;
   /// The solver ("name: description").
   std::string description() const;
-  /// True where the solver multiplies with the operator (mixed-gmres, mixed-minres), false where it factorised
-  /// the assembled saddle point (rotate() needs the first).
-  bool on_operator() const { return K_ != nullptr; }
   /// Seconds of the levels' preparation and the solver's set-up.
   double setup_seconds() const { return setup_seconds_; }
   /// The displacement hierarchy bound to the solver (its mass, a state's force and energy).
