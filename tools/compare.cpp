@@ -561,8 +561,9 @@ void run(const Options& given) {
     if (names.empty()) {
       names = {"mixed-gmres", "mixed-minres"};
       const auto all = registered_solvers();
-      if (std::any_of(all.begin(), all.end(), [](const SolverInfo& i) { return i.name == "mumps"; }))
-        names.push_back("mumps");
+      for (const char* peer : {"fieldsplit-gmres", "mumps"})  // PETSc's iterative and direct peers
+        if (std::any_of(all.begin(), all.end(), [&](const SolverInfo& i) { return i.name == peer; }))
+          names.push_back(peer);
     }
     run_mixed(o.scene, solver_configs(o, names, set), o.json_report);
     return;

@@ -74,7 +74,7 @@ void add_formulation_option(CLI::App* sub, std::string& formulation) {
   sub->add_option("--formulation", formulation,
                   "displacement: the elasticity system K u = f; mixed: the displacement-pressure saddle point of "
                   "Taylor-Hood elements (degree 2 or 3 with a pressure of one degree less, nu up to 0.5; solvers "
-                  "mixed-gmres, mixed-minres and mumps on the assembled system)")
+                  "mixed-gmres, mixed-minres, and on the assembled system PETSc's fieldsplit-gmres and mumps)")
       ->check(CLI::IsMember({"displacement", "mixed"}))
       ->capture_default_str();
 }

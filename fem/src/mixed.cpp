@@ -11,6 +11,8 @@
 #include <cmath>
 #include <mutex>
 
+#include <omp.h>
+
 namespace pmg::fem {
 
 namespace {
@@ -144,6 +146,20 @@ DivergenceCoupling::DivergenceCoupling(const ElasticityModel& u, const BBSpace& 
   free_ = &u.assembler().free_index();  // the assembler (built on first use) numbers and colours
   held_ = &u.constrained_free_dofs();
   colors_ = &u.assembler().colors();
+  const index_t ne = u.space().mesh().num_tets();
+  const int nu = u.space().nodes_per_element();
+  dofs_.resize(static_cast<size_t>(ne) * nu);
+  has_held_.assign(static_cast<size_t>(ne), 0);
+  for (index_t e = 0; e < ne; ++e) {
+    const index_t* un = u.space().element_nodes(e);
+    for (int a = 0; a < nu; ++a) {
+      const index_t f = (*free_)[un[a]];
+      dofs_[static_cast<size_t>(e) * nu + a] = f < 0 ? -1 : 3 * f;
+      if (f >= 0 && !held_->empty())
+        for (int c = 0; c < 3; ++c)
+          if ((*held_)[3 * f + c]) has_held_[static_cast<size_t>(e)] = 1;
+    }
+  }
   const Eigen::MatrixXd& M = element_tables(pressure.degree()).mass;
   mass_.resize(M.size());
   for (int b = 0; b < M.rows(); ++b)
@@ -189,61 +205,82 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   constexpr int NU = (K + 1) * (K + 2) * (K + 3) / 6, NP = K * (K + 1) * (K + 2) / 6;
   const double* M = mass_.data();  // row-major NP x NP
   const int* raise = raise_.data();
-  const index_t* free = free_->data();
-  const bool any_held = !held_->empty();
+  const index_t* dof = dofs_.data() + static_cast<size_t>(e) * NU;
+  const char* held = has_held_[static_cast<size_t>(e)] ? held_->data() : nullptr;
   const double v6 = 6.0 * u_.geometry(e).volume;
   double gr[4][3];
   gradients(e, gr);
-  const index_t* un = u_.space().element_nodes(e);
   const index_t* pn = pressure_.element_nodes(e);
-  index_t dof[NU];
-  double ul[NU][3], ua[NU][3] = {}, pl[NP], s[NP];
-  const bool with_b = x_u != nullptr;  // else Bᵀ alone
-  for (int a = 0; a < NU; ++a) {
-    const index_t f = free[un[a]];
-    dof[a] = f < 0 ? -1 : 3 * f;
-    if (!with_b) continue;
-    for (int c = 0; c < 3; ++c) ul[a][c] = f < 0 ? 0.0 : x_u[3 * f + c];
-    if (any_held && f >= 0)
-      for (int c = 0; c < 3; ++c)
-        if ((*held_)[3 * f + c]) ul[a][c] = 0.0;
+  if (x_u) {  // y_p += B_e x_u
+    double ul[NU][3];
+    for (int a = 0; a < NU; ++a) {
+      const index_t d = dof[a];
+      for (int c = 0; c < 3; ++c) ul[a][c] = d < 0 || (held && held[d + c]) ? 0.0 : x_u[d + c];
+    }
+    add_divergence<K>(gr, ul, v6, pn, y_p);
   }
-  if (with_b) add_divergence<K>(gr, ul, v6, pn, y_p);
-  // s = 6V M̂ p.
+  if (!x_p) return;
+  // y_u += Bᵀ_e x_p: s = 6V M̂ p, then u_{c+e_i} += k s_c ∇λ_i.
+  double pl[NP], s[NP], ua[NU][3] = {};
   for (int c = 0; c < NP; ++c) pl[c] = x_p[pn[c]];
   for (int b = 0; b < NP; ++b) {
     double sb = 0.0;
     for (int c = 0; c < NP; ++c) sb += M[b * NP + c] * pl[c];
     s[b] = K * v6 * sb;
   }
-  // u_{c+e_i} += k s_c ∇λ_i.
   for (int c = 0; c < NP; ++c)
     for (int i = 0; i < 4; ++i) {
       double* uu = ua[raise[c * 4 + i]];
       for (int j = 0; j < 3; ++j) uu[j] += s[c] * gr[i][j];
     }
   for (int a = 0; a < NU; ++a) {
-    if (dof[a] < 0) continue;
+    const index_t d = dof[a];
+    if (d < 0) continue;
     for (int c = 0; c < 3; ++c)
-      if (!any_held || !(*held_)[dof[a] + c]) y_u[dof[a] + c] += ua[a][c];
+      if (!held || !held[d + c]) y_u[d + c] += ua[a][c];
   }
 }
 
 void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const {
-  const index_t np = pressure_.num_nodes();
-  const auto& colors = *colors_;
-#pragma omp parallel
+  // Each thread runs a contiguous range of elements (their nodes close in memory) into its own
+  // accumulators, summed afterwards: no colours, so no barrier per colour.
+  const index_t np = rows(), nu = cols();
+  const long ne = u_.space().mesh().num_tets();
+  const int threads = omp_get_max_threads();
+  const bool cubic = u_.space().degree() == 3;
+  const std::lock_guard<std::mutex> lock(buffers_mutex_);  // one product at a time uses the buffers
+  const size_t others = static_cast<size_t>(std::max(threads - 1, 0));
+  if (x_u && bufp_.size() != others * np) bufp_.assign(others * np, 0.0);
+  if (x_p && bufu_.size() != others * nu) bufu_.assign(others * nu, 0.0);
+#pragma omp parallel num_threads(threads)
   {
+    const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+    double* yp = nullptr;
+    double* yu = nullptr;
     if (x_u) {
-#pragma omp for schedule(static)
-      for (index_t i = 0; i < np; ++i) y_p[i] = 0.0;
+      yp = tid == 0 ? y_p : bufp_.data() + static_cast<size_t>(tid - 1) * np;
+      std::fill(yp, yp + np, 0.0);
     }
-    for (const auto& elements : colors) {  // the implicit barrier of each loop orders the colours
-      const index_t n = static_cast<index_t>(elements.size());
+    if (x_p) {
+      yu = tid == 0 ? y_u : bufu_.data() + static_cast<size_t>(tid - 1) * nu;
+      if (tid > 0) std::fill(yu, yu + nu, 0.0);
+    }
+    const long begin = ne * tid / nt, end = ne * (tid + 1) / nt;
+    for (long e = begin; e < end; ++e) {
+      if (cubic) element<3>(static_cast<index_t>(e), x_u, x_p, yu, yp);
+      else element<2>(static_cast<index_t>(e), x_u, x_p, yu, yp);
+    }
+    if (nt > 1) {
+#pragma omp barrier
+      if (x_u) {
 #pragma omp for schedule(static)
-      for (index_t q = 0; q < n; ++q) {
-        if (u_.space().degree() == 2) element<2>(elements[q], x_u, x_p, y_u, y_p);
-        else element<3>(elements[q], x_u, x_p, y_u, y_p);
+        for (index_t i = 0; i < np; ++i)
+          for (int k = 0; k + 1 < nt; ++k) y_p[i] += bufp_[static_cast<size_t>(k) * np + i];
+      }
+      if (x_p) {
+#pragma omp for schedule(static)
+        for (index_t i = 0; i < nu; ++i)
+          for (int k = 0; k + 1 < nt; ++k) y_u[i] += bufu_[static_cast<size_t>(k) * nu + i];
       }
     }
   }
@@ -447,7 +484,7 @@ namespace {
 /// The one refusal of a direct method for corotational material (before it factorises anything).
 void refuse_direct_with_rotations(const std::string& method) {
   throw InputError("mixed elements: " + method +
-                   " factorises the assembled linear saddle point once; corotational material needs mixed-gmres or "
+                   " is set up once on the assembled linear saddle point; corotational material needs mixed-gmres or "
                    "mixed-minres");
 }
 }  // namespace
@@ -459,6 +496,9 @@ MixedSolver::MixedSolver(MixedElasticity& m, const Config& config, bool corotati
   SolverContext ctx;
   ctx.levels = &m.hierarchy();
   ctx.saddle_point = &m.blocks();
+  const Vector xyz = m.hierarchy().finest().free_positions();  // the displacement nodes' (GAMG's rigid modes)
+  const std::vector<double> coordinates(xyz.data(), xyz.data() + xyz.size());
+  ctx.coordinates = &coordinates;
   solver_ = make_solver(config, ctx, "mixed-gmres");
   bound_ = std::make_unique<BoundSystem>(m.hierarchy().bind(*solver_));
   const auto t0 = Clock::now();

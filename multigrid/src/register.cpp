@@ -421,9 +421,8 @@ void register_all() {
         c.fail("method", me + " solves a mixed (displacement-pressure) system: use it with formulation=mixed");
       const KrylovParams k = read_krylov(c);
       const MixedKrylovParams mp = read_params<MixedKrylovParams>(c);
-      const int restart = kind == MixedKrylov::Kind::gmres ? read_params<GmresParams>(c).restart : GmresParams{}.restart;
-      return std::make_unique<MixedKrylov>(kind, k, build_cycle(c, ctx, true, KrylovParams{}), *ctx.saddle_point, mp,
-                                           restart);
+      const GmresParams g = kind == MixedKrylov::Kind::gmres ? read_params<GmresParams>(c) : GmresParams{};
+      return std::make_unique<MixedKrylov>(kind, k, build_cycle(c, ctx, true, KrylovParams{}), *ctx.saddle_point, mp, g);
     };
   };
   register_builtin_solver({"mixed-minres",

@@ -187,8 +187,9 @@ void fused_dots(const std::vector<Vector>& V, int m, const Vector& w, double* h)
   for (int i = 0; i < m; ++i) h[i] = total[static_cast<size_t>(i)];
 }
 
-/// w -= Σ_{i<m} h[i] V[i] in one pass; returns ‖w‖ after it.
-double fused_subtract(const std::vector<Vector>& V, int m, const double* h, Vector& w) {
+/// w -= Σ_{i<m} h[i] V[i] (sign = -1) or w += Σ h[i] V[i] (sign = +1) in one pass; returns ‖w‖
+/// after it.
+double fused_update(const std::vector<Vector>& V, int m, const double* h, Vector& w, double sign) {
   const Eigen::Index n = w.size();
   const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
   double sq = 0.0;
@@ -197,35 +198,59 @@ double fused_subtract(const std::vector<Vector>& V, int m, const double* h, Vect
     const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
     for (int i = 0; i < m; ++i) {
       const double* v = V[static_cast<size_t>(i)].data();
-      const double c = h[i];
-      for (Eigen::Index k = k0; k < k1; ++k) w[k] -= c * v[k];
+      const double c = sign * h[i];
+      for (Eigen::Index k = k0; k < k1; ++k) w[k] += c * v[k];
     }
     for (Eigen::Index k = k0; k < k1; ++k) sq += w[k] * w[k];
   }
   return std::sqrt(sq);
 }
 
-}  // namespace
+/// dst = scale * src, in parallel.
+void scaled_copy(const Vector& src, double scale, Vector& dst) {
+  const Eigen::Index n = src.size();
+  dst.resize(n);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index k = 0; k < n; ++k) dst[k] = scale * src[k];
+}
 
-SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
-                  const KrylovParams& params, int restart, SolveMonitor* monitor, GmresWorkspace* work) {
-  check_krylov_inputs("GMRES", K, M, b, x);
-  if (restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(restart));
-  detail::ConvergenceTracker track("GMRES", params, monitor);
-  const Eigen::Index n = b.size();
+void grow(std::vector<Vector>& V, size_t count, Eigen::Index n) {
+  while (V.size() < count) V.emplace_back(n);
+}
+
+/// z = M v, then w = K z.
+class ComposedProduct final : public PreconditionedProduct {
+ public:
+  ComposedProduct(const LinearOperator& K, const LinearOperator& M) : K_(K), M_(M) {}
+  void apply(const Vector& v, Vector& z, Vector& w) const override {
+    M_.apply(v, z);
+    K_.apply(z, w);
+  }
+
+ private:
+  const LinearOperator &K_, &M_;
+};
+
+/// gmres() with KM (nullptr: no preconditioner), its inputs checked.
+SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, const Vector& b, Vector& x,
+                      const KrylovParams& params, const GmresParams& options, SolveMonitor* monitor,
+                      GmresWorkspace* work) {
+  if (options.restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(options.restart));
   GmresWorkspace own;
   GmresWorkspace& ws = work ? *work : own;
-  for (auto* vs : {&ws.V, &ws.Z})  // vectors of another size are of no use
+  std::vector<Vector>& V = ws.V;  // the Krylov basis
+  std::vector<Vector>& Z = ws.Z;  // M v_i (flexible GMRES)
+  detail::ConvergenceTracker track("GMRES", params, monitor);
+  const Eigen::Index n = b.size();
+  for (auto* vs : {&V, &Z})  // vectors of another size are of no use
     if (!vs->empty() && vs->front().size() != n) vs->clear();
   Vector& r = ws.r;
   Vector& w = ws.w;
   r.resize(n), w.resize(n);
   K.residual(b, x, r);
   if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
-  const int m = restart;
-  std::vector<Vector>& V = ws.V;  // the Krylov basis
-  std::vector<Vector>& Z = ws.Z;  // M v_i (flexible GMRES)
-  if (V.empty()) V.emplace_back(n);
+  const int m = options.restart;
+  grow(V, 1, n);
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);
   Eigen::VectorXd g(m + 1), cs(m), sn(m), h(m + 1), h2(m + 1);
   int it = 0;
@@ -235,30 +260,32 @@ SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector
       track.accept_true_residual(0.0);
       break;
     }
-    V[0] = r / beta;
+    scaled_copy(r, 1.0 / beta, V[0]);
     g.setZero();
     g[0] = beta;
     int j = 0;
     bool converged = false;
-    for (; j < m && !track.done(); ) {
-      if (M) {
-        if (static_cast<int>(Z.size()) < j + 1) Z.emplace_back(n);
-        M->apply(V[static_cast<size_t>(j)], Z[static_cast<size_t>(j)]);
+    for (; j < m && !track.done();) {
+      const auto jj = static_cast<size_t>(j);
+      if (KM) {
+        grow(Z, jj + 1, n);
+        KM->apply(V[jj], Z[jj], w);
+      } else {
+        K.apply(V[jj], w);
       }
-      K.apply(M ? Z[static_cast<size_t>(j)] : V[static_cast<size_t>(j)], w);
-      // Classical Gram–Schmidt, twice where the first pass lost more than 30% of ‖w‖.
-      const double before = ops::norm2(w);
+      // Classical Gram–Schmidt: once, or twice where the first pass lost more than 30% of ‖w‖.
+      const double before = options.reorthogonalise ? ops::norm2(w) : 0.0;
       fused_dots(V, j + 1, w, h.data());
-      double after = fused_subtract(V, j + 1, h.data(), w);
-      if (after < 0.7 * before) {
+      double after = fused_update(V, j + 1, h.data(), w, -1.0);
+      if (options.reorthogonalise && after < 0.7 * before) {
         fused_dots(V, j + 1, w, h2.data());
-        after = fused_subtract(V, j + 1, h2.data(), w);
+        after = fused_update(V, j + 1, h2.data(), w, -1.0);
         h.head(j + 1) += h2.head(j + 1);
       }
       H.col(j).head(j + 1) = h.head(j + 1);
       H(j + 1, j) = after;
-      if (static_cast<int>(V.size()) < j + 2) V.emplace_back(n);
-      if (after > 0) V[static_cast<size_t>(j + 1)] = w / after;
+      grow(V, jj + 2, n);
+      if (after > 0) scaled_copy(w, 1.0 / after, V[jj + 1]);
       // The Givens rotations of the columns before, then this column's own.
       for (int i = 0; i < j; ++i) {
         const double a = H(i, j), c = H(i + 1, j);
@@ -286,8 +313,7 @@ SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector
         for (int k = i + 1; k < j; ++k) y[i] -= H(i, k) * y[k];
         y[i] = H(i, i) != 0 ? y[i] / H(i, i) : 0.0;
       }
-      const std::vector<Vector>& basis = M ? Z : V;
-      for (int i = 0; i < j; ++i) x += y[i] * basis[static_cast<size_t>(i)];
+      fused_update(KM ? Z : V, j, y.data(), x, 1.0);
     }
     // Converged: the true residual confirms it, or the next cycle starts from it (as at a restart,
     // or after an exhausted Krylov space).
@@ -296,6 +322,51 @@ SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector
   }
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
   return track.finish(ops::norm2(r));
+}
+
+}  // namespace
+
+SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
+                  const KrylovParams& params, const GmresParams& options, SolveMonitor* monitor, GmresWorkspace* work) {
+  check_krylov_inputs("GMRES", K, M, b, x);
+  if (!M) return gmres_run(K, nullptr, b, x, params, options, monitor, work);
+  const ComposedProduct KM(K, *M);
+  return gmres_run(K, &KM, b, x, params, options, monitor, work);
+}
+
+SolveResult gmres(const LinearOperator& K, const PreconditionedProduct& KM, const Vector& b, Vector& x,
+                  const KrylovParams& params, const GmresParams& options, SolveMonitor* monitor, GmresWorkspace* work) {
+  check_krylov_inputs("GMRES", K, nullptr, b, x);
+  return gmres_run(K, &KM, b, x, params, options, monitor, work);
+}
+
+// ---- Gmres -----------------------------------------------------------------------------------------
+
+Gmres::Gmres(const KrylovParams& params, std::unique_ptr<Solver> preconditioner, const GmresParams& options)
+    : params_(params), M_(std::move(preconditioner)), options_(options) {
+  if (options.restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(options.restart));
+}
+
+std::string Gmres::describe() const {
+  const std::string m = !M_ ? "no preconditioner" : (M_->describe().empty() ? M_->name() : M_->describe());
+  return "GMRES(" + std::to_string(options_.restart) + "), " + m;
+}
+
+void Gmres::setup_impl(const LinearOperator& A) {
+  if (M_) M_->setup(A);
+}
+
+void Gmres::update_impl() {
+  if (M_) M_->update();
+}
+
+SolveResult Gmres::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
+  return gmres(system(), M_.get(), b, x, with_rhs_floor(params_, b), options_, monitor, &work_);
+}
+
+void Gmres::apply_impl(const Vector& b, Vector& x) const {
+  x.setZero();
+  require_usable(solve_impl(b, x, nullptr));
 }
 
 // ---- BlockTriangularOperator -----------------------------------------------------------------------
@@ -310,16 +381,54 @@ BlockTriangularOperator::BlockTriangularOperator(const LinearOperator& M_u, cons
                      " for blocks of " + std::to_string(M_u.rows()) + " and " + std::to_string(M_p.rows()));
 }
 
+void BlockTriangularOperator::precondition(const Vector& v) const {
+  const index_t nu = M_u_.rows(), np = M_p_.rows();
+  rp_ = v.tail(np);
+  M_p_.apply(rp_, zp_);  // z_p = -M_p r_p, so r_u - Bᵀ z_p = r_u + Bᵀ (M_p r_p)
+  bt_.setZero(nu);
+  B_.apply(nullptr, zp_.data(), bt_.data(), nullptr);
+  ru_ = v.head(nu) + bt_;
+  M_u_.apply(ru_, zu_);
+}
+
 void BlockTriangularOperator::apply_impl(const Vector& x, Vector& y) const {
   const index_t nu = M_u_.rows(), np = M_p_.rows();
-  rp_ = x.tail(np);
-  M_p_.apply(rp_, zp_);  // z_p = -M_p r_p, so r_u - Bᵀ z_p = r_u + Bᵀ (M_p r_p)
-  ru_ = x.head(nu);
-  B_.apply(nullptr, zp_.data(), ru_.data(), nullptr);
-  M_u_.apply(ru_, zu_);
+  precondition(x);
   y.resize(nu + np);
   y.head(nu) = zu_;
   y.tail(np) = -zp_;
+}
+
+void BlockTriangularOperator::apply_and_multiply(const SaddlePointOperator& K, const Vector& v, Vector& z,
+                                                 Vector& w) const {
+  const index_t nu = M_u_.rows(), np = M_p_.rows();
+  if (&K.coupling() != &B_ || K.rows() != rows())
+    throw InputError("block triangular operator: the saddle point's coupling or size is not the preconditioner's");
+  if (v.size() != rows())
+    throw InputError("block triangular operator: a vector of " + std::to_string(v.size()) + " entries for " +
+                     std::to_string(rows()) + " rows");
+  precondition(v);
+  z.resize(nu + np);
+  z.head(nu) = zu_;
+  z.tail(np) = -zp_;
+  // w_u = A z_u + Bᵀ z_p = A z_u − bt_; w_p = B z_u − C z_p = B z_u + C zp_.
+  w.resize(nu + np);
+  wu_.resize(nu);
+  K.first_block().apply(zu_, wu_);
+  w.head(nu) = wu_ - bt_;
+  B_.apply(zu_.data(), nullptr, nullptr, w.data() + nu);
+  if (const Csr* C = K.second_block()) {
+    cp_.resize(np);
+    C->multiply(zp_.data(), cp_.data());
+    w.tail(np) += cp_;
+  }
+}
+
+BlockTriangularProduct::BlockTriangularProduct(const BlockTriangularOperator& P, const SaddlePointOperator& K)
+    : P_(P), K_(K) {
+  if (K.rows() != P.rows())
+    throw InputError("block triangular product: the saddle point has " + std::to_string(K.rows()) +
+                     " rows, the preconditioner " + std::to_string(P.rows()));
 }
 
 // ---- SaddlePointOperator ---------------------------------------------------------------------------
@@ -331,6 +440,8 @@ CsrCoupling::CsrCoupling(const Csr& B, const Csr& Bt) : B_(B), Bt_(Bt) {
 }
 
 void CsrCoupling::apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const {
+  if (x_u) B_.multiply(x_u, y_p);
+  if (!x_p) return;
   const CsrPattern& p = Bt_.pattern();
   const double* v = Bt_.values().data();
 #pragma omp parallel for schedule(static)
@@ -339,7 +450,6 @@ void CsrCoupling::apply(const double* x_u, const double* x_p, double* y_u, doubl
     for (offset_t k = p.row_ptr[i]; k < p.row_ptr[i + 1]; ++k) sum += v[k] * x_p[p.col_idx[k]];
     y_u[i] += sum;
   }
-  if (x_u) B_.multiply(x_u, y_p);
 }
 
 SaddlePointOperator::SaddlePointOperator(const LinearOperator& A, const SaddlePointCoupling& B, const Csr* C)
@@ -440,12 +550,14 @@ void MixedKrylovParams::visit(ParamVisitor& v) {
 }
 
 void GmresParams::visit(ParamVisitor& v) {
-  v.integer("restart", restart, 1, 10000, "Krylov vectors kept before GMRES restarts (memory: restart + 1 vectors)");
+  v.integer("restart", restart, 1, 10000, "Krylov vectors kept before GMRES restarts (memory: 2 restart + 1 vectors)");
+  v.boolean("reorthogonalise", reorthogonalise,
+            "repeat classical Gram-Schmidt where it lost more than 30% of the norm (else one pass)");
 }
 
 MixedKrylov::MixedKrylov(Kind kind, const KrylovParams& params, std::unique_ptr<Solver> displacement,
-                         const SaddlePointBlocks& blocks, const MixedKrylovParams& mixed, int restart)
-    : kind_(kind), params_(params), M_u_(std::move(displacement)), blocks_(&blocks), mixed_(mixed), restart_(restart) {
+                         const SaddlePointBlocks& blocks, const MixedKrylovParams& mixed, const GmresParams& gmres)
+    : kind_(kind), params_(params), M_u_(std::move(displacement)), blocks_(&blocks), mixed_(mixed), gmres_(gmres) {
   const std::string me = name();
   if (!M_u_) throw InputError(me + ": no solver for the displacement block");
   if (!M_u_->is_linear() || !M_u_->is_symmetric())
@@ -455,14 +567,14 @@ MixedKrylov::MixedKrylov(Kind kind, const KrylovParams& params, std::unique_ptr<
   if (!blocks.coupling || !blocks.pressure_mass)
     throw InputError(me + ": the saddle-point blocks (B and Bᵀ, pressure mass) were not given");
   if (mixed.pressure_steps < 1) throw InputError(me + ": pressure_steps must be >= 1");
-  if (restart < 1) throw InputError(me + ": restart must be >= 1");
+  if (gmres.restart < 1) throw InputError(me + ": restart must be >= 1");
 }
 
 std::string MixedKrylov::describe() const {
   std::ostringstream scale;
   scale << mixed_.pressure_scale * blocks_->schur_scale;
   return (kind_ == Kind::minres ? "MINRES, block-diagonal preconditioner: displacement "
-                                : "GMRES(" + std::to_string(restart_) + "), block-triangular preconditioner: displacement ") +
+                                : "GMRES(" + std::to_string(gmres_.restart) + (gmres_.reorthogonalise ? "" : ", one Gram-Schmidt pass") + "), block-triangular preconditioner: displacement ") +
          (M_u_->describe().empty() ? M_u_->name() : M_u_->describe()) + "; pressure " +
          std::to_string(mixed_.pressure_steps) + " Chebyshev steps on the mass, S ~ " + scale.str() + " M_p";
 }
@@ -482,7 +594,11 @@ void MixedKrylov::set_up_pressure() {
                                                 mixed_.pressure_steps,
                                                 1.0 / (mixed_.pressure_scale * blocks_->schur_scale));
   if (kind_ == Kind::minres) P_ = std::make_unique<BlockDiagonalOperator>(*M_u_, *M_p_);
-  else P_ = std::make_unique<BlockTriangularOperator>(*M_u_, *M_p_, *blocks_->coupling);
+  else {
+    auto P = std::make_unique<BlockTriangularOperator>(*M_u_, *M_p_, *blocks_->coupling);
+    triangular_ = P.get();
+    P_ = std::move(P);
+  }
 }
 
 void MixedKrylov::update_impl() {
@@ -492,7 +608,9 @@ void MixedKrylov::update_impl() {
 
 SolveResult MixedKrylov::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   if (kind_ == Kind::minres) return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);
-  return gmres(system(), P_.get(), b, x, with_rhs_floor(params_, b), restart_, monitor, &work_);
+  const SaddlePointOperator& K = *system().saddle_point_operator();
+  const BlockTriangularProduct KP(*triangular_, K);
+  return gmres(K, KP, b, x, with_rhs_floor(params_, b), gmres_, monitor, &work_);
 }
 
 void MixedKrylov::apply_impl(const Vector& b, Vector& x) const {

@@ -93,8 +93,9 @@ bool testable(const SolverInfo& s) {
   if (s.component == "distributed") return false;
   // mixed-minres and mixed-gmres solve saddle points [A Bᵀ; B -C], not SPD systems: their cases
   // (guesses, tolerances, breakdown, the blocks' answers against a direct solve) are in
-  // tests/sparse/test_saddle_point.cpp and tests/multigrid/test_mixed.cpp.
-  if (s.name == "mixed-minres" || s.name == "mixed-gmres") return false;
+  // tests/sparse/test_saddle_point.cpp and tests/multigrid/test_mixed.cpp; fieldsplit-gmres's
+  // against mixed-gmres in tests/tools.
+  if (s.name == "mixed-minres" || s.name == "mixed-gmres" || s.name == "fieldsplit-gmres") return false;
   return s.component != "petsc" || mg::petsc_available();
 }
 

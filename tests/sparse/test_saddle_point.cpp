@@ -192,7 +192,9 @@ TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, rest
           KrylovParams p;
           p.rel_tol = tol;
           p.max_iterations = 5000;
-          const SolveResult r = gmres(*s.K, M, b, x, p, restart);
+          GmresParams g;
+          g.restart = restart;
+          const SolveResult r = gmres(*s.K, M, b, x, p, g);
           INFO("tol " << tol << ", restart " << restart << ", guess " << guess << (M ? ", preconditioned" : ""));
           CHECK(r.ok());
           CHECK((b - k * x).norm() <= 2 * tol * b.norm());
@@ -215,9 +217,13 @@ TEST_CASE("GMRES: a nonsymmetric system, the iteration limit and bad input are n
   p.max_iterations = 3;
   p.throw_on_failure = false;
   x.setZero();
-  const SolveResult r = gmres(K, nullptr, b, x, p, 2);
+  GmresParams two;
+  two.restart = 2;
+  const SolveResult r = gmres(K, nullptr, b, x, p, two);
   CHECK(r.status == SolveStatus::iteration_limit);
   CHECK(r.iterations == 3);
-  CHECK_THROWS_WITH(gmres(K, nullptr, b, x, KrylovParams{}, 0), Catch::Contains("restart must be >= 1"));
+  GmresParams none;
+  none.restart = 0;
+  CHECK_THROWS_WITH(gmres(K, nullptr, b, x, KrylovParams{}, none), Catch::Contains("restart must be >= 1"));
   CHECK_THROWS_WITH(gmres(K, nullptr, Vector::Random(3), x), Catch::Contains("GMRES: right-hand side has 3 entries"));
 }

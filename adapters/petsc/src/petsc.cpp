@@ -150,14 +150,20 @@ bool petsc_available() { return true; }
 void start_petsc() { petsc(); }
 
 struct PetscPreconditioner::Impl {
-  Mat A = nullptr;
+  Mat A = nullptr, Sp = nullptr;
   Vec r = nullptr, z = nullptr, coords = nullptr;
   MatNullSpace near_null = nullptr;
+  IS is_u = nullptr, is_p = nullptr;
   PC pc = nullptr;
   std::vector<PetscInt> row_ptr;  // 32-bit copy of the 64-bit offsets
+  std::vector<PetscInt> sp_row_ptr;  // fieldsplit: Ŝ = −s M_p, its offsets and values
+  std::vector<double> sp_values;
   std::string prefix, options;
   void destroy() {
     if (pc) PCDestroy(&pc);
+    if (is_u) ISDestroy(&is_u);
+    if (is_p) ISDestroy(&is_p);
+    if (Sp) MatDestroy(&Sp);
     if (near_null) MatNullSpaceDestroy(&near_null);
     if (coords) VecDestroy(&coords);
     if (r) VecDestroy(&r);
@@ -172,20 +178,58 @@ struct PetscPreconditioner::Impl {
 
 PetscPreconditioner::PetscPreconditioner(const PetscParams& params)
     : impl_(std::make_unique<Impl>()), params_(params) {
-  if (params.type != "gamg" && params.type != "mumps" && params.type != "cholmod")
-    throw InputError("PETSc: unknown preconditioner type '" + params.type + "' (gamg, mumps, cholmod)");
+  if (params.type != "gamg" && params.type != "mumps" && params.type != "cholmod" && params.type != "fieldsplit")
+    throw InputError("PETSc: unknown preconditioner type '" + params.type + "' (gamg, mumps, cholmod, fieldsplit)");
   detail::option_names(params.options);  // refuses a malformed option string
   static std::atomic<long> count{0};
   impl_->prefix = "pmg" + std::to_string(count++) + "_";
   // GAMG: CG-estimated Chebyshev/Jacobi smoothing, as FEniCSx's elasticity demo sets it.
+  // fieldsplit: the same GAMG on the displacement block, one application per split.
   std::string defaults = params.type == "gamg"
                              ? "-mg_levels_ksp_type chebyshev -mg_levels_pc_type jacobi "
                                "-mg_levels_esteig_ksp_type cg "
                              : "";
+  if (params.type == "fieldsplit")
+    defaults = "-fieldsplit_0_ksp_type preonly -fieldsplit_0_pc_type gamg -fieldsplit_0_mg_levels_ksp_type chebyshev "
+               "-fieldsplit_0_mg_levels_pc_type jacobi -fieldsplit_0_mg_levels_esteig_ksp_type cg "
+               "-fieldsplit_1_ksp_type preonly -fieldsplit_1_pc_type jacobi ";
   impl_->options = defaults + params.options;
 }
 
 PetscPreconditioner::~PetscPreconditioner() = default;
+
+void PetscPreconditioner::set_up_fieldsplit(index_t n) {
+  Impl& d = *impl_;
+  if (!saddle_ || !saddle_->pressure_mass)
+    throw InputError("PETSc fieldsplit: needs the blocks of a saddle point (formulation=mixed)");
+  const Csr& Mp = *saddle_->pressure_mass;
+  const PetscInt np = Mp.rows(), nu = n - np;
+  if (nu <= 0 || nu % 3 != 0)
+    throw InputError("PETSc fieldsplit: the system of " + std::to_string(n) + " unknowns has no displacement block of 3 per node beside " +
+                     std::to_string(np) + " pressures");
+  // The two fields: displacement first (3 per node, for GAMG), then the pressure.
+  check(ISCreateStride(PETSC_COMM_SELF, nu, 0, 1, &d.is_u), "ISCreateStride");
+  check(ISSetBlockSize(d.is_u, 3), "ISSetBlockSize");
+  check(ISCreateStride(PETSC_COMM_SELF, np, nu, 1, &d.is_p), "ISCreateStride");
+  if (params_.rigid_near_null_space) {
+    if (static_cast<PetscInt>(coordinates_.size()) != nu)
+      throw InputError("PETSc fieldsplit: the rigid-body near-null space needs the coordinates of the " +
+                       std::to_string(nu / 3) + " displacement nodes, got " + std::to_string(coordinates_.size() / 3));
+    check(VecCreateSeqWithArray(PETSC_COMM_SELF, 3, nu, coordinates_.data(), &d.coords), "VecCreateSeqWithArray");
+    check(MatNullSpaceCreateRigidBody(d.coords, &d.near_null), "MatNullSpaceCreateRigidBody");
+    // PCFIELDSPLIT gives the split's matrix the near-null space composed with its index set.
+    check(PetscObjectCompose(reinterpret_cast<PetscObject>(d.is_u), "nearnullspace",
+                             reinterpret_cast<PetscObject>(d.near_null)),
+          "PetscObjectCompose");
+  }
+  // PETSc's Schur complement of [A Bᵀ; B −C] is −C − B A⁻¹ Bᵀ ≈ −s M_p.
+  d.sp_row_ptr.assign(Mp.pattern().row_ptr.begin(), Mp.pattern().row_ptr.end());
+  d.sp_values.resize(Mp.values().size());
+  for (size_t k = 0; k < d.sp_values.size(); ++k) d.sp_values[k] = -saddle_->schur_scale * Mp.values()[k];
+  check(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, np, np, d.sp_row_ptr.data(),
+                                  const_cast<PetscInt*>(Mp.pattern().col_idx.data()), d.sp_values.data(), &d.Sp),
+        "MatCreateSeqAIJWithArrays");
+}
 
 void PetscPreconditioner::setup_impl(const LinearOperator& A) {
   petsc();
@@ -204,9 +248,11 @@ void PetscPreconditioner::setup_impl(const LinearOperator& A) {
                                   const_cast<PetscInt*>(S.pattern().col_idx.data()),
                                   const_cast<PetscScalar*>(S.values().data()), &d.A),
         "MatCreateSeqAIJWithArrays");
-  const bool blocks = n % 3 == 0;
+  const bool fieldsplit = params_.type == "fieldsplit";
+  const bool blocks = n % 3 == 0 && !fieldsplit;
   if (blocks) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
   check(MatSetOption(d.A, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+  if (fieldsplit) set_up_fieldsplit(n);
   if (!params_.indefinite) check(MatSetOption(d.A, MAT_SPD, PETSC_TRUE), "MatSetOption");
   if (params_.type == "gamg" && params_.rigid_near_null_space) {
     if (!blocks || static_cast<PetscInt>(coordinates_.size()) != n)
@@ -226,6 +272,13 @@ void PetscPreconditioner::setup_impl(const LinearOperator& A) {
   check(PCSetOperators(d.pc, d.A, d.A), "PCSetOperators");
   if (params_.type == "gamg") {
     check(PCSetType(d.pc, PCGAMG), "PCSetType");
+  } else if (fieldsplit) {
+    check(PCSetType(d.pc, PCFIELDSPLIT), "PCSetType");
+    check(PCFieldSplitSetIS(d.pc, "0", d.is_u), "PCFieldSplitSetIS");
+    check(PCFieldSplitSetIS(d.pc, "1", d.is_p), "PCFieldSplitSetIS");
+    check(PCFieldSplitSetType(d.pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
+    check(PCFieldSplitSetSchurFactType(d.pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "PCFieldSplitSetSchurFactType");
+    check(PCFieldSplitSetSchurPre(d.pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.Sp), "PCFieldSplitSetSchurPre");
   } else {
     check(PCSetType(d.pc, PCCHOLESKY), "PCSetType");
     check(PCFactorSetMatSolverType(d.pc, params_.type == "mumps" ? MATSOLVERMUMPS : MATSOLVERCHOLMOD),

@@ -5,7 +5,7 @@ namespace pmg::petsc {
 
 namespace {
 [[noreturn]] void missing() {
-  throw InputError("PETSc solvers (gamg, gamg-pcg, mumps, petsc-cholmod) need PETSc, and this pmgkit "
+  throw InputError("PETSc solvers (gamg, gamg-pcg, mumps, petsc-cholmod, fieldsplit-gmres) need PETSc, and this pmgkit "
                    "was built without it: install Debian's libpetsc-real-dev (scripts/setup.sh does) "
                    "and configure again");
 }
@@ -20,6 +20,7 @@ PetscPreconditioner::PetscPreconditioner(const PetscParams& params) : params_(pa
 PetscPreconditioner::~PetscPreconditioner() = default;
 void PetscPreconditioner::setup_impl(const LinearOperator&) { missing(); }
 void PetscPreconditioner::update_impl() { missing(); }
+void PetscPreconditioner::set_up_fieldsplit(index_t) { missing(); }
 void PetscPreconditioner::apply_impl(const Vector&, Vector&) const { missing(); }
 std::string PetscPreconditioner::describe() const { return ""; }
 

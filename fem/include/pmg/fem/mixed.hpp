@@ -61,8 +61,9 @@ void element_divergence(const MixedTables& t, const ElementGeometry& g, Eigen::M
 /// element  B_e u = 6V M̂ d  and  Bᵀ_e p: u_{c+e_i} += k (6V M̂ p)_c ∇λ_i  (M̂ the pressure mass
 /// table): about 2 np² + 12 np multiply-adds per element and product (440 for cubics), against the
 /// 3 np nu entries of B_e.
-/// Element colours (BlockAssembler) keep the scatters race-free. Held components read and write
-/// zero. Holds references to the model and the pressure space.
+/// Each thread runs a contiguous range of elements into its own accumulators (summed after), as
+/// ElasticityOperator does. Held components read and write zero. Holds references to the model
+/// and the pressure space.
 class DivergenceCoupling final : public SaddlePointCoupling {
  public:
   /// The coupling of the model's free displacement unknowns with every node of `pressure` (the same
@@ -93,6 +94,10 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   const std::vector<index_t>* free_ = nullptr;                 ///< the model's free numbering
   const std::vector<char>* held_ = nullptr;                    ///< its held components
   const std::vector<std::vector<index_t>>* colors_ = nullptr;  ///< its element colours
+  std::vector<index_t> dofs_;  ///< per element and node: 3 x its free index, or -1 (fixed)
+  std::vector<char> has_held_;  ///< per element: 1 where a node of it has a held component
+  mutable std::vector<double> bufp_, bufu_;  ///< the accumulators of threads 1.. (n_p and n_u each)
+  mutable std::mutex buffers_mutex_;
   template <int K>
   void element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const;
   template <int K>

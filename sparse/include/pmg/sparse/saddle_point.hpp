@@ -51,7 +51,7 @@ class SaddlePointCoupling {
   /// Columns of B: the first unknowns, n_u.
   virtual index_t cols() const = 0;
   /// y_u += Bᵀ x_p and y_p = B x_u (sizes unchecked: n_u, n_p, n_u, n_p). x_u == nullptr: only
-  /// y_u += Bᵀ x_p (y_p unused).
+  /// y_u += Bᵀ x_p (y_p unused); x_p == nullptr: only y_p = B x_u (y_u unused).
   virtual void apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const = 0;
 };
 
@@ -93,13 +93,30 @@ struct SaddlePointBlocks {
 SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
                    const KrylovParams& params = {}, SolveMonitor* monitor = nullptr);
 
+/// The options of gmres(), which are the keys of mixed-gmres beside MixedKrylovParams.
+struct GmresParams {
+  /// Krylov vectors kept before a restart (memory: 2 restart + 1 vectors of the system's size).
+  /// 50: the stress matrix's thin plate (4 x 1 x 0.01 m, ν = 0.499, 1e-5 per step) stagnated past
+  /// 1,000 iterations in its third step with 20, and took at most 546 per step with 50 (702 with
+  /// 40); on Homer P3 20 is 1.2x faster, for two more iterations.
+  int restart = 50;
+  /// Classical Gram–Schmidt once per iteration (false, PETSc's default for its GMRES), or repeated
+  /// where the first pass lost more than 30% of the norm ("twice is enough": Giraud, Langou and
+  /// Rozložník 2005). One pass gave the same iterations to 1e-8 on the bar and Homer P3 at ν = 0.3
+  /// and 0.4999 (docs/robustness.md), where the criterion had repeated the pass in 40 of 41
+  /// iterations; the true residual decides convergence either way.
+  bool reorthogonalise = false;
+  /// The keys restart and reorthogonalise.
+  void visit(ParamVisitor& v);
+};
+
 /// The vectors of gmres(), kept between solves by a caller that solves many times (each solve
 /// would otherwise allocate, and fault in, 2 restart + 1 vectors of the system's size).
 struct GmresWorkspace {
-  std::vector<Vector> V;  ///< the Krylov basis
-  std::vector<Vector> Z;  ///< the preconditioned vectors M v_i
-  Vector r;               ///< the residual
-  Vector w;               ///< the new direction
+  std::vector<Vector> V;           ///< the Krylov basis
+  std::vector<Vector> Z;           ///< the preconditioned vectors M v_i
+  Vector r;                        ///< the residual
+  Vector w;                        ///< the new direction
 };
 
 /// Right-preconditioned restarted GMRES in its flexible form (Saad, "A flexible inner-outer
@@ -110,14 +127,56 @@ struct GmresWorkspace {
 /// to rounding even where M is applied in lower precision (a multigrid cycle with float levels).
 /// Stopping as pcg() on ‖b − K x‖ (KrylovParams); when the estimate meets the tolerance x is formed
 /// and the true residual computed and, where it disagrees, GMRES restarts from x. Memory: `restart`
-/// (>= 1) vectors z_i and restart + 1 vectors v_i of the system's size. The orthogonalisation is classical Gram–Schmidt in fused passes, repeated once where it lost more
-/// than 30% of the norm ("twice is enough": Giraud, Langou and Rozložník 2005). Cost per iteration:
-/// one K, one M, and 2–4 passes over the j + 1 Krylov vectors of iteration j. x holds the initial
-/// guess and receives the answer.
+/// (>= 1) vectors z_i and restart + 1 vectors v_i of the system's size. The orthogonalisation is
+/// classical Gram–Schmidt in fused passes (GmresParams::reorthogonalise). Cost per iteration: one
+/// K, one M, and 2 (4 where repeated) passes over the j + 1 Krylov vectors of iteration j. x holds
+/// the initial guess and receives the answer.
 SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
-                  const KrylovParams& params = {}, int restart = 50, SolveMonitor* monitor = nullptr,
+                  const KrylovParams& params = {}, const GmresParams& options = {}, SolveMonitor* monitor = nullptr,
                   GmresWorkspace* work = nullptr);
 
+/// One step of right preconditioning, z = M v and w = K z, in one call: for a preconditioner whose
+/// work the product with K can reuse (BlockTriangularOperator shares Bᵀ z_p).
+class PreconditionedProduct {
+ public:
+  virtual ~PreconditionedProduct() = default;
+  /// z = M v, then w = K z (z as stored: K is applied to exactly the z it returns).
+  virtual void apply(const Vector& v, Vector& z, Vector& w) const = 0;
+};
+
+/// gmres() with M and its product with K given as one PreconditionedProduct; K still forms the
+/// residuals. Throws InputError as gmres().
+SolveResult gmres(const LinearOperator& K, const PreconditionedProduct& KM, const Vector& b, Vector& x,
+                  const KrylovParams& params = {}, const GmresParams& options = {}, SolveMonitor* monitor = nullptr,
+                  GmresWorkspace* work = nullptr);
+
+
+/// gmres() as a Solver for any system, with any preconditioner (a Solver, set up and updated with
+/// this one; nullptr: none): the outer iteration of a preconditioner that is not symmetric or not
+/// positive definite (PETSc's fieldsplit on a saddle point: `fieldsplit-gmres`).
+class Gmres final : public Solver {
+ public:
+  /// Takes ownership of the preconditioner. Throws InputError for restart < 1.
+  explicit Gmres(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr,
+                 const GmresParams& options = {});
+  std::string name() const override { return M_ ? "gmres(" + M_->name() + ")" : "gmres"; }
+  bool is_linear() const override { return false; }
+  bool is_symmetric() const override { return false; }
+  SolverNeeds needs() const override { return M_ ? M_->needs() : SolverNeeds{}; }
+  std::string describe() const override;
+  /// The stopping rules (read at each solve).
+  KrylovParams& params() { return params_; }
+
+ private:
+  void setup_impl(const LinearOperator& A) override;
+  void update_impl() override;
+  SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
+  void apply_impl(const Vector& b, Vector& x) const override;
+  KrylovParams params_;
+  std::unique_ptr<Solver> M_;
+  GmresParams options_;
+  mutable GmresWorkspace work_;
+};
 
 /// K = [A Bᵀ; B -C] on (u; p), u first (see the file comment). Holds references to A, the coupling
 /// (B and Bᵀ) and C, which must outlive it. C may be nullptr (zero).
@@ -173,6 +232,10 @@ class BlockTriangularOperator final : public LinearOperator {
   BlockTriangularOperator(const LinearOperator& M_u, const LinearOperator& M_p, const SaddlePointCoupling& B);
   index_t rows() const override { return M_u_.rows() + M_p_.rows(); }
   index_t cols() const override { return rows(); }
+  /// z = P v, then w = K z with K's Bᵀ z_p taken from P's own (w_u = A z_u + Bᵀ z_p, w_p = B z_u −
+  /// C z_p): one pass of Bᵀ and one of B, where P then K make two of Bᵀ. Throws InputError when K's
+  /// coupling is not this operator's or the sizes differ.
+  void apply_and_multiply(const SaddlePointOperator& K, const Vector& v, Vector& z, Vector& w) const;
 
  protected:
   void apply_impl(const Vector& x, Vector& y) const override;
@@ -180,7 +243,22 @@ class BlockTriangularOperator final : public LinearOperator {
  private:
   const LinearOperator &M_u_, &M_p_;
   const SaddlePointCoupling& B_;
-  mutable Vector ru_, rp_, zu_, zp_;
+  mutable Vector ru_, rp_, zu_, zp_, bt_, wu_, cp_;
+  /// zp_ = M_p r_p (= −z_p), bt_ = Bᵀ zp_ (= −Bᵀ z_p), zu_ = M_u (r_u + bt_).
+  void precondition(const Vector& v) const;
+};
+
+/// A BlockTriangularOperator and the saddle point it preconditions as one PreconditionedProduct
+/// (BlockTriangularOperator::apply_and_multiply). Holds references to both.
+class BlockTriangularProduct final : public PreconditionedProduct {
+ public:
+  /// Throws InputError when K's coupling is not P's or the sizes differ.
+  BlockTriangularProduct(const BlockTriangularOperator& P, const SaddlePointOperator& K);
+  void apply(const Vector& v, Vector& z, Vector& w) const override { P_.apply_and_multiply(K_, v, z, w); }
+
+ private:
+  const BlockTriangularOperator& P_;
+  const SaddlePointOperator& K_;
 };
 
 /// A fixed number of Chebyshev semi-iteration steps for M z = r from z = 0, preconditioned by the
@@ -223,17 +301,6 @@ struct MixedKrylovParams {
   void visit(ParamVisitor& v);
 };
 
-/// The key of mixed-gmres beside MixedKrylovParams.
-struct GmresParams {
-  /// Krylov vectors kept before a restart (memory: 2 restart + 1 vectors of the system's size).
-  /// 50: the stress matrix's thin plate (4 x 1 x 0.01 m, ν = 0.499, 1e-5 per step) stagnated past
-  /// 1,000 iterations in its third step with 20, and took at most 546 per step with 50 (702 with
-  /// 40); on Homer P3 20 is 1.2x faster, for two more iterations.
-  int restart = 50;
-  /// The key restart.
-  void visit(ParamVisitor& v);
-};
-
 /// A Krylov method on a saddle point with a block preconditioner (the file comment), as a Solver set
 /// up on a SaddlePointOperator: MINRES with diag(M_u, M_p) (`mixed-minres`), or GMRES with the block
 /// upper-triangular P (`mixed-gmres`). M_u is a solver of the displacement block A (a multigrid
@@ -249,7 +316,7 @@ class MixedKrylov final : public Solver {
   /// missing, nonlinear or nonsymmetric solver, blocks without a coupling or M_p, pressure_steps
   /// < 1 or restart < 1.
   MixedKrylov(Kind kind, const KrylovParams& params, std::unique_ptr<Solver> displacement,
-              const SaddlePointBlocks& blocks, const MixedKrylovParams& mixed, int restart = 50);
+              const SaddlePointBlocks& blocks, const MixedKrylovParams& mixed, const GmresParams& gmres = {});
   std::string name() const override { return kind_ == Kind::minres ? "mixed-minres" : "mixed-gmres"; }
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
@@ -275,9 +342,10 @@ class MixedKrylov final : public Solver {
   std::unique_ptr<Solver> M_u_;
   const SaddlePointBlocks* blocks_;  // the discretisation's: read at set-up and update
   MixedKrylovParams mixed_;
-  int restart_;
+  GmresParams gmres_;
   std::unique_ptr<ChebyshevMassInverse> M_p_;
   std::unique_ptr<LinearOperator> P_;
+  const BlockTriangularOperator* triangular_ = nullptr;  // P_ for GMRES
   mutable GmresWorkspace work_;  // kept between solves (time steps)
   void set_up_pressure();
 };
