@@ -14,6 +14,8 @@
 #include <sstream>
 #include <catch2/catch.hpp>
 
+#include <omp.h>
+
 using namespace pmg;
 using namespace pmg::fem;
 using namespace pmg::fem::test;
@@ -82,6 +84,20 @@ TEST_CASE("mixed: the matrix-free coupling equals the assembled B and Bᵀ, held
     Vector yu2 = yu0;
     m.coupling().apply(nullptr, xp.data(), yu2.data(), nullptr);
     CHECK((yu2 - yu0 - Btp).norm() <= 1e-13 * Btp.norm());
+    // B alone (x_p = nullptr: the product with K after the preconditioner), on 1 and 2 threads
+    // (one accumulator, or a second summed into the first).
+    for (int threads : {1, 2}) {
+      const int before = omp_get_max_threads();
+      omp_set_num_threads(threads);
+      Vector yp2 = Vector::Random(m.num_pressure()), yu3 = yu0;
+      m.coupling().apply(xu.data(), nullptr, nullptr, yp2.data());
+      m.coupling().apply(xu.data(), xp.data(), yu3.data(), yp.data());
+      omp_set_num_threads(before);
+      INFO(threads << " threads");
+      CHECK((yp2 - Bx).norm() <= 1e-13 * Bx.norm());
+      CHECK((yp - Bx).norm() <= 1e-13 * Bx.norm());
+      CHECK((yu3 - yu0 - Btp).norm() <= 1e-13 * Btp.norm());
+    }
     const ElasticityModel& model = m.hierarchy().finest();
     const std::vector<char>& constrained = model.constrained_free_dofs();
     Vector xu_held = xu;  // the held components read zero in B; expand keeps them

@@ -143,6 +143,48 @@ TEST_CASE("Chebyshev mass inverse: the M-norm error contracts by the Chebyshev b
   CHECK_THROWS_WITH(ChebyshevMassInverse(m, 1.0, 0.5, 4), Catch::Contains("0 < lo < hi"));
 }
 
+TEST_CASE("the block-triangular product equals P then K, and GMRES with it equals GMRES with P", "[saddle]") {
+  // BlockTriangularOperator::apply_and_multiply reuses P's Bᵀ z_p in K z: z and w as P then K
+  // give them, with and without C; the coupling's B alone and Bᵀ alone sum to both at once.
+  for (double c : {0.0, 0.3}) {
+    const Saddle s(20, 7, c, 11);
+    const Dense Mu(s.A.diagonal().cwiseInverse().asDiagonal().toDenseMatrix()),
+        Mp(Eigen::MatrixXd::Identity(7, 7) * 0.2);
+    const BlockTriangularOperator P(Mu, Mp, *s.coupling);
+    const BlockTriangularProduct KP(P, *s.K);
+    const Vector v = Vector::Random(27);
+    Vector z, w, z_ref, w_ref;
+    KP.apply(v, z, w);
+    P.apply(v, z_ref);
+    s.K->apply(z_ref, w_ref);
+    INFO("C scale " << c);
+    CHECK((z - z_ref).norm() <= 1e-14 * z_ref.norm());
+    CHECK((w - w_ref).norm() <= 1e-13 * w_ref.norm());
+    const Vector b = Vector::Random(27);
+    Vector x1, x2;
+    KrylovParams k;
+    k.rel_tol = 1e-10;
+    const SolveResult r1 = gmres(*s.K, KP, b, x1, k), r2 = gmres(*s.K, &P, b, x2, k);
+    CHECK(r1.ok());
+    CHECK(r1.iterations == r2.iterations);
+    CHECK((b - s.dense() * x1).norm() <= 2e-10 * b.norm());
+    // B alone (x_p null) plus Bᵀ alone (x_u null) is the product of both.
+    const Vector xu = Vector::Random(20), xp = Vector::Random(7);
+    Vector yu = Vector::Zero(20), yp(7), yu2 = Vector::Zero(20), yp2(7);
+    s.coupling->apply(xu.data(), xp.data(), yu.data(), yp.data());
+    s.coupling->apply(xu.data(), nullptr, nullptr, yp2.data());
+    s.coupling->apply(nullptr, xp.data(), yu2.data(), nullptr);
+    CHECK((yp - yp2).norm() <= 1e-14 * yp.norm());
+    CHECK((yu - yu2).norm() <= 1e-14 * yu.norm());
+  }
+  // A product whose saddle point is not the preconditioner's is refused by name.
+  const Saddle s(20, 7, 0.0, 11), other(21, 6, 0.0, 12);
+  const Dense Mu(Eigen::MatrixXd::Identity(20, 20)), Mp(Eigen::MatrixXd::Identity(7, 7));
+  const BlockTriangularOperator P(Mu, Mp, *s.coupling);
+  Vector z, w;
+  CHECK_THROWS_WITH(P.apply_and_multiply(*other.K, Vector::Random(27), z, w), Catch::Contains("coupling or size"));
+}
+
 TEST_CASE("GMRES with the exact block-triangular preconditioner ends in two iterations", "[saddle]") {
   // Murphy, Golub and Wathen (2000): K P has the single eigenvalue 1 and a minimal polynomial of
   // degree 2, with and without C.
@@ -163,7 +205,8 @@ TEST_CASE("GMRES with the exact block-triangular preconditioner ends in two iter
   }
 }
 
-TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, restarted or not, with and without M",
+TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, restarted or not, with and without M, "
+          "with one or two Gram-Schmidt passes",
           "[saddle]") {
   const Saddle s(25, 8, 0.01, 7);
   const Eigen::MatrixXd k = s.dense();
@@ -192,14 +235,19 @@ TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, rest
           KrylovParams p;
           p.rel_tol = tol;
           p.max_iterations = 5000;
-          GmresParams g;
-          g.restart = restart;
-          const SolveResult r = gmres(*s.K, M, b, x, p, g);
-          INFO("tol " << tol << ", restart " << restart << ", guess " << guess << (M ? ", preconditioned" : ""));
-          CHECK(r.ok());
-          CHECK((b - k * x).norm() <= 2 * tol * b.norm());
-          // Without restarts GMRES ends within the dimension (33), in exact arithmetic.
-          if (restart == 50 && tol >= 1e-8) CHECK(r.iterations <= 33);
+          for (bool twice : {false, true}) {  // one Gram–Schmidt pass, or repeated where needed
+            GmresParams g;
+            g.restart = restart;
+            g.reorthogonalise = twice;
+            Vector xg = x;
+            const SolveResult r = gmres(*s.K, M, b, xg, p, g);
+            INFO("tol " << tol << ", restart " << restart << ", guess " << guess << (M ? ", preconditioned" : "")
+                        << (twice ? ", reorthogonalised" : ""));
+            CHECK(r.ok());
+            CHECK((b - k * xg).norm() <= 2 * tol * b.norm());
+            // Without restarts GMRES ends within the dimension (33), in exact arithmetic.
+            if (restart == 50 && tol >= 1e-8) CHECK(r.iterations <= 33);
+          }
         }
 }
 
