@@ -198,6 +198,15 @@ PetscPreconditioner::PetscPreconditioner(const PetscParams& params)
 
 PetscPreconditioner::~PetscPreconditioner() = default;
 
+void PetscPreconditioner::scale_schur() {
+  // PETSc's Schur complement of [A Bᵀ; B −C] is −C − B A⁻¹ Bᵀ ≈ −s M_p (s read afresh: a time
+  // step's weights change it).
+  Impl& d = *impl_;
+  const std::vector<double>& mp = saddle_->pressure_mass->values();
+  d.sp_values.resize(mp.size());
+  for (size_t k = 0; k < mp.size(); ++k) d.sp_values[k] = -saddle_->schur_scale * mp[k];
+}
+
 void PetscPreconditioner::set_up_fieldsplit(index_t n) {
   Impl& d = *impl_;
   if (!saddle_ || !saddle_->pressure_mass)
@@ -205,8 +214,8 @@ void PetscPreconditioner::set_up_fieldsplit(index_t n) {
   const Csr& Mp = *saddle_->pressure_mass;
   const PetscInt np = Mp.rows(), nu = n - np;
   if (nu <= 0 || nu % 3 != 0)
-    throw InputError("PETSc fieldsplit: the system of " + std::to_string(n) + " unknowns has no displacement block of 3 per node beside " +
-                     std::to_string(np) + " pressures");
+    throw InputError("PETSc fieldsplit: the system of " + std::to_string(n) +
+                     " unknowns has no displacement block of 3 per node beside " + std::to_string(np) + " pressures");
   // The two fields: displacement first (3 per node, for GAMG), then the pressure.
   check(ISCreateStride(PETSC_COMM_SELF, nu, 0, 1, &d.is_u), "ISCreateStride");
   check(ISSetBlockSize(d.is_u, 3), "ISSetBlockSize");
@@ -222,10 +231,8 @@ void PetscPreconditioner::set_up_fieldsplit(index_t n) {
                              reinterpret_cast<PetscObject>(d.near_null)),
           "PetscObjectCompose");
   }
-  // PETSc's Schur complement of [A Bᵀ; B −C] is −C − B A⁻¹ Bᵀ ≈ −s M_p.
   d.sp_row_ptr.assign(Mp.pattern().row_ptr.begin(), Mp.pattern().row_ptr.end());
-  d.sp_values.resize(Mp.values().size());
-  for (size_t k = 0; k < d.sp_values.size(); ++k) d.sp_values[k] = -saddle_->schur_scale * Mp.values()[k];
+  scale_schur();
   check(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, np, np, d.sp_row_ptr.data(),
                                   const_cast<PetscInt*>(Mp.pattern().col_idx.data()), d.sp_values.data(), &d.Sp),
         "MatCreateSeqAIJWithArrays");
@@ -299,6 +306,11 @@ void PetscPreconditioner::update_impl() {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   scalar_.refresh();  // new values in the same arrays the Mat reads
   Impl& d = *impl_;
+  if (d.Sp) {
+    scale_schur();
+    check(MatAssemblyBegin(d.Sp, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(d.Sp, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  }
   // Assembly of an unchanged pattern: PETSc then knows the values changed (its object state).
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");

@@ -21,6 +21,7 @@ PetscPreconditioner::~PetscPreconditioner() = default;
 void PetscPreconditioner::setup_impl(const LinearOperator&) { missing(); }
 void PetscPreconditioner::update_impl() { missing(); }
 void PetscPreconditioner::set_up_fieldsplit(index_t) { missing(); }
+void PetscPreconditioner::scale_schur() { missing(); }
 void PetscPreconditioner::apply_impl(const Vector&, Vector&) const { missing(); }
 std::string PetscPreconditioner::describe() const { return ""; }
 

@@ -98,6 +98,8 @@ class PetscPreconditioner final : public Solver {
   /// fieldsplit: the index sets, the near-null space of the displacement block and Ŝ, for a
   /// system of n unknowns.
   void set_up_fieldsplit(index_t n);
+  /// fieldsplit: Ŝ's values, −s M_p, from the blocks' present scale.
+  void scale_schur();
   struct Impl;
   std::unique_ptr<Impl> impl_;
   PetscParams params_;
