@@ -14,7 +14,7 @@
 #include "pmg/fem/generators.hpp"
 #include "pmg/fem/mixed.hpp"
 #include "pmg/fem/static_solve.hpp"
-#include "list_option.hpp"
+#include "table_cli.hpp"
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/sparse/config.hpp"
 
@@ -120,11 +120,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return run_reporting_errors(run, argc, argv); }

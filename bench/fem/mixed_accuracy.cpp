@@ -6,7 +6,7 @@
 //   bench/fem/mixed_accuracy [--degrees 2,3] [--cells 2,4,8] [--nu 0.3,0.49,0.4999]
 #include "../../tests/fem/mixed_mms.hpp"
 
-#include "list_option.hpp"
+#include "table_cli.hpp"
 #include "pmg/multigrid/factory.hpp"
 
 #include <cstdio>
@@ -48,11 +48,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  }
-}
+int main(int argc, char** argv) { return run_reporting_errors(run, argc, argv); }

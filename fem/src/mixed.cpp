@@ -143,9 +143,8 @@ DivergenceCoupling::DivergenceCoupling(const ElasticityModel& u, const BBSpace& 
       ++a[i];
       raise_[c * 4 + i] = local_index(a);
     }
-  free_ = &u.assembler().free_index();  // the assembler (built on first use) numbers and colours
+  free_ = &u.assembler().free_index();  // the assembler (built on first use) numbers the nodes
   held_ = &u.constrained_free_dofs();
-  colors_ = &u.assembler().colors();
   const index_t ne = u.space().mesh().num_tets();
   const int nu = u.space().nodes_per_element();
   dofs_.resize(static_cast<size_t>(ne) * nu);
@@ -241,49 +240,54 @@ void DivergenceCoupling::element(index_t e, const double* x_u, const double* x_p
   }
 }
 
-void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const {
+template <class Element>
+void DivergenceCoupling::over_elements(double* y_u, double* y_p, const Element& element) const {
   // Each thread runs a contiguous range of elements (their nodes close in memory) into its own
   // accumulators, summed afterwards: no colours, so no barrier per colour.
   const index_t np = rows(), nu = cols();
   const long ne = u_.space().mesh().num_tets();
   const int threads = omp_get_max_threads();
-  const bool cubic = u_.space().degree() == 3;
   const std::lock_guard<std::mutex> lock(buffers_mutex_);  // one product at a time uses the buffers
   const size_t others = static_cast<size_t>(std::max(threads - 1, 0));
-  if (x_u && bufp_.size() != others * np) bufp_.assign(others * np, 0.0);
-  if (x_p && bufu_.size() != others * nu) bufu_.assign(others * nu, 0.0);
+  if (y_p && bufp_.size() != others * np) bufp_.assign(others * np, 0.0);
+  if (y_u && bufu_.size() != others * nu) bufu_.assign(others * nu, 0.0);
 #pragma omp parallel num_threads(threads)
   {
     const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
     double* yp = nullptr;
     double* yu = nullptr;
-    if (x_u) {
+    if (y_p) {
       yp = tid == 0 ? y_p : bufp_.data() + static_cast<size_t>(tid - 1) * np;
       std::fill(yp, yp + np, 0.0);
     }
-    if (x_p) {
+    if (y_u) {
       yu = tid == 0 ? y_u : bufu_.data() + static_cast<size_t>(tid - 1) * nu;
       if (tid > 0) std::fill(yu, yu + nu, 0.0);
     }
     const long begin = ne * tid / nt, end = ne * (tid + 1) / nt;
-    for (long e = begin; e < end; ++e) {
-      if (cubic) element<3>(static_cast<index_t>(e), x_u, x_p, yu, yp);
-      else element<2>(static_cast<index_t>(e), x_u, x_p, yu, yp);
-    }
+    for (long e = begin; e < end; ++e) element(static_cast<index_t>(e), yu, yp);
     if (nt > 1) {
 #pragma omp barrier
-      if (x_u) {
+      if (y_p) {
 #pragma omp for schedule(static)
         for (index_t i = 0; i < np; ++i)
           for (int k = 0; k + 1 < nt; ++k) y_p[i] += bufp_[static_cast<size_t>(k) * np + i];
       }
-      if (x_p) {
+      if (y_u) {
 #pragma omp for schedule(static)
         for (index_t i = 0; i < nu; ++i)
           for (int k = 0; k + 1 < nt; ++k) y_u[i] += bufu_[static_cast<size_t>(k) * nu + i];
       }
     }
   }
+}
+
+void DivergenceCoupling::apply(const double* x_u, const double* x_p, double* y_u, double* y_p) const {
+  const bool cubic = u_.space().degree() == 3;
+  over_elements(x_p ? y_u : nullptr, x_u ? y_p : nullptr, [&](index_t e, double* yu, double* yp) {
+    if (cubic) element<3>(e, x_u, x_p, yu, yp);
+    else element<2>(e, x_u, x_p, yu, yp);
+  });
 }
 
 template <int K>
@@ -314,17 +318,12 @@ void DivergenceCoupling::state_divergence(const Vector& u_full, const Rotations*
   if (R && R->size() != static_cast<size_t>(u_.space().mesh().num_tets()))
     throw InputError("state divergence: " + std::to_string(R->size()) + " rotations for " +
                      std::to_string(u_.space().mesh().num_tets()) + " elements");
-  g = Vector::Zero(pressure_.num_nodes());
-  const auto& colors = *colors_;
-#pragma omp parallel
-  for (const auto& elements : colors) {
-    const index_t n = static_cast<index_t>(elements.size());
-#pragma omp for schedule(static)
-    for (index_t q = 0; q < n; ++q) {
-      if (u_.space().degree() == 2) element_state<2>(elements[q], u_full.data(), R, g.data());
-      else element_state<3>(elements[q], u_full.data(), R, g.data());
-    }
-  }
+  g.resize(pressure_.num_nodes());
+  const bool cubic = u_.space().degree() == 3;
+  over_elements(nullptr, g.data(), [&](index_t e, double*, double* yp) {
+    if (cubic) element_state<3>(e, u_full.data(), R, yp);
+    else element_state<2>(e, u_full.data(), R, yp);
+  });
 }
 
 void MixedElasticity::assemble_divergence() const {
@@ -464,7 +463,7 @@ Vector MixedElasticity::pressure_of(const Vector& u_full, const Rotations* R) co
 Vector MixedElasticity::pressure_from_divergence(const Vector& g) const {
   if (lambda_inverse_ == 0)
     throw InputError("mixed elements: at nu = 0.5 the pressure is not a function of the displacement (a "
-                     "deformed initial state has no finite energy); start at rest");
+                     "deformed initial state has no finite energy); start at rest, or give the pressure");
   if (g.size() != num_pressure())
     throw InputError("mixed elements: a divergence of " + std::to_string(g.size()) + " values for " +
                      std::to_string(num_pressure()) + " pressure nodes");
@@ -496,14 +495,17 @@ MixedSolver::MixedSolver(MixedElasticity& m, const Config& config, bool corotati
   SolverContext ctx;
   ctx.levels = &m.hierarchy();
   ctx.saddle_point = &m.blocks();
-  const Vector xyz = m.hierarchy().finest().free_positions();  // the displacement nodes' (GAMG's rigid modes)
-  const std::vector<double> coordinates(xyz.data(), xyz.data() + xyz.size());
-  ctx.coordinates = &coordinates;
+  std::vector<double> coordinates;  // the displacement nodes', for an assembled method (GAMG's rigid modes)
+  if (!method_uses_levels(method)) {
+    const Vector xyz = m.hierarchy().finest().free_positions();
+    coordinates.assign(xyz.data(), xyz.data() + xyz.size());
+    ctx.coordinates = &coordinates;
+  }
   solver_ = make_solver(config, ctx, "mixed-gmres");
   bound_ = std::make_unique<BoundSystem>(m.hierarchy().bind(*solver_));
   const auto t0 = Clock::now();
-  // A method on the levels (mixed-minres) multiplies with the operator; any other (a direct solver)
-  // reads the assembled saddle point.
+  // A method on the levels (mixed-gmres, mixed-minres) multiplies with the operator; any other
+  // (MUMPS, PETSc's fieldsplit) reads the assembled saddle point.
   if (method_uses_levels(method)) {
     const LinearOperator& A = bound_->prepare(nullptr, m.weights());
     K_ = std::make_unique<SaddlePointOperator>(A, m.coupling(), m.compressibility());

@@ -65,10 +65,7 @@ void MixedEuler::set_state(const Vector& u, const Vector& v, const Vector& p) {
                      std::to_string(m_.num_pressure()) + " pressure nodes");
   if (!p.allFinite()) throw InputError("mixed time step: the initial pressure is not finite");
   const bool deformed = !u.isZero(0.0);
-  if (p.size() == 0 && deformed && !m_.compressibility())
-    throw InputError("mixed time step: at nu = 0.5 the pressure is not a function of the displacement (a deformed "
-                     "initial state has no finite energy); start at rest, or give the pressure");
-  Vector pressure = p;
+  Vector pressure = p;  // from the state where not given (pressure_of refuses nu = 0.5)
   if (pressure.size() == 0) {
     if (!deformed) pressure = Vector::Zero(m_.num_pressure());
     else if (!params_.corotational) pressure = m_.pressure_of(u);

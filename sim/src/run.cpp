@@ -1,5 +1,6 @@
 #include "pmg/sim/run.hpp"
 #include "pmg/sparse/threads.hpp"
+#include "text.hpp"
 
 #include "pmg/fem/mixed.hpp"
 #include "pmg/fem/mixed_euler.hpp"
@@ -24,19 +25,13 @@
 
 namespace pmg::sim {
 
-namespace {
+using detail::fixed;
 
+namespace {
 
 void make_dir(const std::string& dir) {
   if (mkdir(dir.c_str(), 0777) != 0 && errno != EEXIST)
     throw InputError("output.directory: cannot create '" + dir + "'");
-}
-
-/// v with `digits` decimals.
-std::string fixed(double v, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
-  return buf;
 }
 
 /// The clamp and the loads of a scene's outputs (static.vtu, the frames), for pictures (pmg render).

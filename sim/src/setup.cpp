@@ -9,6 +9,8 @@
 #include "pmg/sparse/file_io.hpp"
 #include "pmg/sparse/timer.hpp"
 #ifdef PMG_HAVE_DISTRIBUTED
+#include "text.hpp"
+
 #include "pmg/distributed/scene.hpp"
 #include "pmg/mpi/session.hpp"
 #endif
@@ -21,13 +23,7 @@
 
 namespace pmg::sim {
 
-namespace {
-std::string seconds(double s, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, s);
-  return buf;
-}
-}  // namespace
+using detail::fixed;
 
 fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3],
                               std::vector<std::string>* warnings, const fem::MeshCheckOptions& mesh_checks) {
@@ -272,7 +268,7 @@ std::pair<Vector, Vector> initial_state(const Scene& s, SceneSetup& b) {
     const fem::StaticResult r = fem::solve_static(m, f, s.corotational, so);
     u = r.u;
     b.notes.push_back("initial state: static deflection under the end force, " +
-                      std::to_string(r.iterations) + " fixed-point iterations, " + seconds(seconds_since(t0), 2) + " s");
+                      std::to_string(r.iterations) + " fixed-point iterations, " + fixed(seconds_since(t0), 2) + " s");
   }
   return {u, v};
 }
@@ -293,7 +289,7 @@ std::unique_ptr<Solver> make_step_solver(const Scene& s, const fem::DegreeHierar
   ctx.levels = &h;
   auto solver = make_solver(c, ctx, kDefaultDynamicMethod);
   const double start = start_libraries(c);  // MPI, PETSc: once per process, not a step's cost
-  if (start >= 0) notes.push_back("MPI (and PETSc) start-up: " + seconds(start, 3) + " s");
+  if (start >= 0) notes.push_back("MPI (and PETSc) start-up: " + fixed(start, 3) + " s");
   settings = c.to_string();
   return solver;
 }

@@ -93,11 +93,15 @@ class DivergenceCoupling final : public SaddlePointCoupling {
   std::vector<double> mass_;   ///< M̂, row-major
   const std::vector<index_t>* free_ = nullptr;                 ///< the model's free numbering
   const std::vector<char>* held_ = nullptr;                    ///< its held components
-  const std::vector<std::vector<index_t>>* colors_ = nullptr;  ///< its element colours
   std::vector<index_t> dofs_;  ///< per element and node: 3 x its free index, or -1 (fixed)
   std::vector<char> has_held_;  ///< per element: 1 where a node of it has a held component
   mutable std::vector<double> bufp_, bufu_;  ///< the accumulators of threads 1.. (n_p and n_u each)
   mutable std::mutex buffers_mutex_;
+  /// element(e, yu, yp) for every element, each thread over a contiguous range into its own
+  /// accumulators (thread 0 into y_u and y_p themselves), summed after: y_p is set, y_u added to;
+  /// a null output is neither written nor passed on.
+  template <class Element>
+  void over_elements(double* y_u, double* y_p, const Element& element) const;
   template <int K>
   void element(index_t e, const double* x_u, const double* x_p, double* y_u, double* y_p) const;
   template <int K>
