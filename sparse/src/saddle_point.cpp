@@ -187,9 +187,10 @@ void fused_dots(const std::vector<Vector>& V, int m, const Vector& w, double* h)
   for (int i = 0; i < m; ++i) h[i] = total[static_cast<size_t>(i)];
 }
 
-/// w -= Σ_{i<m} h[i] V[i] (sign = -1) or w += Σ h[i] V[i] (sign = +1) in one pass; returns ‖w‖
-/// after it.
-double fused_update(const std::vector<Vector>& V, int m, const double* h, Vector& w, double sign) {
+/// w -= Σ_{i<m} h[i] V[i] (sign = -1) or w += Σ h[i] V[i] (sign = +1) in one pass, in double for
+/// V in double or float; returns ‖w‖ after it.
+template <class VectorType>
+double fused_update(const std::vector<VectorType>& V, int m, const double* h, Vector& w, double sign) {
   const Eigen::Index n = w.size();
   const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
   double sq = 0.0;
@@ -197,9 +198,9 @@ double fused_update(const std::vector<Vector>& V, int m, const double* h, Vector
   for (Eigen::Index q = 0; q < blocks; ++q) {
     const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
     for (int i = 0; i < m; ++i) {
-      const double* v = V[static_cast<size_t>(i)].data();
+      const auto* v = V[static_cast<size_t>(i)].data();
       const double c = sign * h[i];
-      for (Eigen::Index k = k0; k < k1; ++k) w[k] += c * v[k];
+      for (Eigen::Index k = k0; k < k1; ++k) w[k] += c * static_cast<double>(v[k]);
     }
     for (Eigen::Index k = k0; k < k1; ++k) sq += w[k] * w[k];
   }
@@ -214,8 +215,23 @@ void scaled_copy(const Vector& src, double scale, Vector& dst) {
   for (Eigen::Index k = 0; k < n; ++k) dst[k] = scale * src[k];
 }
 
-void grow(std::vector<Vector>& V, size_t count, Eigen::Index n) {
+template <class VectorType>
+void grow(std::vector<VectorType>& V, size_t count, Eigen::Index n) {
   while (V.size() < count) V.emplace_back(n);
+}
+
+/// dst = src in float (src exact in float: PreconditionedProduct::single_precision).
+void store_single(const Vector& src, Eigen::VectorXf& dst) {
+  const Eigen::Index n = src.size();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index k = 0; k < n; ++k) dst[k] = static_cast<float>(src[k]);
+}
+
+/// v rounded to the nearest float, in place.
+void round_to_float(Vector& v) {
+  const Eigen::Index n = v.size();
+#pragma omp parallel for schedule(static) if (n > 20000)
+  for (Eigen::Index k = 0; k < n; ++k) v[k] = static_cast<double>(static_cast<float>(v[k]));
 }
 
 /// z = M v, then w = K z.
@@ -240,10 +256,13 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
   GmresWorkspace& ws = work ? *work : own;
   std::vector<Vector>& V = ws.V;  // the Krylov basis
   std::vector<Vector>& Z = ws.Z;  // M v_i (flexible GMRES)
+  std::vector<Eigen::VectorXf>& Zf = ws.Zf;  // the same in float, where the product's z are exact in float
+  const bool single = KM && KM->single_precision();
   detail::ConvergenceTracker track("GMRES", params, monitor);
   const Eigen::Index n = b.size();
   for (auto* vs : {&V, &Z})  // vectors of another size are of no use
     if (!vs->empty() && vs->front().size() != n) vs->clear();
+  if (!Zf.empty() && Zf.front().size() != n) Zf.clear();
   Vector& r = ws.r;
   Vector& w = ws.w;
   r.resize(n), w.resize(n);
@@ -267,7 +286,11 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
     bool converged = false;
     for (; j < m && !track.done();) {
       const auto jj = static_cast<size_t>(j);
-      if (KM) {
+      if (single) {
+        KM->apply(V[jj], ws.z, w);
+        grow(Zf, jj + 1, n);
+        store_single(ws.z, Zf[jj]);
+      } else if (KM) {
         grow(Z, jj + 1, n);
         KM->apply(V[jj], Z[jj], w);
       } else {
@@ -313,7 +336,8 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
         for (int k = i + 1; k < j; ++k) y[i] -= H(i, k) * y[k];
         y[i] = H(i, i) != 0 ? y[i] / H(i, i) : 0.0;
       }
-      fused_update(KM ? Z : V, j, y.data(), x, 1.0);
+      if (single) fused_update(Zf, j, y.data(), x, 1.0);
+      else fused_update(KM ? Z : V, j, y.data(), x, 1.0);
     }
     // Converged: the true residual confirms it, or the next cycle starts from it (as at a restart,
     // or after an exhausted Krylov space).
@@ -381,33 +405,35 @@ BlockTriangularOperator::BlockTriangularOperator(const LinearOperator& M_u, cons
                      " for blocks of " + std::to_string(M_u.rows()) + " and " + std::to_string(M_p.rows()));
 }
 
-void BlockTriangularOperator::precondition(const Vector& v) const {
+void BlockTriangularOperator::precondition(const Vector& v, bool single) const {
   const index_t nu = M_u_.rows(), np = M_p_.rows();
   rp_ = v.tail(np);
   M_p_.apply(rp_, zp_);  // z_p = -M_p r_p, so r_u - Bᵀ z_p = r_u + Bᵀ (M_p r_p)
+  if (single) round_to_float(zp_);
   bt_.setZero(nu);
   B_.apply(nullptr, zp_.data(), bt_.data(), nullptr);
   ru_ = v.head(nu) + bt_;
   M_u_.apply(ru_, zu_);
+  if (single) round_to_float(zu_);
 }
 
 void BlockTriangularOperator::apply_impl(const Vector& x, Vector& y) const {
   const index_t nu = M_u_.rows(), np = M_p_.rows();
-  precondition(x);
+  precondition(x, false);
   y.resize(nu + np);
   y.head(nu) = zu_;
   y.tail(np) = -zp_;
 }
 
 void BlockTriangularOperator::apply_and_multiply(const SaddlePointOperator& K, const Vector& v, Vector& z,
-                                                 Vector& w) const {
+                                                 Vector& w, bool round_to_float) const {
   const index_t nu = M_u_.rows(), np = M_p_.rows();
   if (&K.coupling() != &B_ || K.rows() != rows())
     throw InputError("block triangular operator: the saddle point's coupling or size is not the preconditioner's");
   if (v.size() != rows())
     throw InputError("block triangular operator: a vector of " + std::to_string(v.size()) + " entries for " +
                      std::to_string(rows()) + " rows");
-  precondition(v);
+  precondition(v, round_to_float);
   z.resize(nu + np);
   z.head(nu) = zu_;
   z.tail(np) = -zp_;
@@ -424,8 +450,9 @@ void BlockTriangularOperator::apply_and_multiply(const SaddlePointOperator& K, c
   }
 }
 
-BlockTriangularProduct::BlockTriangularProduct(const BlockTriangularOperator& P, const SaddlePointOperator& K)
-    : P_(P), K_(K) {
+BlockTriangularProduct::BlockTriangularProduct(const BlockTriangularOperator& P, const SaddlePointOperator& K,
+                                               bool single_precision)
+    : P_(P), K_(K), single_(single_precision) {
   if (K.rows() != P.rows())
     throw InputError("block triangular product: the saddle point has " + std::to_string(K.rows()) +
                      " rows, the preconditioner " + std::to_string(P.rows()));
@@ -513,27 +540,53 @@ ChebyshevMassInverse::ChebyshevMassInverse(const Csr& M, double lo, double hi, i
       throw InputError("Chebyshev mass inverse: diagonal entry " + std::to_string(i) + " is not positive");
     inv_diag_[i] = 1.0 / d[i];
   }
+  values_.assign(M.values().begin(), M.values().end());
 }
 
 void ChebyshevMassInverse::apply_impl(const Vector& r, Vector& z) const {
-  // Saad, "Iterative methods for sparse linear systems", Algorithm 12.1, on D⁻¹M.
+  // Saad, "Iterative methods for sparse linear systems", Algorithm 12.1, on D⁻¹M: each step is
+  // res -= M d, d ← c₁ d + c₂ D⁻¹ res, z += d, fused into one pass over the rows (d double-buffered).
   const double theta = 0.5 * (hi_ + lo_), delta = 0.5 * (hi_ - lo_);
   const double sigma = theta / delta;
-  double rho = 1.0 / sigma;
-  res_ = r;
-  d_ = inv_diag_.cwiseProduct(res_) / theta;
-  z.setZero(r.size());
-  q_.resize(r.size());
-  for (int k = 1; k <= steps_; ++k) {
-    z += d_;
-    if (k == steps_) break;
-    M_.multiply(d_.data(), q_.data());
-    res_ -= q_;
-    const double rho_new = 1.0 / (2.0 * sigma - rho);
-    d_ = (rho_new * rho) * d_ + (2.0 * rho_new / delta) * inv_diag_.cwiseProduct(res_);
-    rho = rho_new;
+  const CsrPattern& p = M_.pattern();
+  const offset_t* rp = p.row_ptr.data();
+  const index_t* ci = p.col_idx.data();
+  const float* v = values_.data();
+  const index_t n = p.rows;
+  res_.resize(n), d_.resize(n), d_next_.resize(n), z.resize(n);
+  double* res = res_.data();
+  double* zp = z.data();
+  const double* inv = inv_diag_.data();
+  const double last = steps_ == 1 ? scale_ : 1.0;
+#pragma omp parallel if (n > 4096)
+  {
+    double* d = d_.data();
+    double* dn = d_next_.data();
+#pragma omp for schedule(static)
+    for (index_t i = 0; i < n; ++i) {
+      res[i] = r[i];
+      d[i] = inv[i] * r[i] / theta;
+      zp[i] = last * d[i];
+    }
+    double rho = 1.0 / sigma;
+    for (int k = 2; k <= steps_; ++k) {
+      const double rho_new = 1.0 / (2.0 * sigma - rho);
+      const double c1 = rho_new * rho, c2 = 2.0 * rho_new / delta;
+      const double s = k == steps_ ? scale_ : 1.0;
+#pragma omp for schedule(static)
+      for (index_t i = 0; i < n; ++i) {
+        double q = 0.0;
+        for (offset_t e = rp[i]; e < rp[i + 1]; ++e) q += static_cast<double>(v[e]) * d[ci[e]];
+        const double ri = res[i] - q;
+        res[i] = ri;
+        const double di = c1 * d[i] + c2 * inv[i] * ri;
+        dn[i] = di;
+        zp[i] = s * (zp[i] + di);
+      }  // the barrier: every d read before any is overwritten in the next step
+      std::swap(d, dn);
+      rho = rho_new;
+    }
   }
-  z *= scale_;
 }
 
 }  // namespace pmg
@@ -550,7 +603,9 @@ void MixedKrylovParams::visit(ParamVisitor& v) {
 }
 
 void GmresParams::visit(ParamVisitor& v) {
-  v.integer("restart", restart, 1, 10000, "Krylov vectors kept before GMRES restarts (memory: 2 restart + 1 vectors)");
+  v.integer("restart", restart, 1, 10000,
+            "Krylov vectors kept before GMRES restarts (memory: restart + 1 vectors, and restart more: in float for "
+            "mixed-gmres, whose preconditioned vectors are rounded to float)");
   v.boolean("reorthogonalise", reorthogonalise,
             "repeat classical Gram-Schmidt where it lost more than 30% of the norm (else one pass)");
 }
@@ -574,7 +629,7 @@ std::string MixedKrylov::describe() const {
   std::ostringstream scale;
   scale << mixed_.pressure_scale * blocks_->schur_scale;
   return (kind_ == Kind::minres ? "MINRES, block-diagonal preconditioner: displacement "
-                                : "GMRES(" + std::to_string(gmres_.restart) + (gmres_.reorthogonalise ? "" : ", one Gram-Schmidt pass") + "), block-triangular preconditioner: displacement ") +
+                                : "GMRES(" + std::to_string(gmres_.restart) + (gmres_.reorthogonalise ? "" : ", one Gram-Schmidt pass") + ", z_i in float), block-triangular preconditioner: displacement ") +
          (M_u_->describe().empty() ? M_u_->name() : M_u_->describe()) + "; pressure " +
          std::to_string(mixed_.pressure_steps) + " Chebyshev steps on the mass, S ~ " + scale.str() + " M_p";
 }
@@ -609,7 +664,7 @@ void MixedKrylov::update_impl() {
 SolveResult MixedKrylov::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   if (kind_ == Kind::minres) return minres(system(), P_.get(), b, x, with_rhs_floor(params_, b), monitor);
   const SaddlePointOperator& K = *system().saddle_point_operator();
-  const BlockTriangularProduct KP(*triangular_, K);
+  const BlockTriangularProduct KP(*triangular_, K, /*single_precision=*/true);
   return gmres(K, KP, b, x, with_rhs_floor(params_, b), gmres_, monitor, &work_);
 }
 

@@ -95,7 +95,8 @@ SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vecto
 
 /// The options of gmres(), which are the keys of mixed-gmres beside MixedKrylovParams.
 struct GmresParams {
-  /// Krylov vectors kept before a restart (memory: 2 restart + 1 vectors of the system's size).
+  /// Krylov vectors kept before a restart (memory: 2 restart + 1 vectors of the system's size,
+  /// restart of them in float where the preconditioned vectors are exact in float).
   /// 50: the stress matrix's thin plate (4 x 1 x 0.01 m, ν = 0.499, 1e-5 per step) stagnated past
   /// 1,000 iterations in its third step with 20, and took at most 546 per step with 50 (702 with
   /// 40); on Homer P3 20 is 1.2x faster, for two more iterations.
@@ -115,6 +116,8 @@ struct GmresParams {
 struct GmresWorkspace {
   std::vector<Vector> V;           ///< the Krylov basis
   std::vector<Vector> Z;           ///< the preconditioned vectors M v_i
+  std::vector<Eigen::VectorXf> Zf; ///< the same in float, where the product's z are exact in float
+  Vector z;                        ///< the newest z_i in double, before it is stored in Zf
   Vector r;                        ///< the residual
   Vector w;                        ///< the new direction
 };
@@ -127,7 +130,8 @@ struct GmresWorkspace {
 /// to rounding even where M is applied in lower precision (a multigrid cycle with float levels).
 /// Stopping as pcg() on ‖b − K x‖ (KrylovParams); when the estimate meets the tolerance x is formed
 /// and the true residual computed and, where it disagrees, GMRES restarts from x. Memory: `restart`
-/// (>= 1) vectors z_i and restart + 1 vectors v_i of the system's size. The orthogonalisation is
+/// (>= 1) vectors z_i (in float where the product is single_precision) and restart + 1 vectors v_i
+/// of the system's size. The orthogonalisation is
 /// classical Gram–Schmidt in fused passes (GmresParams::reorthogonalise). Cost per iteration: one
 /// K, one M, and 2 (4 where repeated) passes over the j + 1 Krylov vectors of iteration j. x holds
 /// the initial guess and receives the answer.
@@ -142,6 +146,10 @@ class PreconditionedProduct {
   virtual ~PreconditionedProduct() = default;
   /// z = M v, then w = K z (z as stored: K is applied to exactly the z it returns).
   virtual void apply(const Vector& v, Vector& z, Vector& w) const = 0;
+  /// True where every z that apply() returns is exactly representable in float (rounded before
+  /// w = K z was formed): gmres() then keeps the z_i in float, half their memory, and the relation
+  /// K Z = V H it relies on stays exact.
+  virtual bool single_precision() const { return false; }
 };
 
 /// gmres() with M and its product with K given as one PreconditionedProduct; K still forms the
@@ -233,9 +241,12 @@ class BlockTriangularOperator final : public LinearOperator {
   index_t rows() const override { return M_u_.rows() + M_p_.rows(); }
   index_t cols() const override { return rows(); }
   /// z = P v, then w = K z with K's Bᵀ z_p taken from P's own (w_u = A z_u + Bᵀ z_p, w_p = B z_u −
-  /// C z_p): one pass of Bᵀ and one of B, where P then K make two of Bᵀ. Throws InputError when K's
-  /// coupling is not this operator's or the sizes differ.
-  void apply_and_multiply(const SaddlePointOperator& K, const Vector& v, Vector& z, Vector& w) const;
+  /// C z_p): one pass of Bᵀ and one of B, where P then K make two of Bᵀ. With round_to_float, z_p
+  /// is rounded to float before Bᵀ z_p is formed and z_u after M_u, so z is exact in float and w is
+  /// K applied to it (a preconditioner perturbed by float rounding, for GMRES's flexible form).
+  /// Throws InputError when K's coupling is not this operator's or the sizes differ.
+  void apply_and_multiply(const SaddlePointOperator& K, const Vector& v, Vector& z, Vector& w,
+                          bool round_to_float = false) const;
 
  protected:
   void apply_impl(const Vector& x, Vector& y) const override;
@@ -244,21 +255,27 @@ class BlockTriangularOperator final : public LinearOperator {
   const LinearOperator &M_u_, &M_p_;
   const SaddlePointCoupling& B_;
   mutable Vector ru_, rp_, zu_, zp_, bt_, wu_, cp_;
-  /// zp_ = M_p r_p (= −z_p), bt_ = Bᵀ zp_ (= −Bᵀ z_p), zu_ = M_u (r_u + bt_).
-  void precondition(const Vector& v) const;
+  /// zp_ = M_p r_p (= −z_p), bt_ = Bᵀ zp_ (= −Bᵀ z_p), zu_ = M_u (r_u + bt_); zp_ and zu_
+  /// rounded to float with round_to_float.
+  void precondition(const Vector& v, bool round_to_float) const;
 };
 
 /// A BlockTriangularOperator and the saddle point it preconditions as one PreconditionedProduct
-/// (BlockTriangularOperator::apply_and_multiply). Holds references to both.
+/// (BlockTriangularOperator::apply_and_multiply). With single_precision its z are rounded to float,
+/// and gmres() keeps them in float. Holds references to both.
 class BlockTriangularProduct final : public PreconditionedProduct {
  public:
   /// Throws InputError when K's coupling is not P's or the sizes differ.
-  BlockTriangularProduct(const BlockTriangularOperator& P, const SaddlePointOperator& K);
-  void apply(const Vector& v, Vector& z, Vector& w) const override { P_.apply_and_multiply(K_, v, z, w); }
+  BlockTriangularProduct(const BlockTriangularOperator& P, const SaddlePointOperator& K, bool single_precision = false);
+  void apply(const Vector& v, Vector& z, Vector& w) const override {
+    P_.apply_and_multiply(K_, v, z, w, single_);
+  }
+  bool single_precision() const override { return single_; }
 
  private:
   const BlockTriangularOperator& P_;
   const SaddlePointOperator& K_;
+  bool single_;
 };
 
 /// A fixed number of Chebyshev semi-iteration steps for M z = r from z = 0, preconditioned by the
@@ -266,7 +283,10 @@ class BlockTriangularProduct final : public PreconditionedProduct {
 /// With bounds [lo, hi] that contain the spectrum of D⁻¹M (for a finite element mass matrix, the
 /// extreme eigenvalues of one element's D_e⁻¹M_e: Wathen 1987) it is a fixed symmetric positive
 /// definite operator, an approximation of scale M⁻¹ whose error in the M-norm drops by the
-/// Chebyshev factor 2 ρᵏ/(1 + ρ²ᵏ), ρ = (√κ - 1)/(√κ + 1), κ = hi/lo, after k steps.
+/// Chebyshev factor 2 ρᵏ/(1 + ρ²ᵏ), ρ = (√κ - 1)/(√κ + 1), κ = hi/lo, after k steps. The products
+/// with M use its values rounded to float (a mass matrix perturbed by 6e-8 relative: still fixed,
+/// SPD and within the bounds to that accuracy), read at construction; the vectors are double, and
+/// each step is one pass over the rows. M keeps its pattern, which must outlive this.
 class ChebyshevMassInverse final : public LinearOperator {
  public:
   /// Throws InputError for steps < 1, bounds not 0 < lo < hi, scale <= 0, or a non-positive diagonal.
@@ -283,10 +303,11 @@ class ChebyshevMassInverse final : public LinearOperator {
 
  private:
   const Csr& M_;
+  std::vector<float> values_;  // M's values in float
   Vector inv_diag_;
   double lo_, hi_, scale_;
   int steps_;
-  mutable Vector res_, d_, q_;
+  mutable Vector res_, d_, d_next_;
 };
 
 /// The keys of mixed-minres and mixed-gmres beside their stopping rule and the displacement cycle's
