@@ -261,7 +261,8 @@ void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& l
                              "hierarchy has them for degree >= 2); these levels have none");
     // Gauss–Seidel needs the matrix's entries; Chebyshev needs only products and the diagonal, and
     // its eigenvalue estimate is refreshed per update by one power iteration warm-started from the
-    // last estimate. The optimised fourth kind of degree 3 needs no lower bound (docs/performance.md).
+    // last estimate. The optimised fourth kind (degree 3, or `degree` for the mixed solvers) needs no
+    // lower bound (docs/performance.md).
     sc.set_default("method", "chebyshev");
     if (sc.get_string("method", "chebyshev") == "chebyshev") {
       sc.set_default("kind", "opt-fourth");

@@ -9,6 +9,10 @@
 
 #include <random>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 using namespace pmg;
 
 namespace {
@@ -119,6 +123,52 @@ TEST_CASE("MINRES: a preconditioner that is not positive definite is a named bre
   CHECK_THROWS_WITH(minres(*s.K, nullptr, Vector::Random(3), x), Catch::Contains("right-hand side has 3 entries"));
 }
 
+TEST_CASE("Chebyshev mass inverse: Saad's recurrence on M in float, the same on 1 and 3 threads", "[saddle]") {
+  const int n = 5000, steps = 6;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> M(n, n);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 0; i < n; ++i) {
+    t.emplace_back(i, i, 2.0 + 0.3 * std::sin(0.1 * i));
+    if (i + 1 < n) t.emplace_back(i, i + 1, 0.7), t.emplace_back(i + 1, i, 0.7);
+    if (i + 50 < n) t.emplace_back(i, i + 50, 0.1), t.emplace_back(i + 50, i, 0.1);
+  }
+  M.setFromTriplets(t.begin(), t.end());
+  const Csr m = Csr::from_eigen(M);
+  const double lo = 0.2, hi = 1.8, scale = 3.0;
+  const ChebyshevMassInverse inv(m, lo, hi, steps, scale);
+  const Vector r = Vector::Random(n);
+  // Saad, Algorithm 12.1 on D⁻¹M, written out on M's values rounded to float.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> Mf = M;
+  for (int k = 0; k < Mf.nonZeros(); ++k) Mf.valuePtr()[k] = static_cast<float>(Mf.valuePtr()[k]);
+  const Vector dinv = M.diagonal().cwiseInverse();
+  const double theta = 0.5 * (hi + lo), delta = 0.5 * (hi - lo), sigma = theta / delta;
+  double rho = 1.0 / sigma;
+  Vector res = r, d = dinv.cwiseProduct(res) / theta, z_ref = Vector::Zero(n);
+  for (int k = 1; k <= steps; ++k) {
+    z_ref += d;
+    if (k == steps) break;
+    res -= Mf * d;
+    const double rho_new = 1.0 / (2.0 * sigma - rho);
+    d = (rho_new * rho) * d + (2.0 * rho_new / delta) * dinv.cwiseProduct(res);
+    rho = rho_new;
+  }
+  z_ref *= scale;
+  Vector z;
+  inv.apply(r, z);
+  CHECK((z - z_ref).norm() <= 1e-13 * z_ref.norm());
+#ifdef _OPENMP
+  // Each row's arithmetic is the same on any number of threads: bitwise equal results.
+  const int before = omp_get_max_threads();
+  Vector z1, z3;
+  omp_set_num_threads(1);
+  inv.apply(r, z1);
+  omp_set_num_threads(3);
+  inv.apply(r, z3);
+  omp_set_num_threads(before);
+  CHECK(z1 == z3);
+#endif
+}
+
 TEST_CASE("Chebyshev mass inverse: the M-norm error contracts by the Chebyshev bound", "[saddle]") {
   // A mass-like SPD matrix with D⁻¹M's spectrum inside [lo, hi]; 5000 rows take the threaded pass.
   for (int n : {20, 5000}) {
@@ -198,6 +248,45 @@ TEST_CASE("the block-triangular product equals P then K, and GMRES with it equal
   const BlockTriangularOperator P(Mu, Mp, *s.coupling);
   Vector z, w;
   CHECK_THROWS_WITH(P.apply_and_multiply(*other.K, Vector::Random(27), z, w), Catch::Contains("coupling or size"));
+}
+
+TEST_CASE("the block-triangular product in float: z exact in float, w = K z, and GMRES keeps z_i in float across "
+          "restarts", "[saddle]") {
+  for (double c : {0.0, 0.3}) {
+    const Saddle s(20, 7, c, 13);
+    const Dense Mu(s.A.diagonal().cwiseInverse().asDiagonal().toDenseMatrix()),
+        Mp(Eigen::MatrixXd::Identity(7, 7) * 0.2);
+    const BlockTriangularOperator P(Mu, Mp, *s.coupling);
+    const BlockTriangularProduct KP(P, *s.K, true);
+    CHECK(KP.single_precision());
+    CHECK_FALSE(BlockTriangularProduct(P, *s.K).single_precision());
+    const Vector v = Vector::Random(27);
+    Vector z, w, w_ref, z_ref;
+    KP.apply(v, z, w);
+    CHECK(z == z.cast<float>().cast<double>());  // exact in float
+    s.K->apply(z, w_ref);
+    CHECK((w - w_ref).norm() <= 1e-13 * w_ref.norm());  // K applied to the rounded z
+    P.apply(v, z_ref);
+    CHECK((z - z_ref).norm() <= 1e-6 * z_ref.norm());  // P perturbed by float rounding only
+    // Restarts every 3 iterations, the workspace reused by a second solve: the true residual
+    // reaches 1e-10, as with the double z_i.
+    const Vector b = Vector::Random(27);
+    KrylovParams k;
+    k.rel_tol = 1e-10;
+    GmresParams g;
+    g.restart = 3;
+    GmresWorkspace work;
+    for (int solve = 0; solve < 2; ++solve) {
+      Vector x;
+      const SolveResult r = gmres(*s.K, KP, b, x, k, g, nullptr, &work);
+      INFO("C scale " << c << ", solve " << solve << ": " << r.iterations << " iterations");
+      CHECK(r.ok());
+      CHECK(r.iterations > 3);
+      CHECK((b - s.dense() * x).norm() <= 2e-10 * b.norm());
+      CHECK(work.Z.empty());
+      CHECK(work.Zf.size() == 3);
+    }
+  }
 }
 
 TEST_CASE("GMRES with the exact block-triangular preconditioner ends in two iterations", "[saddle]") {

@@ -112,7 +112,9 @@ struct GmresParams {
 };
 
 /// The vectors of gmres(), kept between solves by a caller that solves many times (each solve
-/// would otherwise allocate, and fault in, 2 restart + 1 vectors of the system's size).
+/// would otherwise allocate, and fault in, restart + 1 Krylov vectors of the system's size and
+/// restart preconditioned ones, in float where the product is single_precision, beside a few work
+/// vectors).
 struct GmresWorkspace {
   std::vector<Vector> V;           ///< the Krylov basis
   std::vector<Vector> Z;           ///< the preconditioned vectors M v_i
@@ -285,8 +287,9 @@ class BlockTriangularProduct final : public PreconditionedProduct {
 /// definite operator, an approximation of scale M⁻¹ whose error in the M-norm drops by the
 /// Chebyshev factor 2 ρᵏ/(1 + ρ²ᵏ), ρ = (√κ - 1)/(√κ + 1), κ = hi/lo, after k steps. The products
 /// with M use its values rounded to float (a mass matrix perturbed by 6e-8 relative: still fixed,
-/// SPD and within the bounds to that accuracy), read at construction; the vectors are double, and
-/// each step is one pass over the rows. M keeps its pattern, which must outlive this.
+/// SPD and within the bounds to that accuracy), copied at construction; the vectors are double,
+/// and each step is one pass over the rows. M must outlive this and keep its pattern (a new
+/// matrix needs a new ChebyshevMassInverse).
 class ChebyshevMassInverse final : public LinearOperator {
  public:
   /// Throws InputError for steps < 1, bounds not 0 < lo < hi, scale <= 0, or a non-positive diagonal.
