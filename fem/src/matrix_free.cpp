@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -680,28 +681,57 @@ void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf&
 void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const Impl& m = *impl_;
   const ElementTables& t = element_tables(m.p);
-  blocks.assign(9 * static_cast<size_t>(num_free_), 0.0);
+  const size_t nodes = static_cast<size_t>(num_free_);
+  blocks.assign(9 * nodes, 0.0);
   const double p2 = static_cast<double>(m.p) * m.p;
-  for (const auto& elements : *m.colors) {
-#pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < elements.size(); ++k) {
-      const size_t pos = static_cast<size_t>(elements[k]);
-      const double* d = m.data.data() + kData * pos;
-      Eigen::Matrix<double, 4, 3> g;
-      for (int k = 0; k < 4; ++k)
-        for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
-      // d[12], d[13] carry 6V p² s λ, 6V p² s μ; the G tables carry p² already.
-      const double lambda = d[12] / p2, mu = d[13] / p2;
-      for (int a = 0; a < m.n; ++a) {
-        const index_t I = m.free[pos * m.n + a];
-        if (I < 0) continue;
-        Mat3 S = g.transpose() * t.G[a * m.n + a] * g;
-        S = 0.5 * (S + S.transpose()).eval();
-        Mat3 B = (lambda + mu) * S + (mu * S.trace() + d[14] * t.mass(a, a)) * Mat3::Identity();
-        double* out = blocks.data() + 9 * static_cast<size_t>(I);
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) out[3 * i + j] += B(i, j);
-      }
+  // Element e's diagonal blocks added at out + 9 (I - first) for each free node I >= first.
+  auto add_element = [&](size_t pos, double* out, index_t first) {
+    const double* d = m.data.data() + kData * pos;
+    Eigen::Matrix<double, 4, 3> g;
+    for (int k = 0; k < 4; ++k)
+      for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
+    // d[12], d[13] carry 6V p² s λ, 6V p² s μ; the G tables carry p² already.
+    const double lambda = d[12] / p2, mu = d[13] / p2;
+    for (int a = 0; a < m.n; ++a) {
+      const index_t I = m.free[pos * m.n + a];
+      if (I < 0) continue;
+      Mat3 S = g.transpose() * t.G[a * m.n + a] * g;
+      S = 0.5 * (S + S.transpose()).eval();
+      const Mat3 B = (lambda + mu) * S + (mu * S.trace() + d[14] * t.mass(a, a)) * Mat3::Identity();
+      double* o = out + 9 * static_cast<size_t>(I - first);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) o[3 * r + c] += B(r, c);
+    }
+  };
+  // Each thread a contiguous range of elements, as apply(): thread 0 into `blocks`, thread t > 0
+  // into a buffer over the span of free nodes its range touches (nodes are numbered in the order
+  // the elements meet them, so the spans are short), added after.
+  const int threads = omp_get_max_threads();
+  std::vector<std::vector<double>> spans(static_cast<size_t>(std::max(threads - 1, 0)));
+  std::vector<index_t> firsts(spans.size(), 0);
+  const size_t ne = static_cast<size_t>(m.num_elements);
+#pragma omp parallel num_threads(threads)
+  {
+    const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+    const size_t begin = ne * static_cast<size_t>(tid) / static_cast<size_t>(nt);
+    const size_t end = ne * static_cast<size_t>(tid + 1) / static_cast<size_t>(nt);
+    if (tid == 0) {
+      for (size_t e = begin; e < end; ++e) add_element(e, blocks.data(), 0);
+    } else {
+      index_t lo = std::numeric_limits<index_t>::max(), hi = -1;
+      for (size_t k = begin * m.n; k < end * m.n; ++k)
+        if (m.free[k] >= 0) lo = std::min(lo, m.free[k]), hi = std::max(hi, m.free[k]);
+      std::vector<double>& span = spans[static_cast<size_t>(tid - 1)];
+      firsts[static_cast<size_t>(tid - 1)] = lo;
+      span.assign(hi >= lo ? 9 * static_cast<size_t>(hi - lo + 1) : 0, 0.0);
+      for (size_t e = begin; e < end; ++e) add_element(e, span.data(), lo);
+    }
+#pragma omp barrier
+    for (int k = 0; k + 1 < nt; ++k) {  // one span after another, each spread over the threads
+      const std::vector<double>& span = spans[static_cast<size_t>(k)];
+      double* out = blocks.data() + 9 * static_cast<size_t>(firsts[static_cast<size_t>(k)]);
+#pragma omp for schedule(static)
+      for (size_t i = 0; i < span.size(); ++i) out[i] += span[i];
     }
   }
   const std::vector<char>& held = model_->constrained_free_dofs();  // identity rows, as apply()

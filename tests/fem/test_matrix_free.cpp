@@ -12,6 +12,10 @@
 
 #include <catch2/catch.hpp>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include <cmath>
 
 using namespace pmg;
@@ -82,6 +86,20 @@ TEST_CASE("matrix-free operator equals the assembled one, p = 1..3, rotations an
     double err = 0, size = 0;
     for (size_t i = 0; i < d.size(); ++i) err = std::max(err, std::abs(d[i] - dref[i])), size = std::max(size, std::abs(dref[i]));
     CHECK(err <= 1e-12 * size);
+#ifdef _OPENMP
+    // Each thread's element range adds into its own span of nodes: any thread count gives them.
+    const int threads_before = omp_get_max_threads();
+    for (int threads : {1, 3}) {
+      omp_set_num_threads(threads);
+      std::vector<double> dt;
+      op.diagonal_blocks(dt);
+      double e = 0;
+      for (size_t i = 0; i < dt.size(); ++i) e = std::max(e, std::abs(dt[i] - dref[i]));
+      INFO(threads << " threads");
+      CHECK(e <= 1e-12 * size);
+    }
+    omp_set_num_threads(threads_before);
+#endif
     CHECK(rel_diff(diagonal_of(op, "test"), diagonal_of(A, "test")) < 1e-12);
 
     // Elastic force and energy of the state, as the assembled element pass computes them.
