@@ -722,7 +722,7 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
       for (size_t k = begin * m.n; k < end * m.n; ++k)
         if (m.free[k] >= 0) lo = std::min(lo, m.free[k]), hi = std::max(hi, m.free[k]);
       std::vector<double>& span = spans[static_cast<size_t>(tid - 1)];
-      firsts[static_cast<size_t>(tid - 1)] = lo;
+      firsts[static_cast<size_t>(tid - 1)] = hi >= lo ? lo : 0;  // an empty span adds nothing
       span.assign(hi >= lo ? 9 * static_cast<size_t>(hi - lo + 1) : 0, 0.0);
       for (size_t e = begin; e < end; ++e) add_element(e, span.data(), lo);
     }
