@@ -1,6 +1,6 @@
 #include "pmg/fem/matrix_free.hpp"
 
-#include "pmg/fem/element_kernel.hpp"
+#include "matrix_free_kernels.hpp"
 
 #include <mutex>
 #include <omp.h>
@@ -15,427 +15,9 @@
 
 namespace pmg::fem {
 
-namespace {
+using detail::kBatch;
+using detail::kData;
 
-/// Local index (in multi_indices(P): vertices, edges 01 02 03 12 13 23 from first to second vertex,
-/// faces 012 013 023 123) of the multi-index a, at compile time.
-constexpr int local_index_of(int P, const int (&a)[4]) {
-  int nz = 0, first = -1;
-  for (int i = 0; i < 4; ++i)
-    if (a[i] > 0) ++nz, first = first < 0 ? i : first;
-  if (nz == 1) return first;
-  constexpr int edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  if (nz == 2)
-    for (int e = 0; e < 6; ++e)
-      if (a[edges[e][0]] > 0 && a[edges[e][1]] > 0) return 4 + e * (P - 1) + a[edges[e][1]] - 1;
-  constexpr int faces[4][3] = {{0, 1, 2}, {0, 1, 3}, {0, 2, 3}, {1, 2, 3}};
-  for (int f = 0; f < 4; ++f)
-    if (a[faces[f][0]] > 0 && a[faces[f][1]] > 0 && a[faces[f][2]] > 0) return 4 + 6 * (P - 1) + f;
-  return -1;  // interior nodes: none for P <= 3
-}
-
-/// v[β][k] = local index of β + e_k, for the degree-(P-1) multi-indices β in the order of Tables.
-template <int P>
-struct UpTable {
-  int v[element_nodes(P - 1)][4] = {};
-  constexpr UpTable() {
-    int i = 0;
-    for (int a = 0; a <= P - 1; ++a)
-      for (int b = 0; a + b <= P - 1; ++b)
-        for (int c = 0; a + b + c <= P - 1; ++c, ++i)
-          for (int k = 0; k < 4; ++k) {
-            int m[4] = {a, b, c, P - 1 - a - b - c};
-            ++m[k];
-            v[i][k] = local_index_of(P, m);
-          }
-  }
-};
-
-}  // namespace
-
-// The per-degree tables (pmg/fem/element_kernel.hpp): q = ∫ B^{p-1}_γ B^{p-1}_β / (6V),
-// mass = ∫ B^p_a B^p_b / (6V), up = the compile-time UpTable, gdiag = the G_aa of element_tables().
-// The CPU kernels below read q and mass from the same object.
-template <int P>
-const ElementKernelTables<P>& element_kernel_tables() {
-  static const ElementKernelTables<P> k = [] {
-    ElementKernelTables<P> t{};
-    constexpr int N = ElementKernelTables<P>::N, Q = ElementKernelTables<P>::Q;
-    constexpr UpTable<P> up{};
-    std::vector<MultiIndex> beta;
-    for (int a = 0; a <= P - 1; ++a)
-      for (int b = 0; a + b <= P - 1; ++b)
-        for (int c = 0; a + b + c <= P - 1; ++c) beta.push_back({a, b, c, P - 1 - a - b - c});
-    for (int i = 0; i < Q; ++i) {
-      for (int kk = 0; kk < 4; ++kk) {
-        MultiIndex a = beta[i];
-        ++a[kk];
-        if (up.v[i][kk] != local_index(a))  // the compile-time table follows multi_indices()
-          throw std::logic_error("matrix-free operator: node order table out of date");
-        t.up[i][kk] = up.v[i][kk];
-      }
-      for (int j = 0; j < Q; ++j) t.q[i][j] = bernstein_product_integral(beta[i], beta[j]);
-    }
-    const auto& alpha = multi_indices(P);
-    const ElementTables& e = element_tables(P);
-    for (int a = 0; a < N; ++a) {
-      for (int b = 0; b < N; ++b) t.mass[a][b] = bernstein_product_integral(alpha[a], alpha[b]);
-      for (int kk = 0; kk < 4; ++kk)
-        for (int l = 0; l < 4; ++l) t.gdiag[a][4 * kk + l] = e.G[static_cast<size_t>(a * N + a)](kk, l);
-    }
-    return t;
-  }();
-  return k;
-}
-template const ElementKernelTables<1>& element_kernel_tables<1>();
-template const ElementKernelTables<2>& element_kernel_tables<2>();
-template const ElementKernelTables<3>& element_kernel_tables<3>();
-
-namespace {
-
-template <int P>
-using Tables = ElementKernelTables<P>;
-
-template <int P>
-const Tables<P>& tables() {
-  return element_kernel_tables<P>();
-}
-
-/// Element data, 16 doubles: g_k = R ∇λ_k (row-major 4x3), then 6V p² s λ_e, 6V p² s μ_e, 6V ρ m
-/// (pmg/fem/element_kernel.hpp).
-constexpr int kData = kElementData;
-
-/// r = (m M_e + s K_R,e) u for one element (steps 1–5 of the header); u[a][i]: component i of
-/// node a. The index table is a compile-time constant, so every loop unrolls to fixed offsets.
-template <int P>
-inline void element_apply(const Tables<P>& t, const double* d, const double (&u)[Tables<P>::N][3],
-                          double (&r)[Tables<P>::N][3]) {
-  constexpr int N = Tables<P>::N, Q = Tables<P>::Q;
-  constexpr UpTable<P> up{};
-  const double* g = d;
-  const double cl = d[12], cm = d[13], cmass = d[14];
-  // 1. H_β = Σ_k u_{β+e_k} g_kᵀ
-  double H[Q][9];
-  for (int b = 0; b < Q; ++b) {
-    double h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    for (int k = 0; k < 4; ++k) {
-      const double* ua = u[up.v[b][k]];
-      const double* gk = g + 3 * k;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) h[3 * i + j] += ua[i] * gk[j];
-    }
-    for (int c = 0; c < 9; ++c) H[b][c] = h[c];
-  }
-  // 5. mass first (it initialises r): r_a = cmass Σ_b P_ab u_b
-  if (cmass != 0.0) {
-    // Component-major copies, so the loops over nodes run contiguously and vectorise.
-    double ut[3][N], rt[3][N];
-    for (int a = 0; a < N; ++a)
-      for (int i = 0; i < 3; ++i) ut[i][a] = cmass * u[a][i], rt[i][a] = 0.0;
-    for (int b = 0; b < N; ++b) {
-      const double* pb = t.mass[b];  // P is symmetric: row b is column b
-      for (int i = 0; i < 3; ++i) {
-        const double w = ut[i][b];
-        for (int a = 0; a < N; ++a) rt[i][a] += pb[a] * w;
-      }
-    }
-    for (int a = 0; a < N; ++a)
-      for (int i = 0; i < 3; ++i) r[a][i] = rt[i][a];
-  } else {
-    for (int a = 0; a < N; ++a) r[a][0] = r[a][1] = r[a][2] = 0.0;
-  }
-  for (int c = 0; c < Q; ++c) {
-    // 2. Ĥ_γ = Σ_β Q_γβ H_β
-    double h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    for (int b = 0; b < Q; ++b) {
-      const double w = t.q[c][b];
-      for (int i = 0; i < 9; ++i) h[i] += w * H[b][i];
-    }
-    double T[9];
-    isotropic_stress(h, cl, cm, T);  // 3.
-    // 4. r_{γ+e_k} += T g_k
-    for (int k = 0; k < 4; ++k) {
-      double* ra = r[up.v[c][k]];
-      const double* gk = g + 3 * k;
-      for (int i = 0; i < 3; ++i) ra[i] += T[3 * i] * gk[0] + T[3 * i + 1] * gk[1] + T[3 * i + 2] * gk[2];
-    }
-  }
-}
-
-/// out += sign · (element products of x) over elements [begin, end) (n node indices and kData
-/// doubles per element; a free index < 0 is a fixed node: read as 0, not written).
-template <int P>
-inline void apply_range(const index_t* free, const double* data, long begin, long end,
-                        const double* xp, double* out, double sign) {
-  const Tables<P>& t = tables<P>();
-  constexpr int N = Tables<P>::N;
-  for (long e = begin; e < end; ++e) {
-    const index_t* f = free + static_cast<size_t>(e) * N;
-    double u[N][3], r[N][3];
-    for (int a = 0; a < N; ++a) {
-      const index_t I = f[a];
-      if (I >= 0) {
-        const double* s = xp + 3 * static_cast<size_t>(I);
-        u[a][0] = s[0], u[a][1] = s[1], u[a][2] = s[2];
-      } else {
-        u[a][0] = u[a][1] = u[a][2] = 0.0;
-      }
-    }
-    element_apply<P>(t, data + kData * static_cast<size_t>(e), u, r);
-    for (int a = 0; a < N; ++a) {
-      const index_t I = f[a];
-      if (I < 0) continue;
-      double* s = out + 3 * static_cast<size_t>(I);
-      s[0] += sign * r[a][0], s[1] += sign * r[a][1], s[2] += sign * r[a][2];
-    }
-  }
-}
-
-// ---- Element batches in SIMD lanes ------------------------------------------------------------
-//
-// The product runs kBatch consecutive elements at a time, one element per SIMD lane (deal.II's
-// VectorizedArray layout): the element data is stored structure-of-arrays per batch (datum k of
-// lane l at [k * kBatch + l]), node indices node-major ([a * kBatch + l]), and the kernel below is
-// element_apply() with every scalar replaced by a vector of L lanes. A batch is gathered from x
-// lane by lane and scattered into the accumulation vector lane by lane in order, so two elements of
-// a batch may share a node. The last batch is padded with empty lanes (index -1, data 0).
-//
-// The vector type is GCC's vector extension (also Clang's): unlike std::experimental::simd, whose
-// width is fixed by the flags of the translation unit, it compiles to the instruction set of the
-// function it is in, so one source gives the baseline x86-64 path (SSE2, a 4-lane vector split in
-// two) and AVX2 + FMA and AVX-512 copies chosen at run time (function target attributes); the
-// arithmetic is only +, * and lane access, which the extension covers on every compiler pmgkit
-// builds with.
-constexpr int kBatch = 16;
-
-template <class T, int L>
-struct Lanes;
-template <>
-struct Lanes<double, 4> {
-  typedef double type __attribute__((vector_size(32)));
-};
-template <>
-struct Lanes<double, 8> {
-  typedef double type __attribute__((vector_size(64)));
-};
-template <>
-struct Lanes<float, 8> {
-  typedef float type __attribute__((vector_size(32)));
-};
-template <>
-struct Lanes<float, 16> {
-  typedef float type __attribute__((vector_size(64)));
-};
-
-/// The degree-P tables in the kernel's precision.
-template <int P, class T>
-struct TablesIn {
-  static constexpr int N = Tables<P>::N, Q = Tables<P>::Q;
-  T q[Q][Q];
-  T mass[N][N];
-  TablesIn() {
-    const Tables<P>& t = tables<P>();
-    for (int i = 0; i < Q; ++i)
-      for (int j = 0; j < Q; ++j) q[i][j] = static_cast<T>(t.q[i][j]);
-    for (int i = 0; i < N; ++i)
-      for (int j = 0; j < N; ++j) mass[i][j] = static_cast<T>(t.mass[i][j]);
-  }
-};
-
-template <int P, class T>
-const TablesIn<P, T>& tables_in() {
-  static const TablesIn<P, T> t;
-  return t;
-}
-
-/// r = (m M_e + s K_R,e) u for the L elements of lanes [o, o + L) of one batch: element_apply()
-/// lane-wise. d: the batch's kData x kBatch data.
-template <int P, class T, int L>
-inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
-                        const typename Lanes<T, L>::type (&u)[Tables<P>::N][3],
-                        typename Lanes<T, L>::type (&r)[Tables<P>::N][3]) {
-  using V = typename Lanes<T, L>::type;
-  constexpr int N = Tables<P>::N, Q = Tables<P>::Q;
-  constexpr UpTable<P> up{};
-  // Datum k of the L lanes (by reference: vector values never cross a function boundary, whose
-  // ABI would depend on the instruction set).
-  auto load = [&](V& v, int k) { __builtin_memcpy(&v, d + k * kBatch + o, sizeof(V)); };
-  V g[4][3], cl, cm;
-  for (int k = 0; k < 4; ++k)
-    for (int j = 0; j < 3; ++j) load(g[k][j], 3 * k + j);
-  load(cl, 12);
-  load(cm, 13);
-  // 1. H_β = Σ_k u_{β+e_k} g_kᵀ
-  V H[Q][9];
-  for (int b = 0; b < Q; ++b) {
-    V h[9];
-    for (int c = 0; c < 9; ++c) h[c] = V{} ;
-    for (int k = 0; k < 4; ++k) {
-      const V* ua = u[up.v[b][k]];
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) h[3 * i + j] += ua[i] * g[k][j];
-    }
-    for (int c = 0; c < 9; ++c) H[b][c] = h[c];
-  }
-  // 5. mass first (it initialises r): r_a = cmass Σ_b P_ab u_b
-  if (mass) {
-    V cmass;
-    load(cmass, 14);
-    for (int a = 0; a < N; ++a) {
-      V s[3] = {V{}, V{}, V{}};
-      for (int b = 0; b < N; ++b) {
-        const T w = t.mass[a][b];
-        for (int i = 0; i < 3; ++i) s[i] += w * u[b][i];
-      }
-      for (int i = 0; i < 3; ++i) r[a][i] = cmass * s[i];
-    }
-  } else {
-    for (int a = 0; a < N; ++a) r[a][0] = r[a][1] = r[a][2] = V{};
-  }
-  for (int c = 0; c < Q; ++c) {
-    // 2. Ĥ_γ = Σ_β Q_γβ H_β
-    V h[9];
-    for (int i = 0; i < 9; ++i) h[i] = V{};
-    for (int b = 0; b < Q; ++b) {
-      const T w = t.q[c][b];
-      for (int i = 0; i < 9; ++i) h[i] += w * H[b][i];
-    }
-    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ)
-    const V tr = cl * (h[0] + h[4] + h[8]);
-    V S[9];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) S[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
-    S[0] += tr, S[4] += tr, S[8] += tr;
-    // 4. r_{γ+e_k} += T g_k
-    for (int k = 0; k < 4; ++k) {
-      V* ra = r[up.v[c][k]];
-      for (int i = 0; i < 3; ++i) ra[i] += S[3 * i] * g[k][0] + S[3 * i + 1] * g[k][1] + S[3 * i + 2] * g[k][2];
-    }
-  }
-}
-
-/// out += sign · (element products of x) over batches [begin, end), L lanes at a time.
-template <int P, class T, int L>
-inline void apply_batches(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
-                          T sign, bool mass) {
-  using V = typename Lanes<T, L>::type;
-  constexpr int N = Tables<P>::N;
-  const TablesIn<P, T>& t = tables_in<P, T>();
-  for (long bt = begin; bt < end; ++bt) {
-    const index_t* f = free + static_cast<size_t>(bt) * N * kBatch;
-    const T* d = data + static_cast<size_t>(bt) * kData * kBatch;
-    for (int o = 0; o < kBatch; o += L) {
-      // Gathered into and scattered from plain arrays: lanes are written one by one.
-      alignas(64) T ub[N][3][L], rb[N][3][L];
-      for (int a = 0; a < N; ++a)
-        for (int l = 0; l < L; ++l) {
-          const index_t I = f[a * kBatch + o + l];
-          if (I >= 0) {
-            const T* s = xp + 3 * static_cast<size_t>(I);
-            ub[a][0][l] = s[0], ub[a][1][l] = s[1], ub[a][2][l] = s[2];
-          } else {
-            ub[a][0][l] = ub[a][1][l] = ub[a][2][l] = T(0);
-          }
-        }
-      V u[N][3], r[N][3];
-      static_assert(sizeof(u) == sizeof(ub), "lane arrays");
-      __builtin_memcpy(u, ub, sizeof(u));
-      batch_apply<P, T, L>(t, d, o, mass, u, r);
-      __builtin_memcpy(rb, r, sizeof(r));
-      for (int l = 0; l < L; ++l)
-        for (int a = 0; a < N; ++a) {
-          const index_t I = f[a * kBatch + o + l];
-          if (I < 0) continue;
-          T* s = out + 3 * static_cast<size_t>(I);
-          s[0] += sign * rb[a][0][l], s[1] += sign * rb[a][1][l], s[2] += sign * rb[a][2][l];
-        }
-    }
-  }
-}
-
-/// The lanes per vector of each instruction set: the baseline path splits a 256-bit vector.
-template <class T>
-constexpr int lanes_baseline = 32 / sizeof(T);
-
-template <int P, class T>
-void apply_batches_generic(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
-                           T sign, bool mass) {
-  apply_batches<P, T, lanes_baseline<T>>(free, data, begin, end, xp, out, sign, mass);
-}
-
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
-#define PMG_MF_X86_DISPATCH 1
-template <int P, class T>
-__attribute__((target("avx2,fma"), flatten)) void apply_batches_avx2(const index_t* free, const T* data,
-                                                                       long begin, long end, const T* xp,
-                                                                       T* out, T sign, bool mass) {
-  apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, sign, mass);
-}
-template <int P, class T>
-__attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) void apply_batches_avx512(
-    const index_t* free, const T* data, long begin, long end, const T* xp, T* out, T sign, bool mass) {
-  apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, sign, mass);
-}
-#endif
-
-}  // namespace
-
-bool matrix_free_kernel_available(MatrixFreeKernel k) {
-  switch (k) {
-    case MatrixFreeKernel::automatic:
-    case MatrixFreeKernel::reference:
-    case MatrixFreeKernel::generic: return true;
-#ifdef PMG_MF_X86_DISPATCH
-    case MatrixFreeKernel::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    case MatrixFreeKernel::avx512:
-      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#endif
-    default: return false;
-  }
-}
-
-std::string to_string(MatrixFreeKernel k) {
-  switch (k) {
-    case MatrixFreeKernel::automatic: return "auto";
-    case MatrixFreeKernel::reference: return "reference";
-    case MatrixFreeKernel::generic: return "generic";
-    case MatrixFreeKernel::avx2: return "avx2";
-    case MatrixFreeKernel::avx512: return "avx512";
-  }
-  return "?";
-}
-
-MatrixFreeKernel parse_matrix_free_kernel(const std::string& name) {
-  for (MatrixFreeKernel k : {MatrixFreeKernel::automatic, MatrixFreeKernel::reference, MatrixFreeKernel::generic,
-                             MatrixFreeKernel::avx2, MatrixFreeKernel::avx512})
-    if (to_string(k) == name) return k;
-  throw InputError("matrix-free kernel: unknown name '" + name + "' (auto, reference, generic, avx2, avx512)");
-}
-
-namespace {
-
-MatrixFreeKernel resolve(MatrixFreeKernel k) {
-  if (k != MatrixFreeKernel::automatic) return k;
-  // AVX-512 where the CPU has it (on AMD Zen 4 it runs 512-bit vectors in two halves: the gain is
-  // the 32 vector registers), else AVX2 + FMA, else the baseline path.
-  for (MatrixFreeKernel c : {MatrixFreeKernel::avx512, MatrixFreeKernel::avx2})
-    if (matrix_free_kernel_available(c)) return c;
-  return MatrixFreeKernel::generic;
-}
-
-template <int P, class T>
-void apply_batches_dispatch(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end,
-                            const T* xp, T* out, T sign, bool mass) {
-#ifdef PMG_MF_X86_DISPATCH
-  if (k == MatrixFreeKernel::avx512) return apply_batches_avx512<P, T>(free, data, begin, end, xp, out, sign, mass);
-  if (k == MatrixFreeKernel::avx2) return apply_batches_avx2<P, T>(free, data, begin, end, xp, out, sign, mass);
-#endif
-  (void)k;
-  apply_batches_generic<P, T>(free, data, begin, end, xp, out, sign, mass);
-}
-
-}  // namespace
 
 struct ElasticityOperator::Impl {
   int p = 0, n = 0;
@@ -506,13 +88,13 @@ struct ElasticityOperator::Impl {
         if (reference) {
           const long begin = num_elements * static_cast<long>(tid) / nt;
           const long end = num_elements * static_cast<long>(tid + 1) / nt;
-          apply_range<P>(free.data(), data.data(), begin, end, xp, out, sign);
+          detail::apply_elements<P>(free.data(), data.data(), begin, end, xp, out, sign);
         }
       }
       if (!reference) {
         const long begin = num_batches * static_cast<long>(tid) / nt;
         const long end = num_batches * static_cast<long>(tid + 1) / nt;
-        apply_batches_dispatch<P, T>(kernel, batch_free.data(), bdata, begin, end, xp, out, sign, mass);
+        detail::apply_element_batches<P, T>(kernel, batch_free.data(), bdata, begin, end, xp, out, sign, mass);
       }
 #pragma omp barrier
       if (nt > 1) {
@@ -555,7 +137,7 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
     if (!matrix_free_kernel_available(kernel))
       throw InputError("PMG_MATRIX_FREE_KERNEL=" + std::string(env) + ": this CPU cannot run that kernel");
   }
-  m.resolved = resolve(kernel);
+  m.resolved = detail::resolve_kernel(kernel);
   update(nullptr);
 }
 
@@ -643,7 +225,7 @@ void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector&
 void ElasticityOperator::set_kernel(MatrixFreeKernel kernel) {
   if (!matrix_free_kernel_available(kernel))
     throw InputError("matrix-free operator: this CPU cannot run the " + to_string(kernel) + " kernel");
-  impl_->resolved = resolve(kernel);
+  impl_->resolved = detail::resolve_kernel(kernel);
 }
 
 MatrixFreeKernel ElasticityOperator::kernel() const { return impl_->resolved; }
@@ -771,14 +353,14 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
       const Mat3 R = Rs ? (*Rs)[e] : Mat3::Identity();
       auto run = [&](auto tag) {
         constexpr int P = decltype(tag)::value;
-        constexpr int N = Tables<P>::N;
+        constexpr int N = ElementKernelTables<P>::N;
         double y[N][3], r[N][3];
         for (int a = 0; a < N; ++a) {
           const Vec3& Xa = X[nodes[a]];
           const Vec3 ya = Xa + u.segment<3>(3 * nodes[a]) - R * Xa;
           y[a][0] = ya[0], y[a][1] = ya[1], y[a][2] = ya[2];
         }
-        element_apply<P>(tables<P>(), d, y, r);
+        detail::element_product<P>(d, y, r);
         for (int a = 0; a < N; ++a) {
           total += 0.5 * (y[a][0] * r[a][0] + y[a][1] * r[a][1] + y[a][2] * r[a][2]);
           double* f = force.data() + 3 * static_cast<size_t>(nodes[a]);

@@ -1,0 +1,36 @@
+// Internal to pmg::fem: the element kernels of the matrix-free elasticity operator, defined in
+// matrix_free_kernels.cpp for degrees 1-3 (and float or double for the batched product).
+#pragma once
+
+#include "pmg/fem/element_kernel.hpp"
+#include "pmg/fem/matrix_free.hpp"
+
+namespace pmg::fem::detail {
+
+/// Element data, 16 doubles: g_k = R ∇λ_k (row-major 4x3), then 6V p² s λ_e, 6V p² s μ_e, 6V ρ m
+/// (pmg/fem/element_kernel.hpp).
+constexpr int kData = kElementData;
+/// Elements per batch of the batched product (one per SIMD lane; the last batch padded).
+constexpr int kBatch = 16;
+
+/// r = (m M_e + s K_R,e) u for one element with data d; u[a][i]: component i of node a.
+template <int P>
+void element_product(const double* d, const double (&u)[ElementKernelTables<P>::N][3],
+                     double (&r)[ElementKernelTables<P>::N][3]);
+
+/// out += sign · (element products of x) over elements [begin, end), one element at a time (N node
+/// indices and kData doubles per element; a free index < 0 is a fixed node: read as 0, not written).
+template <int P>
+void apply_elements(const index_t* free, const double* data, long begin, long end, const double* xp, double* out,
+                    double sign);
+
+/// The same over batches [begin, end) of kBatch elements (node indices node-major, data
+/// datum-major per batch), with kernel k (not automatic); mass: add the mass term.
+template <int P, class T>
+void apply_element_batches(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end, const T* xp,
+                           T* out, T sign, bool mass);
+
+/// The kernel `automatic` stands for on this CPU (any other is returned as it is).
+MatrixFreeKernel resolve_kernel(MatrixFreeKernel k);
+
+}  // namespace pmg::fem::detail
