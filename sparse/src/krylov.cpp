@@ -127,8 +127,21 @@ KrylovParams with_rhs_floor(KrylovParams params, const Vector& b) {
 
 // ---- Cg ------------------------------------------------------------------------------------------
 
+void PreconditionedKrylov::setup_impl(const LinearOperator& A) {
+  if (M_) M_->setup(A);
+}
+
+void PreconditionedKrylov::update_impl() {
+  if (M_) M_->update();
+}
+
+void PreconditionedKrylov::apply_impl(const Vector& b, Vector& x) const {
+  x.setZero();
+  require_usable(solve_impl(b, x, nullptr));
+}
+
 Cg::Cg(const KrylovParams& params, std::unique_ptr<Solver> preconditioner)
-    : params_(params), M_(std::move(preconditioner)) {
+    : PreconditionedKrylov(params, std::move(preconditioner)) {
   if (M_ && M_->is_linear() && !M_->is_symmetric())
     throw InputError("CG: the preconditioner '" + M_->name() + "' is not symmetric (a restriction "
                      "other than the transposed prolongation, or non-adjoint smoothing); CG needs "
@@ -143,24 +156,15 @@ std::string Cg::name() const {
 }
 
 void Cg::setup_impl(const LinearOperator& A) {
-  if (M_) M_->setup(A);
+  PreconditionedKrylov::setup_impl(A);
   const Eigen::Index n = A.rows();
   work_.r.resize(n), work_.q.resize(n), work_.p.resize(n);
   if (M_) work_.z.resize(n);
 }
 
-void Cg::update_impl() {
-  if (M_) M_->update();
-}
-
 SolveResult Cg::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   const LinearOperator& A = spmv_ ? *spmv_ : system();
   return pcg(A, M_.get(), b, x, with_rhs_floor(params_, b), monitor, &work_);
-}
-
-void Cg::apply_impl(const Vector& b, Vector& x) const {
-  x.setZero();
-  require_usable(solve_impl(b, x, nullptr));
 }
 
 void require_usable(const SolveResult& r) {

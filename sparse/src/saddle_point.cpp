@@ -367,7 +367,7 @@ SolveResult gmres(const LinearOperator& K, const PreconditionedProduct& KM, cons
 // ---- Gmres -----------------------------------------------------------------------------------------
 
 Gmres::Gmres(const KrylovParams& params, std::unique_ptr<Solver> preconditioner, const GmresParams& options)
-    : params_(params), M_(std::move(preconditioner)), options_(options) {
+    : PreconditionedKrylov(params, std::move(preconditioner)), options_(options) {
   if (options.restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(options.restart));
 }
 
@@ -376,21 +376,8 @@ std::string Gmres::describe() const {
   return "GMRES(" + std::to_string(options_.restart) + "), " + m;
 }
 
-void Gmres::setup_impl(const LinearOperator& A) {
-  if (M_) M_->setup(A);
-}
-
-void Gmres::update_impl() {
-  if (M_) M_->update();
-}
-
 SolveResult Gmres::solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const {
   return gmres(system(), M_.get(), b, x, with_rhs_floor(params_, b), options_, monitor, &work_);
-}
-
-void Gmres::apply_impl(const Vector& b, Vector& x) const {
-  x.setZero();
-  require_usable(solve_impl(b, x, nullptr));
 }
 
 // ---- BlockTriangularOperator -----------------------------------------------------------------------

@@ -107,19 +107,12 @@ SolveResult mcg(const LinearOperator& A, const BlockJacobiPreconditioner& M, con
                 Vector& x, const KrylovParams& params = {}, SolveMonitor* monitor = nullptr,
                 KrylovWorkspace* work = nullptr);
 
-/// CG as a Solver, preconditioned by any Solver set up on the same matrix (none: plain CG). The
-/// preconditioner must be symmetric where it is linear (the constructor refuses one that is not,
-/// naming it); a nonlinear one (a multigrid cycle whose lowest level is solved to a tolerance)
-/// makes the iteration flexible (KrylovParams::flexible).
-/// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditioning an
-/// outer CG makes that one flexible; it can solve a multigrid cycle's lowest level. Work vectors
-/// live in the object.
-class Cg final : public Solver {
+/// What every Krylov Solver around an owned preconditioner shares (Cg, Gmres): the stopping rules,
+/// the preconditioner (nullptr: none) set up and updated with the solver, its needs and timings
+/// passed on, and apply(b, x) as a solve from x = 0 to the tolerance (a nonlinear map, so a Krylov
+/// solver preconditioning an outer one makes that one flexible). Work vectors live in the object.
+class PreconditionedKrylov : public Solver {
  public:
-  /// Takes ownership of the preconditioner (nullptr: plain CG), which is set up and updated with
-  /// the Cg. Throws InputError when the preconditioner is linear but not symmetric.
-  explicit Cg(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr);
-  std::string name() const override;
   bool is_linear() const override { return false; }
   bool is_symmetric() const override { return false; }
   SolverNeeds needs() const override { return M_ ? M_->needs() : SolverNeeds{}; }
@@ -132,8 +125,37 @@ class Cg final : public Solver {
   KrylovParams& params() { return params_; }
   /// The stopping rules.
   const KrylovParams& params() const { return params_; }
-  /// The preconditioner, owned by the Cg (nullptr for plain CG).
+  /// The preconditioner, owned by this solver (nullptr: none).
   Solver* preconditioner() const { return M_.get(); }
+
+ protected:
+  /// Takes ownership of the preconditioner.
+  PreconditionedKrylov(const KrylovParams& params, std::unique_ptr<Solver> preconditioner)
+      : params_(params), M_(std::move(preconditioner)) {}
+  /// Sets up the preconditioner on A.
+  void setup_impl(const LinearOperator& A) override;
+  /// Updates the preconditioner.
+  void update_impl() override;
+  /// x = the solve of b from x = 0 (an error where it broke down or met NaN).
+  void apply_impl(const Vector& b, Vector& x) const override;
+
+  KrylovParams params_;         ///< the stopping rules
+  std::unique_ptr<Solver> M_;   ///< the preconditioner (nullptr: none)
+};
+
+/// CG as a Solver, preconditioned by any Solver set up on the same matrix (none: plain CG). The
+/// preconditioner must be symmetric where it is linear (the constructor refuses one that is not,
+/// naming it); a nonlinear one (a multigrid cycle whose lowest level is solved to a tolerance)
+/// makes the iteration flexible (KrylovParams::flexible).
+/// apply(b, x) solves from x = 0 to the tolerance: a nonlinear map, so a CG preconditioning an
+/// outer CG makes that one flexible; it can solve a multigrid cycle's lowest level. Work vectors
+/// live in the object.
+class Cg final : public PreconditionedKrylov {
+ public:
+  /// Takes ownership of the preconditioner (nullptr: plain CG), which is set up and updated with
+  /// the Cg. Throws InputError when the preconditioner is linear but not symmetric.
+  explicit Cg(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr);
+  std::string name() const override;
   /// The preconditioner's description (its name when it has none), or "no preconditioner".
   std::string describe() const override {
     if (!M_) return "no preconditioner";
@@ -150,12 +172,8 @@ class Cg final : public Solver {
 
  private:
   void setup_impl(const LinearOperator& A) override;
-  void update_impl() override;
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
-  void apply_impl(const Vector& b, Vector& x) const override;
 
-  KrylovParams params_;
-  std::unique_ptr<Solver> M_;
   const LinearOperator* spmv_ = nullptr;
   mutable KrylovWorkspace work_;
 };

@@ -164,26 +164,16 @@ SolveResult gmres(const LinearOperator& K, const PreconditionedProduct& KM, cons
 /// gmres() as a Solver for any system, with any preconditioner (a Solver, set up and updated with
 /// this one; nullptr: none): the outer iteration of a preconditioner that is not symmetric or not
 /// positive definite (PETSc's fieldsplit on a saddle point: `fieldsplit-gmres`).
-class Gmres final : public Solver {
+class Gmres final : public PreconditionedKrylov {
  public:
   /// Takes ownership of the preconditioner. Throws InputError for restart < 1.
   explicit Gmres(const KrylovParams& params = {}, std::unique_ptr<Solver> preconditioner = nullptr,
                  const GmresParams& options = {});
   std::string name() const override { return M_ ? "gmres(" + M_->name() + ")" : "gmres"; }
-  bool is_linear() const override { return false; }
-  bool is_symmetric() const override { return false; }
-  SolverNeeds needs() const override { return M_ ? M_->needs() : SolverNeeds{}; }
   std::string describe() const override;
-  /// The stopping rules (read at each solve).
-  KrylovParams& params() { return params_; }
 
  private:
-  void setup_impl(const LinearOperator& A) override;
-  void update_impl() override;
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
-  void apply_impl(const Vector& b, Vector& x) const override;
-  KrylovParams params_;
-  std::unique_ptr<Solver> M_;
   GmresParams options_;
   mutable GmresWorkspace work_;
 };
