@@ -8,38 +8,10 @@
 namespace pmg::fem {
 
 BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_index)
-    : space_(&space), n_(space.nodes_per_element()), free_index_(std::move(free_index)) {
+    : space_(&space), n_(space.nodes_per_element()), free_index_(std::move(free_index)), ranges_(space) {
   if (free_index_.size() != static_cast<size_t>(space.num_nodes()))
     throw InputError("assembler: free_index must have one entry per node");
   for (index_t f : free_index_) num_free_ = std::max(num_free_, f + 1);
-  const index_t ne = space.mesh().num_tets();
-
-  // Greedy colouring: the smallest colour not used by an element sharing a node. Each node's
-  // elements, in ascending order, as one array with offsets (a counting sort).
-  std::vector<offset_t> start;
-  std::vector<index_t> node_elements;
-  detail::group_by_row(space.num_nodes(), ne, n_, [&](index_t e, int a) {
-    return std::pair<index_t, index_t>(space.element_nodes(e)[a], e);
-  }, start, node_elements);
-  std::vector<int> color(ne, -1);
-  std::vector<index_t> used_by(64, -1);  // used_by[c] == e: colour c is taken for element e
-  for (index_t e = 0; e < ne; ++e) {
-    for (int a = 0; a < n_; ++a) {
-      const index_t node = space.element_nodes(e)[a];
-      for (offset_t q = start[node]; q < start[node + 1]; ++q) {
-        const index_t other = node_elements[q];
-        if (color[other] >= 0) {
-          if (static_cast<size_t>(color[other]) >= used_by.size()) used_by.resize(2 * used_by.size(), -1);
-          used_by[color[other]] = e;
-        }
-      }
-    }
-    int c = 0;
-    while (c < static_cast<int>(used_by.size()) && used_by[c] == e) ++c;
-    color[e] = c;
-    if (static_cast<size_t>(c) >= colors_.size()) colors_.resize(c + 1);
-    colors_[c].push_back(e);
-  }
 }
 
 

@@ -249,53 +249,56 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
                               pass.prescribed->cwiseAbs().maxCoeff() > 0;
   // The element's state enters only through y = x_e - R X_e (zero at rest for R = I).
   const bool need_y = pass.force || pass.energy || (pass.rhs && pass.R);
-  double energy = 0.0;
-  for (const auto& elements : as.colors()) {
-#pragma omp parallel
-    {
-      Eigen::MatrixXd Ke;
-      Eigen::VectorXd y(3 * n), g(3 * n);
-      ElementGeometry geo;
-#pragma omp for schedule(dynamic, 16) reduction(+ : energy)
-      for (size_t k = 0; k < elements.size(); ++k) {
-        const index_t e = elements[k];
-        const index_t* nodes = space_.element_nodes(e);
-        // R K_e Rᵀ is the stiffness of the element with rotated gradients ∇λ_k → R ∇λ_k.
-        geo = geometry_[e];
-        if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
-        const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
-        element_stiffness(tables_, geo, s * material_.lambda(), s * material_.mu(), Ke);
-        if (need_y) {
-          for (int a = 0; a < n; ++a) {
-            const Vec3& Xa = X[nodes[a]];
-            const Vec3 x = pass.u ? Vec3(Xa + pass.u->segment<3>(3 * nodes[a])) : Xa;
-            y.segment<3>(3 * a) = pass.R ? Vec3(x - (*pass.R)[e] * Xa) : Vec3(x - Xa);
-          }
-          g.noalias() = Ke * y;
-          energy += 0.5 * y.dot(g);
-        }
-        for (int a = 0; a < n; ++a) {
-          const index_t ia = nodes[a];
-          if (pass.force) pass.force->segment<3>(3 * ia) -= g.segment<3>(3 * a);
-          const index_t I = fi[ia];
-          if (I < 0 || !(pass.stiffness || pass.rhs)) continue;
-          Vec3 r = Vec3::Zero();
-          for (int b = 0; b < n; ++b) {
-            const offset_t slot = as.slot(e, a, b);
-            if (slot >= 0) {
-              if (pass.stiffness) pass.stiffness->block(slot) += weight * Ke.block<3, 3>(3 * a, 3 * b);
-            } else if (has_prescribed) {
-              r -= Ke.block<3, 3>(3 * a, 3 * b) * pass.prescribed->segment<3>(3 * nodes[b]);
-            }
-          }
-          if (pass.rhs) {
-            if (need_y) r -= g.segment<3>(3 * a);
-            pass.rhs->segment<3>(3 * I) += r;
-          }
+  // Per thread: the element matrix, the element's state and force, and its share of the energy.
+  struct Scratch {
+    Eigen::MatrixXd Ke;
+    Eigen::VectorXd y, g;
+    ElementGeometry geo;
+  };
+  std::vector<Scratch> scratch(static_cast<size_t>(as.ranges().threads()));
+  std::vector<double> energies(scratch.size(), 0.0);
+  as.ranges().for_each([&](int thread, index_t e, const ElementRanges::Writes& writes, bool first) {
+    Scratch& sc = scratch[static_cast<size_t>(thread)];
+    const index_t* nodes = space_.element_nodes(e);
+    // R K_e Rᵀ is the stiffness of the element with rotated gradients ∇λ_k → R ∇λ_k.
+    sc.geo = geometry_[e];
+    if (pass.R) sc.geo.grad = sc.geo.grad * (*pass.R)[e].transpose();
+    const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
+    element_stiffness(tables_, sc.geo, s * material_.lambda(), s * material_.mu(), sc.Ke);
+    const Eigen::MatrixXd& Ke = sc.Ke;
+    if (need_y) {
+      sc.y.resize(3 * n);
+      for (int a = 0; a < n; ++a) {
+        const Vec3& Xa = X[nodes[a]];
+        const Vec3 x = pass.u ? Vec3(Xa + pass.u->segment<3>(3 * nodes[a])) : Xa;
+        sc.y.segment<3>(3 * a) = pass.R ? Vec3(x - (*pass.R)[e] * Xa) : Vec3(x - Xa);
+      }
+      sc.g.noalias() = Ke * sc.y;
+      if (first) energies[static_cast<size_t>(thread)] += 0.5 * sc.y.dot(sc.g);
+    }
+    for (int a = 0; a < n; ++a) {
+      const index_t ia = nodes[a];
+      if (!writes(ia)) continue;
+      if (pass.force) pass.force->segment<3>(3 * ia) -= sc.g.segment<3>(3 * a);
+      const index_t I = fi[ia];
+      if (I < 0 || !(pass.stiffness || pass.rhs)) continue;
+      Vec3 r = Vec3::Zero();
+      for (int b = 0; b < n; ++b) {
+        const offset_t slot = as.slot(e, a, b);
+        if (slot >= 0) {
+          if (pass.stiffness) pass.stiffness->block(slot) += weight * Ke.block<3, 3>(3 * a, 3 * b);
+        } else if (has_prescribed) {
+          r -= Ke.block<3, 3>(3 * a, 3 * b) * pass.prescribed->segment<3>(3 * nodes[b]);
         }
       }
+      if (pass.rhs) {
+        if (need_y) r -= sc.g.segment<3>(3 * a);
+        pass.rhs->segment<3>(3 * I) += r;
+      }
     }
-  }
+  });
+  double energy = 0.0;
+  for (double part : energies) energy += part;
   if (pass.energy) *pass.energy = energy;
   if (pass.stiffness) constrain(*pass.stiffness);
   if (pass.rhs) constrain(*pass.rhs);
@@ -338,23 +341,22 @@ void ElasticityModel::assemble_mass(Bcsr& M) const {
   if (M.block_rows() != as.num_free()) throw InputError("assemble_mass: matrix does not have the assembler's pattern");
   std::fill(M.values().begin(), M.values().end(), 0.0);
   const int n = space_.nodes_per_element();
-  for (const auto& elements : as.colors()) {
-#pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < elements.size(); ++k) {
-      const index_t e = elements[k];
-      const double scale = material_.density * 6.0 * geometry_[e].volume;
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < n; ++b) {
-          const offset_t s = as.slot(e, a, b);
-          if (s < 0) continue;
-          const double m = scale * tables_.mass(a, b);
-          auto blk = M.block(s);
-          blk(0, 0) += m;
-          blk(1, 1) += m;
-          blk(2, 2) += m;
-        }
+  as.ranges().for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool) {
+    const double scale = material_.density * 6.0 * geometry_[e].volume;
+    const index_t* nodes = space_.element_nodes(e);
+    for (int a = 0; a < n; ++a) {
+      if (!writes(nodes[a])) continue;
+      for (int b = 0; b < n; ++b) {
+        const offset_t s = as.slot(e, a, b);
+        if (s < 0) continue;
+        const double m = scale * tables_.mass(a, b);
+        auto blk = M.block(s);
+        blk(0, 0) += m;
+        blk(1, 1) += m;
+        blk(2, 2) += m;
+      }
     }
-  }
+  });
   constrain(M);
 }
 

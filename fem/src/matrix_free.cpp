@@ -22,7 +22,7 @@ using detail::kData;
 struct ElasticityOperator::Impl {
   int p = 0, n = 0;
   index_t num_elements = 0, num_batches = 0;
-  const std::vector<std::vector<index_t>>* colors = nullptr;  ///< the model's element colouring
+  const ElementRanges* ranges = nullptr;  ///< the model's element traversal on threads
   std::vector<index_t> free;   ///< n per element: free node index or -1
   std::vector<double> data;    ///< kData per element (the reference kernel, diagonal, forces)
   std::vector<index_t> batch_free;  ///< n x kBatch per batch, node-major (padding lanes: -1)
@@ -117,7 +117,7 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
   m.p = space.degree();
   m.n = space.nodes_per_element();
   num_free_ = as.num_free();
-  m.colors = &as.colors();
+  m.ranges = &as.ranges();
   m.num_elements = space.mesh().num_tets();
   const size_t ne = static_cast<size_t>(m.num_elements);
   m.free.resize(ne * m.n);
@@ -336,44 +336,45 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
                      " entries for " + std::to_string(model_->num_dofs()) + " unknowns");
   force.setZero(model_->num_dofs());
   const auto& X = model_->space().positions();
-  double total = 0.0;
-  for (const auto& elements : *m.colors) {
-#pragma omp parallel for schedule(static) reduction(+ : total)
-    for (size_t k = 0; k < elements.size(); ++k) {
-      const index_t e = elements[k];
-      const size_t pos = static_cast<size_t>(e);
-      const index_t* nodes = model_->space().element_nodes(e);
-      double d[kData];
-      const double* src = m.data.data() + kData * static_cast<size_t>(pos);
-      for (int i = 0; i < kData; ++i) d[i] = src[i];
-      // K_R,e alone: the unweighted Lamé factors (the stored ones carry the stiffness weight).
-      const double v6p2 = 6.0 * model_->geometry(e).volume * m.p * m.p;
-      const double s = model_->stiffness_scale().empty() ? 1.0 : model_->stiffness_scale()[e];
-      d[12] = v6p2 * s * model_->material().lambda(), d[13] = v6p2 * s * model_->material().mu(), d[14] = 0.0;
-      const Mat3 R = Rs ? (*Rs)[e] : Mat3::Identity();
-      auto run = [&](auto tag) {
-        constexpr int P = decltype(tag)::value;
-        constexpr int N = ElementKernelTables<P>::N;
-        double y[N][3], r[N][3];
-        for (int a = 0; a < N; ++a) {
-          const Vec3& Xa = X[nodes[a]];
-          const Vec3 ya = Xa + u.segment<3>(3 * nodes[a]) - R * Xa;
-          y[a][0] = ya[0], y[a][1] = ya[1], y[a][2] = ya[2];
-        }
-        detail::element_product<P>(d, y, r);
-        for (int a = 0; a < N; ++a) {
-          total += 0.5 * (y[a][0] * r[a][0] + y[a][1] * r[a][1] + y[a][2] * r[a][2]);
-          double* f = force.data() + 3 * static_cast<size_t>(nodes[a]);
-          f[0] -= r[a][0], f[1] -= r[a][1], f[2] -= r[a][2];
-        }
-      };
-      switch (m.p) {
-        case 1: run(std::integral_constant<int, 1>{}); break;
-        case 2: run(std::integral_constant<int, 2>{}); break;
-        default: run(std::integral_constant<int, 3>{}); break;
+  std::vector<double> energies(static_cast<size_t>(m.ranges->threads()), 0.0);
+  m.ranges->for_each([&](int thread, index_t e, const ElementRanges::Writes& writes, bool first) {
+    const size_t pos = static_cast<size_t>(e);
+    const index_t* nodes = model_->space().element_nodes(e);
+    double d[kData];
+    const double* src = m.data.data() + kData * static_cast<size_t>(pos);
+    for (int i = 0; i < kData; ++i) d[i] = src[i];
+    // K_R,e alone: the unweighted Lamé factors (the stored ones carry the stiffness weight).
+    const double v6p2 = 6.0 * model_->geometry(e).volume * m.p * m.p;
+    const double s = model_->stiffness_scale().empty() ? 1.0 : model_->stiffness_scale()[e];
+    d[12] = v6p2 * s * model_->material().lambda(), d[13] = v6p2 * s * model_->material().mu(), d[14] = 0.0;
+    const Mat3 R = Rs ? (*Rs)[e] : Mat3::Identity();
+    auto run = [&](auto tag) {
+      constexpr int P = decltype(tag)::value;
+      constexpr int N = ElementKernelTables<P>::N;
+      double y[N][3], r[N][3];
+      for (int a = 0; a < N; ++a) {
+        const Vec3& Xa = X[nodes[a]];
+        const Vec3 ya = Xa + u.segment<3>(3 * nodes[a]) - R * Xa;
+        y[a][0] = ya[0], y[a][1] = ya[1], y[a][2] = ya[2];
       }
+      detail::element_product<P>(d, y, r);
+      double part = 0.0;
+      for (int a = 0; a < N; ++a) {
+        part += 0.5 * (y[a][0] * r[a][0] + y[a][1] * r[a][1] + y[a][2] * r[a][2]);
+        if (!writes(nodes[a])) continue;
+        double* f = force.data() + 3 * static_cast<size_t>(nodes[a]);
+        f[0] -= r[a][0], f[1] -= r[a][1], f[2] -= r[a][2];
+      }
+      if (first) energies[static_cast<size_t>(thread)] += part;
+    };
+    switch (m.p) {
+      case 1: run(std::integral_constant<int, 1>{}); break;
+      case 2: run(std::integral_constant<int, 2>{}); break;
+      default: run(std::integral_constant<int, 3>{}); break;
     }
-  }
+  });
+  double total = 0.0;
+  for (double part : energies) total += part;
   if (energy) *energy = total;
 }
 

@@ -5,6 +5,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -30,9 +31,6 @@ Chebyshev::Chebyshev(const ChebyshevParams& params) : params_(params) {
   if (!(params.lower_fraction > 0 && params.lower_fraction < 1))
     throw InputError("Chebyshev: lower_fraction must lie in (0, 1)");
   if (params.power_iterations < 1) throw InputError("Chebyshev: power_iterations must be >= 1");
-  if (params.lanczos && params.update_iterations > 0)
-    throw InputError("Chebyshev: estimate=lanczos re-estimates at every update; update_iterations (warm-started "
-                     "power steps) applies to estimate=power only");
   if (params.kind == ChebyshevKind::optimal_fourth && params.degree > kMaxOptimalDegree)
     throw InputError("Chebyshev: the optimised fourth kind is tabulated for degree <= " +
                      std::to_string(kMaxOptimalDegree));
@@ -51,7 +49,9 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
   r_.resize(n), d_.resize(n), z_.resize(n);
   if (M_) M_->setup(A);
   else inv_diag_ = inverse_diagonal_blocks(*A_);
-  estimate(params_.power_iterations, false);
+  eigenvector_.resize(0);  // a new operator: no warm start
+  if (params_.lanczos) estimate_lanczos();
+  else estimate_power(params_.power_iterations, false);
 }
 
 void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
@@ -62,8 +62,14 @@ void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
 void Chebyshev::update_impl() {
   if (M_) M_->update();
   else inv_diag_ = inverse_diagonal_blocks(*A_);
-  if (params_.update_iterations > 0) estimate(params_.update_iterations, true);
-  else estimate(params_.power_iterations, false);
+  if (params_.update_iterations > 0) {
+    if (eigenvector_.size() == z_.size()) estimate_power(params_.update_iterations, true);
+    else estimate_power(std::max(params_.update_iterations, ChebyshevParams::kColdPowerIterations), false);
+  } else if (params_.lanczos) {
+    estimate_lanczos();
+  } else {
+    estimate_power(params_.power_iterations, false);
+  }
 }
 
 namespace {
@@ -101,18 +107,18 @@ double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& a
 }
 }  // namespace
 
-void Chebyshev::estimate(int iterations, bool warm) {
-  if (params_.lanczos) {  // set-up and every update alike (no vector to warm-start from)
-    Vector start(z_.size());
-    for (Eigen::Index i = 0; i < start.size(); ++i) start[i] = 1.0 + 0.5 * std::sin(0.7 * i);
-    const double lambda = lanczos_lambda_max(
-        *A_, [this](const Vector& r, Vector& z) { apply_inverse_diagonal(r, z); }, std::move(start),
-        params_.power_iterations);
-    if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
-    lambda_max_ = 1.1 * lambda;
-    steps_ = chebyshev_steps(params_, lambda_max_);
-    return;
-  }
+void Chebyshev::estimate_lanczos() {
+  Vector start(z_.size());
+  for (Eigen::Index i = 0; i < start.size(); ++i) start[i] = 1.0 + 0.5 * std::sin(0.7 * i);
+  const double lambda = lanczos_lambda_max(
+      *A_, [this](const Vector& r, Vector& z) { apply_inverse_diagonal(r, z); }, std::move(start),
+      params_.power_iterations);
+  if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
+  lambda_max_ = 1.1 * lambda;
+  steps_ = chebyshev_steps(params_, lambda_max_);
+}
+
+void Chebyshev::estimate_power(int iterations, bool warm) {
   // Power iteration on D⁻¹A from a fixed, non-smooth start vector or the last estimate's (in
   // work vectors kept from set-up: an update per time step allocates nothing).
   Vector &v = eigenvector_, &w = r_, &z = z_;

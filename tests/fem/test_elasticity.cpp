@@ -1,6 +1,7 @@
 #include "manufactured.hpp"
 
 #include "pmg/fem/generators.hpp"
+#include "pmg/fem/matrix_free.hpp"
 #include "pmg/fem/static_solve.hpp"
 
 #include <catch2/catch.hpp>
@@ -8,6 +9,12 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <numeric>
+#include <random>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 using namespace pmg;
 using namespace pmg::fem;
@@ -272,5 +279,89 @@ TEST_CASE("one pass over the elements: matrix, force and energy equal the serial
     const Vec3 P(0.7, 0.2, 0.3);
     const auto [e, l] = model.locate(P);
     CHECK((model.displacement_at(u, e, l) - model.displacement_at(u, P)).norm() == 0.0);
+  }
+}
+
+TEST_CASE("element ranges: every node written once per element, the same sums on 1, 2 and 3 threads",
+          "[fem][elasticity][threads]") {
+  // 3072 elements of a slender bar: in the generator's order (contiguous ranges share few nodes:
+  // kept) and shuffled (ranges would share most nodes: the Morton order of the centroids instead).
+  const TetMesh ordered = box_mesh_24(128, 1, 1, 8.0, 0.0625, 0.0625);
+  TetMesh shuffled = ordered;
+  std::shuffle(shuffled.tets.begin(), shuffled.tets.end(), std::mt19937(7));
+  for (const TetMesh* mesh : std::vector<const TetMesh*>{&ordered, &shuffled}) {
+    for (int p = 1; p <= 3; p += 2) {
+      ElasticityModel model(*mesh, p, kSteelish);
+      model.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
+      const ElementRanges& ranges = model.assembler().ranges();
+      CHECK(ranges.reordered() == (mesh == &shuffled));
+      INFO("degree " << p << (mesh == &shuffled ? ", shuffled" : ", generator's order"));
+      const Vector u = 0.05 * model.interpolate(sine_field().value);
+      const Rotations R = model.rotations(u);
+      ElasticityOperator op(model);
+      op.update(&R);
+      struct Result {
+        std::vector<double> K, M;
+        Vector f, f_mf;
+        double E = 0, E_mf = 0;
+        std::vector<int> firsts, writes;
+      };
+      auto run = [&] {
+        Result r;
+        Bcsr K = model.assembler().make_matrix(), M = model.assembler().make_matrix();
+        ElasticityModel::ElementPass pass;
+        pass.u = &u;
+        pass.R = &R;
+        pass.stiffness = &K;
+        pass.force = &r.f;
+        pass.energy = &r.E;
+        model.evaluate(pass);
+        model.assemble_mass(M);
+        r.K = K.values(), r.M = M.values();
+        op.element_force(u, &R, r.f_mf, &r.E_mf);
+        // Visits: each element once with first = true; each (element, node) written by one call.
+        const int n = model.space().nodes_per_element();
+        r.firsts.assign(static_cast<size_t>(mesh->num_tets()), 0);
+        r.writes.assign(static_cast<size_t>(mesh->num_tets()) * n, 0);
+        ranges.for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool first) {
+          r.firsts[static_cast<size_t>(e)] += first;
+          for (int a = 0; a < n; ++a) r.writes[static_cast<size_t>(e) * n + a] += writes(model.space().node(e, a));
+        });
+        return r;
+      };
+      const Result one = [&] {
+#ifdef _OPENMP
+        const int before = omp_get_max_threads();
+        omp_set_num_threads(1);
+        Result r = run();
+        omp_set_num_threads(before);
+        return r;
+#else
+        return run();
+#endif
+      }();
+      CHECK(std::all_of(one.firsts.begin(), one.firsts.end(), [](int c) { return c == 1; }));
+      CHECK(std::all_of(one.writes.begin(), one.writes.end(), [](int c) { return c == 1; }));
+      // The matrix-free forces are the assembled pass's.
+      CHECK((one.f_mf - one.f).norm() <= 1e-12 * one.f.norm());
+      CHECK(one.E_mf == Approx(one.E).epsilon(1e-12));
+#ifdef _OPENMP
+      const int before = omp_get_max_threads();
+      for (int threads : {2, 3}) {
+        omp_set_num_threads(threads);
+        const Result r = run();
+        INFO(threads << " threads");
+        CHECK(std::all_of(r.firsts.begin(), r.firsts.end(), [](int c) { return c == 1; }));
+        CHECK(std::all_of(r.writes.begin(), r.writes.end(), [](int c) { return c == 1; }));
+        // Each node's contributions in traversal order on any number of threads: bitwise equal.
+        CHECK(r.K == one.K);
+        CHECK(r.M == one.M);
+        CHECK(r.f == one.f);
+        CHECK(r.f_mf == one.f_mf);
+        CHECK(r.E == Approx(one.E).epsilon(1e-14));
+      }
+      omp_set_num_threads(before);
+#endif
+    }
   }
 }

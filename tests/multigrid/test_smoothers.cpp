@@ -211,7 +211,19 @@ TEST_CASE("the Lanczos estimate of lambda_max lies within the 10% margin where p
   CHECK(by_lanczos <= exact * (1 + 1e-10));  // a Ritz value: never above
   CHECK(by_lanczos >= exact / 1.1);          // inside the margin the smoother adds
   CHECK(std::abs(exact - by_lanczos) <= std::abs(exact - by_power));
-  // Lanczos re-estimates at each update: warm-started power steps do not combine with it.
-  lanczos.update_iterations = 1;
-  CHECK_THROWS_WITH(Chebyshev(A, lanczos), Catch::Contains("estimate=lanczos"));
+
+  // Lanczos at set-up, then warm-started power steps per update (the matrix-free route's default):
+  // the first update has no power vector yet and runs kColdPowerIterations from the fixed start,
+  // as a power set-up of that many steps does; the next one goes on from its vector.
+  ChebyshevParams warm = lanczos;
+  warm.update_iterations = 1;
+  Chebyshev both(A, warm);
+  CHECK(both.lambda_max() == Chebyshev(A, lanczos).lambda_max());
+  ChebyshevParams cold;
+  cold.power_iterations = ChebyshevParams::kColdPowerIterations;
+  both.update();
+  CHECK(both.lambda_max() == Chebyshev(A, cold).lambda_max());
+  both.update();
+  cold.power_iterations += 1;
+  CHECK(both.lambda_max() == Approx(Chebyshev(A, cold).lambda_max()).epsilon(1e-12));
 }

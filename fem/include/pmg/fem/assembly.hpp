@@ -1,15 +1,16 @@
 // pmg/fem/assembly.hpp — race-free parallel assembly of 3x3-block element matrices into BCSR.
 //
-// Built once per mesh, degree and set of fixed nodes (the pattern never changes): a greedy
-// colouring of the elements such that no two elements of one colour share a node, and on first
-// need (make_matrix(), build_pattern()) the BCSR pattern over the free nodes and a map from
-// (element, local a, local b) to its block slot — 8 n² bytes per element, which a level used only
-// matrix-free (its colouring for the diagonal and forces) never pays. Assembly then
-// runs colour by colour with the elements of a colour in parallel, writing blocks and right-hand
-// side entries in place without locks.
+// Built once per mesh, degree and set of fixed nodes (the pattern never changes): the elements'
+// traversal on threads (pmg/fem/element_ranges.hpp: contiguous ranges, each node written by one
+// thread) and on first need (make_matrix(), build_pattern()) the BCSR pattern over the free nodes
+// and a map from (element, local a, local b) to its block slot — 8 n² bytes per element, which a
+// level used only matrix-free (its traversal for the forces) never pays. Assembly writes each
+// block row and right-hand side entry from the thread that owns its node, in place, without
+// locks, and in the same order on any number of threads.
 #pragma once
 
 #include "pmg/fem/bb_space.hpp"
+#include "pmg/fem/element_ranges.hpp"
 #include "pmg/sparse/bcsr.hpp"
 
 #include <mutex>
@@ -18,7 +19,7 @@
 namespace pmg::fem {
 
 /// The assembly plan of one BB space and set of fixed nodes: the BCSR pattern over the free nodes,
-/// the element-to-slot map and the element colouring (see the file comment). Holds a pointer to
+/// the element-to-slot map and the elements' traversal on threads (see the file comment). Holds a pointer to
 /// the space, which must outlive it.
 class BlockAssembler {
  public:
@@ -43,8 +44,8 @@ class BlockAssembler {
   offset_t slot(index_t e, int a, int b) const {
     return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
   }
-  /// Elements grouped by colour; elements of one colour share no node.
-  const std::vector<std::vector<index_t>>& colors() const { return colors_; }
+  /// The elements' traversal on threads: assembly loops run ranges().for_each().
+  const ElementRanges& ranges() const { return ranges_; }
 
  private:
   const BBSpace* space_;
@@ -54,7 +55,7 @@ class BlockAssembler {
   mutable std::once_flag pattern_once_;
   mutable std::shared_ptr<const BlockPattern> pattern_;
   mutable std::vector<offset_t> slots_;
-  std::vector<std::vector<index_t>> colors_;
+  ElementRanges ranges_;
 };
 
 }  // namespace pmg::fem

@@ -92,7 +92,7 @@ class ElasticityModel {
   index_t num_fixed() const;
   /// Whether the node is fixed; node must lie in [0, num_nodes()) (unchecked).
   bool is_fixed(index_t node) const { return fixed_[node] != 0; }
-  /// Pattern, slot map and colouring for the current fixed set (built on first use, then kept).
+  /// Pattern, slot map and element traversal on threads for the current fixed set (built on first use, then kept).
   const BlockAssembler& assembler() const;
   /// Entries of a reduced (free) vector: 3 per free node. Builds the assembler on first use.
   index_t num_free_dofs() const { return 3 * assembler().num_free(); }
@@ -110,10 +110,12 @@ class ElasticityModel {
   Rotations rotations(const Vector& u) const;
 
   /// What one pass over the elements computes (every output optional). Each element's rotated
-  /// stiffness K_R,e = R K_e Rᵀ is built once — as the stiffness of the element whose gradients
+  /// stiffness K_R,e = R K_e Rᵀ is built once (twice for the elements on the border
+  /// between two threads' ranges) — as the stiffness of the element whose gradients
   /// ∇λ_k are rotated to R ∇λ_k, so it costs no more than K_e — and gives the matrix, the force
   /// f_e = -K_R,e (x_e - R X_e) and the energy ½ (x_e - R X_e)ᵀ K_R,e (x_e - R X_e) of the
-  /// element (x_e = X_e + u_e). Colour by colour, elements of a colour in parallel, no locks.
+  /// element (x_e = X_e + u_e). On the threads by the assembler's element ranges
+  /// (pmg/fem/element_ranges.hpp): no locks, and the same sums on any number of threads.
   struct ElementPass {
     const Vector* u = nullptr;           ///< full displacement; nullptr: the rest state (u = 0)
     const Rotations* R = nullptr;        ///< one per element; nullptr: R = I (linear elasticity)

@@ -22,16 +22,21 @@ struct ChebyshevParams {
   /// Which polynomial (see ChebyshevKind).
   ChebyshevKind kind = ChebyshevKind::first;
   double lower_fraction = 0.1;  ///< first kind: smooth eigenvalues in [f λmax, λmax] of D⁻¹A
-  int power_iterations = 15;    ///< estimate of λmax (then raised by 10%) at setup()
+  int power_iterations = 15;    ///< steps of the estimate of λmax (then raised by 10%) at setup()
   /// How setup() estimates λmax of D⁻¹A: power iteration, or Lanczos — the largest eigenvalue of
   /// the tridiagonal matrix of as many CG steps on A preconditioned by D (PETSc's Chebyshev
   /// estimate), which converges to λmax far faster where the top of the spectrum is clustered
   /// (power iteration from 15 steps underestimated it past the 10% margin on a diffusion
-  /// hierarchy and broke CG). update() then re-estimates by Lanczos as well.
+  /// hierarchy and broke CG; 10 Lanczos steps came within 5% on the elasticity levels where 15
+  /// power steps were up to 12% low, docs/scaling.md).
   bool lanczos = false;
   /// update(): 0 repeats the set-up estimate; k > 0 runs k power iterations started from the last
-  /// estimate's vector (a time step moves the spectrum little; matrix-free levels pay per product).
+  /// power iteration's vector (a time step moves the spectrum little; matrix-free levels pay per
+  /// product). After a Lanczos set-up the first such update has no vector yet: it runs
+  /// max(k, kColdPowerIterations) power iterations from the fixed start vector.
   int update_iterations = 0;
+  /// Power iterations of an update that has no earlier power vector to start from.
+  static constexpr int kColdPowerIterations = 15;
   /// The keys degree, kind, lower_fraction, power_iterations, estimate and update_iterations.
   void visit(ParamVisitor& v);
 };
@@ -91,7 +96,10 @@ class Chebyshev final : public Smoother {
   void update_impl() override;
   void smooth(const Vector& b, Vector& x, bool x_is_zero) const;
   void apply_inverse_diagonal(const Vector& r, Vector& z) const;
-  void estimate(int iterations, bool warm);
+  /// λmax by Lanczos with power_iterations steps.
+  void estimate_lanczos();
+  /// λmax by `iterations` power iterations, from the last vector where warm (and one is kept).
+  void estimate_power(int iterations, bool warm);
   const LinearOperator* A_ = nullptr;
   ChebyshevParams params_;
   std::unique_ptr<Solver> M_;  ///< M⁻¹ instead of D⁻¹ (nullptr: D⁻¹)

@@ -1,0 +1,123 @@
+#include "pmg/fem/element_ranges.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <utility>
+
+namespace pmg::fem {
+
+namespace {
+/// The 21 low bits of x spread to every third bit (bit i to bit 3i).
+std::uint64_t spread_bits(std::uint64_t x) {
+  x &= 0x1fffff;
+  x = (x | x << 32) & 0x1f00000000ffffULL;
+  x = (x | x << 16) & 0x1f0000ff0000ffULL;
+  x = (x | x << 8) & 0x100f00f00f00f00fULL;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+  x = (x | x << 2) & 0x1249249249249249ULL;
+  return x;
+}
+
+/// Ranges the decision between the elements' own order and the Morton order is made for: a fixed
+/// number, so that the traversal (and with it every sum's order) does not depend on the threads.
+constexpr int kProbeRanges = 8;
+}  // namespace
+
+ElementRanges::ElementRanges(const BBSpace& space) : space_(&space), n_(space.nodes_per_element()) {
+  locate_nodes();
+  const index_t ne = space.mesh().num_tets();
+  if (ne < 256) return;
+  // The elements' own order unless more than one in eight elements would be visited twice with
+  // kProbeRanges ranges.
+  index_t twice = 0;
+  for (int t = 0; t < kProbeRanges; ++t) {
+    const index_t begin = range_begin(ne, t, kProbeRanges), end = range_begin(ne, t + 1, kProbeRanges);
+    const Writes own{first_.data(), last_.data(), begin, end, false};
+    for (index_t e = begin; e < end; ++e) {
+      const index_t* nodes = space.element_nodes(e);
+      for (int a = 0; a < n_; ++a)
+        if (!own(nodes[a])) {
+          ++twice;
+          break;
+        }
+    }
+  }
+  if (8 * static_cast<long long>(twice) <= ne) return;
+
+  // Morton order of the centroids, quantised to 21 bits per axis in the mesh's bounding box.
+  const TetMesh& mesh = space.mesh();
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-300));
+  std::vector<std::pair<std::uint64_t, index_t>> keyed(static_cast<size_t>(ne));
+#pragma omp parallel for schedule(static)
+  for (index_t e = 0; e < ne; ++e) {
+    Vec3 c = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[mesh.tets[e][i]];
+    std::uint64_t key = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double s = std::clamp((c[d] - lo[d]) / extent[d], 0.0, 1.0);
+      key |= spread_bits(static_cast<std::uint64_t>(s * 2097151.0)) << d;
+    }
+    keyed[static_cast<size_t>(e)] = {key, e};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  order_.resize(static_cast<size_t>(ne));
+  for (index_t pos = 0; pos < ne; ++pos) order_[static_cast<size_t>(pos)] = keyed[static_cast<size_t>(pos)].second;
+  locate_nodes();
+}
+
+void ElementRanges::locate_nodes() {
+  const index_t ne = space_->mesh().num_tets();
+  first_.assign(static_cast<size_t>(space_->num_nodes()), -1);
+  last_.assign(static_cast<size_t>(space_->num_nodes()), -1);
+  for (index_t pos = 0; pos < ne; ++pos) {
+    const index_t* nodes = space_->element_nodes(element(pos));
+    for (int a = 0; a < n_; ++a) {
+      const index_t node = nodes[a];
+      if (first_[node] < 0) first_[node] = pos;
+      last_[node] = pos;
+    }
+  }
+}
+
+}  // namespace pmg::fem
+
+namespace pmg::fem {
+
+int ElementRanges::threads() const { return space_->mesh().num_tets() >= 256 ? omp_get_max_threads() : 1; }
+
+void ElementRanges::for_each(const Visit& visit) const {
+  const index_t ne = space_->mesh().num_tets();
+  const int threads = this->threads();
+  std::vector<std::vector<index_t>> deferred(static_cast<size_t>(threads));
+  std::vector<index_t> bounds(static_cast<size_t>(threads) + 1, ne);
+#pragma omp parallel num_threads(threads)
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const index_t begin = range_begin(ne, t, nt), end = range_begin(ne, t + 1, nt);
+    bounds[static_cast<size_t>(t)] = begin;
+    const Writes own{first_.data(), last_.data(), begin, end, false};
+    std::vector<index_t>& later = deferred[static_cast<size_t>(t)];
+    for (index_t pos = begin; pos < end; ++pos) {
+      const index_t e = element(pos);
+      visit(t, e, own, true);
+      const index_t* nodes = space_->element_nodes(e);
+      for (int a = 0; a < n_; ++a)
+        if (!own(nodes[a])) {
+          later.push_back(pos);
+          break;
+        }
+    }
+  }
+  for (size_t t = 0; t < deferred.size(); ++t) {
+    if (deferred[t].empty()) continue;
+    const Writes shared{first_.data(), last_.data(), bounds[t], bounds[t + 1], true};
+    for (index_t pos : deferred[t]) visit(0, element(pos), shared, false);
+  }
+}
+
+}  // namespace pmg::fem
