@@ -269,7 +269,7 @@ void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& l
       sc.set_default("kind", "opt-fourth");
       sc.set_default("degree", std::to_string(degree));
       sc.set_default("estimate", "lanczos");
-      sc.set_default("power_iterations", "10");
+      if (sc.get_string("estimate", "lanczos") == "lanczos") sc.set_default("power_iterations", "10");
       sc.set_default("update_iterations", "1");
     }
   }

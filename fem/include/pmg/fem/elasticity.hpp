@@ -115,7 +115,8 @@ class ElasticityModel {
   /// ∇λ_k are rotated to R ∇λ_k, so it costs no more than K_e — and gives the matrix, the force
   /// f_e = -K_R,e (x_e - R X_e) and the energy ½ (x_e - R X_e)ᵀ K_R,e (x_e - R X_e) of the
   /// element (x_e = X_e + u_e). On the threads by the assembler's element ranges
-  /// (pmg/fem/element_ranges.hpp): no locks, and the same sums on any number of threads.
+  /// (pmg/fem/element_ranges.hpp): no locks; matrix, force and right-hand side bitwise the same on
+  /// any number of threads (the energy sums per-thread parts).
   struct ElementPass {
     const Vector* u = nullptr;           ///< full displacement; nullptr: the rest state (u = 0)
     const Rotations* R = nullptr;        ///< one per element; nullptr: R = I (linear elasticity)

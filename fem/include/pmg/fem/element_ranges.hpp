@@ -1,11 +1,16 @@
 // pmg/fem/element_ranges.hpp — element loops on threads that write per-node results in place:
-// no colouring, no atomics, the same sums on any number of threads.
+// no colouring, no atomics, the same per-node sums on any number of threads.
 //
 // The elements, in a traversal order, are split into one contiguous range per thread. A node whose
 // elements all lie in one range is that range's own: its thread writes it while it runs the range.
 // The few elements holding a node shared by two ranges are visited once more afterwards, on one
 // thread in traversal order, for the shared nodes only. Every node thus receives its elements'
-// contributions in traversal order, whatever the number of threads.
+// contributions in traversal order, whatever the number of threads. (Per-element results summed
+// over the elements, an energy, are the caller's: summed per thread, they round by thread count.)
+//
+// The second visits run on one thread: their share grows with the number of ranges (at most one
+// element in eight for 8 ranges, by the choice of order below), so with many threads on a small
+// mesh they bound the speed-up.
 //
 // The traversal order is the elements' own when contiguous ranges of it share few nodes (meshes
 // that pmgkit makes or refines, where nodes are numbered as the elements meet them, so a range's
@@ -54,7 +59,8 @@ class ElementRanges {
   /// exactly one call of each element that holds it. Per-element results (an energy) belong to the
   /// first call; per-thread scratch space is indexed by `thread`.
   void for_each(const Visit& visit) const;
-  /// The number of threads for_each runs on (OpenMP's maximum at the call; 1 for small meshes).
+  /// The number of threads for_each asks for (OpenMP's maximum at the call; 1 for meshes under 256
+  /// elements); the runtime may give it fewer. Bounds the `thread` argument of visits.
   int threads() const;
 
  private:

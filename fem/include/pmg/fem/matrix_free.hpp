@@ -30,10 +30,10 @@
 //
 // Race-free: apply() gives each thread a contiguous range of batches (mesh order, for locality)
 // and its own accumulation vector (thread 0 writes y, the others buffers kept from call to call),
-// then sums them: with 2 threads one extra vector pass. The diagonal blocks run the same element
-// ranges (thread 0 into the result, the others into buffers over the nodes their range touches),
-// the element forces the assembler's traversal (pmg/fem/element_ranges.hpp: each node written by
-// one thread).
+// then sums them: with 2 threads one extra vector pass. The diagonal blocks run contiguous
+// element ranges in mesh order as well (thread 0 into the result, the others into buffers over the
+// nodes their range touches, added after), the element forces the assembler's traversal
+// (pmg/fem/element_ranges.hpp: each node written by one thread, the same on any thread count).
 //
 // Components the model holds on their own (ElasticityModel::constrain_components: symmetry planes)
 // are identity rows and zero columns here as in the assembled matrices: x is masked before the

@@ -33,7 +33,8 @@ struct ChebyshevParams {
   /// update(): 0 repeats the set-up estimate; k > 0 runs k power iterations started from the last
   /// power iteration's vector (a time step moves the spectrum little; matrix-free levels pay per
   /// product). After a Lanczos set-up the first such update has no vector yet: it runs
-  /// max(k, kColdPowerIterations) power iterations from the fixed start vector.
+  /// max(k, kColdPowerIterations) power iterations from the fixed start vector, so the updates'
+  /// estimates are the power iteration's (the Lanczos bound holds for the set-up's operator).
   int update_iterations = 0;
   /// Power iterations of an update that has no earlier power vector to start from.
   static constexpr int kColdPowerIterations = 15;
