@@ -203,12 +203,13 @@ TEST_CASE("matrix-free operator refuses bad weights and rotation counts", "[fem]
   CHECK_THROWS_AS(op.element_force(Vector::Zero(5), nullptr, f, nullptr), InputError);
 }
 
-TEST_CASE("the matrix-free route's lmax estimate: 10 Lanczos steps inside the 10% margin, closer than 15 power steps",
+TEST_CASE("the matrix-free route's lmax estimate: 10 Lanczos steps, a Ritz value inside the 10% margin",
           "[fem][matrix_free][smoother]") {
   // λmax of D⁻¹A for the operator of a cubic and a nearly incompressible quadratic level, exactly
-  // (the dense generalized eigenproblem A v = λ D v), against the route's default estimate and the
-  // 15 power iterations it replaced.
-  const TetMesh mesh = jittered_box(3, 2, 2);
+  // (the dense generalized eigenproblem A v = λ D v), against the route's default estimate. (On
+  // these small levels 15 power steps come as close or closer — 0.980 against 0.973 of λmax on the
+  // cubic one; on the models' levels Lanczos was the closer, docs/scaling.md.)
+  const TetMesh mesh = jittered_box(2, 1, 1);
   for (const auto& [p, nu] : std::vector<std::pair<int, double>>{{3, 0.3}, {2, 0.49}}) {
     ElasticityModel model(mesh, p, Material{1.0e5, nu, 1.0});
     model.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
@@ -218,17 +219,15 @@ TEST_CASE("the matrix-free route's lmax estimate: 10 Lanczos steps inside the 10
     Eigen::MatrixXd D = Eigen::MatrixXd::Zero(dense.rows(), dense.cols());
     for (Eigen::Index I = 0; I < dense.rows() / 3; ++I) D.block<3, 3>(3 * I, 3 * I) = dense.block<3, 3>(3 * I, 3 * I);
     const double exact = Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd>(dense, D).eigenvalues().maxCoeff();
-    mg::ChebyshevParams lanczos, power;
+    mg::ChebyshevParams lanczos;
     lanczos.lanczos = true;
     lanczos.power_iterations = 10;  // the matrix-free route's defaults (multigrid/src/register.cpp)
     lanczos.update_iterations = 1;
     const double by_lanczos = mg::Chebyshev(op, lanczos).lambda_max() / 1.1;
-    const double by_power = mg::Chebyshev(op, power).lambda_max() / 1.1;
-    INFO("degree " << p << ", nu " << nu << ": exact " << exact << ", 10 Lanczos steps " << by_lanczos
-                   << ", 15 power steps " << by_power);
-    CHECK(by_lanczos <= exact * (1 + 1e-10));
-    CHECK(1.1 * by_lanczos >= exact);
-    CHECK(exact - by_lanczos <= exact - by_power);
+    INFO("degree " << p << ", nu " << nu << ", " << A.rows() << " unknowns: exact " << exact << ", 10 Lanczos steps "
+                   << by_lanczos);
+    CHECK(by_lanczos <= exact * (1 + 1e-10));  // a Ritz value: never above
+    CHECK(1.1 * by_lanczos >= exact);          // the bound the smoother uses lies above λmax
   }
 }
 
