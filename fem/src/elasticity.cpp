@@ -256,8 +256,7 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
     ElementGeometry geo;
   };
   std::vector<Scratch> scratch(static_cast<size_t>(as.ranges().threads()));
-  std::vector<double> energies(scratch.size(), 0.0);
-  as.ranges().for_each([&](int thread, index_t e, const ElementRanges::Writes& writes, bool first) {
+  const double energy = as.ranges().for_each([&](int thread, index_t e, const ElementRanges::Writes& writes, bool) {
     Scratch& sc = scratch[static_cast<size_t>(thread)];
     const index_t* nodes = space_.element_nodes(e);
     // R K_e Rᵀ is the stiffness of the element with rotated gradients ∇λ_k → R ∇λ_k.
@@ -266,6 +265,7 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
     const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
     element_stiffness(tables_, sc.geo, s * material_.lambda(), s * material_.mu(), sc.Ke);
     const Eigen::MatrixXd& Ke = sc.Ke;
+    double element_energy = 0.0;
     if (need_y) {
       sc.y.resize(3 * n);
       for (int a = 0; a < n; ++a) {
@@ -274,7 +274,7 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
         sc.y.segment<3>(3 * a) = pass.R ? Vec3(x - (*pass.R)[e] * Xa) : Vec3(x - Xa);
       }
       sc.g.noalias() = Ke * sc.y;
-      if (first) energies[static_cast<size_t>(thread)] += 0.5 * sc.y.dot(sc.g);
+      element_energy = 0.5 * sc.y.dot(sc.g);
     }
     for (int a = 0; a < n; ++a) {
       const index_t ia = nodes[a];
@@ -296,9 +296,8 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
         pass.rhs->segment<3>(3 * I) += r;
       }
     }
+    return element_energy;
   });
-  double energy = 0.0;
-  for (double part : energies) energy += part;
   if (pass.energy) *pass.energy = energy;
   if (pass.stiffness) constrain(*pass.stiffness);
   if (pass.rhs) constrain(*pass.rhs);
@@ -356,6 +355,7 @@ void ElasticityModel::assemble_mass(Bcsr& M) const {
         blk(2, 2) += m;
       }
     }
+    return 0.0;
   });
   constrain(M);
 }

@@ -90,10 +90,11 @@ namespace pmg::fem {
 
 int ElementRanges::threads() const { return space_->mesh().num_tets() >= 256 ? omp_get_max_threads() : 1; }
 
-void ElementRanges::for_each(const Visit& visit) const {
+double ElementRanges::for_each(const Visit& visit) const {
   const index_t ne = space_->mesh().num_tets();
   const int threads = this->threads();
   std::vector<std::vector<index_t>> deferred(static_cast<size_t>(threads));
+  std::vector<double> sums(static_cast<size_t>(threads), 0.0);
   std::vector<index_t> bounds(static_cast<size_t>(threads) + 1, ne);
 #pragma omp parallel num_threads(threads)
   {
@@ -102,9 +103,10 @@ void ElementRanges::for_each(const Visit& visit) const {
     bounds[static_cast<size_t>(t)] = begin;
     const Writes own{first_.data(), last_.data(), begin, end, false};
     std::vector<index_t>& later = deferred[static_cast<size_t>(t)];
+    double sum = 0.0;
     for (index_t pos = begin; pos < end; ++pos) {
       const index_t e = element(pos);
-      visit(t, e, own, true);
+      sum += visit(t, e, own, true);
       const index_t* nodes = space_->element_nodes(e);
       for (int a = 0; a < n_; ++a)
         if (!own(nodes[a])) {
@@ -112,12 +114,16 @@ void ElementRanges::for_each(const Visit& visit) const {
           break;
         }
     }
+    sums[static_cast<size_t>(t)] = sum;
   }
   for (size_t t = 0; t < deferred.size(); ++t) {
     if (deferred[t].empty()) continue;
     const Writes shared{first_.data(), last_.data(), bounds[t], bounds[t + 1], true};
     for (index_t pos : deferred[t]) visit(0, element(pos), shared, false);
   }
+  double total = 0.0;
+  for (double s : sums) total += s;
+  return total;
 }
 
 }  // namespace pmg::fem

@@ -336,8 +336,7 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
                      " entries for " + std::to_string(model_->num_dofs()) + " unknowns");
   force.setZero(model_->num_dofs());
   const auto& X = model_->space().positions();
-  std::vector<double> energies(static_cast<size_t>(m.ranges->threads()), 0.0);
-  m.ranges->for_each([&](int thread, index_t e, const ElementRanges::Writes& writes, bool first) {
+  const double total = m.ranges->for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool) {
     const size_t pos = static_cast<size_t>(e);
     const index_t* nodes = model_->space().element_nodes(e);
     double d[kData];
@@ -348,6 +347,7 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
     const double s = model_->stiffness_scale().empty() ? 1.0 : model_->stiffness_scale()[e];
     d[12] = v6p2 * s * model_->material().lambda(), d[13] = v6p2 * s * model_->material().mu(), d[14] = 0.0;
     const Mat3 R = Rs ? (*Rs)[e] : Mat3::Identity();
+    double part = 0.0;
     auto run = [&](auto tag) {
       constexpr int P = decltype(tag)::value;
       constexpr int N = ElementKernelTables<P>::N;
@@ -358,23 +358,20 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
         y[a][0] = ya[0], y[a][1] = ya[1], y[a][2] = ya[2];
       }
       detail::element_product<P>(d, y, r);
-      double part = 0.0;
       for (int a = 0; a < N; ++a) {
         part += 0.5 * (y[a][0] * r[a][0] + y[a][1] * r[a][1] + y[a][2] * r[a][2]);
         if (!writes(nodes[a])) continue;
         double* f = force.data() + 3 * static_cast<size_t>(nodes[a]);
         f[0] -= r[a][0], f[1] -= r[a][1], f[2] -= r[a][2];
       }
-      if (first) energies[static_cast<size_t>(thread)] += part;
     };
     switch (m.p) {
       case 1: run(std::integral_constant<int, 1>{}); break;
       case 2: run(std::integral_constant<int, 2>{}); break;
       default: run(std::integral_constant<int, 3>{}); break;
     }
+    return part;
   });
-  double total = 0.0;
-  for (double part : energies) total += part;
   if (energy) *energy = total;
 }
 

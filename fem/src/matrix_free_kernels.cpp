@@ -202,23 +202,10 @@ inline void apply_range(const index_t* free, const double* data, long begin, lon
 // arithmetic is only +, * and lane access, which the extension covers on every compiler pmgkit
 // builds with.
 
+/// L lanes of T as one vector of the extension.
 template <class T, int L>
-struct Lanes;
-template <>
-struct Lanes<double, 4> {
-  typedef double type __attribute__((vector_size(32)));
-};
-template <>
-struct Lanes<double, 8> {
-  typedef double type __attribute__((vector_size(64)));
-};
-template <>
-struct Lanes<float, 8> {
-  typedef float type __attribute__((vector_size(32)));
-};
-template <>
-struct Lanes<float, 16> {
-  typedef float type __attribute__((vector_size(64)));
+struct Lanes {
+  typedef T type __attribute__((vector_size(L * sizeof(T))));
 };
 
 /// The degree-P tables in the kernel's precision.

@@ -260,9 +260,11 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
   const bool single = KM && KM->single_precision();
   detail::ConvergenceTracker track("GMRES", params, monitor);
   const Eigen::Index n = b.size();
-  for (auto* vs : {&V, &Z})  // vectors of another size are of no use
-    if (!vs->empty() && vs->front().size() != n) vs->clear();
-  if (!Zf.empty() && Zf.front().size() != n) Zf.clear();
+  // Vectors of another size are of no use.
+  auto keep_if_sized = [n](auto& vs) {
+    if (!vs.empty() && vs.front().size() != n) vs.clear();
+  };
+  keep_if_sized(V), keep_if_sized(Z), keep_if_sized(Zf);
   Vector& r = ws.r;
   Vector& w = ws.w;
   r.resize(n), w.resize(n);

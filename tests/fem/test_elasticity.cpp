@@ -331,6 +331,7 @@ TEST_CASE("element ranges: every node written once per element, the same sums on
           if (!first) ++r.seconds;  // second visits run on one thread
           if (first) ran[static_cast<size_t>(thread)] = 1;
           for (int a = 0; a < n; ++a) r.writes[static_cast<size_t>(e) * n + a] += writes(model.space().node(e, a));
+          return 0.0;
         });
         r.threads = static_cast<int>(std::count(ran.begin(), ran.end(), 1));
         return r;

@@ -5,8 +5,8 @@
 // elements all lie in one range is that range's own: its thread writes it while it runs the range.
 // The few elements holding a node shared by two ranges are visited once more afterwards, on one
 // thread in traversal order, for the shared nodes only. Every node thus receives its elements'
-// contributions in traversal order, whatever the number of threads. (Per-element results summed
-// over the elements, an energy, are the caller's: summed per thread, they round by thread count.)
+// contributions in traversal order, whatever the number of threads. (A sum over the elements, an
+// energy, is summed per thread and then over the threads: it rounds by thread count.)
 //
 // The second visits run on one thread: their share grows with the number of ranges (at most one
 // element in eight for 8 ranges, by the choice of order below), so with many threads on a small
@@ -50,15 +50,16 @@ class ElementRanges {
     }
   };
 
-  /// The callback of for_each: thread lies in [0, threads()) (the second visits pass 0).
-  using Visit = std::function<void(int thread, index_t e, const Writes& writes, bool first)>;
+  /// The callback of for_each: thread lies in [0, threads()) (the second visits pass 0); it returns
+  /// the element's share of a sum over the elements (an energy; 0 where there is none).
+  using Visit = std::function<double(int thread, index_t e, const Writes& writes, bool first)>;
 
   /// Calls visit(thread, e, writes, first) once per element e with first = true, on the threads,
   /// and again with first = false for the elements that hold a node shared between ranges, on one
   /// thread. writes(node) says whether this call writes node's results: a node is written by
-  /// exactly one call of each element that holds it. Per-element results (an energy) belong to the
-  /// first call; per-thread scratch space is indexed by `thread`.
-  void for_each(const Visit& visit) const;
+  /// exactly one call of each element that holds it. Per-thread scratch space is indexed by
+  /// `thread`. Returns the sum of what the first calls return (per thread, then over the threads).
+  double for_each(const Visit& visit) const;
   /// The number of threads for_each asks for (OpenMP's maximum at the call; 1 for meshes under 256
   /// elements); the runtime may give it fewer. Bounds the `thread` argument of visits.
   int threads() const;
