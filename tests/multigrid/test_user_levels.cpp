@@ -9,6 +9,7 @@
 #include "pmg/multigrid/factory.hpp"
 #include "pmg/multigrid/user_levels.hpp"
 #include "pmg/sparse/layout.hpp"
+#include "pmg/sparse/threads.hpp"
 
 #include <catch2/catch.hpp>
 
@@ -425,6 +426,14 @@ TEST_CASE("rows in any column order and duplicate entries are read as given, wit
 
 TEST_CASE("layout=component: any method on a component-major matrix solves as on the interleaved one",
           "[user-levels][layout]") {
+  // The same answer bit for bit needs the same threads in both solves: the adaptive policy would
+  // run each on the cores free when it starts (a busy machine: fewer, another summation order).
+  const ThreadPolicy kept = thread_policy();
+  set_thread_policy(ThreadPolicy::fixed);
+  struct Restore {
+    ThreadPolicy policy;
+    ~Restore() { set_thread_policy(policy); }
+  } restore{kept};
   Levels s;
   const Csr& A = s.A.back();
   const index_t n = A.rows() / 3;
