@@ -246,17 +246,23 @@ inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
     for (int j = 0; j < 3; ++j) load(g[k][j], 3 * k + j);
   load(cl, 12);
   load(cm, 13);
-  // 1. H_β = Σ_k u_{β+e_k} g_kᵀ
-  V H[Q][9];
+  // 1. E_β = H_β + H_βᵀ with H_β = Σ_k u_{β+e_k} g_kᵀ, its 6 components (00 11 22 01 02 12; the
+  //    diagonal stored halved, i.e. H_ii): the stress needs only the symmetric part, and
+  //    step 2 commutes with taking it, so the moments run on 6 components instead of 9.
+  V E[Q][6];
   for (int b = 0; b < Q; ++b) {
-    V h[9];
-    for (int c = 0; c < 9; ++c) h[c] = V{} ;
+    V h[6];
+    for (int c = 0; c < 6; ++c) h[c] = V{};
     for (int k = 0; k < 4; ++k) {
       const V* ua = u[up.v[b][k]];
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) h[3 * i + j] += ua[i] * g[k][j];
+      h[0] += ua[0] * g[k][0];
+      h[1] += ua[1] * g[k][1];
+      h[2] += ua[2] * g[k][2];
+      h[3] += ua[0] * g[k][1] + ua[1] * g[k][0];
+      h[4] += ua[0] * g[k][2] + ua[2] * g[k][0];
+      h[5] += ua[1] * g[k][2] + ua[2] * g[k][1];
     }
-    for (int c = 0; c < 9; ++c) H[b][c] = h[c];
+    for (int c = 0; c < 6; ++c) E[b][c] = h[c];
   }
   // 5. mass first (it initialises r): r_a = cmass Σ_b P_ab u_b
   if (mass) {
@@ -273,24 +279,25 @@ inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
   } else {
     for (int a = 0; a < N; ++a) r[a][0] = r[a][1] = r[a][2] = V{};
   }
+  const V cm2 = cm + cm;
   for (int c = 0; c < Q; ++c) {
-    // 2. Ĥ_γ = Σ_β Q_γβ H_β
-    V h[9];
-    for (int i = 0; i < 9; ++i) h[i] = V{};
+    // 2. Ê_γ = Σ_β Q_γβ E_β
+    V h[6];
+    for (int i = 0; i < 6; ++i) h[i] = V{};
     for (int b = 0; b < Q; ++b) {
       const T w = t.q[c][b];
-      for (int i = 0; i < 9; ++i) h[i] += w * H[b][i];
+      for (int i = 0; i < 6; ++i) h[i] += w * E[b][i];
     }
-    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ)
-    const V tr = cl * (h[0] + h[4] + h[8]);
-    V S[9];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) S[3 * i + j] = cm * (h[3 * i + j] + h[3 * j + i]);
-    S[0] += tr, S[4] += tr, S[8] += tr;
+    // 3. T = cl tr(Ĥ) I + cm (Ĥ + Ĥᵀ): diagonal cl tr + 2 cm Ĥ_ii, off-diagonal cm Ê_ij
+    const V tr = cl * (h[0] + h[1] + h[2]);
+    const V t00 = tr + cm2 * h[0], t11 = tr + cm2 * h[1], t22 = tr + cm2 * h[2];
+    const V t01 = cm * h[3], t02 = cm * h[4], t12 = cm * h[5];
     // 4. r_{γ+e_k} += T g_k
     for (int k = 0; k < 4; ++k) {
       V* ra = r[up.v[c][k]];
-      for (int i = 0; i < 3; ++i) ra[i] += S[3 * i] * g[k][0] + S[3 * i + 1] * g[k][1] + S[3 * i + 2] * g[k][2];
+      ra[0] += t00 * g[k][0] + t01 * g[k][1] + t02 * g[k][2];
+      ra[1] += t01 * g[k][0] + t11 * g[k][1] + t12 * g[k][2];
+      ra[2] += t02 * g[k][0] + t12 * g[k][1] + t22 * g[k][2];
     }
   }
 }
@@ -306,29 +313,25 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
     const index_t* f = free + static_cast<size_t>(bt) * N * kBatch;
     const T* d = data + static_cast<size_t>(bt) * kData * kBatch;
     for (int o = 0; o < kBatch; o += L) {
-      // Gathered into and scattered from plain arrays: lanes are written one by one.
-      alignas(64) T ub[N][3][L], rb[N][3][L];
+      // Gathered into and scattered from the lane arrays directly, lane by lane.
+      V u[N][3], r[N][3];
       for (int a = 0; a < N; ++a)
         for (int l = 0; l < L; ++l) {
           const index_t I = f[a * kBatch + o + l];
           if (I >= 0) {
             const T* s = xp + 3 * static_cast<size_t>(I);
-            ub[a][0][l] = s[0], ub[a][1][l] = s[1], ub[a][2][l] = s[2];
+            u[a][0][l] = s[0], u[a][1][l] = s[1], u[a][2][l] = s[2];
           } else {
-            ub[a][0][l] = ub[a][1][l] = ub[a][2][l] = T(0);
+            u[a][0][l] = u[a][1][l] = u[a][2][l] = T(0);
           }
         }
-      V u[N][3], r[N][3];
-      static_assert(sizeof(u) == sizeof(ub), "lane arrays");
-      __builtin_memcpy(u, ub, sizeof(u));
       batch_apply<P, T, L>(t, d, o, mass, u, r);
-      __builtin_memcpy(rb, r, sizeof(r));
       for (int l = 0; l < L; ++l)
         for (int a = 0; a < N; ++a) {
           const index_t I = f[a * kBatch + o + l];
           if (I < 0) continue;
           T* s = out + 3 * static_cast<size_t>(I);
-          s[0] += sign * rb[a][0][l], s[1] += sign * rb[a][1][l], s[2] += sign * rb[a][2][l];
+          s[0] += sign * r[a][0][l], s[1] += sign * r[a][1][l], s[2] += sign * r[a][2][l];
         }
     }
   }
