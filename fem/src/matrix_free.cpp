@@ -21,23 +21,44 @@ using detail::kData;
 
 struct ElasticityOperator::Impl {
   int p = 0, n = 0;
-  index_t num_elements = 0, num_batches = 0;
+  index_t num_elements = 0, num_batches = 0, num_free = 0;
   const ElementRanges* ranges = nullptr;  ///< the model's element traversal on threads
   std::vector<index_t> free;   ///< n per element: free node index or -1
   std::vector<double> data;    ///< kData per element (the reference kernel, diagonal, forces)
-  std::vector<index_t> batch_free;  ///< n x kBatch per batch, node-major (padding lanes: -1)
+  /// n x kBatch per batch, node-major (padding lanes: -1); batch b holds the elements at traversal
+  /// positions [b kBatch, (b + 1) kBatch) of `ranges`, so that contiguous batch ranges are compact
+  /// pieces of the mesh.
+  std::vector<index_t> batch_free;
   std::vector<double> batch_data;   ///< kData x kBatch per batch, datum-major
   std::vector<float> batch_data_single;  ///< the same in float, kept once apply_single() asked for it
   bool single = false;
   MatrixFreeKernel resolved = MatrixFreeKernel::generic;  ///< the kernel apply() runs (never automatic)
-  /// apply(): thread t > 0 accumulates its contiguous range of elements into buffers[t-1] (kept
-  /// from call to call: no allocation per product), thread 0 directly into y; then y += Σ buffers.
+
+  /// The batched product on `threads` > 1 threads: range t = batches [begin[t], begin[t + 1]) writes
+  /// y in place at the nodes that only its batches hold; the nodes two ranges hold (few: the
+  /// ranges are compact) are shared slots (detail::SharedSlots), which each range accumulates into
+  /// its own buffer, added to y after the ranges in range order.
+  struct Split {
+    int threads = 0;
+    std::vector<long> begin;          ///< threads + 1 batch offsets
+    std::vector<index_t> free;        ///< batch_free with the shared nodes as slots
+    std::vector<index_t> shared;      ///< per slot its free node index
+    std::vector<std::vector<double>> out;      ///< per range 3 per slot
+    std::vector<std::vector<float>> out_single;
+  };
+  mutable Split split;
+  /// The scalar reference kernel: thread t > 0 accumulates its contiguous range of elements into
+  /// buffers[t-1], thread 0 directly into y; then y += Σ buffers.
   mutable std::vector<Vector> buffers;
-  mutable std::vector<Eigen::VectorXf> buffers_single;
-  /// Held by the product using `buffers`: two solvers sharing this operator on two threads take
-  /// turns (a try-lock with private buffers for the loser let the compiler read the kept
+  /// Held by a product: two solvers sharing this operator on two threads take turns over `split`
+  /// and `buffers` (a try-lock with private buffers for the loser let the compiler read the kept
   /// buffers before knowing it held them, which ThreadSanitizer reported).
   mutable std::mutex buffers_mutex;
+
+  /// The element at batch position pos (padding: -1).
+  index_t batch_element(long pos) const {
+    return pos < static_cast<long>(num_elements) ? ranges->element(static_cast<index_t>(pos)) : -1;
+  }
 
   /// The batch layout of `data` (and its float copy where kept).
   void transpose_data() {
@@ -45,18 +66,48 @@ struct ElasticityOperator::Impl {
 #pragma omp parallel for schedule(static)
     for (long bt = 0; bt < static_cast<long>(num_batches); ++bt)
       for (int l = 0; l < kBatch; ++l) {
-        const long e = bt * kBatch + l;
-        if (e >= static_cast<long>(num_elements)) break;
+        const index_t e = batch_element(bt * kBatch + l);
+        if (e < 0) break;
         for (int k = 0; k < kData; ++k)
           batch_data[(static_cast<size_t>(bt) * kData + k) * kBatch + l] = data[static_cast<size_t>(e) * kData + k];
       }
     if (single) batch_data_single.assign(batch_data.begin(), batch_data.end());
   }
 
+  /// `split` for `threads` ranges (kept until another count is asked for).
+  void make_split(int threads) const {
+    if (split.threads == threads) return;
+    Split s;
+    s.threads = threads;
+    s.begin.resize(static_cast<size_t>(threads) + 1);
+    for (int t = 0; t <= threads; ++t) s.begin[t] = static_cast<long>(num_batches) * t / threads;
+    // Per free node, the first and last range holding it.
+    std::vector<int> lo(static_cast<size_t>(num_free), threads), hi(static_cast<size_t>(num_free), -1);
+    const size_t per = static_cast<size_t>(n) * kBatch;
+    for (int t = 0; t < threads; ++t)
+      for (size_t k = s.begin[t] * per; k < s.begin[t + 1] * per; ++k)
+        if (const index_t I = batch_free[k]; I >= 0) lo[I] = std::min(lo[I], t), hi[I] = std::max(hi[I], t);
+    std::vector<index_t> slot(static_cast<size_t>(num_free), -1);
+    for (index_t I = 0; I < num_free; ++I)
+      if (lo[I] < hi[I]) slot[I] = static_cast<index_t>(s.shared.size()), s.shared.push_back(I);
+    s.free = batch_free;
+    for (index_t& I : s.free)
+      if (I >= 0 && slot[I] >= 0) I = -2 - slot[I];
+    s.out.assign(static_cast<size_t>(threads), std::vector<double>(3 * s.shared.size()));
+    s.out_single.assign(static_cast<size_t>(threads), std::vector<float>(3 * s.shared.size()));
+    split = std::move(s);
+  }
+
+  template <class T>
+  std::vector<std::vector<T>>& split_out() const {
+    if constexpr (std::is_same_v<T, float>) return split.out_single;
+    else return split.out;
+  }
+
   /// y = A x, or with b: y = b - A x (the residual in the same pass). T: double, or float for
   /// apply_single() (batched kernels only).
   template <int P, class T, class Vec>
-  void apply(const Vec& x, Vec& y, const Vec* b, bool mass, std::vector<Vec>& kept) const {
+  void apply(const Vec& x, Vec& y, const Vec* b, bool mass) const {
     // The float path has no scalar reference: the baseline batched kernel stands in for it.
     const MatrixFreeKernel kernel =
         std::is_same_v<T, float> && resolved == MatrixFreeKernel::reference ? MatrixFreeKernel::generic : resolved;
@@ -64,45 +115,75 @@ struct ElasticityOperator::Impl {
     T* yp = y.data();
     const long len = static_cast<long>(y.size());
     const int threads = omp_get_max_threads();
+    const T sign = b ? T(-1) : T(1);
     // One product at a time uses the kept buffers (two solvers sharing this operator take turns).
     const std::lock_guard<std::mutex> lock(buffers_mutex);
-    std::vector<Vec>& buffers = kept;
-    if (static_cast<int>(buffers.size()) != threads - 1 || (threads > 1 && buffers[0].size() != len))
-      buffers.assign(std::max(threads - 1, 0), Vec(len));
-    const T sign = b ? T(-1) : T(1);
+    if constexpr (std::is_same_v<T, double>) {
+      if (kernel == MatrixFreeKernel::reference) return apply_reference<P>(x, y, b, threads);
+    }
     const T* bdata = nullptr;
     if constexpr (std::is_same_v<T, float>) bdata = batch_data_single.data();
     else bdata = batch_data.data();
-    const bool reference = kernel == MatrixFreeKernel::reference;
+    if (threads <= 1 || num_batches < 2 * threads) {
+      if (b) std::copy(b->data(), b->data() + len, yp);
+      else std::fill(yp, yp + len, T(0));
+      detail::apply_element_batches<P, T>(kernel, batch_free.data(), bdata, 0, num_batches, xp, yp, {}, sign, mass);
+      return;
+    }
+    make_split(threads);
+    std::vector<std::vector<T>>& outs = split_out<T>();
+    const long slots = static_cast<long>(split.shared.size());
 #pragma omp parallel num_threads(threads)
     {
       const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
-      T* out = tid == 0 ? yp : buffers[tid - 1].data();
-      if (tid == 0) {
-        if (b) std::copy(b->data(), b->data() + len, yp);
-        else std::fill(yp, yp + len, T(0));
-      } else {
-        std::fill(out, out + len, T(0));
+#pragma omp for schedule(static)
+      for (long i = 0; i < len; ++i) yp[i] = b ? (*b)[i] : T(0);
+      // Range t runs on thread t mod nt (the runtime may give fewer threads than asked for).
+      for (int t = tid; t < threads; t += nt) {
+        std::vector<T>& out = outs[static_cast<size_t>(t)];
+        std::fill(out.begin(), out.end(), T(0));
+        detail::apply_element_batches<P, T>(kernel, split.free.data(), bdata, split.begin[t], split.begin[t + 1], xp,
+                                            yp, {split.shared.data(), out.data()}, sign, mass);
       }
-      if constexpr (std::is_same_v<T, double>) {
-        if (reference) {
-          const long begin = num_elements * static_cast<long>(tid) / nt;
-          const long end = num_elements * static_cast<long>(tid + 1) / nt;
-          detail::apply_elements<P>(free.data(), data.data(), begin, end, xp, out, sign);
+#pragma omp barrier
+#pragma omp for schedule(static)
+      for (long s = 0; s < slots; ++s) {
+        T* o = yp + 3 * static_cast<size_t>(split.shared[s]);
+        for (int t = 0; t < threads; ++t) {
+          const T* src = outs[static_cast<size_t>(t)].data() + 3 * s;
+          o[0] += src[0], o[1] += src[1], o[2] += src[2];
         }
       }
-      if (!reference) {
-        const long begin = num_batches * static_cast<long>(tid) / nt;
-        const long end = num_batches * static_cast<long>(tid + 1) / nt;
-        detail::apply_element_batches<P, T>(kernel, batch_free.data(), bdata, begin, end, xp, out, sign, mass);
+    }
+  }
+
+  /// The scalar reference kernel, element by element in mesh order.
+  template <int P>
+  void apply_reference(const Vector& x, Vector& y, const Vector* b, int threads) const {
+    const long len = static_cast<long>(y.size());
+    if (static_cast<int>(buffers.size()) != threads - 1 || (threads > 1 && buffers[0].size() != len))
+      buffers.assign(std::max(threads - 1, 0), Vector(len));
+    const double sign = b ? -1.0 : 1.0;
+#pragma omp parallel num_threads(threads)
+    {
+      const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+      double* out = tid == 0 ? y.data() : buffers[tid - 1].data();
+      if (tid == 0) {
+        if (b) std::copy(b->data(), b->data() + len, y.data());
+        else std::fill(y.data(), y.data() + len, 0.0);
+      } else {
+        std::fill(out, out + len, 0.0);
       }
+      const long begin = num_elements * static_cast<long>(tid) / nt;
+      const long end = num_elements * static_cast<long>(tid + 1) / nt;
+      detail::apply_elements<P>(free.data(), data.data(), begin, end, x.data(), out, sign);
 #pragma omp barrier
       if (nt > 1) {
 #pragma omp for schedule(static)
         for (long i = 0; i < len; ++i) {
-          T sum = T(0);
+          double sum = 0.0;
           for (int k = 0; k < nt - 1; ++k) sum += buffers[k][i];
-          yp[i] += sum;
+          y[i] += sum;
         }
       }
     }
@@ -123,11 +204,14 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
   m.free.resize(ne * m.n);
   for (size_t e = 0; e < ne; ++e)
     for (int a = 0; a < m.n; ++a) m.free[e * m.n + a] = as.free_index()[space.node(static_cast<index_t>(e), a)];
+  m.num_free = as.num_free();
   m.num_batches = static_cast<index_t>((ne + kBatch - 1) / kBatch);
   m.batch_free.assign(static_cast<size_t>(m.num_batches) * m.n * kBatch, -1);
-  for (size_t e = 0; e < ne; ++e)
+  for (size_t pos = 0; pos < ne; ++pos) {
+    const size_t e = static_cast<size_t>(m.batch_element(static_cast<long>(pos)));
     for (int a = 0; a < m.n; ++a)
-      m.batch_free[((e / kBatch) * m.n + a) * kBatch + e % kBatch] = m.free[e * m.n + a];
+      m.batch_free[((pos / kBatch) * m.n + a) * kBatch + pos % kBatch] = m.free[e * m.n + a];
+  }
   m.data.assign(ne * kData, 0.0);
   // PMG_MATRIX_FREE_KERNEL (auto, generic, avx2, avx512, reference) overrides the automatic
   // choice, e.g. to run the portable path on a machine that has wider vectors.
@@ -199,9 +283,9 @@ void ElasticityOperator::apply_impl(const Vector& x, Vector& y) const {
   const Vector& in = masked_input(*model_, x, scratch);
   const bool mass = mass_weight_ != 0.0;
   switch (impl_->p) {
-    case 1: impl_->apply<1, double>(in, y, static_cast<const Vector*>(nullptr), mass, impl_->buffers); break;
-    case 2: impl_->apply<2, double>(in, y, static_cast<const Vector*>(nullptr), mass, impl_->buffers); break;
-    default: impl_->apply<3, double>(in, y, static_cast<const Vector*>(nullptr), mass, impl_->buffers); break;
+    case 1: impl_->apply<1, double>(in, y, static_cast<const Vector*>(nullptr), mass); break;
+    case 2: impl_->apply<2, double>(in, y, static_cast<const Vector*>(nullptr), mass); break;
+    default: impl_->apply<3, double>(in, y, static_cast<const Vector*>(nullptr), mass); break;
   }
   for (size_t i = 0; i < held.size(); ++i)
     if (held[i]) y[static_cast<Eigen::Index>(i)] = x[static_cast<Eigen::Index>(i)];
@@ -214,9 +298,9 @@ void ElasticityOperator::residual_impl(const Vector& b, const Vector& x, Vector&
   const Vector& in = masked_input(*model_, x, scratch);
   const bool mass = mass_weight_ != 0.0;
   switch (impl_->p) {
-    case 1: impl_->apply<1, double>(in, r, &b, mass, impl_->buffers); break;
-    case 2: impl_->apply<2, double>(in, r, &b, mass, impl_->buffers); break;
-    default: impl_->apply<3, double>(in, r, &b, mass, impl_->buffers); break;
+    case 1: impl_->apply<1, double>(in, r, &b, mass); break;
+    case 2: impl_->apply<2, double>(in, r, &b, mass); break;
+    default: impl_->apply<3, double>(in, r, &b, mass); break;
   }
   for (size_t i = 0; i < held.size(); ++i)
     if (held[i]) r[static_cast<Eigen::Index>(i)] = b[static_cast<Eigen::Index>(i)] - x[static_cast<Eigen::Index>(i)];
@@ -254,9 +338,9 @@ void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf&
   y.resize(rows());
   const bool mass = mass_weight_ != 0.0;
   switch (m.p) {
-    case 1: m.apply<1, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass, m.buffers_single); break;
-    case 2: m.apply<2, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass, m.buffers_single); break;
-    default: m.apply<3, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass, m.buffers_single); break;
+    case 1: m.apply<1, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass); break;
+    case 2: m.apply<2, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass); break;
+    default: m.apply<3, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass); break;
   }
 }
 

@@ -302,10 +302,11 @@ inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
   }
 }
 
-/// out += sign · (element products of x) over batches [begin, end), L lanes at a time.
+/// out += sign · (element products of x) over batches [begin, end), L lanes at a time; an index
+/// <= -2 is shared slot -2 - index (detail::SharedSlots).
 template <int P, class T, int L>
 inline void apply_batches(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
-                          T sign, bool mass) {
+                          const index_t* shared, T* shared_out, T sign, bool mass) {
   using V = typename Lanes<T, L>::type;
   constexpr int N = Tables<P>::N;
   const TablesIn<P, T>& t = tables_in<P, T>();
@@ -318,19 +319,24 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
       for (int a = 0; a < N; ++a)
         for (int l = 0; l < L; ++l) {
           const index_t I = f[a * kBatch + o + l];
-          if (I >= 0) {
+          if (__builtin_expect(I >= 0, 1)) {
             const T* s = xp + 3 * static_cast<size_t>(I);
             u[a][0][l] = s[0], u[a][1][l] = s[1], u[a][2][l] = s[2];
-          } else {
+          } else if (I == -1) {
             u[a][0][l] = u[a][1][l] = u[a][2][l] = T(0);
+          } else {
+            const T* s = xp + 3 * static_cast<size_t>(shared[-2 - I]);
+            u[a][0][l] = s[0], u[a][1][l] = s[1], u[a][2][l] = s[2];
           }
         }
       batch_apply<P, T, L>(t, d, o, mass, u, r);
       for (int l = 0; l < L; ++l)
         for (int a = 0; a < N; ++a) {
           const index_t I = f[a * kBatch + o + l];
-          if (I < 0) continue;
-          T* s = out + 3 * static_cast<size_t>(I);
+          T* s;
+          if (__builtin_expect(I >= 0, 1)) s = out + 3 * static_cast<size_t>(I);
+          else if (I == -1) continue;
+          else s = shared_out + 3 * static_cast<size_t>(-2 - I);
           s[0] += sign * r[a][0][l], s[1] += sign * r[a][1][l], s[2] += sign * r[a][2][l];
         }
     }
@@ -343,8 +349,8 @@ constexpr int lanes_baseline = 32 / sizeof(T);
 
 template <int P, class T>
 void apply_batches_generic(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
-                           T sign, bool mass) {
-  apply_batches<P, T, lanes_baseline<T>>(free, data, begin, end, xp, out, sign, mass);
+                           const index_t* shared, T* shared_out, T sign, bool mass) {
+  apply_batches<P, T, lanes_baseline<T>>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 
 #if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
@@ -352,13 +358,15 @@ void apply_batches_generic(const index_t* free, const T* data, long begin, long 
 template <int P, class T>
 __attribute__((target("avx2,fma"), flatten)) void apply_batches_avx2(const index_t* free, const T* data,
                                                                        long begin, long end, const T* xp,
-                                                                       T* out, T sign, bool mass) {
-  apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, sign, mass);
+                                                                       T* out, const index_t* shared,
+                                                                       T* shared_out, T sign, bool mass) {
+  apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 template <int P, class T>
 __attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) void apply_batches_avx512(
-    const index_t* free, const T* data, long begin, long end, const T* xp, T* out, T sign, bool mass) {
-  apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, sign, mass);
+    const index_t* free, const T* data, long begin, long end, const T* xp, T* out, const index_t* shared,
+    T* shared_out, T sign, bool mass) {
+  apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 #endif
 
@@ -410,13 +418,15 @@ MatrixFreeKernel resolve(MatrixFreeKernel k) {
 
 template <int P, class T>
 void apply_batches_dispatch(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end,
-                            const T* xp, T* out, T sign, bool mass) {
+                            const T* xp, T* out, const index_t* shared, T* shared_out, T sign, bool mass) {
 #ifdef PMG_MF_X86_DISPATCH
-  if (k == MatrixFreeKernel::avx512) return apply_batches_avx512<P, T>(free, data, begin, end, xp, out, sign, mass);
-  if (k == MatrixFreeKernel::avx2) return apply_batches_avx2<P, T>(free, data, begin, end, xp, out, sign, mass);
+  if (k == MatrixFreeKernel::avx512)
+    return apply_batches_avx512<P, T>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
+  if (k == MatrixFreeKernel::avx2)
+    return apply_batches_avx2<P, T>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 #endif
   (void)k;
-  apply_batches_generic<P, T>(free, data, begin, end, xp, out, sign, mass);
+  apply_batches_generic<P, T>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 
 }  // namespace
@@ -437,8 +447,8 @@ void apply_elements(const index_t* free, const double* data, long begin, long en
 
 template <int P, class T>
 void apply_element_batches(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end, const T* xp,
-                           T* out, T sign, bool mass) {
-  apply_batches_dispatch<P, T>(k, free, data, begin, end, xp, out, sign, mass);
+                           T* out, SharedSlots<T> shared, T sign, bool mass) {
+  apply_batches_dispatch<P, T>(k, free, data, begin, end, xp, out, shared.nodes, shared.out, sign, mass);
 }
 
 MatrixFreeKernel resolve_kernel(MatrixFreeKernel k) { return resolve(k); }
@@ -448,9 +458,9 @@ MatrixFreeKernel resolve_kernel(MatrixFreeKernel k) { return resolve(k); }
                                    double (&)[ElementKernelTables<P>::N][3]);                                  \
   template void apply_elements<P>(const index_t*, const double*, long, long, const double*, double*, double); \
   template void apply_element_batches<P, double>(MatrixFreeKernel, const index_t*, const double*, long, long,   \
-                                                 const double*, double*, double, bool);                        \
+                                                 const double*, double*, SharedSlots<double>, double, bool);   \
   template void apply_element_batches<P, float>(MatrixFreeKernel, const index_t*, const float*, long, long,     \
-                                                const float*, float*, float, bool);
+                                                const float*, float*, SharedSlots<float>, float, bool);
 PMG_MF_INSTANTIATE(1)
 PMG_MF_INSTANTIATE(2)
 PMG_MF_INSTANTIATE(3)

@@ -24,11 +24,21 @@ template <int P>
 void apply_elements(const index_t* free, const double* data, long begin, long end, const double* xp, double* out,
                     double sign);
 
+/// The nodes of a thread's batches that other threads' batches hold as well: in the batch index
+/// array, an index <= -2 stands for slot s = -2 - index, gathered from x at free index nodes[s] and
+/// scattered into out[3s, 3s + 3) (the thread's own buffer, added to the result after the threads).
+template <class T>
+struct SharedSlots {
+  const index_t* nodes = nullptr;
+  T* out = nullptr;
+};
+
 /// The same over batches [begin, end) of kBatch elements (node indices node-major, data
-/// datum-major per batch), with kernel k (not automatic); mass: add the mass term.
+/// datum-major per batch), with kernel k (not automatic); mass: add the mass term. Index -1: a
+/// fixed node or a padding lane; <= -2: a shared slot.
 template <int P, class T>
 void apply_element_batches(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end, const T* xp,
-                           T* out, T sign, bool mass);
+                           T* out, SharedSlots<T> shared, T sign, bool mass);
 
 /// The kernel `automatic` stands for on this CPU (any other is returned as it is).
 MatrixFreeKernel resolve_kernel(MatrixFreeKernel k);

@@ -35,6 +35,8 @@ class ElementRanges {
 
   /// Whether the traversal is the Morton order of the centroids (false: the elements' own order).
   bool reordered() const { return !order_.empty(); }
+  /// The element at traversal position pos, in [0, number of elements).
+  index_t element(index_t pos) const { return order_.empty() ? pos : order_[pos]; }
 
   /// The predicate for_each passes: whether the node's elements all lie in [begin, end) of the
   /// traversal (negated for the second visit).
@@ -68,7 +70,6 @@ class ElementRanges {
   static index_t range_begin(index_t ne, int t, int nt) {
     return static_cast<index_t>(static_cast<long long>(ne) * t / nt);
   }
-  index_t element(index_t pos) const { return order_.empty() ? pos : order_[pos]; }
   /// first_/last_: per node, the first and last traversal position of an element holding it.
   void locate_nodes();
 

@@ -31,13 +31,17 @@
 // element-by-element kernel stays as the reference the batched ones are tested against. The same
 // kernel runs in float (apply_single()).
 //
-// Race-free: apply() gives each thread a contiguous range of batches (mesh order, for locality)
-// and its own accumulation vector (thread 0 writes y, the others buffers kept from call to call),
-// then sums them: with 2 threads one extra vector pass. The diagonal blocks run contiguous
-// element ranges in mesh order as well (thread 0 into the result, the others into buffers over the
-// nodes their range touches, added after), the element forces the assembler's traversal
-// (pmg/fem/element_ranges.hpp: each node written by one thread, the same on any thread count).
-//
+// Race-free and in place: the batches follow the model's element traversal (ElementRanges: the
+// mesh's order, or the Morton order of the centroids where the mesh's order is scattered), and
+// apply() gives each thread a contiguous range of batches. A range writes y directly at the nodes
+// only its own batches hold; the few nodes that two ranges hold are shared slots, which each range
+// accumulates into a buffer of its own, added to y after the ranges (in range order, so the result
+// depends on the thread count only by rounding at those nodes). The diagonal blocks run contiguous
+// element ranges in mesh order (thread 0 into the result, the others into buffers over the nodes
+// their range touches, added after), the element forces the assembler's traversal
+// (pmg/fem/element_ranges.hpp: each node written by one thread, the same on any thread count). The
+// scalar reference kernel keeps one accumulation vector per thread, summed after.
+
 // Components the model holds on their own (ElasticityModel::constrain_components: symmetry planes)
 // are identity rows and zero columns here as in the assembled matrices: x is masked before the
 // element pass and y_c = x_c after it.
