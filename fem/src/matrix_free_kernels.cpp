@@ -208,6 +208,10 @@ struct Lanes {
   typedef T type __attribute__((vector_size(L * sizeof(T))));
 };
 
+/// What the gather reads for a fixed node or a padding lane.
+template <class T>
+constexpr T kZeros[3] = {T(0), T(0), T(0)};
+
 /// The degree-P tables in the kernel's precision.
 template <int P, class T>
 struct TablesIn {
@@ -314,21 +318,28 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
     const index_t* f = free + static_cast<size_t>(bt) * N * kBatch;
     const T* d = data + static_cast<size_t>(bt) * kData * kBatch;
     for (int o = 0; o < kBatch; o += L) {
-      // Gathered into and scattered from the lane arrays directly, lane by lane.
+      // Gathered lane by lane into vectors (up to 8 lanes, as one masked broadcast per lane where
+      // the instruction set has them): a fixed node or padding lane reads zeros, a shared slot
+      // its node.
       V u[N][3], r[N][3];
-      for (int a = 0; a < N; ++a)
+      for (int a = 0; a < N; ++a) {
+        const T* src[L];
         for (int l = 0; l < L; ++l) {
           const index_t I = f[a * kBatch + o + l];
-          if (__builtin_expect(I >= 0, 1)) {
-            const T* s = xp + 3 * static_cast<size_t>(I);
-            u[a][0][l] = s[0], u[a][1][l] = s[1], u[a][2][l] = s[2];
-          } else if (I == -1) {
-            u[a][0][l] = u[a][1][l] = u[a][2][l] = T(0);
-          } else {
-            const T* s = xp + 3 * static_cast<size_t>(shared[-2 - I]);
-            u[a][0][l] = s[0], u[a][1][l] = s[1], u[a][2][l] = s[2];
-          }
+          src[l] = __builtin_expect(I >= 0, 1) ? xp + 3 * static_cast<size_t>(I)
+                   : I == -1                   ? kZeros<T>
+                                               : xp + 3 * static_cast<size_t>(shared[-2 - I]);
         }
+        if constexpr (L <= 8) {
+          for (int i = 0; i < 3; ++i) {
+            V v;
+            for (int l = 0; l < L; ++l) v[l] = src[l][i];
+            u[a][i] = v;
+          }
+        } else {  // 16 lanes: one chain of 16 dependent inserts is slower than stores and a load
+          for (int l = 0; l < L; ++l) u[a][0][l] = src[l][0], u[a][1][l] = src[l][1], u[a][2][l] = src[l][2];
+        }
+      }
       batch_apply<P, T, L>(t, d, o, mass, u, r);
       for (int l = 0; l < L; ++l)
         for (int a = 0; a < N; ++a) {
