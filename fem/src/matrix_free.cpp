@@ -25,9 +25,8 @@ struct ElasticityOperator::Impl {
   const ElementRanges* ranges = nullptr;  ///< the model's element traversal on threads
   std::vector<index_t> free;   ///< n per element: free node index or -1
   std::vector<double> data;    ///< kData per element (the reference kernel, diagonal, forces)
-  /// n x kBatch per batch, node-major (padding lanes: -1); batch b holds the elements at traversal
-  /// positions [b kBatch, (b + 1) kBatch) of `ranges`, so that contiguous batch ranges are compact
-  /// pieces of the mesh.
+  /// n x kBatch per batch, node-major (padding lanes: -1); batch b holds the elements at positions
+  /// [b kBatch, (b + 1) kBatch) of the mesh's order or of `ranges`' traversal (choose_order()).
   std::vector<index_t> batch_free;
   std::vector<double> batch_data;   ///< kData x kBatch per batch, datum-major
   std::vector<float> batch_data_single;  ///< the same in float, kept once apply_single() asked for it
@@ -55,9 +54,60 @@ struct ElasticityOperator::Impl {
   /// buffers before knowing it held them, which ThreadSanitizer reported).
   mutable std::mutex buffers_mutex;
 
+  /// Whether the batches follow `ranges`' traversal (else the mesh's order).
+  bool traversal_order = false;
+  /// Ranges the choice of order is made for (a fixed number: the order does not depend on the
+  /// threads), and the share of the free nodes that they may hold in common in the mesh's order.
+  static constexpr int kProbeRanges = 8;
+  static constexpr int kMaxSharedShare = 8;  ///< one node in eight
+
   /// The element at batch position pos (padding: -1).
   index_t batch_element(long pos) const {
-    return pos < static_cast<long>(num_elements) ? ranges->element(static_cast<index_t>(pos)) : -1;
+    if (pos >= static_cast<long>(num_elements)) return -1;
+    return traversal_order ? ranges->element(static_cast<index_t>(pos)) : static_cast<index_t>(pos);
+  }
+
+  /// batch_free from `free` in the order batch_element() gives.
+  void make_batch_free() {
+    const size_t ne = static_cast<size_t>(num_elements);
+    batch_free.assign(static_cast<size_t>(num_batches) * n * kBatch, -1);
+    for (size_t pos = 0; pos < ne; ++pos) {
+      const size_t e = static_cast<size_t>(batch_element(static_cast<long>(pos)));
+      for (int a = 0; a < n; ++a) batch_free[((pos / kBatch) * n + a) * kBatch + pos % kBatch] = free[e * n + a];
+    }
+  }
+
+  /// Per free node its shared slot among `parts` contiguous ranges of batches (-1: held by one
+  /// range or none), and the range offsets.
+  std::vector<index_t> shared_slots(int parts, std::vector<long>& begin, index_t& count) const {
+    begin.resize(static_cast<size_t>(parts) + 1);
+    for (int t = 0; t <= parts; ++t) begin[t] = static_cast<long>(num_batches) * t / parts;
+    std::vector<int> lo(static_cast<size_t>(num_free), parts), hi(static_cast<size_t>(num_free), -1);
+    const size_t per = static_cast<size_t>(n) * kBatch;
+    for (int t = 0; t < parts; ++t)
+      for (size_t k = begin[t] * per; k < begin[t + 1] * per; ++k)
+        if (const index_t I = batch_free[k]; I >= 0) lo[I] = std::min(lo[I], t), hi[I] = std::max(hi[I], t);
+    std::vector<index_t> slot(static_cast<size_t>(num_free), -1);
+    count = 0;
+    for (index_t I = 0; I < num_free; ++I)
+      if (lo[I] < hi[I]) slot[I] = count++;
+    return slot;
+  }
+
+  /// The batch order: the mesh's, which keeps the gathers close in memory where nodes are numbered
+  /// as the elements meet them, unless its kProbeRanges contiguous ranges hold more than one free
+  /// node in kMaxSharedShare in common (a mesh generator's scattered order): then the traversal's
+  /// (the Morton order of the centroids), whose ranges are compact.
+  void choose_order() {
+    traversal_order = false;
+    make_batch_free();
+    if (!ranges->reordered() || num_batches < 2 * kProbeRanges) return;
+    std::vector<long> begin;
+    index_t count = 0;
+    shared_slots(kProbeRanges, begin, count);
+    if (static_cast<long long>(count) * kMaxSharedShare <= num_free) return;
+    traversal_order = true;
+    make_batch_free();
   }
 
   /// The batch layout of `data` (and its float copy where kept).
@@ -79,17 +129,11 @@ struct ElasticityOperator::Impl {
     if (split.threads == threads) return;
     Split s;
     s.threads = threads;
-    s.begin.resize(static_cast<size_t>(threads) + 1);
-    for (int t = 0; t <= threads; ++t) s.begin[t] = static_cast<long>(num_batches) * t / threads;
-    // Per free node, the first and last range holding it.
-    std::vector<int> lo(static_cast<size_t>(num_free), threads), hi(static_cast<size_t>(num_free), -1);
-    const size_t per = static_cast<size_t>(n) * kBatch;
-    for (int t = 0; t < threads; ++t)
-      for (size_t k = s.begin[t] * per; k < s.begin[t + 1] * per; ++k)
-        if (const index_t I = batch_free[k]; I >= 0) lo[I] = std::min(lo[I], t), hi[I] = std::max(hi[I], t);
-    std::vector<index_t> slot(static_cast<size_t>(num_free), -1);
+    index_t count = 0;
+    const std::vector<index_t> slot = shared_slots(threads, s.begin, count);
+    s.shared.resize(static_cast<size_t>(count));
     for (index_t I = 0; I < num_free; ++I)
-      if (lo[I] < hi[I]) slot[I] = static_cast<index_t>(s.shared.size()), s.shared.push_back(I);
+      if (slot[I] >= 0) s.shared[slot[I]] = I;
     s.free = batch_free;
     for (index_t& I : s.free)
       if (I >= 0 && slot[I] >= 0) I = -2 - slot[I];
@@ -206,12 +250,7 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
     for (int a = 0; a < m.n; ++a) m.free[e * m.n + a] = as.free_index()[space.node(static_cast<index_t>(e), a)];
   m.num_free = as.num_free();
   m.num_batches = static_cast<index_t>((ne + kBatch - 1) / kBatch);
-  m.batch_free.assign(static_cast<size_t>(m.num_batches) * m.n * kBatch, -1);
-  for (size_t pos = 0; pos < ne; ++pos) {
-    const size_t e = static_cast<size_t>(m.batch_element(static_cast<long>(pos)));
-    for (int a = 0; a < m.n; ++a)
-      m.batch_free[((pos / kBatch) * m.n + a) * kBatch + pos % kBatch] = m.free[e * m.n + a];
-  }
+  m.choose_order();
   m.data.assign(ne * kData, 0.0);
   // PMG_MATRIX_FREE_KERNEL (auto, generic, avx2, avx512, reference) overrides the automatic
   // choice, e.g. to run the portable path on a machine that has wider vectors.

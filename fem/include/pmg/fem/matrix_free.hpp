@@ -31,9 +31,11 @@
 // element-by-element kernel stays as the reference the batched ones are tested against. The same
 // kernel runs in float (apply_single()).
 //
-// Race-free and in place: the batches follow the model's element traversal (ElementRanges: the
-// mesh's order, or the Morton order of the centroids where the mesh's order is scattered), and
-// apply() gives each thread a contiguous range of batches. A range writes y directly at the nodes
+// Race-free and in place: the batches follow the mesh's order (which keeps the gathers close in
+// memory where nodes are numbered as the elements meet them), unless 8 contiguous ranges of it hold
+// more than one free node in eight in common (a mesh generator's scattered order): then the
+// model's element traversal (ElementRanges: the Morton order of the centroids), whose ranges are
+// compact. apply() gives each thread a contiguous range of batches. A range writes y directly at the nodes
 // only its own batches hold; the few nodes that two ranges hold are shared slots, which each range
 // accumulates into a buffer of its own, added to y after the ranges (in range order, so the result
 // depends on the thread count only by rounding at those nodes). The diagonal blocks run contiguous
