@@ -158,7 +158,9 @@ struct ElasticityOperator::Impl {
     const T* xp = x.data();
     T* yp = y.data();
     const long len = static_cast<long>(y.size());
-    const int threads = omp_get_max_threads();
+    // Inside a parallel region that cannot start another active one, the product runs on one
+    // thread (omp_get_max_threads() would still name the outer team's size).
+    const int threads = omp_get_active_level() >= omp_get_max_active_levels() ? 1 : omp_get_max_threads();
     const T sign = b ? T(-1) : T(1);
     // One product at a time uses the kept buffers (two solvers sharing this operator take turns).
     const std::lock_guard<std::mutex> lock(buffers_mutex);
@@ -501,7 +503,7 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
 double ElasticityOperator::flops_per_apply() const {
   const double n = impl_->n, q = element_nodes(impl_->p - 1);
   // The batched kernels' operations: steps 1–4 on the 6 symmetric components (header), the mass.
-  const double per = 72 * q + 12 * q * q + 13 * q + 72 * q + (mass_weight_ != 0 ? 6 * n * n : 0.0);
+  const double per = 72 * q + 12 * q * q + 12 * q + 72 * q + (mass_weight_ != 0 ? 6 * n * n : 0.0);
   return per * static_cast<double>(impl_->num_elements);
 }
 

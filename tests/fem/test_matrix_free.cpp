@@ -217,6 +217,17 @@ TEST_CASE("batched product on 1 to 5 threads writes in place: the reference kern
       }
 #ifdef _OPENMP
       omp_set_num_threads(threads_before);
+      // Called from inside a parallel region that cannot start another: one thread, the same result.
+      const int levels_before = omp_get_max_active_levels();
+      omp_set_max_active_levels(1);
+      Vector nested;
+#pragma omp parallel num_threads(2)
+      {
+#pragma omp master
+        op.apply(x, nested);
+      }
+      omp_set_max_active_levels(levels_before);
+      CHECK(rel_diff(nested, ref) < 1e-13);
 #endif
     }
 }

@@ -17,14 +17,17 @@
 // The stress reads only tr(Ĥ) and Ĥ + Ĥᵀ, and step 2 commutes with taking the symmetric part, so
 // the batched kernels form the 6 components of H_β + H_βᵀ in step 1 and run step 2 on those.
 // Their flops per element (multiply and add counted separately), with n = C(p+3,3) nodes and
-// q = C(p+2,3) gradient coefficients: 72q (1) + 12q² (2) + 13q (3) + 72q (4) + 6n² (5, dynamics
+// q = C(p+2,3) gradient coefficients: 72q (1) + 12q² (2) + 12q (3) + 72q (4) + 6n² (5, dynamics
 // only); p = 3 (n = 20, q = 10): 2.8k, +2.4k with mass. The scalar reference kernel runs step 2 on
 // all 9 components (18q²). The dense element block costs 18n² = 7.2k.
 // Stored per element: the rotated gradients (12 doubles), λ and μ weights and the mass weight (3),
 // one pad, and the n free-node indices — 128 + 4n bytes, 208 at p = 3, about 15 bytes per unknown
-// against about 1.2 KB per unknown for the cubic BCSR matrix.
+// against about 1.2 KB per unknown for the cubic BCSR matrix — as the product reads them; the
+// operator keeps them once in element order and once in batches, and on more than one thread a
+// second copy of the batches' indices with the shared nodes marked (4n bytes more).
 //
-// Element batches in SIMD lanes: the product runs 16 consecutive elements at a time, one element
+// Element batches in SIMD lanes: the product runs 16 elements at a time (consecutive in the batch
+// order below), one element
 // per vector lane (the element data stored structure-of-arrays per batch), gathered from x and
 // scattered into y lane by lane. The kernel is compiled for the baseline x86-64, AVX2 + FMA and
 // AVX-512 and chosen at run time (MatrixFreeKernel; PMG_MATRIX_FREE_KERNEL overrides); the scalar
