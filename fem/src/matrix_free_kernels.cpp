@@ -194,12 +194,14 @@ inline void apply_range(const index_t* free, const double* data, long begin, lon
 // ([a * kBatch + l]), and the kernel below is element_apply() with every scalar replaced by a
 // vector of L lanes. A batch is gathered from x lane by lane and scattered into the accumulation
 // vector lane by lane in order, so two elements of a batch may share a node. The last batch is
-// padded with empty lanes (index -1, data 0). The vector type is GCC's vector extension (also
-// Clang's): unlike std::experimental::simd, whose width is fixed by the flags of the translation
-// unit, it compiles to the instruction set of the function it is in, so one source gives the
-// baseline x86-64 path (SSE2, a 4-lane vector split in two) and AVX2 + FMA and AVX-512 copies
-// chosen at run time (function target attributes); the arithmetic is only +, * and lane access,
-// which the extension covers on every compiler pmgkit builds with.
+// padded with empty lanes (index -1, data 0).
+//
+// The vector type is GCC's vector extension (also Clang's): unlike std::experimental::simd, whose
+// width is fixed by the flags of the translation unit, it compiles to the instruction set of the
+// function it is in, so one source gives the baseline x86-64 path (SSE2, a 4-lane vector split in
+// two) and AVX2 + FMA and AVX-512 copies chosen at run time (function target attributes); the
+// arithmetic is only +, * and lane access, which the extension covers on every compiler pmgkit
+// builds with.
 
 /// L lanes of T as one vector of the extension.
 template <class T, int L>
