@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "pmg/sparse/convergence.hpp"
+#include "pmg/sparse/block3.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -378,9 +379,36 @@ void block_multiply_single(const CsrPattern& p, const std::vector<float>& values
   }
 }
 
-/// z = D⁻¹ r with D⁻¹'s 3x3 blocks in float, row-major.
-void block_diagonal_single(const std::vector<float>& inv, const Eigen::VectorXf& r, Eigen::VectorXf& z) {
-  ops::block_diagonal_apply(inv.data(), r.data(), z.data(), static_cast<index_t>(r.size() / 3));
+/// One step of the Chebyshev recurrence in float on the threads, one pass over the 3x3 blocks:
+/// d = c1 d + c2 D⁻¹ r (first: d = c2 D⁻¹ r), then x += w d.
+void chebyshev_step_single(const std::vector<float>& inv, const Eigen::VectorXf& r, Eigen::VectorXf& d,
+                           Eigen::VectorXf& x, float c1, float c2, float w, bool first) {
+  const std::ptrdiff_t nb = r.size() / 3;
+  const float* D = inv.data();
+  const float* rp = r.data();
+  float* dp = d.data();
+  float* xp = x.data();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t I = 0; I < nb; ++I) {
+    float z[3];
+    block3_apply(D + 9 * I, rp + 3 * I, z);
+    for (int c = 0; c < 3; ++c) {
+      float& di = dp[3 * I + c];
+      di = first ? c2 * z[c] : c1 * di + c2 * z[c];
+      xp[3 * I + c] += w * di;
+    }
+  }
+}
+
+/// r = a - z on the threads (r may be a).
+void subtract_single(const Eigen::VectorXf& a, const Eigen::VectorXf& z, Eigen::VectorXf& r) {
+  const std::ptrdiff_t n = z.size();
+  r.resize(n);
+  const float* ap = a.data();
+  const float* zp = z.data();
+  float* rp = r.data();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i) rp[i] = ap[i] - zp[i];
 }
 }  // namespace
 
@@ -392,24 +420,20 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
   Eigen::VectorXf &r = s.r, &d = s.d, &z = s.z;
   auto residual = [&] {  // r = b - A x
     s.op->apply_single(x, z);
-    r = b - z;
+    subtract_single(b, z, r);
   };
   if (x_is_zero) r = b;
   else residual();
-  block_diagonal_single(s.inv_diag, r, d);
-  d *= static_cast<float>(steps[0].c2);
+  d.resize(r.size());
   for (int k = 0; k < m; ++k) {
-    if (k > 0) {
-      block_diagonal_single(s.inv_diag, r, z);
-      d = static_cast<float>(steps[k].c1) * d + static_cast<float>(steps[k].c2) * z;
-    }
-    x += static_cast<float>(steps[k].weight) * d;
+    chebyshev_step_single(s.inv_diag, r, d, x, static_cast<float>(steps[k].c1), static_cast<float>(steps[k].c2),
+                          static_cast<float>(steps[k].weight), k == 0);
     if (k == m - 1) break;
     if (first_kind) {
       residual();
     } else {
       s.op->apply_single(d, z);
-      r -= z;
+      subtract_single(r, z, r);
     }
   }
 }
@@ -432,7 +456,7 @@ void MultigridCycle::cycle_single(int l, const Eigen::VectorXf& b, Eigen::Vector
   timings_.smoothing[l] += seconds_since(t0);
   t0 = Clock::now();
   s.op->apply_single(x, s.z);
-  s.r = b - s.z;
+  subtract_single(b, s.z, s.r);
   timings_.residual += seconds_since(t0);
   t0 = Clock::now();
   block_multiply_single<false>(T.restriction().pattern(), s.r_values, s.r, s.rc);
