@@ -45,11 +45,14 @@ struct ElasticityOperator::Impl {
     std::vector<std::vector<double>> out;      ///< per range 3 per slot
     std::vector<std::vector<float>> out_single;
   };
-  mutable Split split;
+  /// The splits made so far, by thread count (a thread budget that changes between products
+  /// finds its split again; at most kKeptSplits kept, the oldest dropped).
+  static constexpr size_t kKeptSplits = 4;
+  mutable std::vector<Split> splits;
   /// The scalar reference kernel: thread t > 0 accumulates its contiguous range of elements into
   /// buffers[t-1], thread 0 directly into y; then y += Σ buffers.
   mutable std::vector<Vector> buffers;
-  /// Held by a product: two solvers sharing this operator on two threads take turns over `split`
+  /// Held by a product: two solvers sharing this operator on two threads take turns over `splits`
   /// and `buffers` (a try-lock with private buffers for the loser let the compiler read the kept
   /// buffers before knowing it held them, which ThreadSanitizer reported).
   mutable std::mutex buffers_mutex;
@@ -124,9 +127,10 @@ struct ElasticityOperator::Impl {
     if (single) batch_data_single.assign(batch_data.begin(), batch_data.end());
   }
 
-  /// `split` for `threads` ranges (kept until another count is asked for).
-  void make_split(int threads) const {
-    if (split.threads == threads) return;
+  /// The split for `threads` ranges (found among the kept ones or made).
+  Split& make_split(int threads) const {
+    for (Split& k : splits)
+      if (k.threads == threads) return k;
     Split s;
     s.threads = threads;
     index_t count = 0;
@@ -139,11 +143,13 @@ struct ElasticityOperator::Impl {
       if (I >= 0 && slot[I] >= 0) I = -2 - slot[I];
     s.out.assign(static_cast<size_t>(threads), std::vector<double>(3 * s.shared.size()));
     s.out_single.assign(static_cast<size_t>(threads), std::vector<float>(3 * s.shared.size()));
-    split = std::move(s);
+    if (splits.size() == kKeptSplits) splits.erase(splits.begin());
+    splits.push_back(std::move(s));
+    return splits.back();
   }
 
   template <class T>
-  std::vector<std::vector<T>>& split_out() const {
+  static std::vector<std::vector<T>>& split_out(Split& split) {
     if constexpr (std::is_same_v<T, float>) return split.out_single;
     else return split.out;
   }
@@ -176,8 +182,8 @@ struct ElasticityOperator::Impl {
       detail::apply_element_batches<P, T>(kernel, batch_free.data(), bdata, 0, num_batches, xp, yp, {}, sign, mass);
       return;
     }
-    make_split(threads);
-    std::vector<std::vector<T>>& outs = split_out<T>();
+    Split& split = make_split(threads);
+    std::vector<std::vector<T>>& outs = split_out<T>(split);
     const long slots = static_cast<long>(split.shared.size());
 #pragma omp parallel num_threads(threads)
     {
