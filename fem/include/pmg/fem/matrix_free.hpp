@@ -23,8 +23,9 @@
 // Stored per element: the rotated gradients (12 doubles), λ and μ weights and the mass weight (3),
 // one pad, and the n free-node indices — 128 + 4n bytes, 208 at p = 3, about 15 bytes per unknown
 // against about 1.2 KB per unknown for the cubic BCSR matrix — as the product reads them; the
-// operator keeps them once in element order and once in batches, and on more than one thread a
-// second copy of the batches' indices with the shared nodes marked (4n bytes more).
+// operator keeps them once in element order and once in batches, and for each thread count above
+// one that has run a product (at most 4 kept) a copy of the batches' indices with the shared
+// nodes marked (4n bytes each).
 //
 // Element batches in SIMD lanes: the product runs 16 elements at a time (consecutive in the batch
 // order below), one element
