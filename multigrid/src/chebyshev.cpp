@@ -1,5 +1,6 @@
 #include "pmg/multigrid/chebyshev.hpp"
 
+#include "pmg/sparse/block3.hpp"
 #include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
@@ -180,29 +181,50 @@ std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& p, double lamb
   return steps;
 }
 
+namespace {
+/// One step of the recurrence on the threads, one pass: d = c1 d + c2 z (first: d = c2 z), then
+/// x += w d, with z = D⁻¹ r formed block by block from `inv` (3x3 blocks, row-major) where given,
+/// else read from `z`.
+void chebyshev_step(const double* inv, const Vector& r, const Vector& z, Vector& d, Vector& x, double c1,
+                    double c2, double w, bool first) {
+  const std::ptrdiff_t nb = r.size() / 3;
+  const double* rp = r.data();
+  const double* zp = z.data();
+  double* dp = d.data();
+  double* xp = x.data();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t I = 0; I < nb; ++I) {
+    double zi[3];
+    if (inv) block3_apply(inv + 9 * I, rp + 3 * I, zi);
+    else zi[0] = zp[3 * I], zi[1] = zp[3 * I + 1], zi[2] = zp[3 * I + 2];
+    for (int c = 0; c < 3; ++c) {
+      double& di = dp[3 * I + c];
+      di = first ? c2 * zi[c] : c1 * di + c2 * zi[c];
+      xp[3 * I + c] += w * di;
+    }
+  }
+}
+}  // namespace
+
 // x improved in place by the polynomial of D⁻¹A (chebyshev_steps); from x = 0 the first residual is
-// b itself.
+// b itself. With the block-diagonal D⁻¹ each step is one pass over the blocks.
 void Chebyshev::smooth(const Vector& b, Vector& x, bool x_is_zero) const {
   const std::vector<ChebyshevStep>& steps = steps_;
   const int m = static_cast<int>(steps.size());
   const bool first_kind = params_.kind == ChebyshevKind::first;
   if (x_is_zero) r_ = b;
   else A_->residual(b, x, r_);
-  apply_inverse_diagonal(r_, d_);
-  d_ *= steps[0].c2;
+  d_.resize(r_.size());
   for (int k = 0; k < m; ++k) {
-    if (k > 0) {
-      apply_inverse_diagonal(r_, z_);
-      d_ = steps[k].c1 * d_ + steps[k].c2 * z_;
-    }
-    if (steps[k].weight == 1.0) x += d_;
-    else x += steps[k].weight * d_;
+    if (M_) M_->apply(r_, z_);
+    chebyshev_step(M_ ? nullptr : inv_diag_.data(), r_, z_, d_, x, steps[k].c1, steps[k].c2, steps[k].weight,
+                   k == 0);
     if (k == m - 1) break;
     if (first_kind) {
       A_->residual(b, x, r_);
     } else {  // the residual follows the unweighted iterates: r_(k+1) = r_k - A d_k
       A_->apply(d_, z_);
-      r_ -= z_;
+      ops::axpy(-1.0, z_, r_);
     }
   }
 }
