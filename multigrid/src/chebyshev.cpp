@@ -181,30 +181,27 @@ std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& p, double lamb
   return steps;
 }
 
-namespace {
-/// One step of the recurrence on the threads, one pass: d = c1 d + c2 z (first: d = c2 z), then
-/// x += w d, with z = D⁻¹ r formed block by block from `inv` (3x3 blocks, row-major) where given,
-/// else read from `z`.
-void chebyshev_step(const double* inv, const Vector& r, const Vector& z, Vector& d, Vector& x, double c1,
-                    double c2, double w, bool first) {
-  const std::ptrdiff_t nb = r.size() / 3;
-  const double* rp = r.data();
-  const double* zp = z.data();
-  double* dp = d.data();
-  double* xp = x.data();
+template <class T>
+void chebyshev_step(const ChebyshevStep& step, bool first, const T* inv, const T* r, const T* z, T* d, T* x,
+                    index_t blocks) {
+  const T c1 = static_cast<T>(step.c1), c2 = static_cast<T>(step.c2), w = static_cast<T>(step.weight);
+  const std::ptrdiff_t nb = blocks;
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t I = 0; I < nb; ++I) {
-    double zi[3];
-    if (inv) block3_apply(inv + 9 * I, rp + 3 * I, zi);
-    else zi[0] = zp[3 * I], zi[1] = zp[3 * I + 1], zi[2] = zp[3 * I + 2];
+    T zi[3];
+    if (inv) block3_apply(inv + 9 * I, r + 3 * I, zi);
+    else zi[0] = z[3 * I], zi[1] = z[3 * I + 1], zi[2] = z[3 * I + 2];
     for (int c = 0; c < 3; ++c) {
-      double& di = dp[3 * I + c];
+      T& di = d[3 * I + c];
       di = first ? c2 * zi[c] : c1 * di + c2 * zi[c];
-      xp[3 * I + c] += w * di;
+      x[3 * I + c] += w * di;
     }
   }
 }
-}  // namespace
+template void chebyshev_step<double>(const ChebyshevStep&, bool, const double*, const double*, const double*,
+                                     double*, double*, index_t);
+template void chebyshev_step<float>(const ChebyshevStep&, bool, const float*, const float*, const float*, float*,
+                                    float*, index_t);
 
 // x improved in place by the polynomial of D⁻¹A (chebyshev_steps); from x = 0 the first residual is
 // b itself. With the block-diagonal D⁻¹ each step is one pass over the blocks.
@@ -217,8 +214,8 @@ void Chebyshev::smooth(const Vector& b, Vector& x, bool x_is_zero) const {
   d_.resize(r_.size());
   for (int k = 0; k < m; ++k) {
     if (M_) M_->apply(r_, z_);
-    chebyshev_step(M_ ? nullptr : inv_diag_.data(), r_, z_, d_, x, steps[k].c1, steps[k].c2, steps[k].weight,
-                   k == 0);
+    chebyshev_step<double>(steps[k], k == 0, M_ ? nullptr : inv_diag_.data(), r_.data(), z_.data(), d_.data(),
+                           x.data(), static_cast<index_t>(r_.size() / 3));
     if (k == m - 1) break;
     if (first_kind) {
       A_->residual(b, x, r_);

@@ -6,7 +6,6 @@
 #include <algorithm>
 
 #include "pmg/sparse/convergence.hpp"
-#include "pmg/sparse/block3.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 #include "pmg/sparse/timer.hpp"
 
@@ -379,27 +378,6 @@ void block_multiply_single(const CsrPattern& p, const std::vector<float>& values
   }
 }
 
-/// One step of the Chebyshev recurrence in float on the threads, one pass over the 3x3 blocks:
-/// d = c1 d + c2 D⁻¹ r (first: d = c2 D⁻¹ r), then x += w d.
-void chebyshev_step_single(const std::vector<float>& inv, const Eigen::VectorXf& r, Eigen::VectorXf& d,
-                           Eigen::VectorXf& x, float c1, float c2, float w, bool first) {
-  const std::ptrdiff_t nb = r.size() / 3;
-  const float* D = inv.data();
-  const float* rp = r.data();
-  float* dp = d.data();
-  float* xp = x.data();
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t I = 0; I < nb; ++I) {
-    float z[3];
-    block3_apply(D + 9 * I, rp + 3 * I, z);
-    for (int c = 0; c < 3; ++c) {
-      float& di = dp[3 * I + c];
-      di = first ? c2 * z[c] : c1 * di + c2 * z[c];
-      xp[3 * I + c] += w * di;
-    }
-  }
-}
-
 /// r = a - z on the threads (r may be a).
 void subtract_single(const Eigen::VectorXf& a, const Eigen::VectorXf& z, Eigen::VectorXf& r) {
   const std::ptrdiff_t n = z.size();
@@ -426,8 +404,8 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
   else residual();
   d.resize(r.size());
   for (int k = 0; k < m; ++k) {
-    chebyshev_step_single(s.inv_diag, r, d, x, static_cast<float>(steps[k].c1), static_cast<float>(steps[k].c2),
-                          static_cast<float>(steps[k].weight), k == 0);
+    chebyshev_step<float>(steps[k], k == 0, s.inv_diag.data(), r.data(), nullptr, d.data(), x.data(),
+                          static_cast<index_t>(r.size() / 3));
     if (k == m - 1) break;
     if (first_kind) {
       residual();

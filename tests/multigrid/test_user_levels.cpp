@@ -22,6 +22,15 @@ using namespace pmg::fem;
 
 namespace {
 
+/// Fixed threads for the scope: comparisons of two solves bit for bit need the same threads in both
+/// (the adaptive policy runs each on the cores free when it starts: on a busy machine fewer, and
+/// the reductions sum in another order).
+struct FixedThreads {
+  ThreadPolicy kept = thread_policy();
+  FixedThreads() { set_thread_policy(ThreadPolicy::fixed); }
+  ~FixedThreads() { set_thread_policy(kept); }
+};
+
 struct Levels {
   TetMesh mesh = box_mesh_24(4, 1, 1, 1.0, 0.25, 0.25);
   DegreeHierarchy h{mesh, 3, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; }};
@@ -83,6 +92,7 @@ Csr kron_identity(const Csr& P) {
 }  // namespace
 
 TEST_CASE("user levels reproduce the hierarchy's cycle", "[user-levels]") {
+  const FixedThreads fixed;  // the answers are compared bit for bit
   Levels s;
   Vector x_ref, x;
   const SolveResult r_ref = mgpcg(s.h, s.b, x_ref, kUserDefaults);  // as the user levels
@@ -161,6 +171,7 @@ TEST_CASE("component-major levels and dof prolongations", "[user-levels]") {
 }
 
 TEST_CASE("Dirichlet identity rows: whole nodes removed, kept columns refused", "[user-levels]") {
+  const FixedThreads fixed;  // the answers are compared bit for bit
   Levels s;
   // The finest level with 2 extra clamped nodes in front, as identity rows of diagonal 4; the
   // finest prolongation interpolates into them as well.
@@ -426,14 +437,7 @@ TEST_CASE("rows in any column order and duplicate entries are read as given, wit
 
 TEST_CASE("layout=component: any method on a component-major matrix solves as on the interleaved one",
           "[user-levels][layout]") {
-  // The same answer bit for bit needs the same threads in both solves: the adaptive policy would
-  // run each on the cores free when it starts (a busy machine: fewer, another summation order).
-  const ThreadPolicy kept = thread_policy();
-  set_thread_policy(ThreadPolicy::fixed);
-  struct Restore {
-    ThreadPolicy policy;
-    ~Restore() { set_thread_policy(policy); }
-  } restore{kept};
+  const FixedThreads fixed;  // the answers are compared bit for bit
   Levels s;
   const Csr& A = s.A.back();
   const index_t n = A.rows() / 3;
