@@ -177,8 +177,8 @@ struct ElasticityOperator::Impl {
     if constexpr (std::is_same_v<T, float>) bdata = batch_data_single.data();
     else bdata = batch_data.data();
     if (threads <= 1 || num_batches < 2 * threads) {
-      if (b) std::copy(b->data(), b->data() + len, yp);
-      else std::fill(yp, yp + len, T(0));
+      if (!b) std::fill(yp, yp + len, T(0));
+      else if (b->data() != yp) std::copy(b->data(), b->data() + len, yp);  // b may be y itself
       detail::apply_element_batches<P, T>(kernel, batch_free.data(), bdata, 0, num_batches, xp, yp, {}, sign, mass);
       return;
     }
@@ -188,8 +188,10 @@ struct ElasticityOperator::Impl {
 #pragma omp parallel num_threads(threads)
     {
       const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+      if (!b || b->data() != yp) {  // y = b or 0 first (with b = y the ranges add to it as it is)
 #pragma omp for schedule(static)
-      for (long i = 0; i < len; ++i) yp[i] = b ? (*b)[i] : T(0);
+        for (long i = 0; i < len; ++i) yp[i] = b ? (*b)[i] : T(0);
+      }
       // Range t runs on thread t mod nt (the runtime may give fewer threads than asked for).
       for (int t = tid; t < threads; t += nt) {
         std::vector<T>& out = outs[static_cast<size_t>(t)];
@@ -367,13 +369,25 @@ ElasticityOperator::ElementArrays ElasticityOperator::element_arrays() const {
 }
 
 void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const {
+  apply_single_checked(x, y, nullptr, "apply_single()");
+}
+
+void ElasticityOperator::residual_single(const Eigen::VectorXf& b, const Eigen::VectorXf& x,
+                                         Eigen::VectorXf& r) const {
+  if (b.size() != rows())
+    throw InputError("matrix-free operator: residual_single() got " + std::to_string(b.size()) +
+                     " right-hand side entries for " + std::to_string(rows()) + " unknowns");
+  apply_single_checked(x, r, &b, "residual_single()");
+}
+
+void ElasticityOperator::apply_single_checked(const Eigen::VectorXf& x, Eigen::VectorXf& y, const Eigen::VectorXf* b,
+                                              const char* what) const {
+  const std::string name = std::string("matrix-free operator: ") + what;
   if (x.size() != rows())
-    throw InputError("matrix-free operator: apply_single() got " + std::to_string(x.size()) + " entries for " +
-                     std::to_string(rows()) + " unknowns");
-  if (!model_->constrained_free_dofs().empty())
-    throw InputError("matrix-free operator: apply_single() does not take held components");
-  if (x.data() == y.data() && x.size() > 0)
-    throw InputError("matrix-free operator: apply_single() needs distinct x and y");
+    throw InputError(name + " got " + std::to_string(x.size()) + " entries for " + std::to_string(rows()) +
+                     " unknowns");
+  if (!model_->constrained_free_dofs().empty()) throw InputError(name + " does not take held components");
+  if (x.data() == y.data() && x.size() > 0) throw InputError(name + " needs x distinct from its output");
   Impl& m = *impl_;
   {
     std::lock_guard<std::mutex> lock(m.buffers_mutex);
@@ -385,9 +399,9 @@ void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf&
   y.resize(rows());
   const bool mass = mass_weight_ != 0.0;
   switch (m.p) {
-    case 1: m.apply<1, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass); break;
-    case 2: m.apply<2, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass); break;
-    default: m.apply<3, float>(x, y, static_cast<const Eigen::VectorXf*>(nullptr), mass); break;
+    case 1: m.apply<1, float>(x, y, b, mass); break;
+    case 2: m.apply<2, float>(x, y, b, mass); break;
+    default: m.apply<3, float>(x, y, b, mass); break;
   }
 }
 

@@ -2,7 +2,11 @@
 
 #include "pmg/sparse/file_io.hpp"
 
+#include <cstdint>
 #include <sstream>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 namespace pmg::fem {
 
@@ -26,37 +30,56 @@ const std::vector<int>& vtk_to_local(int p) {
   return tables[p - 1];
 }
 
+namespace {
+/// Appends `bytes` bytes at `data` to `out` in base64 (RFC 4648, padded).
+void append_base64(std::string& out, const unsigned char* data, size_t bytes) {
+  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  const size_t at = out.size();
+  out.resize(at + 4 * ((bytes + 2) / 3));
+  char* o = out.data() + at;
+  size_t i = 0;
+  for (; i + 3 <= bytes; i += 3, o += 4) {
+    const unsigned v = (unsigned{data[i]} << 16) | (unsigned{data[i + 1]} << 8) | data[i + 2];
+    o[0] = kAlphabet[v >> 18], o[1] = kAlphabet[(v >> 12) & 63], o[2] = kAlphabet[(v >> 6) & 63], o[3] = kAlphabet[v & 63];
+  }
+  if (i < bytes) {
+    const unsigned v = (unsigned{data[i]} << 16) | (i + 1 < bytes ? unsigned{data[i + 1]} << 8 : 0u);
+    o[0] = kAlphabet[v >> 18], o[1] = kAlphabet[(v >> 12) & 63];
+    o[2] = i + 1 < bytes ? kAlphabet[(v >> 6) & 63] : '=';
+    o[3] = '=';
+  }
+}
+
+/// One <DataArray> in VTK's inline binary format: the byte count (UInt64, the file's header_type)
+/// and the little-endian values, each base64-encoded, as VTK's own XML writer lays them out.
+template <class T>
+void append_array(std::string& out, const char* type, const std::string& name, int components,
+                  const std::vector<T>& values) {
+  static_assert(std::is_arithmetic_v<T>);
+  out += "<DataArray type=\"";
+  out += type;
+  out += '"';
+  if (!name.empty()) out += " Name=\"" + name + '"';
+  if (components > 1) out += " NumberOfComponents=\"" + std::to_string(components) + '"';
+  out += " format=\"binary\">\n";
+  const std::uint64_t bytes = sizeof(T) * values.size();
+  append_base64(out, reinterpret_cast<const unsigned char*>(&bytes), sizeof bytes);
+  append_base64(out, reinterpret_cast<const unsigned char*>(values.data()), bytes);
+  out += "\n</DataArray>\n";
+}
+
+/// The 3 x nn doubles of v (nn nodes), as a std::vector.
+std::vector<double> copy_of(const Vector& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+}  // namespace
+
 void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
                const VtuOptions& options) {
+  static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "VTK output is written little-endian");
   const index_t nn = space.num_nodes(), ne = space.mesh().num_tets();
   const int n = space.nodes_per_element();
   if (u.size() != 0 && u.size() != 3 * nn)
     throw InputError("VTK output: displacement has " + std::to_string(u.size()) +
                      " entries, expected " + std::to_string(3 * nn));
-  const bool deformed = options.deformed && u.size() != 0;
-  std::ostringstream out;
-  out.precision(17);
-  out << "<?xml version=\"1.0\"?>\n"
-      << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-         "header_type=\"UInt64\">\n<UnstructuredGrid>\n"
-      << "<Piece NumberOfPoints=\"" << nn << "\" NumberOfCells=\"" << ne << "\">\n"
-      << "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-  for (index_t i = 0; i < nn; ++i) {
-    Vec3 x = space.positions()[i];
-    if (deformed) x += u.segment<3>(3 * i);
-    out << x.x() << " " << x.y() << " " << x.z() << "\n";
-  }
-  out << "</DataArray>\n</Points>\n<Cells>\n"
-      << "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-  const auto& perm = vtk_to_local(space.degree());
-  for (index_t e = 0; e < ne; ++e) {
-    for (int i = 0; i < n; ++i) out << space.node(e, perm[i]) << (i + 1 < n ? " " : "\n");
-  }
-  out << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-  for (index_t e = 0; e < ne; ++e) out << static_cast<offset_t>(e + 1) * n << "\n";
-  out << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
-  for (index_t e = 0; e < ne; ++e) out << kVtkBezierTetrahedron << "\n";
-  out << "</DataArray>\n</Cells>\n";
   if (!options.fixed.empty() && options.fixed.size() != static_cast<size_t>(nn))
     throw InputError("VTK output: " + std::to_string(options.fixed.size()) + " fixed flags, expected " + std::to_string(nn));
   if (options.load.size() != 0 && options.load.size() != 3 * nn)
@@ -65,34 +88,51 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
   if (options.pressure.size() != 0 && options.pressure.size() != nn)
     throw InputError("VTK output: the pressure has " + std::to_string(options.pressure.size()) + " entries, expected " +
                      std::to_string(nn));
+  const bool deformed = options.deformed && u.size() != 0;
+  std::string out;
+  out += "<?xml version=\"1.0\"?>\n"
+         "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n<UnstructuredGrid>\n";
+  out += "<Piece NumberOfPoints=\"" + std::to_string(nn) + "\" NumberOfCells=\"" + std::to_string(ne) + "\">\n";
+  {
+    std::vector<double> x(3 * static_cast<size_t>(nn));
+    for (index_t i = 0; i < nn; ++i) {
+      Vec3 xi = space.positions()[i];
+      if (deformed) xi += u.segment<3>(3 * i);
+      for (int c = 0; c < 3; ++c) x[3 * static_cast<size_t>(i) + c] = xi[c];
+    }
+    out += "<Points>\n";
+    append_array(out, "Float64", "", 3, x);
+    out += "</Points>\n";
+  }
+  {
+    const auto& perm = vtk_to_local(space.degree());
+    std::vector<std::int64_t> connectivity(static_cast<size_t>(ne) * n), offsets(static_cast<size_t>(ne));
+    for (index_t e = 0; e < ne; ++e) {
+      for (int i = 0; i < n; ++i) connectivity[static_cast<size_t>(e) * n + i] = space.node(e, perm[i]);
+      offsets[static_cast<size_t>(e)] = static_cast<std::int64_t>(e + 1) * n;
+    }
+    out += "<Cells>\n";
+    append_array(out, "Int64", "connectivity", 1, connectivity);
+    append_array(out, "Int64", "offsets", 1, offsets);
+    append_array(out, "UInt8", "types", 1, std::vector<std::uint8_t>(static_cast<size_t>(ne), kVtkBezierTetrahedron));
+    out += "</Cells>\n";
+  }
   const bool load = options.load.size() != 0 && options.load.cwiseAbs().maxCoeff() > 0;
   if (u.size() != 0 || !options.fixed.empty() || load || options.pressure.size() != 0) {
-    out << "<PointData" << (u.size() != 0 ? " Vectors=\"displacement\"" : "") << ">\n";
-    if (u.size() != 0) {
-      out << "<DataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-      for (index_t i = 0; i < nn; ++i) out << u[3 * i] << " " << u[3 * i + 1] << " " << u[3 * i + 2] << "\n";
-      out << "</DataArray>\n";
-    }
+    out += u.size() != 0 ? "<PointData Vectors=\"displacement\">\n" : "<PointData>\n";
+    if (u.size() != 0) append_array(out, "Float64", "displacement", 3, copy_of(u));
     if (!options.fixed.empty()) {
-      out << "<DataArray type=\"UInt8\" Name=\"fixed\" format=\"ascii\">\n";
-      for (index_t i = 0; i < nn; ++i) out << (options.fixed[i] ? 1 : 0) << (i + 1 < nn ? " " : "\n");
-      out << "</DataArray>\n";
+      std::vector<std::uint8_t> fixed(options.fixed.size());
+      for (size_t i = 0; i < fixed.size(); ++i) fixed[i] = options.fixed[i] ? 1 : 0;
+      append_array(out, "UInt8", "fixed", 1, fixed);
     }
-    if (load) {
-      out << "<DataArray type=\"Float64\" Name=\"load\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-      for (index_t i = 0; i < nn; ++i)
-        out << options.load[3 * i] << " " << options.load[3 * i + 1] << " " << options.load[3 * i + 2] << "\n";
-      out << "</DataArray>\n";
-    }
-    if (options.pressure.size() != 0) {
-      out << "<DataArray type=\"Float64\" Name=\"pressure\" format=\"ascii\">\n";
-      for (index_t i = 0; i < nn; ++i) out << options.pressure[i] << (i + 1 < nn ? " " : "\n");
-      out << "</DataArray>\n";
-    }
-    out << "</PointData>\n";
+    if (load) append_array(out, "Float64", "load", 3, copy_of(options.load));
+    if (options.pressure.size() != 0) append_array(out, "Float64", "pressure", 1, copy_of(options.pressure));
+    out += "</PointData>\n";
   }
-  out << "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
-  write_file_atomically(path, out.str());
+  out += "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  write_file_atomically(path, out);
 }
 
 void write_pvtu(const std::string& path, const std::vector<std::string>& pieces, bool with_displacement) {

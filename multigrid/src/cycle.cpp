@@ -243,7 +243,7 @@ void MultigridCycle::prepare_single(bool setup) {
       s.p_values.assign(T.prolongation().values().begin(), T.prolongation().values().end());
       s.r_values.assign(T.restriction().values().begin(), T.restriction().values().end());
       const Eigen::Index n = level_operator(l).rows(), nc = level_operator(l - 1).rows();
-      s.r.resize(n), s.d.resize(n), s.z.resize(n), s.rc.resize(nc), s.xc.resize(nc);
+      s.r.resize(n), s.d.resize(n), s.rc.resize(nc), s.xc.resize(nc);
     }
     lowest_b_.resize(level_operator(0).rows());
     lowest_x_.resize(level_operator(0).rows());
@@ -378,16 +378,6 @@ void block_multiply_single(const CsrPattern& p, const std::vector<float>& values
   }
 }
 
-/// r = a - z on the threads (r may be a).
-void subtract_single(const Eigen::VectorXf& a, const Eigen::VectorXf& z, Eigen::VectorXf& r) {
-  const std::ptrdiff_t n = z.size();
-  r.resize(n);
-  const float* ap = a.data();
-  const float* zp = z.data();
-  float* rp = r.data();
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t i = 0; i < n; ++i) rp[i] = ap[i] - zp[i];
-}
 }  // namespace
 
 void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::VectorXf& x, bool x_is_zero) const {
@@ -395,11 +385,8 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
   const std::vector<ChebyshevStep>& steps = s.smoother->steps();
   const int m = static_cast<int>(steps.size());
   const bool first_kind = s.smoother->params().kind == ChebyshevKind::first;
-  Eigen::VectorXf &r = s.r, &d = s.d, &z = s.z;
-  auto residual = [&] {  // r = b - A x
-    s.op->apply_single(x, z);
-    subtract_single(b, z, r);
-  };
+  Eigen::VectorXf &r = s.r, &d = s.d;
+  auto residual = [&] { s.op->residual_single(b, x, r); };  // r = b - A x
   if (x_is_zero) r = b;
   else residual();
   d.resize(r.size());
@@ -410,8 +397,7 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
     if (first_kind) {
       residual();
     } else {
-      s.op->apply_single(d, z);
-      subtract_single(r, z, r);
+      s.op->residual_single(r, d, r);  // r -= A d
     }
   }
 }
@@ -433,8 +419,7 @@ void MultigridCycle::cycle_single(int l, const Eigen::VectorXf& b, Eigen::Vector
   smooth_single(l, b, x, x_is_zero);
   timings_.smoothing[l] += seconds_since(t0);
   t0 = Clock::now();
-  s.op->apply_single(x, s.z);
-  subtract_single(b, s.z, s.r);
+  s.op->residual_single(b, x, s.r);
   timings_.residual += seconds_since(t0);
   t0 = Clock::now();
   block_multiply_single<false>(T.restriction().pattern(), s.r_values, s.r, s.rc);

@@ -214,6 +214,12 @@ TEST_CASE("batched product on 1 to 3 threads writes in place: the reference kern
         Eigen::VectorXf yf = Eigen::VectorXf::Constant(op.rows(), 7.0f);
         op.apply_single(x.cast<float>(), yf);
         CHECK(rel_diff(yf.cast<double>(), ref) < 2e-6);
+        // The float residual in the product's pass, into a separate vector and in place (r = b).
+        Eigen::VectorXf rf = Eigen::VectorXf::Constant(op.rows(), 7.0f), rin = b.cast<float>();
+        op.residual_single(b.cast<float>(), x.cast<float>(), rf);
+        op.residual_single(rin, x.cast<float>(), rin);
+        CHECK(rel_diff(rf.cast<double>(), rref) < 2e-6);
+        CHECK(rin == rf);
       }
 #ifdef _OPENMP
       omp_set_num_threads(threads_before);
@@ -245,6 +251,9 @@ TEST_CASE("matrix-free kernel names and bad single-precision input", "[fem][matr
   CHECK_THROWS_AS(op.apply_single(Eigen::VectorXf::Zero(op.rows() + 1), y), InputError);
   Eigen::VectorXf same = Eigen::VectorXf::Ones(op.rows());
   CHECK_THROWS_AS(op.apply_single(same, same), InputError);
+  CHECK_THROWS_AS(op.residual_single(same, same, same), InputError);
+  CHECK_THROWS_AS(op.residual_single(Eigen::VectorXf::Zero(op.rows() + 1), same, y), InputError);
+  CHECK_THROWS_AS(op.residual_single(same, Eigen::VectorXf::Zero(op.rows() - 1), y), InputError);
 }
 
 TEST_CASE("matrix-free operator refuses bad weights and rotation counts", "[fem][matrix_free]") {

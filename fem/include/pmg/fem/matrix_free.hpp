@@ -114,6 +114,8 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// data and the tables rounded to float; a sum of about C(p+3,3) x 12 terms per entry, so a
   /// relative error of a few 1e-6 in ||y||). Not for models that hold single components.
   void apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const override;
+  /// r = b - A x in single precision in the product's pass (b may be r; x distinct from r).
+  void residual_single(const Eigen::VectorXf& b, const Eigen::VectorXf& x, Eigen::VectorXf& r) const override;
 
   void diagonal_blocks(std::vector<double>& blocks) const override;
 
@@ -142,6 +144,9 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   double bytes_per_apply() const;
 
  private:
+  /// y = A x, or with b: y = b - A x, in float; `what` names the public call in errors.
+  void apply_single_checked(const Eigen::VectorXf& x, Eigen::VectorXf& y, const Eigen::VectorXf* b,
+                            const char* what) const;
   void apply_impl(const Vector& x, Vector& y) const override;
   /// r = b - A x in the same pass over the elements (r starts as b, contributions subtracted).
   void residual_impl(const Vector& b, const Vector& x, Vector& r) const override;

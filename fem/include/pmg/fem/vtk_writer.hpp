@@ -32,7 +32,9 @@ struct VtuOptions {
   Vector pressure;
 };
 
-/// Writes the mesh of `space` with the displacement u (3 per node; may be empty).
+/// Writes the mesh of `space` with the displacement u (3 per node; may be empty) as a VTK XML
+/// unstructured grid of Bézier tetrahedra, every array in VTK's inline binary format (base64 of the
+/// exact little-endian values, UInt64 byte counts), through a temporary file renamed at the end.
 void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
                const VtuOptions& options = {});
 

@@ -168,7 +168,7 @@ class MultigridCycle final : public Solver {
     const SinglePrecisionSource* op = nullptr;
     const Chebyshev* smoother = nullptr;
     std::vector<float> inv_diag, p_values, r_values;
-    mutable Eigen::VectorXf r, rc, xc, d, z;
+    mutable Eigen::VectorXf r, rc, xc, d;
   };
   std::vector<SingleLevel> single_;  ///< [l]: level l >= 1 (precision=single only)
   mutable Eigen::VectorXf single_r_, single_z_;

@@ -110,6 +110,13 @@ class SinglePrecisionSource {
   virtual ~SinglePrecisionSource() = default;
   /// y = A x in float (x and y distinct; y resized).
   virtual void apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const = 0;
+  /// r = b - A x in float (x distinct from r; b may be r; r resized). The default applies into a
+  /// temporary and subtracts; an operator overrides it with one pass (the smoothers' residuals).
+  virtual void residual_single(const Eigen::VectorXf& b, const Eigen::VectorXf& x, Eigen::VectorXf& r) const {
+    Eigen::VectorXf z;
+    apply_single(x, z);
+    r = b - z;
+  }
 };
 
 
