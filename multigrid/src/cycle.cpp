@@ -10,10 +10,15 @@
 #include "pmg/sparse/timer.hpp"
 
 #include <chrono>
+#include <exception>
 #include <cmath>
 #include <functional>
 #include <cstdio>
 #include <limits>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace pmg::mg {
 
@@ -292,21 +297,83 @@ void MultigridCycle::refresh_galerkin() {
   for (int l = num_levels() - 2; l >= 0; --l) galerkin_[l].update(level_matrix(l + 1));
 }
 
+bool MultigridCycle::overlap_lowest_update() const {
+#ifdef _OPENMP
+  if (omp_get_max_threads() < 2 || omp_get_active_level() > 0 || !lowest_->update_is_serial()) return false;
+  for (int l = 1; l < num_levels(); ++l) {
+    const auto* c = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
+    const LinearOperator& A = level_operator(l);
+    if (!c || c->preconditioner() ||
+        !(A.elasticity_operator() || A.bcsr_matrix() || A.bin_bcsr_matrix() || A.csr_matrix()))
+      return false;
+  }
+  return true;
+#else
+  return false;
+#endif
+}
+
 void MultigridCycle::update_impl() {
   setup_timings_ = TimingBreakdown{{}, 1, "update"};
   if (params_.coarse_operator == CoarseOperator::galerkin) timed_stage("Galerkin products", [&] { refresh_galerkin(); });
-  for (int l = num_levels() - 1; l >= 1; --l) timed_stage("smoother " + levels_.level_name(l), [&] { smoothers_[l - 1]->update(); });
+  const int L = num_levels();
+  std::vector<double> smoother_seconds(static_cast<size_t>(L), 0.0);
+  double lowest_seconds = 0.0;
+  auto update_smoothers = [&] {
+    for (int l = L - 1; l >= 1; --l) {
+      const auto t0 = Clock::now();
+      smoothers_[l - 1]->update();
+      smoother_seconds[static_cast<size_t>(l)] = seconds_since(t0);
+    }
+  };
+  auto update_lowest = [&] {
+    const auto t0 = Clock::now();
+    lowest_->update();
+    lowest_seconds = seconds_since(t0);
+  };
+  auto record = [&](bool lowest_done) {
+    for (int l = L - 1; l >= 1; --l)
+      setup_timings_.parts.emplace_back("smoother " + levels_.level_name(l), smoother_seconds[static_cast<size_t>(l)]);
+    if (lowest_done) setup_timings_.parts.emplace_back("lowest level (" + lowest_->name() + ")", lowest_seconds);
+  };
+  bool lowest_done = false;
+#ifdef _OPENMP
+  if (overlap_lowest_update()) {
+    // A serial refactorisation (the lowest level's, on the calling thread: MPI's serialized calls
+    // stay on it) beside the smoothers' updates, whose kernels then run on the second thread alone
+    // (their parallel regions are nested in this one). The timings overlap.
+    std::exception_ptr failed[2];
+#pragma omp parallel num_threads(2)
+    {
+      const int t = omp_get_thread_num();
+      try {
+        if (t == 0) update_lowest();
+        if (t == 1 || omp_get_num_threads() == 1) update_smoothers();
+      } catch (...) {
+        failed[t] = std::current_exception();
+      }
+    }
+    record(true);
+    if (failed[1]) std::rethrow_exception(failed[1]);
+    if (failed[0]) std::rethrow_exception(failed[0]);
+    lowest_done = true;
+  } else
+#endif
+  {
+    update_smoothers();
+    record(false);
+  }
   if (!single_.empty()) {
     if (const std::string why = float_range_obstacle(); !why.empty()) {  // new values beyond float's range
       single_.clear();  // the cycle in double from now on (precision=auto), or after the error below
       if (!params_.single_where_possible) {
-        timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });  // consistent
+        if (!lowest_done) timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });  // consistent
         throw InputError("multigrid: precision=single: " + why + "; use precision=double (or auto)");
       }
     }
     for (int l = 1; l < static_cast<int>(single_.size()); ++l) refresh_single(l);  // the float D⁻¹ with the smoother's own
   }
-  timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
+  if (!lowest_done) timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
   itemise_lowest();
 }
 

@@ -3,6 +3,7 @@
 #include "pmg/sparse/layout.hpp"
 #include "pmg/sparse/vector_ops.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -26,21 +27,23 @@ void JacobiPreconditioner::apply_impl(const Vector& r, Vector& z) const {
   for (Eigen::Index i = 0; i < n; ++i) z[i] = inv_diag_[i] * r[i];
 }
 
-std::vector<double> invert_diagonal_blocks(const std::vector<double>& diagonal_blocks,
-                                           const std::string& who) {
-  if (diagonal_blocks.size() % 9 != 0)
-    throw InputError(who + ": diagonal block array is not a multiple of 9");
-  std::vector<double> inv(diagonal_blocks.size());
-  const size_t nb = diagonal_blocks.size() / 9;
-  for (size_t I = 0; I < nb; ++I) {
-    const Eigen::Map<const Block3> D(diagonal_blocks.data() + 9 * I);
-    Eigen::LLT<Eigen::Matrix3d> llt(D);
-    if (!D.allFinite() || llt.info() != Eigen::Success)
-      throw InputError(who + ": diagonal block " + std::to_string(I) +
-                       " is not symmetric positive definite");
-    Eigen::Map<Block3>(inv.data() + 9 * I) = llt.solve(Eigen::Matrix3d::Identity());
+std::vector<double> invert_diagonal_blocks(std::vector<double> blocks, const std::string& who) {
+  if (blocks.size() % 9 != 0) throw InputError(who + ": diagonal block array is not a multiple of 9");
+  const std::ptrdiff_t nb = static_cast<std::ptrdiff_t>(blocks.size() / 9);
+  std::ptrdiff_t first_bad = nb;  // the lowest block that is not SPD, whatever the thread count
+#pragma omp parallel for schedule(static) reduction(min : first_bad)
+  for (std::ptrdiff_t I = 0; I < nb; ++I) {
+    Eigen::Map<Block3> D(blocks.data() + 9 * I);
+    const Eigen::LLT<Eigen::Matrix3d> llt(D);
+    if (!D.allFinite() || llt.info() != Eigen::Success) {
+      first_bad = std::min(first_bad, I);
+      continue;
+    }
+    D = llt.solve(Eigen::Matrix3d::Identity());  // in place: D was read into the factor
   }
-  return inv;
+  if (first_bad < nb)
+    throw InputError(who + ": diagonal block " + std::to_string(first_bad) + " is not symmetric positive definite");
+  return blocks;
 }
 
 void BlockJacobiPreconditioner::setup_impl(const LinearOperator& A) {

@@ -355,6 +355,11 @@ void CholmodSolver::setup_impl(const LinearOperator& A) {
   factorize(scalar_.csr());
 }
 
+bool CholmodSolver::update_is_serial() const {
+  const Impl& d = *impl_;
+  return d.factor && (d.flops < kThreadedFactorFlops ? blas_threads_ : factor_threads_) == 1;
+}
+
 void CholmodSolver::update_impl() {
   scalar_.refresh();
   factorize(scalar_.csr());

@@ -157,6 +157,10 @@ class MultigridCycle final : public Solver {
  private:
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
+  /// update() may refresh the lowest level on the calling thread beside the smoothers on a
+  /// second one: the lowest level's update is serial (Solver::update_is_serial), every smoother is
+  /// a D⁻¹ Chebyshev on a pmgkit operator (no user code on the second thread), two threads are free.
+  bool overlap_lowest_update() const;
   void apply_impl(const Vector& r, Vector& z) const override;
   SolveResult solve_impl(const Vector& b, Vector& x, SolveMonitor* monitor) const override;
   /// x_is_zero: x holds zeros (the smoother may start from that: pre_smooth_from_zero).

@@ -47,8 +47,9 @@ class BlockJacobiPreconditioner final : public Solver {
   std::vector<double> inv_blocks_;
 };
 
-/// Inverts 3x3 diagonal blocks (9 doubles each, row-major) by Cholesky; throws InputError naming
-/// `who` and the first block that is not SPD.
-std::vector<double> invert_diagonal_blocks(const std::vector<double>& blocks, const std::string& who);
+/// Inverts 3x3 diagonal blocks (9 doubles each, row-major) by Cholesky, in place of the argument
+/// (pass a temporary, or std::move, to invert without a copy), on the OpenMP threads; throws
+/// InputError naming `who` and the first block that is not SPD.
+std::vector<double> invert_diagonal_blocks(std::vector<double> blocks, const std::string& who);
 
 }  // namespace pmg

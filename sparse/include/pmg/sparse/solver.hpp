@@ -162,6 +162,10 @@ class Solver : public LinearOperator {
   index_t rows() const override { return n_; }
   index_t cols() const override { return rows(); }
 
+  /// update() runs on the calling thread alone (no OpenMP team, no BLAS threads) and calls back
+  /// into no user code, so a multigrid cycle may run it beside its smoothers' updates. Default
+  /// false; a direct solver whose refactorisation is serial says true.
+  virtual bool update_is_serial() const { return false; }
   /// apply() is a fixed linear map of b (false for a Krylov solve to a tolerance).
   virtual bool is_linear() const { return true; }
   /// apply() is a symmetric map, so that it can precondition CG.

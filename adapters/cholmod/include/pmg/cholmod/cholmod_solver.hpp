@@ -29,6 +29,8 @@ struct CholmodParams {
 class CholmodSolver final : public Solver {
  public:
   std::string name() const override { return "cholmod"; }
+  /// True where the factorisation runs on one BLAS thread (below 1e9 flops, or factor_threads 1).
+  bool update_is_serial() const override;
   /// ordering: "metis" (the default: METIS nested dissection alone), "auto" (CHOLMOD's default:
   /// AMD, and METIS too when AMD's factor is costly; the better one is kept), "amd", or "nesdis"
   /// (CHOLMOD's nested dissection). On 3-D elasticity systems METIS gives the smallest factor
