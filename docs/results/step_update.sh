@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# One time step's update and output, and the static Homer P3 solve, alternating two builds:
+#   docs/results/step_update.sh OLD_PMG [ROUNDS]
+# OLD_PMG: the pmg binary of the build to compare with (e.g. a worktree's build/tools/pmg); the new
+# one is build/tools/pmg. Needs models/homer.ele (docs/performance.md#the-models). Per round and
+# build: the static Homer P3 MGPCG solve to 1e-6 (iterations, t(1e-6), one cycle), the twisted
+# Homer of docs/results/kernels.sh (10 steps, mgpcg to 1e-3) without frames (wall, iterations per
+# step, hierarchy update per step in ms) and with -o DIR (wall, output's share).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+old=$1 rounds=${2:-5}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+/usr/bin/python3 - "$work" <<'PY'
+import json, os, sys
+s = json.load(open("scenes/homer_twisted.json"))
+s["mesh"]["file"] = os.path.abspath("models/homer.ele")
+s["time"]["duration"] = 0.1
+s["solver"] = {"method": "mgpcg", "tol": 1e-3}
+json.dump(s, open(sys.argv[1] + "/twisted.json", "w"))
+PY
+static="compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6 --solvers mgpcg"
+for i in $(seq 1 "$rounds"); do
+  for who in old new; do
+    pmg=build/tools/pmg
+    [ "$who" = old ] && pmg=$old
+    s=$($pmg $static 2>&1 | awk '/^mgpcg +converged/{t=$7; it=$3} /one cycle/{c=$4} END{print "static it", it, "t6", t, "cycle", c}')
+    t=$($pmg simulate "$work/twisted.json" -q 2>&1 |
+      awk '/^steps:/{w=$4; it=$7} /^hierarchy update/{h=$4} END{print "twisted wall", w, "its", it, "hier_ms", h}')
+    rm -rf "$work/out"
+    f=$($pmg simulate "$work/twisted.json" -q -o "$work/out" 2>&1 |
+      awk '/^steps:/{w=$4} /^output /{o=$3; sh=$4} END{print "twisted+frames wall", w, "output_ms_per_step", o, sh}')
+    echo "$i $who | $s | $t | $f"
+  done
+done
