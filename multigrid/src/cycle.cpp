@@ -339,9 +339,9 @@ void MultigridCycle::update_impl() {
   bool lowest_done = false;
 #ifdef _OPENMP
   if (overlap_lowest_update()) {
-    // A serial refactorisation (the lowest level's, on the calling thread: MPI's serialized calls
-    // stay on it) beside the smoothers' updates, whose kernels then run on the second thread alone
-    // (their parallel regions are nested in this one). The timings overlap.
+    // The lowest level's serial refactorisation on the calling thread (where it ran before),
+    // beside the smoothers' updates on the second, whose kernels then run on that thread alone
+    // (their parallel regions are nested in this one). The two timings overlap.
     std::exception_ptr failed[2];
 #pragma omp parallel num_threads(2)
     {
