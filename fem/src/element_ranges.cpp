@@ -10,17 +10,6 @@
 namespace pmg::fem {
 
 namespace {
-/// The 21 low bits of x spread to every third bit (bit i to bit 3i).
-std::uint64_t spread_bits(std::uint64_t x) {
-  x &= 0x1fffff;
-  x = (x | x << 32) & 0x1f00000000ffffULL;
-  x = (x | x << 16) & 0x1f0000ff0000ffULL;
-  x = (x | x << 8) & 0x100f00f00f00f00fULL;
-  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
-  x = (x | x << 2) & 0x1249249249249249ULL;
-  return x;
-}
-
 /// Ranges the decision between the elements' own order and the Morton order is made for: a fixed
 /// number, so that the traversal (and with it every sum's order) does not depend on the threads.
 constexpr int kProbeRanges = 8;
@@ -47,26 +36,7 @@ ElementRanges::ElementRanges(const BBSpace& space) : space_(&space), n_(space.no
   }
   if (8 * static_cast<long long>(twice) <= ne) return;
 
-  // Morton order of the centroids, quantised to 21 bits per axis in the mesh's bounding box.
-  const TetMesh& mesh = space.mesh();
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
-  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-  const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-300));
-  std::vector<std::pair<std::uint64_t, index_t>> keyed(static_cast<size_t>(ne));
-#pragma omp parallel for schedule(static)
-  for (index_t e = 0; e < ne; ++e) {
-    Vec3 c = Vec3::Zero();
-    for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[mesh.tets[e][i]];
-    std::uint64_t key = 0;
-    for (int d = 0; d < 3; ++d) {
-      const double s = std::clamp((c[d] - lo[d]) / extent[d], 0.0, 1.0);
-      key |= spread_bits(static_cast<std::uint64_t>(s * 2097151.0)) << d;
-    }
-    keyed[static_cast<size_t>(e)] = {key, e};
-  }
-  std::sort(keyed.begin(), keyed.end());
-  order_.resize(static_cast<size_t>(ne));
-  for (index_t pos = 0; pos < ne; ++pos) order_[static_cast<size_t>(pos)] = keyed[static_cast<size_t>(pos)].second;
+  order_ = morton_order(space.mesh());
   locate_nodes();
 }
 

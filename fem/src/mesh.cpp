@@ -5,6 +5,10 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <vector>
+#include <utility>
+#include <limits>
+#include <cstdint>
 #include <cmath>
 #include <map>
 #include <string>
@@ -252,6 +256,68 @@ TetMesh refine_uniform(const TetMesh& mesh, int levels, std::vector<Refinement>*
     if (record) record->push_back(std::move(r));
   }
   return m;
+}
+
+
+namespace {
+/// The 21 low bits of x spread to every third bit (bit i to bit 3i).
+std::uint64_t spread_bits(std::uint64_t x) {
+  x &= 0x1fffff;
+  x = (x | x << 32) & 0x1f00000000ffffULL;
+  x = (x | x << 16) & 0x1f0000ff0000ffULL;
+  x = (x | x << 8) & 0x100f00f00f00f00fULL;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+  x = (x | x << 2) & 0x1249249249249249ULL;
+  return x;
+}
+}  // namespace
+
+std::vector<index_t> morton_order(const TetMesh& mesh) {
+  const index_t ne = mesh.num_tets();
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (const Vec3& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-300));
+  std::vector<std::pair<std::uint64_t, index_t>> keyed(static_cast<size_t>(ne));
+#pragma omp parallel for schedule(static)
+  for (index_t e = 0; e < ne; ++e) {
+    Vec3 c = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) c += 0.25 * mesh.vertices[mesh.tets[e][i]];
+    std::uint64_t key = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double s = std::clamp((c[d] - lo[d]) / extent[d], 0.0, 1.0);
+      key |= spread_bits(static_cast<std::uint64_t>(s * 2097151.0)) << d;
+    }
+    keyed[static_cast<size_t>(e)] = {key, e};
+  }
+  std::sort(keyed.begin(), keyed.end());  // ties by element number: deterministic
+  std::vector<index_t> order(static_cast<size_t>(ne));
+  for (index_t pos = 0; pos < ne; ++pos) order[static_cast<size_t>(pos)] = keyed[static_cast<size_t>(pos)].second;
+  return order;
+}
+
+TetMesh reorder_for_locality(const TetMesh& mesh) {
+  const std::vector<index_t> order = morton_order(mesh);
+  std::vector<index_t> renumber(mesh.vertices.size(), -1);
+  TetMesh out;
+  out.vertices.reserve(mesh.vertices.size());
+  out.tets.resize(mesh.tets.size());
+  for (size_t pos = 0; pos < order.size(); ++pos) {
+    const Tet& t = mesh.tets[static_cast<size_t>(order[pos])];
+    for (int i = 0; i < 4; ++i) {
+      index_t& v = renumber[static_cast<size_t>(t[i])];
+      if (v < 0) {
+        v = static_cast<index_t>(out.vertices.size());
+        out.vertices.push_back(mesh.vertices[static_cast<size_t>(t[i])]);
+      }
+      out.tets[pos][i] = v;
+    }
+  }
+  for (size_t v = 0; v < renumber.size(); ++v)  // vertices no element uses keep a place at the end
+    if (renumber[v] < 0) {
+      renumber[v] = static_cast<index_t>(out.vertices.size());
+      out.vertices.push_back(mesh.vertices[v]);
+    }
+  return out;
 }
 
 }  // namespace pmg::fem

@@ -219,6 +219,12 @@ void register_mesh(py::module_& m) {
       }, py::arg("nx"), py::arg("ny"), py::arg("nz"), py::arg("lx") = 1.0, py::arg("ly") = 1.0, py::arg("lz") = 1.0,
          "A box [0, lx] x [0, ly] x [0, lz] of nx x ny x nz boxes, each split into 24 tetrahedra through its "
          "face centres and its centre (conforming; every box face's centre is a vertex).")
+      .def("reordered_for_locality", [](const fem::TetMesh& mesh) {
+        return std::make_shared<fem::TetMesh>(fem::reorder_for_locality(mesh));
+      }, "The same mesh with its elements in the Z-order (Morton order) of their centroids and its vertices "
+         "numbered in the order those elements first meet them: neighbours close together in memory, which "
+         "multi-threaded products need (pmg does this to every mesh file it reads). Answers are unchanged up "
+         "to rounding; element and vertex numbers change.")
       .def_property_readonly("vertices", [](const fem::TetMesh& mesh) { return points_array(mesh.vertices); },
                              "Vertex positions, an (n, 3) array (a copy).")
       .def_property_readonly("tets", [](const fem::TetMesh& mesh) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <random>
 #include <set>
 
 using namespace pmg;
@@ -208,4 +209,48 @@ TEST_CASE("tangled and cracked meshes are named unless allowed", "[fem][mesh]") 
     TetMesh fine = refine_uniform(octahedron(), 2);
     CHECK_NOTHROW(check_mesh(fine));
   }
+}
+
+TEST_CASE("reorder_for_locality keeps the mesh and puts its elements and vertices in Morton order",
+          "[fem][mesh]") {
+  // A box mesh shuffled (as a file's order can be), with a vertex no element uses.
+  TetMesh shuffled = box_mesh_24(16, 2, 2, 8.0, 1.0, 1.0);
+  std::mt19937 rng(7);
+  std::shuffle(shuffled.tets.begin(), shuffled.tets.end(), rng);
+  std::vector<index_t> vperm(shuffled.vertices.size());
+  for (size_t i = 0; i < vperm.size(); ++i) vperm[i] = static_cast<index_t>(i);
+  std::shuffle(vperm.begin(), vperm.end(), rng);
+  TetMesh m;
+  m.vertices.resize(vperm.size());
+  for (size_t i = 0; i < vperm.size(); ++i) m.vertices[static_cast<size_t>(vperm[i])] = shuffled.vertices[i];
+  for (const Tet& t : shuffled.tets) m.tets.push_back({vperm[t[0]], vperm[t[1]], vperm[t[2]], vperm[t[3]]});
+  m.vertices.push_back(Vec3(100, 100, 100));
+
+  const std::vector<index_t> order = morton_order(m);
+  std::vector<index_t> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 0; i < sorted.size(); ++i) REQUIRE(sorted[i] == static_cast<index_t>(i));  // a permutation
+
+  const TetMesh r = reorder_for_locality(m);
+  REQUIRE(r.num_tets() == m.num_tets());
+  REQUIRE(r.num_vertices() == m.num_vertices());
+  CHECK(r.vertices.back() == Vec3(100, 100, 100));  // the unused vertex last
+  // Element pos of r is element order[pos] of m: the same corners in the same order (orientation kept).
+  index_t next = 0;
+  for (index_t pos = 0; pos < r.num_tets(); ++pos) {
+    const Tet& a = r.tets[static_cast<size_t>(pos)];
+    const Tet& b = m.tets[static_cast<size_t>(order[static_cast<size_t>(pos)])];
+    for (int i = 0; i < 4; ++i) {
+      CHECK(r.vertices[a[i]] == m.vertices[b[i]]);
+      if (a[i] >= next) {  // vertices numbered in the order the elements first meet them
+        CHECK(a[i] == next);
+        ++next;
+      }
+    }
+    CHECK(r.signed_volume(pos) == m.signed_volume(order[static_cast<size_t>(pos)]));
+  }
+  // Already in order: the reordered mesh's Morton order is its own.
+  const std::vector<index_t> again = morton_order(r);
+  for (size_t pos = 0; pos < again.size(); ++pos) REQUIRE(again[pos] == static_cast<index_t>(pos));
+  CHECK(reorder_for_locality(r).tets == r.tets);
 }

@@ -90,4 +90,17 @@ struct Refinement {
 /// which the linear levels under a refined mesh's own are made (DegreeHierarchy::set_refinements).
 TetMesh refine_uniform(const TetMesh& mesh, int levels = 1, std::vector<Refinement>* record = nullptr);
 
+/// The elements in the Z-order (Morton order) of their centroids, quantised to 21 bits per axis in
+/// the mesh's bounding box: order[pos] is the element visited at position pos. Consecutive elements
+/// of this order form compact pieces of the mesh.
+std::vector<index_t> morton_order(const TetMesh& mesh);
+
+/// The same mesh with its elements in morton_order() and its vertices renumbered in the order
+/// those elements first meet them (element orientation and the vertex order within an element
+/// kept). A mesh generator's or file's order can scatter neighbours across the arrays; in this
+/// order the elements, and the BB nodes numbered from them (BBSpace), that a thread's contiguous
+/// range touches lie close together in memory, and two threads' ranges share few cache lines.
+/// The geometry, and so every result up to rounding, is unchanged.
+TetMesh reorder_for_locality(const TetMesh& mesh);
+
 }  // namespace pmg::fem

@@ -25,8 +25,9 @@ class MeshProblem;
 
 namespace pmg::sim {
 
-/// A mesh file (its reader's warnings appended to `warnings` if given), or with an empty path the
-/// box bar of box[0] x box[1] x box[2] boxes of 24 tetrahedra with the given side lengths.
+/// A mesh file (its reader's warnings appended to `warnings` if given), its elements and vertices
+/// in fem::reorder_for_locality()'s order; or, with an empty path, the box bar of box[0] x box[1] x
+/// box[2] boxes of 24 tetrahedra with the given side lengths (the generator's order is local).
 fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const double size[3],
                               std::vector<std::string>* warnings = nullptr,
                               const fem::MeshCheckOptions& mesh_checks = {});
