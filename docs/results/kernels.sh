@@ -28,14 +28,7 @@ done
 # assembled PMG), 10 steps.
 work=$(mktemp -d)
 trap 'rm -rf "$work"; kill $(jobs -p) 2>/dev/null || true' EXIT
-/usr/bin/python3 - "$work" <<'PY'
-import json, os, sys
-s = json.load(open("scenes/homer_twisted.json"))
-s["mesh"]["file"] = os.path.abspath("models/homer.ele")
-s["time"]["duration"] = 0.1
-s["solver"] = {"method": "mgpcg", "tol": 1e-3}
-json.dump(s, open(sys.argv[1] + "/twisted.json", "w"))
-PY
+/usr/bin/python3 docs/results/twisted_homer_scene.py "$work"
 for batch in 1 2; do
   for who in new ${old:+old}; do
     echo "== batch $batch, $who: twisted Homer P3, 10 steps, mgpcg to 1e-3"

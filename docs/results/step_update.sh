@@ -11,14 +11,7 @@ cd "$(dirname "$0")/../.."
 old=$1 rounds=${2:-5}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-/usr/bin/python3 - "$work" <<'PY'
-import json, os, sys
-s = json.load(open("scenes/homer_twisted.json"))
-s["mesh"]["file"] = os.path.abspath("models/homer.ele")
-s["time"]["duration"] = 0.1
-s["solver"] = {"method": "mgpcg", "tol": 1e-3}
-json.dump(s, open(sys.argv[1] + "/twisted.json", "w"))
-PY
+/usr/bin/python3 docs/results/twisted_homer_scene.py "$work"
 static="compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6 --solvers mgpcg"
 for i in $(seq 1 "$rounds"); do
   for who in old new; do

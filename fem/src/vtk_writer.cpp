@@ -53,8 +53,8 @@ void append_base64(std::string& out, const unsigned char* data, size_t bytes) {
 /// One <DataArray> in VTK's inline binary format: the byte count (UInt64, the file's header_type)
 /// and the little-endian values, each base64-encoded, as VTK's own XML writer lays them out.
 template <class T>
-void append_array(std::string& out, const char* type, const std::string& name, int components,
-                  const std::vector<T>& values) {
+void append_array(std::string& out, const char* type, const std::string& name, int components, const T* values,
+                  size_t count) {
   static_assert(std::is_arithmetic_v<T>);
   out += "<DataArray type=\"";
   out += type;
@@ -62,14 +62,11 @@ void append_array(std::string& out, const char* type, const std::string& name, i
   if (!name.empty()) out += " Name=\"" + name + '"';
   if (components > 1) out += " NumberOfComponents=\"" + std::to_string(components) + '"';
   out += " format=\"binary\">\n";
-  const std::uint64_t bytes = sizeof(T) * values.size();
+  const std::uint64_t bytes = sizeof(T) * count;
   append_base64(out, reinterpret_cast<const unsigned char*>(&bytes), sizeof bytes);
-  append_base64(out, reinterpret_cast<const unsigned char*>(values.data()), bytes);
+  append_base64(out, reinterpret_cast<const unsigned char*>(values), bytes);
   out += "\n</DataArray>\n";
 }
-
-/// The 3 x nn doubles of v (nn nodes), as a std::vector.
-std::vector<double> copy_of(const Vector& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
 }  // namespace
 
 void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
@@ -102,7 +99,7 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
       for (int c = 0; c < 3; ++c) x[3 * static_cast<size_t>(i) + c] = xi[c];
     }
     out += "<Points>\n";
-    append_array(out, "Float64", "", 3, x);
+    append_array(out, "Float64", "", 3, x.data(), x.size());
     out += "</Points>\n";
   }
   {
@@ -113,22 +110,25 @@ void write_vtu(const std::string& path, const BBSpace& space, const Vector& u,
       offsets[static_cast<size_t>(e)] = static_cast<std::int64_t>(e + 1) * n;
     }
     out += "<Cells>\n";
-    append_array(out, "Int64", "connectivity", 1, connectivity);
-    append_array(out, "Int64", "offsets", 1, offsets);
-    append_array(out, "UInt8", "types", 1, std::vector<std::uint8_t>(static_cast<size_t>(ne), kVtkBezierTetrahedron));
+    const std::vector<std::uint8_t> types(static_cast<size_t>(ne), kVtkBezierTetrahedron);
+    append_array(out, "Int64", "connectivity", 1, connectivity.data(), connectivity.size());
+    append_array(out, "Int64", "offsets", 1, offsets.data(), offsets.size());
+    append_array(out, "UInt8", "types", 1, types.data(), types.size());
     out += "</Cells>\n";
   }
   const bool load = options.load.size() != 0 && options.load.cwiseAbs().maxCoeff() > 0;
   if (u.size() != 0 || !options.fixed.empty() || load || options.pressure.size() != 0) {
     out += u.size() != 0 ? "<PointData Vectors=\"displacement\">\n" : "<PointData>\n";
-    if (u.size() != 0) append_array(out, "Float64", "displacement", 3, copy_of(u));
+    auto values = [](const Vector& v) { return static_cast<size_t>(v.size()); };
+    if (u.size() != 0) append_array(out, "Float64", "displacement", 3, u.data(), values(u));
     if (!options.fixed.empty()) {
       std::vector<std::uint8_t> fixed(options.fixed.size());
       for (size_t i = 0; i < fixed.size(); ++i) fixed[i] = options.fixed[i] ? 1 : 0;
-      append_array(out, "UInt8", "fixed", 1, fixed);
+      append_array(out, "UInt8", "fixed", 1, fixed.data(), fixed.size());
     }
-    if (load) append_array(out, "Float64", "load", 3, copy_of(options.load));
-    if (options.pressure.size() != 0) append_array(out, "Float64", "pressure", 1, copy_of(options.pressure));
+    if (load) append_array(out, "Float64", "load", 3, options.load.data(), values(options.load));
+    if (options.pressure.size() != 0)
+      append_array(out, "Float64", "pressure", 1, options.pressure.data(), values(options.pressure));
     out += "</PointData>\n";
   }
   out += "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";

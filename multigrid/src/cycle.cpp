@@ -331,12 +331,8 @@ void MultigridCycle::update_impl() {
     lowest_->update();
     lowest_seconds = seconds_since(t0);
   };
-  auto record = [&](bool lowest_done) {
-    for (int l = L - 1; l >= 1; --l)
-      setup_timings_.parts.emplace_back("smoother " + levels_.level_name(l), smoother_seconds[static_cast<size_t>(l)]);
-    if (lowest_done) setup_timings_.parts.emplace_back("lowest level (" + lowest_->name() + ")", lowest_seconds);
-  };
-  bool lowest_done = false;
+  // The lowest level is refreshed before the float check below, so that an error there leaves the
+  // whole cycle consistent.
 #ifdef _OPENMP
   if (overlap_lowest_update()) {
     // The lowest level's serial refactorisation on the calling thread (where it ran before),
@@ -353,27 +349,25 @@ void MultigridCycle::update_impl() {
         failed[t] = std::current_exception();
       }
     }
-    record(true);
     if (failed[1]) std::rethrow_exception(failed[1]);
     if (failed[0]) std::rethrow_exception(failed[0]);
-    lowest_done = true;
   } else
 #endif
   {
     update_smoothers();
-    record(false);
+    update_lowest();
   }
+  for (int l = L - 1; l >= 1; --l)
+    setup_timings_.parts.emplace_back("smoother " + levels_.level_name(l), smoother_seconds[static_cast<size_t>(l)]);
+  setup_timings_.parts.emplace_back("lowest level (" + lowest_->name() + ")", lowest_seconds);
   if (!single_.empty()) {
     if (const std::string why = float_range_obstacle(); !why.empty()) {  // new values beyond float's range
       single_.clear();  // the cycle in double from now on (precision=auto), or after the error below
-      if (!params_.single_where_possible) {
-        if (!lowest_done) timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });  // consistent
+      if (!params_.single_where_possible)
         throw InputError("multigrid: precision=single: " + why + "; use precision=double (or auto)");
-      }
     }
     for (int l = 1; l < static_cast<int>(single_.size()); ++l) refresh_single(l);  // the float D⁻¹ with the smoother's own
   }
-  if (!lowest_done) timed_stage("lowest level (" + lowest_->name() + ")", [&] { lowest_->update(); });
   itemise_lowest();
 }
 
