@@ -411,54 +411,60 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const size_t nodes = static_cast<size_t>(num_free_);
   blocks.assign(9 * nodes, 0.0);
   const double p2 = static_cast<double>(m.p) * m.p;
-  // Element e's diagonal blocks added at out + 9 (I - first) for each free node I >= first.
-  auto add_element = [&](size_t pos, double* out, index_t first) {
-    const double* d = m.data.data() + kData * pos;
+  // Element e's diagonal blocks, node by node: add(a, B) for each element node a.
+  auto element_blocks = [&](size_t e, auto&& add) {
+    const double* d = m.data.data() + kData * e;
     Eigen::Matrix<double, 4, 3> g;
     for (int k = 0; k < 4; ++k)
       for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
     // d[12], d[13] carry 6V p² s λ, 6V p² s μ; the G tables carry p² already.
     const double lambda = d[12] / p2, mu = d[13] / p2;
     for (int a = 0; a < m.n; ++a) {
-      const index_t I = m.free[pos * m.n + a];
-      if (I < 0) continue;
+      if (m.free[e * m.n + a] < 0) continue;
       Mat3 S = g.transpose() * t.G[a * m.n + a] * g;
       S = 0.5 * (S + S.transpose()).eval();
-      const Mat3 B = (lambda + mu) * S + (mu * S.trace() + d[14] * t.mass(a, a)) * Mat3::Identity();
-      double* o = out + 9 * static_cast<size_t>(I - first);
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) o[3 * r + c] += B(r, c);
+      add(a, ((lambda + mu) * S + (mu * S.trace() + d[14] * t.mass(a, a)) * Mat3::Identity()).eval());
     }
   };
-  // Each thread a contiguous range of elements, as apply(): thread 0 into `blocks`, thread t > 0
-  // into a buffer over the span of free nodes its range touches (nodes are numbered in the order
-  // the elements meet them, so the spans are short), added after.
-  const int threads = omp_get_max_threads();
-  std::vector<std::vector<double>> spans(static_cast<size_t>(std::max(threads - 1, 0)));
-  std::vector<index_t> firsts(spans.size(), 0);
+  auto add_to = [](double* o, const Mat3& B) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) o[3 * r + c] += B(r, c);
+  };
   const size_t ne = static_cast<size_t>(m.num_elements);
+  const int threads = omp_get_active_level() >= omp_get_max_active_levels() ? 1 : omp_get_max_threads();
+  if (threads <= 1 || m.num_batches < 2 * threads) {
+    for (size_t e = 0; e < ne; ++e)
+      element_blocks(e, [&](int a, const Mat3& B) { add_to(blocks.data() + 9 * static_cast<size_t>(m.free[e * m.n + a]), B); });
+  } else {
+    // The product's ranges of batches (apply()): each range adds the nodes that only it holds in
+    // place and the shared ones into its own 9 per slot, added after the ranges in range order.
+    const std::lock_guard<std::mutex> lock(m.buffers_mutex);
+    const Impl::Split& split = m.make_split(threads);
+    const size_t slots = split.shared.size();
+    std::vector<std::vector<double>> own(static_cast<size_t>(threads));
 #pragma omp parallel num_threads(threads)
-  {
-    const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
-    const size_t begin = ne * static_cast<size_t>(tid) / static_cast<size_t>(nt);
-    const size_t end = ne * static_cast<size_t>(tid + 1) / static_cast<size_t>(nt);
-    if (tid == 0) {
-      for (size_t e = begin; e < end; ++e) add_element(e, blocks.data(), 0);
-    } else {
-      index_t lo = std::numeric_limits<index_t>::max(), hi = -1;
-      for (size_t k = begin * m.n; k < end * m.n; ++k)
-        if (m.free[k] >= 0) lo = std::min(lo, m.free[k]), hi = std::max(hi, m.free[k]);
-      std::vector<double>& span = spans[static_cast<size_t>(tid - 1)];
-      firsts[static_cast<size_t>(tid - 1)] = hi >= lo ? lo : 0;  // an empty span adds nothing
-      span.assign(hi >= lo ? 9 * static_cast<size_t>(hi - lo + 1) : 0, 0.0);
-      for (size_t e = begin; e < end; ++e) add_element(e, span.data(), lo);
-    }
+    {
+      const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+      for (int r = tid; r < threads; r += nt) {
+        std::vector<double>& out = own[static_cast<size_t>(r)];
+        out.assign(9 * slots, 0.0);
+        for (long pos = split.begin[r] * kBatch; pos < split.begin[r + 1] * kBatch; ++pos) {
+          const index_t e = m.batch_element(pos);
+          if (e < 0) break;  // the last batch's padding
+          const index_t* f = split.free.data() + (static_cast<size_t>(pos / kBatch) * m.n) * kBatch + pos % kBatch;
+          element_blocks(static_cast<size_t>(e), [&](int a, const Mat3& B) {
+            const index_t I = f[static_cast<size_t>(a) * kBatch];
+            add_to(I >= 0 ? blocks.data() + 9 * static_cast<size_t>(I) : out.data() + 9 * static_cast<size_t>(-2 - I), B);
+          });
+        }
+      }
 #pragma omp barrier
-    for (int k = 0; k + 1 < nt; ++k) {  // one span after another, each spread over the threads
-      const std::vector<double>& span = spans[static_cast<size_t>(k)];
-      double* out = blocks.data() + 9 * static_cast<size_t>(firsts[static_cast<size_t>(k)]);
 #pragma omp for schedule(static)
-      for (size_t i = 0; i < span.size(); ++i) out[i] += span[i];
+      for (long k = 0; k < static_cast<long>(slots); ++k) {
+        double* o = blocks.data() + 9 * static_cast<size_t>(split.shared[static_cast<size_t>(k)]);
+        for (int r = 0; r < threads; ++r)
+          for (int i = 0; i < 9; ++i) o[i] += own[static_cast<size_t>(r)][9 * static_cast<size_t>(k) + i];
+      }
     }
   }
   const std::vector<char>& held = model_->constrained_free_dofs();  // identity rows, as apply()

@@ -77,10 +77,10 @@ namespace {
 /// λmax of D⁻¹A from `steps` steps of CG on A x = r0 with the block-diagonal preconditioner D:
 /// the largest eigenvalue of the Lanczos tridiagonal matrix (Saad, "Iterative Methods for Sparse
 /// Linear Systems", 6.7.3) built from CG's α_k and β_k.
+/// r: the start vector (overwritten); z, p, w: work vectors of its size.
 template <typename ApplyInverseDiagonal>
-double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& apply_inverse_diagonal, Vector r,
-                          int steps) {
-  Vector z(r.size()), p(r.size()), w(r.size());
+double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& apply_inverse_diagonal, Vector& r,
+                          Vector& z, Vector& p, Vector& w, int steps) {
   apply_inverse_diagonal(r, z);
   p = z;
   double rz = ops::dot(r, z);
@@ -106,13 +106,23 @@ double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& a
   }
   return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(T, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
 }
+
+/// v_i = 1 + sin(0.7 i) / 2: the estimates' fixed, non-smooth start, on the threads.
+void start_vector(Vector& v) {
+  const Eigen::Index n = v.size();
+  double* x = v.data();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index i = 0; i < n; ++i) x[i] = 1.0 + 0.5 * std::sin(0.7 * static_cast<double>(i));
+}
 }  // namespace
 
 void Chebyshev::estimate_lanczos() {
-  Vector start(z_.size());
-  for (Eigen::Index i = 0; i < start.size(); ++i) start[i] = 1.0 + 0.5 * std::sin(0.7 * i);
+  // The smoothing's work vectors serve (set-up allocates no more than the smoother keeps); w is
+  // the one more that CG needs.
+  Vector w(z_.size());
+  start_vector(r_);
   const double lambda = lanczos_lambda_max(
-      *A_, [this](const Vector& r, Vector& z) { apply_inverse_diagonal(r, z); }, std::move(start),
+      *A_, [this](const Vector& r, Vector& z) { apply_inverse_diagonal(r, z); }, r_, z_, d_, w,
       params_.power_iterations);
   if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
   lambda_max_ = 1.1 * lambda;
@@ -125,7 +135,7 @@ void Chebyshev::estimate_power(int iterations, bool warm) {
   Vector &v = eigenvector_, &w = r_, &z = z_;
   if (!warm || v.size() != z.size()) {
     v.resize(z.size());
-    for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = 1.0 + 0.5 * std::sin(0.7 * i);
+    start_vector(v);
     v.normalize();
   }
   double lambda = 0.0;
@@ -183,7 +193,7 @@ std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& p, double lamb
 
 template <class T>
 void chebyshev_step(const ChebyshevStep& step, bool first, const T* inv, const T* r, const T* z, T* d, T* x,
-                    index_t blocks) {
+                    index_t blocks, bool assign_x) {
   const T c1 = static_cast<T>(step.c1), c2 = static_cast<T>(step.c2), w = static_cast<T>(step.weight);
   const std::ptrdiff_t nb = blocks;
 #pragma omp parallel for schedule(static)
@@ -194,14 +204,14 @@ void chebyshev_step(const ChebyshevStep& step, bool first, const T* inv, const T
     for (int c = 0; c < 3; ++c) {
       T& di = d[3 * I + c];
       di = first ? c2 * zi[c] : c1 * di + c2 * zi[c];
-      x[3 * I + c] += w * di;
+      x[3 * I + c] = assign_x ? w * di : x[3 * I + c] + w * di;
     }
   }
 }
 template void chebyshev_step<double>(const ChebyshevStep&, bool, const double*, const double*, const double*,
-                                     double*, double*, index_t);
+                                     double*, double*, index_t, bool);
 template void chebyshev_step<float>(const ChebyshevStep&, bool, const float*, const float*, const float*, float*,
-                                    float*, index_t);
+                                    float*, index_t, bool);
 
 // x improved in place by the polynomial of D⁻¹A (chebyshev_steps); from x = 0 the first residual is
 // b itself. With the block-diagonal D⁻¹ each step is one pass over the blocks.

@@ -23,6 +23,8 @@
 namespace pmg::mg {
 
 namespace {
+/// Vectors shorter than this are converted on the calling thread (a parallel region costs more).
+constexpr std::ptrdiff_t kParallelLength = 16384;
 }  // namespace
 
 MultigridCycle::MultigridCycle(std::shared_ptr<const LevelProvider> levels, const MultigridParams& params,
@@ -406,11 +408,16 @@ void MultigridCycle::apply_impl(const Vector& r, Vector& z) const {
       z.setZero(r.size());
       return;
     }
-    const double inv = std::isfinite(scale) ? 1.0 / scale : 1.0;
-    single_r_ = (inv * r).cast<float>();
-    single_z_.setZero(r.size());
+    const double inv = std::isfinite(scale) ? 1.0 / scale : 1.0, back = std::isfinite(scale) ? scale : 1.0;
+    const std::ptrdiff_t n = r.size();
+    single_r_.resize(n);
+#pragma omp parallel for schedule(static) if (n >= kParallelLength)
+    for (std::ptrdiff_t i = 0; i < n; ++i) single_r_[i] = static_cast<float>(inv * r[i]);
+    // The first cycle starts from zero and assigns single_z_.
     for (int k = 0; k < params_.cycles; ++k) cycle_single(num_levels() - 1, single_r_, single_z_, k == 0);
-    z = (std::isfinite(scale) ? scale : 1.0) * single_z_.cast<double>();
+    z.resize(n);
+#pragma omp parallel for schedule(static) if (n >= kParallelLength)
+    for (std::ptrdiff_t i = 0; i < n; ++i) z[i] = back * static_cast<double>(single_z_[i]);
     return;
   }
   z.setZero(r.size());
@@ -447,13 +454,23 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
   const int m = static_cast<int>(steps.size());
   const bool first_kind = s.smoother->params().kind == ChebyshevKind::first;
   Eigen::VectorXf &r = s.r, &d = s.d;
+  const index_t blocks = static_cast<index_t>(b.size() / 3);
   auto residual = [&] { s.op->residual_single(b, x, r); };  // r = b - A x
-  if (x_is_zero) r = b;
-  else residual();
-  d.resize(r.size());
-  for (int k = 0; k < m; ++k) {
-    chebyshev_step<float>(steps[k], k == 0, s.inv_diag.data(), r.data(), nullptr, d.data(), x.data(),
-                          static_cast<index_t>(r.size() / 3));
+  d.resize(b.size());
+  int k = 0;
+  if (x_is_zero) {  // r = b: the first step reads b and assigns x (no copy, no zeroing pass)
+    r.resize(b.size());
+    x.resize(b.size());
+    chebyshev_step<float>(steps[0], true, s.inv_diag.data(), b.data(), nullptr, d.data(), x.data(), blocks, true);
+    if (m == 1) return;
+    if (first_kind) residual();
+    else s.op->residual_single(b, d, r);  // r = b - A d
+    k = 1;
+  } else {
+    residual();
+  }
+  for (; k < m; ++k) {
+    chebyshev_step<float>(steps[k], k == 0, s.inv_diag.data(), r.data(), nullptr, d.data(), x.data(), blocks);
     if (k == m - 1) break;
     if (first_kind) {
       residual();
@@ -476,8 +493,7 @@ void MultigridCycle::cycle_single(int l, const Eigen::VectorXf& b, Eigen::Vector
   const SingleLevel& s = single_[l];
   const BlockTransfer& T = transfers_[l - 1];
   auto t0 = Clock::now();
-  if (x_is_zero) x.setZero(b.size());
-  smooth_single(l, b, x, x_is_zero);
+  smooth_single(l, b, x, x_is_zero);  // from x = 0 it sizes and assigns x
   timings_.smoothing[l] += seconds_since(t0);
   t0 = Clock::now();
   s.op->residual_single(b, x, s.r);
@@ -485,7 +501,7 @@ void MultigridCycle::cycle_single(int l, const Eigen::VectorXf& b, Eigen::Vector
   t0 = Clock::now();
   block_multiply_single<false>(T.restriction().pattern(), s.r_values, s.r, s.rc);
   timings_.transfer += seconds_since(t0);
-  s.xc.setZero();
+  // The first coarse cycle starts from zero and assigns xc (the lowest level's solve too).
   for (int g = 0; g < (l > 1 ? params_.gamma : 1); ++g) cycle_single(l - 1, s.rc, s.xc, g == 0);
   t0 = Clock::now();
   block_multiply_single<true>(T.prolongation().pattern(), s.p_values, s.xc, x);

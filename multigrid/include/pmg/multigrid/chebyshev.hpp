@@ -59,12 +59,13 @@ struct ChebyshevStep {
 std::vector<ChebyshevStep> chebyshev_steps(const ChebyshevParams& params, double lambda_max);
 
 /// Step `step` of the recurrence over `blocks` 3x3 blocks, one pass on the threads:
-/// d = c1 d + c2 z (first: d = c2 z), then x += weight d, where z = D⁻¹ r is formed block by block
-/// from `inv` (the inverted diagonal blocks, 9 per block, row-major) or, with inv = nullptr, read
-/// from `z`. T: double or float (the float cycle's levels).
+/// d = c1 d + c2 z (first: d = c2 z), then x += weight d (assign_x: x = weight d, x's entries
+/// not read), where z = D⁻¹ r is formed block by block from `inv` (the inverted diagonal blocks, 9
+/// per block, row-major) or, with inv = nullptr, read from `z`. T: double or float (the float
+/// cycle's levels).
 template <class T>
 void chebyshev_step(const ChebyshevStep& step, bool first, const T* inv, const T* r, const T* z, T* d, T* x,
-                    index_t blocks);
+                    index_t blocks, bool assign_x = false);
 
 /// Damps the eigenvalues of D⁻¹A in [f λmax, λmax] with the Chebyshev polynomial of the given
 /// degree (Saad, "Iterative Methods for Sparse Linear Systems", Alg. 12.1). The same polynomial
