@@ -83,18 +83,61 @@ struct ElasticityOperator::Impl {
   /// Per free node its shared slot among `parts` contiguous ranges of batches (-1: held by one
   /// range or none), and the range offsets.
   std::vector<index_t> shared_slots(int parts, std::vector<long>& begin, index_t& count) const {
+    return shared_slots_of(batch_free, num_free, parts, begin, count);
+  }
+  /// The same for any batch index array `idx` over `indices` indices (index < 0: none).
+  std::vector<index_t> shared_slots_of(const std::vector<index_t>& idx, index_t indices, int parts,
+                                       std::vector<long>& begin, index_t& count) const {
     begin.resize(static_cast<size_t>(parts) + 1);
     for (int t = 0; t <= parts; ++t) begin[t] = static_cast<long>(num_batches) * t / parts;
-    std::vector<int> lo(static_cast<size_t>(num_free), parts), hi(static_cast<size_t>(num_free), -1);
+    std::vector<int> lo(static_cast<size_t>(indices), parts), hi(static_cast<size_t>(indices), -1);
     const size_t per = static_cast<size_t>(n) * kBatch;
     for (int t = 0; t < parts; ++t)
       for (size_t k = begin[t] * per; k < begin[t + 1] * per; ++k)
-        if (const index_t I = batch_free[k]; I >= 0) lo[I] = std::min(lo[I], t), hi[I] = std::max(hi[I], t);
-    std::vector<index_t> slot(static_cast<size_t>(num_free), -1);
+        if (const index_t I = idx[k]; I >= 0) lo[I] = std::min(lo[I], t), hi[I] = std::max(hi[I], t);
+    std::vector<index_t> slot(static_cast<size_t>(indices), -1);
     count = 0;
-    for (index_t I = 0; I < num_free; ++I)
+    for (index_t I = 0; I < indices; ++I)
       if (lo[I] < hi[I]) slot[I] = count++;
     return slot;
+  }
+
+  /// element_force()'s batches, made on its first call: every element node's index (fixed nodes
+  /// too; padding -1), each lane's element, and kForceRanges contiguous ranges of batches (fewer
+  /// on a small mesh; a number that does not depend on the threads) with the nodes that two ranges
+  /// hold as slots (as Split, over all nodes).
+  static constexpr int kForceRanges = 8;
+  struct NodeSplit {
+    std::vector<long> begin;
+    std::vector<index_t> nodes;   ///< the node indices with the shared nodes as slots
+    std::vector<index_t> elements;
+    std::vector<index_t> shared;  ///< per slot its node
+    std::vector<std::vector<double>> out;  ///< per range 3 per slot
+  };
+  mutable NodeSplit node_split;
+  NodeSplit& make_node_split(const BBSpace& space) const {
+    NodeSplit& s = node_split;
+    if (!s.begin.empty()) return s;
+    const index_t num_nodes = static_cast<index_t>(space.positions().size());
+    std::vector<index_t> nodes(static_cast<size_t>(num_batches) * n * kBatch, -1);
+    s.elements.assign(static_cast<size_t>(num_batches) * kBatch, -1);
+    for (long pos = 0; pos < static_cast<long>(num_elements); ++pos) {
+      const index_t e = batch_element(pos);
+      const index_t* en = space.element_nodes(e);
+      s.elements[static_cast<size_t>(pos)] = e;
+      for (int a = 0; a < n; ++a) nodes[((static_cast<size_t>(pos) / kBatch) * n + a) * kBatch + pos % kBatch] = en[a];
+    }
+    const int parts = std::clamp(static_cast<int>(num_batches / 2), 1, kForceRanges);
+    index_t count = 0;
+    const std::vector<index_t> slot = shared_slots_of(nodes, num_nodes, parts, s.begin, count);
+    s.shared.resize(static_cast<size_t>(count));
+    for (index_t I = 0; I < num_nodes; ++I)
+      if (slot[I] >= 0) s.shared[slot[I]] = I;
+    for (index_t& I : nodes)
+      if (I >= 0 && slot[I] >= 0) I = -2 - slot[I];
+    s.nodes = std::move(nodes);
+    s.out.assign(static_cast<size_t>(parts), std::vector<double>(3 * s.shared.size()));
+    return s;
   }
 
   /// The batch order: the mesh's, which keeps the gathers close in memory where nodes are numbered
@@ -487,6 +530,54 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
                      " entries for " + std::to_string(model_->num_dofs()) + " unknowns");
   force.setZero(model_->num_dofs());
   const auto& X = model_->space().positions();
+  if (stiffness_weight_ > 0.0 && m.resolved != MatrixFreeKernel::reference) {
+    // The batched kernels over a fixed number of contiguous ranges of batches, spread over the
+    // threads: each range writes the nodes that only it holds in place and the shared ones into
+    // its own slots, added after in range order, and its energy is summed in range order. Every
+    // node and the energy thus sum in the same order on any number of threads.
+    const std::lock_guard<std::mutex> lock(m.buffers_mutex);
+    Impl::NodeSplit& split = m.make_node_split(model_->space());
+    const double inv_weight = 1.0 / stiffness_weight_;
+    const double* Xp = X.data()->data();
+    const double* Rp = Rs ? Rs->data()->data() : nullptr;
+    const int parts = static_cast<int>(split.out.size());
+    const long slots = static_cast<long>(split.shared.size());
+    auto range = [&](int r) {
+      double* out = split.out[static_cast<size_t>(r)].data();
+      std::fill(out, out + 3 * slots, 0.0);
+      const detail::SharedSlots<double> shared{split.shared.data(), out};
+      auto run = [&](auto tag) {
+        constexpr int P = decltype(tag)::value;
+        return detail::force_element_batches<P>(m.resolved, split.nodes.data(), split.elements.data(),
+                                                 m.batch_data.data(), inv_weight, Xp, u.data(), Rp, split.begin[r],
+                                                 split.begin[r + 1], force.data(), shared);
+      };
+      switch (m.p) {
+        case 1: return run(std::integral_constant<int, 1>{});
+        case 2: return run(std::integral_constant<int, 2>{});
+        default: return run(std::integral_constant<int, 3>{});
+      }
+    };
+    std::vector<double> part(static_cast<size_t>(parts), 0.0);
+    const int threads = omp_get_active_level() >= omp_get_max_active_levels() ? 1 : std::min(omp_get_max_threads(), parts);
+#pragma omp parallel num_threads(threads)
+    {
+#pragma omp for schedule(static)
+      for (int r = 0; r < parts; ++r) part[static_cast<size_t>(r)] = range(r);
+#pragma omp for schedule(static)
+      for (long k = 0; k < slots; ++k) {
+        double* o = force.data() + 3 * static_cast<size_t>(split.shared[static_cast<size_t>(k)]);
+        for (int r = 0; r < parts; ++r) {
+          const double* src = split.out[static_cast<size_t>(r)].data() + 3 * k;
+          o[0] += src[0], o[1] += src[1], o[2] += src[2];
+        }
+      }
+    }
+    double total = 0.0;
+    for (double p : part) total += p;
+    if (energy) *energy = total;
+    return;
+  }
   const double total = m.ranges->for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool) {
     const size_t pos = static_cast<size_t>(e);
     const index_t* nodes = model_->space().element_nodes(e);

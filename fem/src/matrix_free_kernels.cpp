@@ -355,9 +355,88 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
   }
 }
 
+/// y_a = (X_a + u_a) - R X_a for one lane's N nodes (f: its node indices, stride kBatch; see
+/// force_batches) into y (3 per node). Kept out of line and compiled for the baseline instruction
+/// set: without fused multiply-adds it rounds as the element-by-element evaluation and the
+/// assembled pass do (ElasticityModel::evaluate), which matters here: y is a small difference of
+/// positions, so a contraction's different rounding of R X shows in the force about 1e-11
+/// relative.
+__attribute__((noinline)) void lane_state(int N, const index_t* f, const index_t* shared, const double* X,
+                                          const double* u, const double* Re, double* y) {
+  for (int a = 0; a < N; ++a) {
+    const index_t I = f[a * kBatch];
+    const index_t node = I >= 0 ? I : I == -1 ? -1 : shared[-2 - I];
+    double* ya = y + 3 * a;
+    if (node < 0) {
+      ya[0] = ya[1] = ya[2] = 0.0;
+      continue;
+    }
+    const double* Xa = X + 3 * static_cast<size_t>(node);
+    const double* ua = u + 3 * static_cast<size_t>(node);
+    for (int i = 0; i < 3; ++i) {
+      const double RX = Re ? Re[i] * Xa[0] + Re[3 + i] * Xa[1] + Re[6 + i] * Xa[2] : Xa[i];
+      ya[i] = (Xa[i] + ua[i]) - RX;
+    }
+  }
+}
+
+/// detail::force_element_batches over batches [begin, end), L lanes at a time; returns the energy.
+template <int P, int L>
+inline double force_batches(const index_t* nodes, const index_t* elements, const double* data, double inv_weight,
+                            const double* X, const double* u, const double* R, long begin, long end, double* force,
+                            const index_t* shared, double* shared_out) {
+  using V = typename Lanes<double, L>::type;
+  constexpr int N = Tables<P>::N;
+  const TablesIn<P, double>& t = tables_in<P, double>();
+  V esum{};
+  alignas(64) double d[kData * kBatch];
+  for (long bt = begin; bt < end; ++bt) {
+    const index_t* f = nodes + static_cast<size_t>(bt) * N * kBatch;
+    const index_t* el = elements + static_cast<size_t>(bt) * kBatch;
+    const double* src = data + static_cast<size_t>(bt) * kData * kBatch;
+    // The stiffness alone: the stored Lamé factors carry the operator's stiffness weight.
+    for (int k = 0; k < 12 * kBatch; ++k) d[k] = src[k];
+    for (int l = 0; l < kBatch; ++l) d[12 * kBatch + l] = src[12 * kBatch + l] * inv_weight;
+    for (int l = 0; l < kBatch; ++l) d[13 * kBatch + l] = src[13 * kBatch + l] * inv_weight;
+    for (int o = 0; o < kBatch; o += L) {
+      V y[N][3], r[N][3];
+      for (int l = 0; l < L; ++l) {
+        const index_t e = el[o + l];
+        double ys[3 * N];
+        lane_state(N, f + o + l, shared, X, u, R && e >= 0 ? R + 9 * static_cast<size_t>(e) : nullptr, ys);
+        for (int a = 0; a < N; ++a)
+          for (int i = 0; i < 3; ++i) y[a][i][l] = ys[3 * a + i];
+      }
+      batch_apply<P, double, L>(t, d, o, false, y, r);
+      for (int a = 0; a < N; ++a)
+        for (int i = 0; i < 3; ++i) esum += y[a][i] * r[a][i];
+      for (int l = 0; l < L; ++l)
+        for (int a = 0; a < N; ++a) {
+          const index_t I = f[a * kBatch + o + l];
+          double* s;
+          if (__builtin_expect(I >= 0, 1)) s = force + 3 * static_cast<size_t>(I);
+          else if (I == -1) continue;
+          else s = shared_out + 3 * static_cast<size_t>(-2 - I);
+          s[0] -= r[a][0][l], s[1] -= r[a][1][l], s[2] -= r[a][2][l];
+        }
+    }
+  }
+  double e = 0.0;
+  for (int l = 0; l < L; ++l) e += esum[l];
+  return 0.5 * e;
+}
+
 /// The lanes per vector of each instruction set: the baseline path splits a 256-bit vector.
 template <class T>
 constexpr int lanes_baseline = 32 / sizeof(T);
+
+template <int P>
+double force_batches_generic(const index_t* nodes, const index_t* elements, const double* data, double inv_weight,
+                             const double* X, const double* u, const double* R, long begin, long end, double* force,
+                             const index_t* shared, double* shared_out) {
+  return force_batches<P, lanes_baseline<double>>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared,
+                                                  shared_out);
+}
 
 template <int P, class T>
 void apply_batches_generic(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
@@ -379,6 +458,20 @@ __attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) void appl
     const index_t* free, const T* data, long begin, long end, const T* xp, T* out, const index_t* shared,
     T* shared_out, T sign, bool mass) {
   apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
+}
+template <int P>
+__attribute__((target("avx2,fma"), flatten)) double force_batches_avx2(
+    const index_t* nodes, const index_t* elements, const double* data, double inv_weight, const double* X,
+    const double* u, const double* R, long begin, long end, double* force, const index_t* shared,
+    double* shared_out) {
+  return force_batches<P, 4>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared, shared_out);
+}
+template <int P>
+__attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) double force_batches_avx512(
+    const index_t* nodes, const index_t* elements, const double* data, double inv_weight, const double* X,
+    const double* u, const double* R, long begin, long end, double* force, const index_t* shared,
+    double* shared_out) {
+  return force_batches<P, 8>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared, shared_out);
 }
 #endif
 
@@ -463,6 +556,23 @@ void apply_element_batches(MatrixFreeKernel k, const index_t* free, const T* dat
   apply_batches_dispatch<P, T>(k, free, data, begin, end, xp, out, shared.nodes, shared.out, sign, mass);
 }
 
+template <int P>
+double force_element_batches(MatrixFreeKernel k, const index_t* nodes, const index_t* elements, const double* data,
+                             double inv_weight, const double* X, const double* u, const double* R, long begin,
+                             long end, double* force, SharedSlots<double> shared) {
+#ifdef PMG_MF_X86_DISPATCH
+  if (k == MatrixFreeKernel::avx512)
+    return force_batches_avx512<P>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared.nodes,
+                                   shared.out);
+  if (k == MatrixFreeKernel::avx2)
+    return force_batches_avx2<P>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared.nodes,
+                                 shared.out);
+#endif
+  (void)k;
+  return force_batches_generic<P>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared.nodes,
+                                  shared.out);
+}
+
 MatrixFreeKernel resolve_kernel(MatrixFreeKernel k) { return resolve(k); }
 
 #define PMG_MF_INSTANTIATE(P)                                                                                  \
@@ -472,7 +582,10 @@ MatrixFreeKernel resolve_kernel(MatrixFreeKernel k) { return resolve(k); }
   template void apply_element_batches<P, double>(MatrixFreeKernel, const index_t*, const double*, long, long,   \
                                                  const double*, double*, SharedSlots<double>, double, bool);   \
   template void apply_element_batches<P, float>(MatrixFreeKernel, const index_t*, const float*, long, long,     \
-                                                const float*, float*, SharedSlots<float>, float, bool);
+                                                const float*, float*, SharedSlots<float>, float, bool);      \
+  template double force_element_batches<P>(MatrixFreeKernel, const index_t*, const index_t*, const double*, double, \
+                                           const double*, const double*, const double*, long, long, double*,     \
+                                           SharedSlots<double>);
 PMG_MF_INSTANTIATE(1)
 PMG_MF_INSTANTIATE(2)
 PMG_MF_INSTANTIATE(3)

@@ -40,6 +40,18 @@ template <int P, class T>
 void apply_element_batches(MatrixFreeKernel k, const index_t* free, const T* data, long begin, long end, const T* xp,
                            T* out, SharedSlots<T> shared, T sign, bool mass);
 
+/// The elastic state of batches [begin, end) (ElasticityOperator::element_force): force −= K_R,e y_e
+/// and the return value ½ Σ_e y_eᵀ K_R,e y_e, y_a = (X_a + u_a) − R_e X_a. `nodes` holds every
+/// element node's index (X and u have 3 entries per node; padding lanes -1); an index <= -2 is
+/// shared slot s = -2 - index: node shared.nodes[s], written into shared.out[3s, 3s + 3).
+/// `elements`: each lane's element (-1: padding); R: 9 entries per element (column-major;
+/// nullptr: R = I). The batch data's Lamé factors are scaled by inv_weight (the stiffness alone).
+/// Kernel k as apply_element_batches (not reference).
+template <int P>
+double force_element_batches(MatrixFreeKernel k, const index_t* nodes, const index_t* elements, const double* data,
+                             double inv_weight, const double* X, const double* u, const double* R, long begin,
+                             long end, double* force, SharedSlots<double> shared);
+
 /// The kernel `automatic` stands for on this CPU (any other is returned as it is).
 MatrixFreeKernel resolve_kernel(MatrixFreeKernel k);
 
