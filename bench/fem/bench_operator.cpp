@@ -9,7 +9,9 @@
 // n = 8: 177k unknowns). BM_MatrixFree/p/kernel/precision/threads/dynamic applies y = K x
 // (dynamic 0) or y = M x + dt^2 K_R x (1, the implicit-Euler matrix) with one element kernel
 // (0 reference, 1 generic, 2 avx2, 3 avx512) in double (8) or float (4); BM_Bcsr is y = K x with
-// the assembled matrix; BM_MatrixFreeUpdate a corotational step's update(R); BM_Assemble/p a
+// the assembled matrix; BM_MatrixFreeUpdate a corotational step's update(R); BM_ElementForce/p/kernel
+// a step's elastic force and energy (kernel 0: the scalar element loop, -1: the batched kernel
+// the CPU runs); BM_Assemble/p a
 // level's assembly into its matrix, BM_AssembleFirst/p the same from nothing (pattern, slots,
 // colouring, zeroed values: the set-up's first), p = 1 and 2.
 // Bytes per unknown are each kernel's least traffic:
@@ -27,6 +29,7 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -214,6 +217,32 @@ void BM_MatrixFreeUpdate(benchmark::State& state) {
   state.counters["unknowns"] = static_cast<double>(s.x.size());
 }
 
+/// A time step's elastic force and energy (element_force with the step's rotations) with one
+/// element kernel: 0 reference (the scalar element loop), -1 automatic (the batched kernels of the
+/// product on this CPU).
+void BM_ElementForce(benchmark::State& state) {
+  System& s = system_of(static_cast<int>(state.range(0)));
+  const fem::MatrixFreeKernel kernel = static_cast<fem::MatrixFreeKernel>(state.range(1) + 1);
+  if (!fem::matrix_free_kernel_available(kernel)) {
+    state.SkipWithError("kernel not available here");
+    return;
+  }
+  s.op->set_kernel(kernel);
+  s.op->update(&s.R);
+  s.op->set_weights(1.0, 1e-4);
+  Vector u(s.model->num_dofs()), f;
+  for (Eigen::Index i = 0; i < u.size(); ++i) u[i] = 1e-3 * std::sin(0.1 * static_cast<double>(i));
+  double energy = 0.0;
+  for (auto _ : state) {
+    s.op->element_force(u, &s.R, f, &energy);
+    benchmark::DoNotOptimize(f.data());
+  }
+  s.op->update(nullptr);
+  s.op->set_weights(0.0, 1.0);
+  s.op->set_kernel(fem::MatrixFreeKernel::automatic);
+  state.counters["elements"] = static_cast<double>(s.mesh.num_tets());
+}
+
 void BM_DiagonalBlocks(benchmark::State& state) {
   System& s = system_of(static_cast<int>(state.range(0)));
   std::vector<double> blocks;
@@ -357,6 +386,8 @@ int main(int argc, char** argv) {
           }
     benchmark::RegisterBenchmark("BM_MatrixFreeUpdate", BM_MatrixFreeUpdate)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark("BM_DiagonalBlocks", BM_DiagonalBlocks)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
+    for (int kernel : {0, -1})
+      benchmark::RegisterBenchmark("BM_ElementForce", BM_ElementForce)->Args({p, kernel})->UseRealTime()->Unit(benchmark::kMillisecond);
   }
   for (int p : {1, 2}) {
     benchmark::RegisterBenchmark("BM_Assemble", BM_Assemble)->Arg(p)->UseRealTime()->Unit(benchmark::kMillisecond);
