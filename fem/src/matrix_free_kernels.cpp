@@ -355,29 +355,32 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
   }
 }
 
-/// y_a = (X_a + u_a) - R X_a for one lane's N nodes (f: its node indices, stride kBatch; see
-/// force_batches) into y (3 per node). Kept out of line and compiled for the baseline instruction
-/// set: without fused multiply-adds it rounds as the element-by-element evaluation and the
-/// assembled pass do (ElasticityModel::evaluate), which matters here: y is a small difference of
-/// positions, so a contraction's different rounding of R X shows in the force about 1e-11
-/// relative.
-__attribute__((noinline)) void lane_state(int N, const index_t* f, const index_t* shared, const double* X,
-                                          const double* u, const double* Re, double* y) {
-  for (int a = 0; a < N; ++a) {
-    const index_t I = f[a * kBatch];
-    const index_t node = I >= 0 ? I : I == -1 ? -1 : shared[-2 - I];
-    double* ya = y + 3 * a;
-    if (node < 0) {
-      ya[0] = ya[1] = ya[2] = 0.0;
-      continue;
+/// y_a = (X_a + u_a) - R_l X_a for the L lanes of a batch's N nodes (f: the batch's node indices
+/// at the lanes' offset, node a of lane l at f[a * kBatch + l]; see force_batches; Re[l]: lane l's
+/// rotation, nullptr for R = I) into y, lane-major ([a][i][l], 3 L per node). Kept out of line and
+/// compiled for the baseline instruction set: without fused multiply-adds it rounds as the
+/// element-by-element evaluation and the assembled pass do (ElasticityModel::evaluate), which
+/// matters here: y is a small difference of positions, and a contraction's other rounding of R X
+/// showed in a stiff bar's force at 4e-12 relative.
+__attribute__((noinline)) void lanes_state(int N, int L, const index_t* f, const index_t* shared, const double* X,
+                                           const double* u, const double* const* Re, double* y) {
+  for (int a = 0; a < N; ++a)
+    for (int l = 0; l < L; ++l) {
+      const index_t I = f[a * kBatch + l];
+      const index_t node = I >= 0 ? I : I == -1 ? -1 : shared[-2 - I];
+      double* ya = y + 3 * static_cast<size_t>(a) * L + l;
+      if (node < 0) {
+        ya[0] = ya[L] = ya[2 * L] = 0.0;
+        continue;
+      }
+      const double* Xa = X + 3 * static_cast<size_t>(node);
+      const double* ua = u + 3 * static_cast<size_t>(node);
+      const double* R = Re[l];
+      for (int i = 0; i < 3; ++i) {
+        const double RX = R ? R[i] * Xa[0] + R[3 + i] * Xa[1] + R[6 + i] * Xa[2] : Xa[i];
+        ya[i * L] = (Xa[i] + ua[i]) - RX;
+      }
     }
-    const double* Xa = X + 3 * static_cast<size_t>(node);
-    const double* ua = u + 3 * static_cast<size_t>(node);
-    for (int i = 0; i < 3; ++i) {
-      const double RX = Re ? Re[i] * Xa[0] + Re[3 + i] * Xa[1] + Re[6 + i] * Xa[2] : Xa[i];
-      ya[i] = (Xa[i] + ua[i]) - RX;
-    }
-  }
 }
 
 /// detail::force_element_batches over batches [begin, end), L lanes at a time; returns the energy.
@@ -400,13 +403,12 @@ inline double force_batches(const index_t* nodes, const index_t* elements, const
     for (int l = 0; l < kBatch; ++l) d[13 * kBatch + l] = src[13 * kBatch + l] * inv_weight;
     for (int o = 0; o < kBatch; o += L) {
       V y[N][3], r[N][3];
-      for (int l = 0; l < L; ++l) {
-        const index_t e = el[o + l];
-        double ys[3 * N];
-        lane_state(N, f + o + l, shared, X, u, R && e >= 0 ? R + 9 * static_cast<size_t>(e) : nullptr, ys);
-        for (int a = 0; a < N; ++a)
-          for (int i = 0; i < 3; ++i) y[a][i][l] = ys[3 * a + i];
-      }
+      const double* Re[L];
+      for (int l = 0; l < L; ++l) Re[l] = R && el[o + l] >= 0 ? R + 9 * static_cast<size_t>(el[o + l]) : nullptr;
+      alignas(64) double ys[N][3][L];
+      lanes_state(N, L, f + o, shared, X, u, Re, &ys[0][0][0]);
+      for (int a = 0; a < N; ++a)
+        for (int i = 0; i < 3; ++i) __builtin_memcpy(&y[a][i], ys[a][i], sizeof(V));
       batch_apply<P, double, L>(t, d, o, false, y, r);
       for (int a = 0; a < N; ++a)
         for (int i = 0; i < 3; ++i) esum += y[a][i] * r[a][i];
