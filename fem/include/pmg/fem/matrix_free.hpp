@@ -121,7 +121,10 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
 
   /// f = -Σ_e K_R,e (x_e - R X_e) (full vector, x = X + u; the stiffness alone, unweighted) and
   /// its energy ½ Σ_e (x_e - R X_e)ᵀ K_R,e (x_e - R X_e). R must be the rotations of the last
-  /// update() (nullptr: R = I), which the operator's gradients carry.
+  /// update() (nullptr: R = I), which the operator's gradients carry. The batched kernels run it,
+  /// force and energy the same bits on any number of threads; the reference kernel and a zero
+  /// stiffness weight run the scalar element loop (the force the same bits, the energy rounded
+  /// by thread count).
   void element_force(const Vector& u, const Rotations* R, Vector& force, double* energy) const;
 
   /// The element arrays the product runs on (see element_arrays()).
