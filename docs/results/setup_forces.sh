@@ -8,17 +8,10 @@
 # "smoother degree 3", "smoother degree 2", "lowest level") and the twisted Homer of
 # docs/results/kernels.sh (10 steps, mgpcg to 1e-3): its "forces" stage per step in ms (element
 # force and energy, b = M v + dt (f_ext + f)) and the wall time of the steps.
-set -euo pipefail
-cd "$(dirname "$0")/../.."
-old=$1 rounds=${2:-5}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-/usr/bin/python3 docs/results/twisted_homer_scene.py "$work"
-static="compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6 --solvers mgpcg"
+source "$(dirname "$0")/ab_common.sh"
 for i in $(seq 1 "$rounds"); do
   for who in old new; do
-    pmg=build/tools/pmg
-    [ "$who" = old ] && pmg=$old
+    pmg=$(pmg_of "$who")
     s=$($pmg $static 2>&1 | awk '/^mgpcg +converged/{su=$4} /set-up [0-9]/{for (k=1;k<=NF;k++) {if ($k=="3" && $(k-1)=="degree" && $(k-2)=="smoother") s3=$(k+1); if ($k=="2" && $(k-1)=="degree" && $(k-2)=="smoother") s2=$(k+1); if ($k=="(cholmod)") lo=$(k+1)}} END{print "setup", su, "smoother3", s3, "smoother2", s2, "lowest", lo}')
     t=$($pmg simulate "$work/twisted.json" -q 2>&1 | awk '/^forces/{f=$3} /^steps:/{w=$4} END{print "forces_ms", f, "wall", w}')
     echo "$i $who | $s | $t"

@@ -6,17 +6,10 @@
 # build: the static Homer P3 MGPCG solve to 1e-6 (iterations, t(1e-6), one cycle), the twisted
 # Homer of docs/results/kernels.sh (10 steps, mgpcg to 1e-3) without frames (wall, iterations per
 # step, hierarchy update per step in ms) and with -o DIR (wall, output's share).
-set -euo pipefail
-cd "$(dirname "$0")/../.."
-old=$1 rounds=${2:-5}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-/usr/bin/python3 docs/results/twisted_homer_scene.py "$work"
-static="compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6 --solvers mgpcg"
+source "$(dirname "$0")/ab_common.sh"
 for i in $(seq 1 "$rounds"); do
   for who in old new; do
-    pmg=build/tools/pmg
-    [ "$who" = old ] && pmg=$old
+    pmg=$(pmg_of "$who")
     s=$($pmg $static 2>&1 | awk '/^mgpcg +converged/{t=$7; it=$3} /one cycle/{c=$4} END{print "static it", it, "t6", t, "cycle", c}')
     t=$($pmg simulate "$work/twisted.json" -q 2>&1 |
       awk '/^steps:/{w=$4; it=$7} /^hierarchy update/{h=$4} END{print "twisted wall", w, "its", it, "hier_ms", h}')

@@ -44,6 +44,7 @@ struct ElasticityOperator::Impl {
     std::vector<index_t> shared;      ///< per slot its free node index
     std::vector<std::vector<double>> out;      ///< per range 3 per slot
     std::vector<std::vector<float>> out_single;
+    std::vector<std::vector<double>> blocks;   ///< per range 9 per slot (diagonal_blocks())
   };
   /// The splits made so far, by thread count (a thread budget that changes between products
   /// finds its split again; at most kKeptSplits kept, the oldest dropped).
@@ -482,9 +483,10 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
     // The product's ranges of batches (apply()): each range adds the nodes that only it holds in
     // place and the shared ones into its own 9 per slot, added after the ranges in range order.
     const std::lock_guard<std::mutex> lock(m.buffers_mutex);
-    const Impl::Split& split = m.make_split(threads);
+    Impl::Split& split = m.make_split(threads);
     const size_t slots = split.shared.size();
-    std::vector<std::vector<double>> own(static_cast<size_t>(threads));
+    std::vector<std::vector<double>>& own = split.blocks;  // kept: a time step's update allocates none
+    own.resize(static_cast<size_t>(threads));
 #pragma omp parallel num_threads(threads)
     {
       const int tid = omp_get_thread_num(), nt = omp_get_num_threads();

@@ -307,6 +307,23 @@ inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
   }
 }
 
+/// out += sign · r, lane by lane in order (so a node two lanes share sums in element order), for
+/// the L lanes at offset o of a batch with node indices f: index -1 is skipped, an index <= -2 is
+/// shared slot -2 - index in shared_out (detail::SharedSlots).
+template <class T, int L, int N>
+inline void scatter_lanes(const index_t* f, int o, const typename Lanes<T, L>::type (&r)[N][3], T sign, T* out,
+                          T* shared_out) {
+  for (int l = 0; l < L; ++l)
+    for (int a = 0; a < N; ++a) {
+      const index_t I = f[a * kBatch + o + l];
+      T* s;
+      if (__builtin_expect(I >= 0, 1)) s = out + 3 * static_cast<size_t>(I);
+      else if (I == -1) continue;
+      else s = shared_out + 3 * static_cast<size_t>(-2 - I);
+      s[0] += sign * r[a][0][l], s[1] += sign * r[a][1][l], s[2] += sign * r[a][2][l];
+    }
+}
+
 /// out += sign · (element products of x) over batches [begin, end), L lanes at a time; an index
 /// <= -2 is shared slot -2 - index (detail::SharedSlots).
 template <int P, class T, int L>
@@ -342,15 +359,7 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
         }
       }
       batch_apply<P, T, L>(t, d, o, mass, u, r);
-      for (int l = 0; l < L; ++l)
-        for (int a = 0; a < N; ++a) {
-          const index_t I = f[a * kBatch + o + l];
-          T* s;
-          if (__builtin_expect(I >= 0, 1)) s = out + 3 * static_cast<size_t>(I);
-          else if (I == -1) continue;
-          else s = shared_out + 3 * static_cast<size_t>(-2 - I);
-          s[0] += sign * r[a][0][l], s[1] += sign * r[a][1][l], s[2] += sign * r[a][2][l];
-        }
+      scatter_lanes<T, L, N>(f, o, r, sign, out, shared_out);
     }
   }
 }
@@ -412,15 +421,7 @@ inline double force_batches(const index_t* nodes, const index_t* elements, const
       batch_apply<P, double, L>(t, d, o, false, y, r);
       for (int a = 0; a < N; ++a)
         for (int i = 0; i < 3; ++i) esum += y[a][i] * r[a][i];
-      for (int l = 0; l < L; ++l)
-        for (int a = 0; a < N; ++a) {
-          const index_t I = f[a * kBatch + o + l];
-          double* s;
-          if (__builtin_expect(I >= 0, 1)) s = force + 3 * static_cast<size_t>(I);
-          else if (I == -1) continue;
-          else s = shared_out + 3 * static_cast<size_t>(-2 - I);
-          s[0] -= r[a][0][l], s[1] -= r[a][1][l], s[2] -= r[a][2][l];
-        }
+      scatter_lanes<double, L, N>(f, o, r, -1.0, force, shared_out);
     }
   }
   double e = 0.0;

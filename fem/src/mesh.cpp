@@ -313,10 +313,7 @@ TetMesh reorder_for_locality(const TetMesh& mesh) {
     }
   }
   for (size_t v = 0; v < renumber.size(); ++v)  // vertices no element uses keep a place at the end
-    if (renumber[v] < 0) {
-      renumber[v] = static_cast<index_t>(out.vertices.size());
-      out.vertices.push_back(mesh.vertices[v]);
-    }
+    if (renumber[v] < 0) out.vertices.push_back(mesh.vertices[v]);
   return out;
 }
 
