@@ -164,37 +164,33 @@ namespace {
 constexpr Eigen::Index kChunk = 2048;  // entries of a pass's block: the block of w stays in cache
 
 /// h[i] = V[i]·w for i < m, in one pass over the vectors (blocks of w, each against every V[i]).
+/// Each block's dot products are ops::dot_serial and the blocks' sums are added in order: the same
+/// bits on any number of threads.
 void fused_dots(const std::vector<Vector>& V, int m, const Vector& w, double* h) {
   const Eigen::Index n = w.size();
   const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
-  std::vector<double> total(static_cast<size_t>(m), 0.0);
-#pragma omp parallel
-  {
-    std::vector<double> mine(static_cast<size_t>(m), 0.0);
-#pragma omp for schedule(static)
-    for (Eigen::Index q = 0; q < blocks; ++q) {
-      const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
-      for (int i = 0; i < m; ++i) {
-        const double* v = V[static_cast<size_t>(i)].data();
-        double sum = 0.0;
-        for (Eigen::Index k = k0; k < k1; ++k) sum += v[k] * w[k];
-        mine[static_cast<size_t>(i)] += sum;
-      }
-    }
-#pragma omp critical
-    for (int i = 0; i < m; ++i) total[static_cast<size_t>(i)] += mine[static_cast<size_t>(i)];
+  std::vector<double> part(static_cast<size_t>(blocks * m));
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index q = 0; q < blocks; ++q) {
+    const Eigen::Index k0 = q * kChunk, len = std::min(n, k0 + kChunk) - k0;
+    for (int i = 0; i < m; ++i)
+      part[static_cast<size_t>(q * m + i)] = ops::dot_serial(V[static_cast<size_t>(i)].data() + k0, w.data() + k0, len);
   }
-  for (int i = 0; i < m; ++i) h[i] = total[static_cast<size_t>(i)];
+  for (int i = 0; i < m; ++i) {
+    double sum = 0.0;
+    for (Eigen::Index q = 0; q < blocks; ++q) sum += part[static_cast<size_t>(q * m + i)];
+    h[i] = sum;
+  }
 }
 
 /// w -= Σ_{i<m} h[i] V[i] (sign = -1) or w += Σ h[i] V[i] (sign = +1) in one pass, in double for
-/// V in double or float; returns ‖w‖ after it.
+/// V in double or float; returns ‖w‖ after it (its blocks' sums of squares added in order).
 template <class VectorType>
 double fused_update(const std::vector<VectorType>& V, int m, const double* h, Vector& w, double sign) {
   const Eigen::Index n = w.size();
   const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
-  double sq = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : sq)
+  std::vector<double> part(static_cast<size_t>(blocks));
+#pragma omp parallel for schedule(static)
   for (Eigen::Index q = 0; q < blocks; ++q) {
     const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
     for (int i = 0; i < m; ++i) {
@@ -202,8 +198,10 @@ double fused_update(const std::vector<VectorType>& V, int m, const double* h, Ve
       const double c = sign * h[i];
       for (Eigen::Index k = k0; k < k1; ++k) w[k] += c * static_cast<double>(v[k]);
     }
-    for (Eigen::Index k = k0; k < k1; ++k) sq += w[k] * w[k];
+    part[static_cast<size_t>(q)] = ops::dot_serial(w.data() + k0, w.data() + k0, k1 - k0);
   }
+  double sq = 0.0;
+  for (Eigen::Index q = 0; q < blocks; ++q) sq += part[static_cast<size_t>(q)];
   return std::sqrt(sq);
 }
 
@@ -225,6 +223,13 @@ void store_single(const Vector& src, Eigen::VectorXf& dst) {
   const Eigen::Index n = src.size();
 #pragma omp parallel for schedule(static)
   for (Eigen::Index k = 0; k < n; ++k) dst[k] = static_cast<float>(src[k]);
+}
+
+/// f(k) for k < n, split statically over the threads.
+template <class F>
+void parallel_for(Eigen::Index n, const F& f) {
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index k = 0; k < n; ++k) f(k);
 }
 
 /// v rounded to the nearest float, in place.
@@ -399,9 +404,11 @@ void BlockTriangularOperator::precondition(const Vector& v, bool single) const {
   rp_ = v.tail(np);
   M_p_.apply(rp_, zp_);  // z_p = -M_p r_p, so r_u - Bᵀ z_p = r_u + Bᵀ (M_p r_p)
   if (single) round_to_float(zp_);
-  bt_.setZero(nu);
-  B_.apply(nullptr, zp_.data(), bt_.data(), nullptr);
-  ru_ = v.head(nu) + bt_;
+  bt_.resize(nu), ru_.resize(nu);
+  double* bt = bt_.data();
+  parallel_for(nu, [bt](Eigen::Index k) { bt[k] = 0.0; });
+  B_.apply(nullptr, zp_.data(), bt, nullptr);
+  parallel_for(nu, [&](Eigen::Index k) { ru_[k] = v[k] + bt[k]; });
   M_u_.apply(ru_, zu_);
   if (single) round_to_float(zu_);
 }
@@ -424,13 +431,13 @@ void BlockTriangularOperator::apply_and_multiply(const SaddlePointOperator& K, c
                      std::to_string(rows()) + " rows");
   precondition(v, round_to_float);
   z.resize(nu + np);
-  z.head(nu) = zu_;
+  parallel_for(nu, [&](Eigen::Index k) { z[k] = zu_[k]; });
   z.tail(np) = -zp_;
   // w_u = A z_u + Bᵀ z_p = A z_u − bt_; w_p = B z_u − C z_p = B z_u + C zp_.
   w.resize(nu + np);
   wu_.resize(nu);
   K.first_block().apply(zu_, wu_);
-  w.head(nu) = wu_ - bt_;
+  parallel_for(nu, [&](Eigen::Index k) { w[k] = wu_[k] - bt_[k]; });
   B_.apply(zu_.data(), nullptr, nullptr, w.data() + nu);
   if (const Csr* C = K.second_block()) {
     cp_.resize(np);
@@ -564,9 +571,13 @@ void ChebyshevMassInverse::apply_impl(const Vector& r, Vector& z) const {
       const double s = k == steps_ ? scale_ : 1.0;
 #pragma omp for schedule(static)
       for (index_t i = 0; i < n; ++i) {
-        double q = 0.0;
-        for (offset_t e = rp[i]; e < rp[i + 1]; ++e) q += static_cast<double>(v[e]) * d[ci[e]];
-        const double ri = res[i] - q;
+        // Four partial sums over the row: independent chains of additions.
+        double q4[4] = {};
+        offset_t e = rp[i];
+        for (; e + 4 <= rp[i + 1]; e += 4)
+          for (int l = 0; l < 4; ++l) q4[l] += static_cast<double>(v[e + l]) * d[ci[e + l]];
+        for (int l = 0; e < rp[i + 1]; ++e, ++l) q4[l] += static_cast<double>(v[e]) * d[ci[e]];
+        const double ri = res[i] - ((q4[0] + q4[2]) + (q4[1] + q4[3]));
         res[i] = ri;
         const double di = c1 * d[i] + c2 * inv[i] * ri;
         dn[i] = di;

@@ -2,17 +2,44 @@
 
 #include "pmg/sparse/block3.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace pmg::ops {
+
+double dot_serial(const double* a, const double* b, std::ptrdiff_t n) {
+  double s[8] = {};
+  std::ptrdiff_t k = 0;
+  for (; k + 8 <= n; k += 8)
+    for (int l = 0; l < 8; ++l) s[l] += a[k + l] * b[k + l];
+  for (int l = 0; k < n; ++k, ++l) s[l] += a[k] * b[k];
+  return ((s[0] + s[4]) + (s[2] + s[6])) + ((s[1] + s[5]) + (s[3] + s[7]));
+}
+
+namespace {
+constexpr Eigen::Index kDotBlock = 8192;  // entries per block of dot(): its sums are added in order
+}  // namespace
 
 double dot(const Vector& x, const Vector& y) {
   const Eigen::Index n = x.size();
   const double* a = x.data();
   const double* b = y.data();
+  const Eigen::Index blocks = (n + kDotBlock - 1) / kDotBlock;
+  if (blocks <= 1) return dot_serial(a, b, n);
+  double local[64];
+  std::vector<double> heap;
+  double* part = local;
+  if (blocks > 64) {
+    heap.resize(static_cast<size_t>(blocks));
+    part = heap.data();
+  }
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index q = 0; q < blocks; ++q) {
+    const Eigen::Index k0 = q * kDotBlock;
+    part[q] = dot_serial(a + k0, b + k0, std::min(kDotBlock, n - k0));
+  }
   double s = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : s)
-  for (Eigen::Index i = 0; i < n; ++i) s += a[i] * b[i];
+  for (Eigen::Index q = 0; q < blocks; ++q) s += part[q];
   return s;
 }
 

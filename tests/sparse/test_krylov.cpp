@@ -2,10 +2,16 @@
 
 #include "pmg/sparse/generators.hpp"
 #include "pmg/sparse/krylov.hpp"
+#include "pmg/sparse/vector_ops.hpp"
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <limits>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 using namespace pmg;
 using namespace pmg::test;
@@ -25,6 +31,35 @@ double true_rel_residual(const LinearOperator& A, const Vector& b, const Vector&
   return r.norm() / r0.norm();
 }
 }  // namespace
+
+TEST_CASE("dot: within rounding of a long double sum, and the same bits on any number of threads",
+          "[sparse][krylov]") {
+  // Lengths around the block of 8192 entries and the eight partial sums.
+  for (Eigen::Index n : {0, 1, 7, 9, 8191, 8192, 8193, 100003}) {
+    Vector x(n), y(n);
+    long double exact = 0.0L, magnitude = 0.0L;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      x[i] = std::sin(0.37 * static_cast<double>(i)) * (1.0 + 1e-3 * static_cast<double>(i % 101));
+      y[i] = std::cos(0.11 * static_cast<double>(i)) - 0.25;
+      exact += static_cast<long double>(x[i]) * y[i];
+      magnitude += std::abs(static_cast<long double>(x[i]) * y[i]);
+    }
+    const double d = ops::dot(x, y);
+    INFO("n = " << n);
+    CHECK(std::abs(static_cast<long double>(d) - exact) <= 1e-14L * magnitude);
+    CHECK(ops::dot_serial(x.data(), y.data(), n) == Approx(d).epsilon(1e-13).margin(1e-300));
+#ifdef _OPENMP
+    const int before = omp_get_max_threads();
+    omp_set_num_threads(1);
+    const double d1 = ops::dot(x, y);
+    omp_set_num_threads(3);
+    const double d3 = ops::dot(x, y);
+    omp_set_num_threads(before);
+    CHECK(d1 == d);
+    CHECK(d3 == d);
+#endif
+  }
+}
 
 TEST_CASE("CG and PCG reach the tolerance on the true residual and recover the solution",
           "[sparse][krylov]") {

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <random>
 
 #ifdef _OPENMP
@@ -353,6 +354,53 @@ TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, rest
             if (restart == 50 && tol >= 1e-8) CHECK(r.iterations <= 33);
           }
         }
+}
+
+TEST_CASE("GMRES: the same bits on 1 and 3 threads on a system of many Gram-Schmidt blocks", "[saddle]") {
+  // A sparse saddle point of 12,000 unknowns: the orthogonalisation's passes run over several
+  // blocks of entries, whose sums are added in a fixed order.
+  const index_t nu = 9000, np = 3000;
+  std::vector<Triplet> ta, tb, tbt, tc, tmu, tmp;
+  for (index_t i = 0; i < nu; ++i) {
+    ta.emplace_back(i, i, 4.0 + 0.001 * (i % 7));
+    if (i + 1 < nu) ta.emplace_back(i, i + 1, -1.0), ta.emplace_back(i + 1, i, -1.0);
+    tmu.emplace_back(i, i, 1.0 / (4.0 + 0.001 * (i % 7)));
+  }
+  for (index_t i = 0; i < np; ++i) {
+    const double v[3] = {1.0, -0.5, 0.25 + 0.01 * (i % 5)};
+    for (int c = 0; c < 3; ++c) tb.emplace_back(i, 3 * i + c, v[c]), tbt.emplace_back(3 * i + c, i, v[c]);
+    tc.emplace_back(i, i, 0.01);
+    tmp.emplace_back(i, i, 2.0);
+  }
+  const Csr A = Csr::from_triplets(nu, nu, ta), B = Csr::from_triplets(np, nu, tb), Bt = Csr::from_triplets(nu, np, tbt),
+            C = Csr::from_triplets(np, np, tc), Mu = Csr::from_triplets(nu, nu, tmu), Mp = Csr::from_triplets(np, np, tmp);
+  const CsrCoupling coupling(B, Bt);
+  const SaddlePointOperator K(A, coupling, &C);
+  const BlockTriangularOperator P(Mu, Mp, coupling);
+  Vector b(nu + np);
+  for (Eigen::Index i = 0; i < b.size(); ++i) b[i] = std::sin(0.01 * static_cast<double>(i)) + 0.1;
+  KrylovParams p;
+  p.rel_tol = 1e-10;
+  p.max_iterations = 500;
+  Vector x_default = Vector::Zero(nu + np);
+  const SolveResult r = gmres(K, &P, b, x_default, p);
+  REQUIRE(r.ok());
+  Vector res;
+  K.residual(b, x_default, res);
+  CHECK(res.norm() <= 1e-10 * b.norm());
+#ifdef _OPENMP
+  const int before = omp_get_max_threads();
+  Vector x1 = Vector::Zero(nu + np), x3 = Vector::Zero(nu + np);
+  omp_set_num_threads(1);
+  const SolveResult r1 = gmres(K, &P, b, x1, p);
+  omp_set_num_threads(3);
+  const SolveResult r3 = gmres(K, &P, b, x3, p);
+  omp_set_num_threads(before);
+  CHECK(r1.iterations == r.iterations);
+  CHECK(r3.iterations == r.iterations);
+  CHECK(x1 == x_default);
+  CHECK(x3 == x_default);
+#endif
 }
 
 TEST_CASE("GMRES: a nonsymmetric system, the iteration limit and bad input are named", "[saddle]") {

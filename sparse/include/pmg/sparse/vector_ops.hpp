@@ -4,11 +4,17 @@
 
 #include "pmg/sparse/types.hpp"
 
+#include <cstddef>
 #include <vector>
 
 namespace pmg::ops {
 
-/// xᵀy.
+/// Σ a[k] b[k] over k < n on the calling thread, in a fixed order: eight partial sums over k mod 8,
+/// added pairwise at the end. The same bits for the same inputs, and eight independent chains of
+/// additions where one running sum waits on each addition's latency.
+double dot_serial(const double* a, const double* b, std::ptrdiff_t n);
+/// xᵀy over fixed blocks of entries (dot_serial each), the blocks' sums added in order: the same
+/// bits on any number of threads.
 double dot(const Vector& x, const Vector& y);
 /// ‖x‖₂, without overflow or underflow for any finite x.
 double norm2(const Vector& x);
