@@ -1,4 +1,5 @@
-"""Medians of alternating old/new rounds from docs/results/step_update.sh or setup_forces.sh output.
+"""Medians of alternating old/new rounds from docs/results/step_update.sh, setup_forces.sh or
+mixed_ratio_ab.sh output.
 
     /usr/bin/python3 docs/results/ab_medians.py FILE [FILE ...]
 
@@ -14,6 +15,7 @@ FIELDS = {
     "set-up s": r"setup ([\d.]+)", "smoother degree 3 s": r"smoother3 ([\d.]+)",
     "smoother degree 2 s": r"smoother2 ([\d.]+)", "lowest level s": r"lowest ([\d.]+)",
     "forces ms per step": r"forces_ms ([\d.]+)", "steps wall s": r"\| forces_ms [\d.]+ wall ([\d.]+)",
+    "mixed total s": r"mixed its \d+ total ([\d.]+)", "mixed/mgpcg": r"\| ratio ([\d.]+)",
 }
 
 

@@ -163,18 +163,22 @@ namespace {
 
 constexpr Eigen::Index kChunk = 2048;  // entries of a pass's block: the block of w stays in cache
 
-/// h[i] = V[i]·w for i < m, in one pass over the vectors (blocks of w, each against every V[i]).
-/// Each block's dot products are ops::dot_serial and the blocks' sums are added in order: the same
-/// bits on any number of threads.
-void fused_dots(const std::vector<Vector>& V, int m, const Vector& w, double* h) {
+/// h[i] = A[i]·w for i < ma and h[ma + i] = B[i]·w for i < mb, in one pass over the vectors (blocks
+/// of w, each against every vector). Each block's dot products are ops::dot_serial and the blocks'
+/// sums are added in order: the same bits on any number of threads.
+template <class VA, class VB>
+void fused_dots(const std::vector<VA>& A, int ma, const std::vector<VB>& B, int mb, const Vector& w, double* h) {
   const Eigen::Index n = w.size();
   const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
+  const int m = ma + mb;
   std::vector<double> part(static_cast<size_t>(blocks * m));
 #pragma omp parallel for schedule(static)
   for (Eigen::Index q = 0; q < blocks; ++q) {
     const Eigen::Index k0 = q * kChunk, len = std::min(n, k0 + kChunk) - k0;
-    for (int i = 0; i < m; ++i)
-      part[static_cast<size_t>(q * m + i)] = ops::dot_serial(V[static_cast<size_t>(i)].data() + k0, w.data() + k0, len);
+    double* out = part.data() + q * m;
+    for (int i = 0; i < ma; ++i) out[i] = ops::dot_serial(A[static_cast<size_t>(i)].data() + k0, w.data() + k0, len);
+    for (int i = 0; i < mb; ++i)
+      out[ma + i] = ops::dot_serial(B[static_cast<size_t>(i)].data() + k0, w.data() + k0, len);
   }
   for (int i = 0; i < m; ++i) {
     double sum = 0.0;
@@ -183,26 +187,36 @@ void fused_dots(const std::vector<Vector>& V, int m, const Vector& w, double* h)
   }
 }
 
-/// w -= Σ_{i<m} h[i] V[i] (sign = -1) or w += Σ h[i] V[i] (sign = +1) in one pass, in double for
-/// V in double or float; returns ‖w‖ after it (its blocks' sums of squares added in order).
-template <class VectorType>
-double fused_update(const std::vector<VectorType>& V, int m, const double* h, Vector& w, double sign) {
+/// w -= Σ_{i<ma} h[i] A[i] + Σ_{i<mb} h[ma + i] B[i] (sign = -1), or w += the same (sign = +1), in
+/// one pass, in double for vectors in double or float; returns ‖w‖ after it (its blocks' sums of
+/// squares added in order).
+template <class VA, class VB>
+double fused_update(const std::vector<VA>& A, int ma, const std::vector<VB>& B, int mb, const double* h, Vector& w,
+                    double sign) {
   const Eigen::Index n = w.size();
   const Eigen::Index blocks = (n + kChunk - 1) / kChunk;
   std::vector<double> part(static_cast<size_t>(blocks));
+  auto add = [&w, sign](const auto* v, double hi, Eigen::Index k0, Eigen::Index k1) {
+    const double c = sign * hi;
+    for (Eigen::Index k = k0; k < k1; ++k) w[k] += c * static_cast<double>(v[k]);
+  };
 #pragma omp parallel for schedule(static)
   for (Eigen::Index q = 0; q < blocks; ++q) {
     const Eigen::Index k0 = q * kChunk, k1 = std::min(n, k0 + kChunk);
-    for (int i = 0; i < m; ++i) {
-      const auto* v = V[static_cast<size_t>(i)].data();
-      const double c = sign * h[i];
-      for (Eigen::Index k = k0; k < k1; ++k) w[k] += c * static_cast<double>(v[k]);
-    }
+    for (int i = 0; i < ma; ++i) add(A[static_cast<size_t>(i)].data(), h[i], k0, k1);
+    for (int i = 0; i < mb; ++i) add(B[static_cast<size_t>(i)].data(), h[ma + i], k0, k1);
     part[static_cast<size_t>(q)] = ops::dot_serial(w.data() + k0, w.data() + k0, k1 - k0);
   }
   double sq = 0.0;
   for (Eigen::Index q = 0; q < blocks; ++q) sq += part[static_cast<size_t>(q)];
   return std::sqrt(sq);
+}
+
+/// fused_update() over one list.
+template <class VA>
+double fused_update(const std::vector<VA>& A, int m, const double* h, Vector& w, double sign) {
+  static const std::vector<Eigen::VectorXf> none;
+  return fused_update(A, m, none, 0, h, w, sign);
 }
 
 /// dst = scale * src, in parallel.
@@ -217,6 +231,60 @@ template <class VectorType>
 void grow(std::vector<VectorType>& V, size_t count, Eigen::Index n) {
   while (V.size() < count) V.emplace_back(n);
 }
+
+/// The Krylov basis of one GMRES cycle: its first `doubles` vectors in double (ws.V), the rest in
+/// float (ws.Vf; GmresParams::float_basis).
+class Basis {
+ public:
+  /// Vectors of another size than n in the workspace are of no use: dropped.
+  Basis(GmresWorkspace& ws, Eigen::Index n) : V_(ws.V), Vf_(ws.Vf), exact_(ws.v), n_(n) {
+    if (!V_.empty() && V_.front().size() != n) V_.clear();
+    if (!Vf_.empty() && Vf_.front().size() != n) Vf_.clear();
+  }
+  /// A new cycle: vectors in double until switch_to_float().
+  void restart() { doubles_ = std::numeric_limits<int>::max(); }
+  /// Vectors from i on are stored in float.
+  void switch_to_float(int i) { doubles_ = std::min(doubles_, i); }
+  /// v_i = scale * src (i: the next index), rounded to float from doubles_ on; a float v_i is kept
+  /// in double too, as the next product's input, so that z_i = M v_i holds for the stored v_i.
+  void store(int i, const Vector& src, double scale) {
+    if (i < doubles_) {
+      grow(V_, static_cast<size_t>(i) + 1, n_);
+      scaled_copy(src, scale, V_[static_cast<size_t>(i)]);
+      return;
+    }
+    grow(Vf_, static_cast<size_t>(i - doubles_) + 1, n_);
+    float* dst = Vf_[static_cast<size_t>(i - doubles_)].data();
+    exact_.resize(n_);
+    double* exact = exact_.data();
+    const double* s = src.data();
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index k = 0; k < n_; ++k) {
+      const float f = static_cast<float>(scale * s[k]);
+      dst[k] = f;
+      exact[k] = static_cast<double>(f);
+    }
+  }
+  /// v_i in double (i: the newest index).
+  const Vector& operator[](int i) const { return i < doubles_ ? V_[static_cast<size_t>(i)] : exact_; }
+  /// h = V_mᵀ w, the first m vectors.
+  void dots(int m, const Vector& w, double* h) const {
+    const int md = std::min(m, doubles_);
+    fused_dots(V_, md, Vf_, m - md, w, h);
+  }
+  /// w += sign V_m h; returns ‖w‖.
+  double update(int m, const double* h, Vector& w, double sign) const {
+    const int md = std::min(m, doubles_);
+    return fused_update(V_, md, Vf_, m - md, h, w, sign);
+  }
+
+ private:
+  std::vector<Vector>& V_;
+  std::vector<Eigen::VectorXf>& Vf_;
+  Vector& exact_;
+  Eigen::Index n_;
+  int doubles_ = std::numeric_limits<int>::max();
+};
 
 /// dst = src in float (src exact in float: PreconditionedProduct::single_precision).
 void store_single(const Vector& src, Eigen::VectorXf& dst) {
@@ -259,7 +327,6 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
   if (options.restart < 1) throw InputError("GMRES: restart must be >= 1, got " + std::to_string(options.restart));
   GmresWorkspace own;
   GmresWorkspace& ws = work ? *work : own;
-  std::vector<Vector>& V = ws.V;  // the Krylov basis
   std::vector<Vector>& Z = ws.Z;  // M v_i (flexible GMRES)
   std::vector<Eigen::VectorXf>& Zf = ws.Zf;  // the same in float, where the product's z are exact in float
   const bool single = KM && KM->single_precision();
@@ -269,14 +336,23 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
   auto keep_if_sized = [n](auto& vs) {
     if (!vs.empty() && vs.front().size() != n) vs.clear();
   };
-  keep_if_sized(V), keep_if_sized(Z), keep_if_sized(Zf);
+  keep_if_sized(Z), keep_if_sized(Zf);
+  Basis V(ws, n);
   Vector& r = ws.r;
   Vector& w = ws.w;
   r.resize(n), w.resize(n);
   K.residual(b, x, r);
   if (!track.start(ops::norm2(r), ops::norm2(b))) return track.finish(ops::norm2(r));
+  // A float basis vector v_{i+1} perturbs the Arnoldi relation by about float's rounding u times
+  // its column, which moves the final residual by about u times the residual when it was stored
+  // (the later vectors of GMRES's solution carry coefficients of the size of the residual then:
+  // the argument of inexact Krylov methods, Simoncini and Szyld 2003). So vectors are stored in
+  // float once 100 u times the estimated residual is below the target; the true residual decides
+  // convergence either way.
+  const double target =
+      params.fixed_iterations ? 0.0 : std::max(params.rel_tol * track.r0(), params.abs_tol);
+  constexpr double kFloatRounding = 0x1p-24;
   const int m = options.restart;
-  grow(V, 1, n);
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);
   Eigen::VectorXd g(m + 1), cs(m), sn(m), h(m + 1), h2(m + 1);
   int it = 0;
@@ -286,7 +362,9 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
       track.accept_true_residual(0.0);
       break;
     }
-    scaled_copy(r, 1.0 / beta, V[0]);
+    V.restart();
+    if (options.float_basis && 100.0 * kFloatRounding * beta <= target) V.switch_to_float(0);
+    V.store(0, r, 1.0 / beta);
     g.setZero();
     g[0] = beta;
     int j = 0;
@@ -294,28 +372,26 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
     for (; j < m && !track.done();) {
       const auto jj = static_cast<size_t>(j);
       if (single) {
-        KM->apply(V[jj], ws.z, w);
+        KM->apply(V[j], ws.z, w);
         grow(Zf, jj + 1, n);
         store_single(ws.z, Zf[jj]);
       } else if (KM) {
         grow(Z, jj + 1, n);
-        KM->apply(V[jj], Z[jj], w);
+        KM->apply(V[j], Z[jj], w);
       } else {
-        K.apply(V[jj], w);
+        K.apply(V[j], w);
       }
       // Classical Gram–Schmidt: once, or twice where the first pass lost more than 30% of ‖w‖.
       const double before = options.reorthogonalise ? ops::norm2(w) : 0.0;
-      fused_dots(V, j + 1, w, h.data());
-      double after = fused_update(V, j + 1, h.data(), w, -1.0);
+      V.dots(j + 1, w, h.data());
+      double after = V.update(j + 1, h.data(), w, -1.0);
       if (options.reorthogonalise && after < 0.7 * before) {
-        fused_dots(V, j + 1, w, h2.data());
-        after = fused_update(V, j + 1, h2.data(), w, -1.0);
+        V.dots(j + 1, w, h2.data());
+        after = V.update(j + 1, h2.data(), w, -1.0);
         h.head(j + 1) += h2.head(j + 1);
       }
       H.col(j).head(j + 1) = h.head(j + 1);
       H(j + 1, j) = after;
-      grow(V, jj + 2, n);
-      if (after > 0) scaled_copy(w, 1.0 / after, V[jj + 1]);
       // The Givens rotations of the columns before, then this column's own.
       for (int i = 0; i < j; ++i) {
         const double a = H(i, j), c = H(i + 1, j);
@@ -329,6 +405,8 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
       H(j + 1, j) = 0.0;
       g[j + 1] = -sn[j] * g[j];
       g[j] = cs[j] * g[j];
+      if (options.float_basis && 100.0 * kFloatRounding * std::abs(g[j + 1]) <= target) V.switch_to_float(j + 1);
+      if (after > 0) V.store(j + 1, w, 1.0 / after);
       ++j, ++it;
       if (track.after_iteration(it, std::abs(g[j]))) {
         converged = true;
@@ -344,7 +422,8 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
         y[i] = H(i, i) != 0 ? y[i] / H(i, i) : 0.0;
       }
       if (single) fused_update(Zf, j, y.data(), x, 1.0);
-      else fused_update(KM ? Z : V, j, y.data(), x, 1.0);
+      else if (KM) fused_update(Z, j, y.data(), x, 1.0);
+      else V.update(j, y.data(), x, 1.0);
     }
     // Converged: the true residual confirms it, or the next cycle starts from it (as at a restart,
     // or after an exhausted Krylov space).
@@ -604,10 +683,13 @@ void MixedKrylovParams::visit(ParamVisitor& v) {
 
 void GmresParams::visit(ParamVisitor& v) {
   v.integer("restart", restart, 1, 10000,
-            "Krylov vectors kept before GMRES restarts (memory: restart + 1 vectors, and restart more: in float for "
-            "mixed-gmres, whose preconditioned vectors are rounded to float)");
+            "Krylov vectors kept before GMRES restarts (memory: restart + 1 basis vectors, in float once the "
+            "residual nears the target (float_basis), and restart preconditioned ones, in float for mixed-gmres)");
   v.boolean("reorthogonalise", reorthogonalise,
             "repeat classical Gram-Schmidt where it lost more than 30% of the norm (else one pass)");
+  v.boolean("float_basis", float_basis,
+            "store Krylov vectors in float once the estimated residual is below 1.7e5 times the target, the "
+            "arithmetic in double (half their memory and Gram-Schmidt traffic; the true residual decides convergence)");
 }
 
 MixedKrylov::MixedKrylov(Kind kind, const KrylovParams& params, std::unique_ptr<Solver> displacement,

@@ -7,14 +7,23 @@
 
 namespace pmg::ops {
 
-double dot_serial(const double* a, const double* b, std::ptrdiff_t n) {
+namespace {
+
+template <class T>
+double dot_lanes(const T* a, const double* b, std::ptrdiff_t n) {
   double s[8] = {};
   std::ptrdiff_t k = 0;
   for (; k + 8 <= n; k += 8)
-    for (int l = 0; l < 8; ++l) s[l] += a[k + l] * b[k + l];
-  for (int l = 0; k < n; ++k, ++l) s[l] += a[k] * b[k];
+    for (int l = 0; l < 8; ++l) s[l] += static_cast<double>(a[k + l]) * b[k + l];
+  for (int l = 0; k < n; ++k, ++l) s[l] += static_cast<double>(a[k]) * b[k];
   return ((s[0] + s[4]) + (s[2] + s[6])) + ((s[1] + s[5]) + (s[3] + s[7]));
 }
+
+}  // namespace
+
+double dot_serial(const double* a, const double* b, std::ptrdiff_t n) { return dot_lanes(a, b, n); }
+
+double dot_serial(const float* a, const double* b, std::ptrdiff_t n) { return dot_lanes(a, b, n); }
 
 namespace {
 constexpr Eigen::Index kDotBlock = 8192;  // entries per block of dot(): its sums are added in order

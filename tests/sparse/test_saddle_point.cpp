@@ -340,19 +340,21 @@ TEST_CASE("GMRES reaches the tolerance on the true residual from any guess, rest
           KrylovParams p;
           p.rel_tol = tol;
           p.max_iterations = 5000;
-          for (bool twice : {false, true}) {  // one Gram–Schmidt pass, or repeated where needed
-            GmresParams g;
-            g.restart = restart;
-            g.reorthogonalise = twice;
-            Vector xg = x;
-            const SolveResult r = gmres(*s.K, M, b, xg, p, g);
-            INFO("tol " << tol << ", restart " << restart << ", guess " << guess << (M ? ", preconditioned" : "")
-                        << (twice ? ", reorthogonalised" : ""));
-            CHECK(r.ok());
-            CHECK((b - k * xg).norm() <= 2 * tol * b.norm());
-            // Without restarts GMRES ends within the dimension (33), in exact arithmetic.
-            if (restart == 50 && tol >= 1e-8) CHECK(r.iterations <= 33);
-          }
+          for (bool twice : {false, true})  // one Gram–Schmidt pass, or repeated where needed
+            for (bool float_basis : {false, true}) {
+              GmresParams g;
+              g.restart = restart;
+              g.reorthogonalise = twice;
+              g.float_basis = float_basis;
+              Vector xg = x;
+              const SolveResult r = gmres(*s.K, M, b, xg, p, g);
+              INFO("tol " << tol << ", restart " << restart << ", guess " << guess << (M ? ", preconditioned" : "")
+                          << (twice ? ", reorthogonalised" : "") << (float_basis ? ", float basis" : ""));
+              CHECK(r.ok());
+              CHECK((b - k * xg).norm() <= 2 * tol * b.norm());
+              // Without restarts GMRES ends within the dimension (33), in exact arithmetic.
+              if (restart == 50 && tol >= 1e-8) CHECK(r.iterations <= 33);
+            }
         }
 }
 
@@ -388,6 +390,14 @@ TEST_CASE("GMRES: the same bits on 1 and 3 threads on a system of many Gram-Schm
   Vector res;
   K.residual(b, x_default, res);
   CHECK(res.norm() <= 1e-10 * b.norm());
+  // The float basis (the default, from a residual of 1.7e-5 ||b|| on) ends where the double one does.
+  GmresParams in_double;
+  in_double.float_basis = false;
+  Vector xd = Vector::Zero(nu + np);
+  const SolveResult rd = gmres(K, &P, b, xd, p, in_double);
+  REQUIRE(rd.ok());
+  CHECK(r.iterations == rd.iterations);
+  CHECK((x_default - xd).norm() <= 1e-9 * xd.norm());
 #ifdef _OPENMP
   const int before = omp_get_max_threads();
   Vector x1 = Vector::Zero(nu + np), x3 = Vector::Zero(nu + np);

@@ -96,7 +96,8 @@ SolveResult minres(const LinearOperator& K, const LinearOperator* M, const Vecto
 /// The options of gmres(), which are the keys of mixed-gmres beside MixedKrylovParams.
 struct GmresParams {
   /// Krylov vectors kept before a restart (memory: 2 restart + 1 vectors of the system's size,
-  /// restart of them in float where the preconditioned vectors are exact in float).
+  /// restart of them in float where the preconditioned vectors are exact in float, and the basis
+  /// vectors in float once the residual nears the target: float_basis).
   /// 50: the stress matrix's thin plate (4 x 1 x 0.01 m, ν = 0.499, 1e-5 per step) stagnated past
   /// 1,000 iterations in its third step with 20, and took at most 546 per step with 50 (702 with
   /// 40); on Homer P3 20 is 1.2x faster, for two more iterations.
@@ -107,7 +108,18 @@ struct GmresParams {
   /// and 0.4999 (docs/robustness.md), where the criterion had repeated the pass in 40 of 41
   /// iterations; the true residual decides convergence either way.
   bool reorthogonalise = false;
-  /// The keys restart and reorthogonalise.
+  /// Krylov vectors v_i stored in float, the arithmetic in double, once the estimated residual is
+  /// below the target / (100 u), u = 2⁻²⁴ float's rounding; before that, and in fixed-iteration
+  /// mode, in double. A stored v_{i+1} is the rounded w/‖w‖, which perturbs the Arnoldi relation
+  /// by about u times its column and the final residual by about u times the residual at the time
+  /// (Ginkgo's compressed-basis GMRES stores the whole basis in lower precision: Aliaga, Anzt,
+  /// Grützmacher, Quintana-Ortí and Tomás, "Compressed basis GMRES on high-performance graphics
+  /// processing units", IJHPCA 2022; inexact Krylov methods relax a product's accuracy as the
+  /// residual falls: Simoncini and Szyld, SIAM J. Sci. Comput. 2003). The later vectors then take
+  /// half the memory and half the Gram–Schmidt passes' traffic. The true residual decides
+  /// convergence either way.
+  bool float_basis = true;
+  /// The keys restart, reorthogonalise and float_basis.
   void visit(ParamVisitor& v);
 };
 
@@ -117,6 +129,8 @@ struct GmresParams {
 /// vectors).
 struct GmresWorkspace {
   std::vector<Vector> V;           ///< the Krylov basis
+  std::vector<Eigen::VectorXf> Vf; ///< the same in float (GmresParams::float_basis)
+  Vector v;                        ///< the newest v_i of a float basis in double, the product's input
   std::vector<Vector> Z;           ///< the preconditioned vectors M v_i
   std::vector<Eigen::VectorXf> Zf; ///< the same in float, where the product's z are exact in float
   Vector z;                        ///< the newest z_i in double, before it is stored in Zf
@@ -133,8 +147,9 @@ struct GmresWorkspace {
 /// Stopping as pcg() on ‖b − K x‖ (KrylovParams); when the estimate meets the tolerance x is formed
 /// and the true residual computed and, where it disagrees, GMRES restarts from x. Memory: `restart`
 /// (>= 1) vectors z_i (in float where the product is single_precision) and restart + 1 vectors v_i
-/// of the system's size. The orthogonalisation is
-/// classical Gram–Schmidt in fused passes (GmresParams::reorthogonalise). Cost per iteration: one
+/// of the system's size (in float once the residual nears the target: GmresParams::float_basis).
+/// The orthogonalisation is classical Gram–Schmidt in fused passes (GmresParams::reorthogonalise),
+/// its inner products over fixed blocks added in order: the same bits on any number of threads. Cost per iteration: one
 /// K, one M, and 2 (4 where repeated) passes over the j + 1 Krylov vectors of iteration j. x holds
 /// the initial guess and receives the answer.
 SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,

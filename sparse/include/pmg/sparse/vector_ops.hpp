@@ -13,6 +13,8 @@ namespace pmg::ops {
 /// added pairwise at the end. The same bits for the same inputs, and eight independent chains of
 /// additions where one running sum waits on each addition's latency.
 double dot_serial(const double* a, const double* b, std::ptrdiff_t n);
+/// The same with a in float (each product formed in double).
+double dot_serial(const float* a, const double* b, std::ptrdiff_t n);
 /// xᵀy over fixed blocks of entries (dot_serial each), the blocks' sums added in order: the same
 /// bits on any number of threads.
 double dot(const Vector& x, const Vector& y);

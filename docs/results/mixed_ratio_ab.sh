@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Issue 50's speed ratio with two builds in alternating rounds: per round and build, mixed GMRES on
+# Homer P3 at ν = 0.499 (set-up + solve to 1e-6) and the displacement-only MGPCG at ν = 0.3
+# (t(1e-6)), one process each, the builds' order swapped every round, 2 s pauses.
+# Usage: docs/results/mixed_ratio_ab.sh OLD_PMG [ROUNDS] > docs/results/mixed_ratio_ab_$(date +%F).txt
+# Medians: /usr/bin/python3 docs/results/ab_medians.py FILE
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+old=$1 rounds=${2:-8}
+homer=(--mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6)
+echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD) against $old; $(nproc) cores"
+echo "# mixed: ${homer[*]} --poisson 0.499 --formulation mixed --solvers mixed-gmres (iterations, set-up + solve s)"
+echo "# mgpcg: ${homer[*]} --solvers mgpcg (iterations, t(1e-6) s); ratio = mixed / mgpcg"
+for r in $(seq "$rounds"); do
+  order="old new"
+  [ $((r % 2)) -eq 0 ] && order="new old"
+  for who in $order; do
+    p=build/tools/pmg
+    [ "$who" = old ] && p=$old
+    m=$("$p" compare "${homer[@]}" --poisson 0.499 --formulation mixed --solvers mixed-gmres 2>&1 | awk '/^mixed-gmres  /{print $2, $5}')
+    sleep 2
+    g=$("$p" compare "${homer[@]}" --solvers mgpcg 2>&1 | awk '/^mgpcg /{print $3, $7}')
+    sleep 2
+    read -r mi mt <<< "$m"
+    read -r gi gt <<< "$g"
+    echo "$r $who | mixed its $mi total $mt | mgpcg its $gi t6 $gt | ratio $(awk -v a="$mt" -v b="$gt" 'BEGIN{printf "%.3f", a/b}')"
+  done
+done
