@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue 50's speed ratio with two builds in alternating rounds: per round and build, mixed GMRES on
 # Homer P3 at ν = 0.499 (set-up + solve to 1e-6) and the displacement-only MGPCG at ν = 0.3
-# (t(1e-6)), one process each, the builds' order swapped every round, 2 s pauses.
+# (t(1e-6)), one process each, back to back: the builds' order swapped every round and the two
+# commands' order every other round (the first process after a pause ran slower on this VM).
 # Usage: docs/results/mixed_ratio_ab.sh OLD_PMG [ROUNDS] > docs/results/mixed_ratio_ab_$(date +%F).txt
 # Medians: /usr/bin/python3 docs/results/ab_medians.py FILE
 set -euo pipefail
@@ -17,10 +18,9 @@ for r in $(seq "$rounds"); do
   for who in $order; do
     p=build/tools/pmg
     [ "$who" = old ] && p=$old
-    m=$("$p" compare "${homer[@]}" --poisson 0.499 --formulation mixed --solvers mixed-gmres 2>&1 | awk '/^mixed-gmres  /{print $2, $5}')
-    sleep 2
-    g=$("$p" compare "${homer[@]}" --solvers mgpcg 2>&1 | awk '/^mgpcg /{print $3, $7}')
-    sleep 2
+    mixed() { "$p" compare "${homer[@]}" --poisson 0.499 --formulation mixed --solvers mixed-gmres 2>&1 | awk '/^mixed-gmres  /{print $2, $5}'; }
+    mgpcg() { "$p" compare "${homer[@]}" --solvers mgpcg 2>&1 | awk '/^mgpcg /{print $3, $7}'; }
+    if [ $(((r / 2) % 2)) -eq 0 ]; then m=$(mixed); g=$(mgpcg); else g=$(mgpcg); m=$(mixed); fi
     read -r mi mt <<< "$m"
     read -r gi gt <<< "$g"
     echo "$r $who | mixed its $mi total $mt | mgpcg its $gi t6 $gt | ratio $(awk -v a="$mt" -v b="$gt" 'BEGIN{printf "%.3f", a/b}')"

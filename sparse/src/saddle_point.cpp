@@ -245,6 +245,8 @@ class Basis {
   void restart() { doubles_ = std::numeric_limits<int>::max(); }
   /// Vectors from i on are stored in float.
   void switch_to_float(int i) { doubles_ = std::min(doubles_, i); }
+  /// Whether this cycle stored a vector in float so far (given its count of vectors).
+  bool used_float(int count) const { return count > doubles_; }
   /// v_i = scale * src (i: the next index), rounded to float from doubles_ on; a float v_i is kept
   /// in double too, as the next product's input, so that z_i = M v_i holds for the stored v_i.
   void store(int i, const Vector& src, double scale) {
@@ -348,7 +350,10 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
   // (the later vectors of GMRES's solution carry coefficients of the size of the residual then:
   // the argument of inexact Krylov methods, Simoncini and Szyld 2003). So vectors are stored in
   // float once 100 u times the estimated residual is below the target; the true residual decides
-  // convergence either way.
+  // convergence either way. Where the coefficients are large (an ill-conditioned Hessenberg matrix,
+  // which the bound's constant hides) the true residual of a cycle with float vectors can miss its
+  // estimate: then the rest of the solve keeps its vectors in double.
+  bool float_allowed = options.float_basis;
   const double target =
       params.fixed_iterations ? 0.0 : std::max(params.rel_tol * track.r0(), params.abs_tol);
   constexpr double kFloatRounding = 0x1p-24;
@@ -363,7 +368,7 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
       break;
     }
     V.restart();
-    if (options.float_basis && 100.0 * kFloatRounding * beta <= target) V.switch_to_float(0);
+    if (float_allowed && 100.0 * kFloatRounding * beta <= target) V.switch_to_float(0);
     V.store(0, r, 1.0 / beta);
     g.setZero();
     g[0] = beta;
@@ -405,7 +410,7 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
       H(j + 1, j) = 0.0;
       g[j + 1] = -sn[j] * g[j];
       g[j] = cs[j] * g[j];
-      if (options.float_basis && 100.0 * kFloatRounding * std::abs(g[j + 1]) <= target) V.switch_to_float(j + 1);
+      if (float_allowed && 100.0 * kFloatRounding * std::abs(g[j + 1]) <= target) V.switch_to_float(j + 1);
       if (after > 0) V.store(j + 1, w, 1.0 / after);
       ++j, ++it;
       if (track.after_iteration(it, std::abs(g[j]))) {
@@ -428,7 +433,14 @@ SolveResult gmres_run(const LinearOperator& K, const PreconditionedProduct* KM, 
     // Converged: the true residual confirms it, or the next cycle starts from it (as at a restart,
     // or after an exhausted Krylov space).
     K.residual(b, x, r);
-    if (converged && track.accept_true_residual(ops::norm2(r))) break;
+    const double true_norm = ops::norm2(r);
+    if (j > 0 && V.used_float(j + 1) && true_norm > std::max(1.1 * std::abs(g[j]), target)) {
+      // The float vectors cost this cycle its estimate: the next cycles keep theirs in double, and
+      // a converged estimate is not taken on trust (the next cycle starts from x).
+      float_allowed = false;
+      continue;
+    }
+    if (converged && track.accept_true_residual(true_norm)) break;
   }
   if (track.result().ok()) return track.finish(std::numeric_limits<double>::quiet_NaN());
   return track.finish(ops::norm2(r));
