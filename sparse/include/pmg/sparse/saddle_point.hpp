@@ -149,9 +149,9 @@ struct GmresWorkspace {
 /// (>= 1) vectors z_i (in float where the product is single_precision) and restart + 1 vectors v_i
 /// of the system's size (in float once the residual nears the target: GmresParams::float_basis).
 /// The orthogonalisation is classical Gram–Schmidt in fused passes (GmresParams::reorthogonalise),
-/// its inner products over fixed blocks added in order: the same bits on any number of threads. Cost per iteration: one
-/// K, one M, and 2 (4 where repeated) passes over the j + 1 Krylov vectors of iteration j. x holds
-/// the initial guess and receives the answer.
+/// its inner products over fixed blocks added in order: the same bits on any number of threads.
+/// Cost per iteration: one K, one M, and 2 (4 where repeated) passes over the j + 1 Krylov vectors
+/// of iteration j. x holds the initial guess and receives the answer.
 SolveResult gmres(const LinearOperator& K, const LinearOperator* M, const Vector& b, Vector& x,
                   const KrylovParams& params = {}, const GmresParams& options = {}, SolveMonitor* monitor = nullptr,
                   GmresWorkspace* work = nullptr);
