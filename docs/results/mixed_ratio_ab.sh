@@ -12,14 +12,15 @@ homer=(--mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity -
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD) against $old; $(nproc) cores"
 echo "# mixed: ${homer[*]} --poisson 0.499 --formulation mixed --solvers mixed-gmres (iterations, set-up + solve s)"
 echo "# mgpcg: ${homer[*]} --solvers mgpcg (iterations, t(1e-6) s); ratio = mixed / mgpcg"
+# The round's build is $p: iterations and seconds of each command.
+mixed() { "$p" compare "${homer[@]}" --poisson 0.499 --formulation mixed --solvers mixed-gmres 2>&1 | awk '/^mixed-gmres  /{print $2, $5}'; }
+mgpcg() { "$p" compare "${homer[@]}" --solvers mgpcg 2>&1 | awk '/^mgpcg /{print $3, $7}'; }
 for r in $(seq "$rounds"); do
   order="old new"
   [ $((r % 2)) -eq 0 ] && order="new old"
   for who in $order; do
     p=build/tools/pmg
     [ "$who" = old ] && p=$old
-    mixed() { "$p" compare "${homer[@]}" --poisson 0.499 --formulation mixed --solvers mixed-gmres 2>&1 | awk '/^mixed-gmres  /{print $2, $5}'; }
-    mgpcg() { "$p" compare "${homer[@]}" --solvers mgpcg 2>&1 | awk '/^mgpcg /{print $3, $7}'; }
     if [ $(((r / 2) % 2)) -eq 0 ]; then m=$(mixed); g=$(mgpcg); else g=$(mgpcg); m=$(mixed); fi
     read -r mi mt <<< "$m"
     read -r gi gt <<< "$g"

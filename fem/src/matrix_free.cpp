@@ -103,6 +103,17 @@ struct ElasticityOperator::Impl {
     return slot;
   }
 
+  /// Shared slot s of node `node`: y[node] += each range's 3 entries of the slot, in range order
+  /// (the order that makes a sum over ranges the same bits on any number of threads).
+  template <class T>
+  static void add_slot(T* y, index_t node, const std::vector<std::vector<T>>& outs, long s) {
+    T* o = y + 3 * static_cast<size_t>(node);
+    for (const std::vector<T>& out : outs) {
+      const T* src = out.data() + 3 * s;
+      o[0] += src[0], o[1] += src[1], o[2] += src[2];
+    }
+  }
+
   /// element_force()'s batches, made on its first call: every element node's index (fixed nodes
   /// too; padding -1), each lane's element, and kForceRanges contiguous ranges of batches (fewer
   /// on a small mesh; a number that does not depend on the threads) with the nodes that two ranges
@@ -245,13 +256,7 @@ struct ElasticityOperator::Impl {
       }
 #pragma omp barrier
 #pragma omp for schedule(static)
-      for (long s = 0; s < slots; ++s) {
-        T* o = yp + 3 * static_cast<size_t>(split.shared[s]);
-        for (int t = 0; t < threads; ++t) {
-          const T* src = outs[static_cast<size_t>(t)].data() + 3 * s;
-          o[0] += src[0], o[1] += src[1], o[2] += src[2];
-        }
-      }
+      for (long s = 0; s < slots; ++s) add_slot(yp, split.shared[s], outs, s);
     }
   }
 
@@ -567,13 +572,7 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
 #pragma omp for schedule(static)
       for (int r = 0; r < parts; ++r) part[static_cast<size_t>(r)] = range(r);
 #pragma omp for schedule(static)
-      for (long k = 0; k < slots; ++k) {
-        double* o = force.data() + 3 * static_cast<size_t>(split.shared[static_cast<size_t>(k)]);
-        for (int r = 0; r < parts; ++r) {
-          const double* src = split.out[static_cast<size_t>(r)].data() + 3 * k;
-          o[0] += src[0], o[1] += src[1], o[2] += src[2];
-        }
-      }
+      for (long k = 0; k < slots; ++k) m.add_slot(force.data(), split.shared[static_cast<size_t>(k)], split.out, k);
     }
     double total = 0.0;
     for (double p : part) total += p;
