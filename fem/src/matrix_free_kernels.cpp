@@ -449,33 +449,37 @@ void apply_batches_generic(const index_t* free, const T* data, long begin, long 
 
 #if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
 #define PMG_MF_X86_DISPATCH 1
+// One attribute per instruction set, for the product's and the force's copies alike.
+#define PMG_MF_AVX2 __attribute__((target("avx2,fma"), flatten))
+#define PMG_MF_AVX512 __attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten))
 template <int P, class T>
-__attribute__((target("avx2,fma"), flatten)) void apply_batches_avx2(const index_t* free, const T* data,
-                                                                       long begin, long end, const T* xp,
-                                                                       T* out, const index_t* shared,
-                                                                       T* shared_out, T sign, bool mass) {
+PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
+                                    const index_t* shared, T* shared_out, T sign, bool mass) {
   apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 template <int P, class T>
-__attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) void apply_batches_avx512(
-    const index_t* free, const T* data, long begin, long end, const T* xp, T* out, const index_t* shared,
-    T* shared_out, T sign, bool mass) {
+PMG_MF_AVX512 void apply_batches_avx512(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
+                                        const index_t* shared, T* shared_out, T sign, bool mass) {
   apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 template <int P>
-__attribute__((target("avx2,fma"), flatten)) double force_batches_avx2(
-    const index_t* nodes, const index_t* elements, const double* data, double inv_weight, const double* X,
-    const double* u, const double* R, long begin, long end, double* force, const index_t* shared,
-    double* shared_out) {
-  return force_batches<P, 4>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared, shared_out);
+PMG_MF_AVX2 double force_batches_avx2(const index_t* nodes, const index_t* elements, const double* data,
+                                      double inv_weight, const double* X, const double* u, const double* R,
+                                      long begin, long end, double* force, const index_t* shared,
+                                      double* shared_out) {
+  return force_batches<P, 32 / sizeof(double)>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared,
+                                                shared_out);
 }
 template <int P>
-__attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten)) double force_batches_avx512(
-    const index_t* nodes, const index_t* elements, const double* data, double inv_weight, const double* X,
-    const double* u, const double* R, long begin, long end, double* force, const index_t* shared,
-    double* shared_out) {
-  return force_batches<P, 8>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared, shared_out);
+PMG_MF_AVX512 double force_batches_avx512(const index_t* nodes, const index_t* elements, const double* data,
+                                          double inv_weight, const double* X, const double* u, const double* R,
+                                          long begin, long end, double* force, const index_t* shared,
+                                          double* shared_out) {
+  return force_batches<P, 64 / sizeof(double)>(nodes, elements, data, inv_weight, X, u, R, begin, end, force, shared,
+                                                shared_out);
 }
+#undef PMG_MF_AVX2
+#undef PMG_MF_AVX512
 #endif
 
 }  // namespace
