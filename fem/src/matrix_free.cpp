@@ -24,11 +24,15 @@ struct ElasticityOperator::Impl {
   index_t num_elements = 0, num_batches = 0, num_free = 0;
   const ElementRanges* ranges = nullptr;  ///< the model's element traversal on threads
   std::vector<index_t> free;   ///< n per element: free node index or -1
-  std::vector<double> data;    ///< kData per element (the reference kernel, diagonal, forces)
   /// n x kBatch per batch, node-major (padding lanes: -1); batch b holds the elements at positions
   /// [b kBatch, (b + 1) kBatch) of the mesh's order or of `ranges`' traversal (choose_order()).
   std::vector<index_t> batch_free;
-  std::vector<double> batch_data;   ///< kData x kBatch per batch, datum-major
+  /// kData x kBatch per batch, datum-major (padding lanes: 0): the only copy of the element data in
+  /// double (the reference kernel, the diagonal blocks and the forces read it here too).
+  std::vector<double> batch_data;
+  /// Per element its batch position where the batches follow the traversal (else empty: the
+  /// mesh's order, position = element).
+  std::vector<index_t> batch_pos;
   std::vector<float> batch_data_single;  ///< the same in float, kept once apply_single() asked for it
   bool single = false;
   MatrixFreeKernel resolved = MatrixFreeKernel::generic;  ///< the kernel apply() runs (never automatic)
@@ -69,6 +73,14 @@ struct ElasticityOperator::Impl {
   index_t batch_element(long pos) const {
     if (pos >= static_cast<long>(num_elements)) return -1;
     return traversal_order ? ranges->element(static_cast<index_t>(pos)) : static_cast<index_t>(pos);
+  }
+
+  /// The batch position of element e.
+  long position(index_t e) const { return batch_pos.empty() ? static_cast<long>(e) : static_cast<long>(batch_pos[e]); }
+  /// Element e's kData data, gathered from its batch's lane.
+  void gather(index_t e, double* d) const {
+    const long pos = position(e);
+    for (int k = 0; k < kData; ++k) d[k] = batch_data[detail::batch_datum(pos, k)];
   }
 
   /// batch_free from `free` in the order batch_element() gives.
@@ -158,6 +170,7 @@ struct ElasticityOperator::Impl {
   /// (the Morton order of the centroids), whose ranges are compact.
   void choose_order() {
     traversal_order = false;
+    batch_pos.clear();
     make_batch_free();
     if (!ranges->reordered() || num_batches < 2 * kProbeRanges) return;
     std::vector<long> begin;
@@ -166,19 +179,12 @@ struct ElasticityOperator::Impl {
     if (static_cast<long long>(count) * kMaxSharedShare <= num_free) return;
     traversal_order = true;
     make_batch_free();
+    batch_pos.assign(static_cast<size_t>(num_elements), 0);
+    for (index_t pos = 0; pos < num_elements; ++pos) batch_pos[static_cast<size_t>(ranges->element(pos))] = pos;
   }
 
-  /// The batch layout of `data` (and its float copy where kept).
-  void transpose_data() {
-    batch_data.assign(static_cast<size_t>(num_batches) * kData * kBatch, 0.0);
-#pragma omp parallel for schedule(static)
-    for (long bt = 0; bt < static_cast<long>(num_batches); ++bt)
-      for (int l = 0; l < kBatch; ++l) {
-        const index_t e = batch_element(bt * kBatch + l);
-        if (e < 0) break;
-        for (int k = 0; k < kData; ++k)
-          batch_data[(static_cast<size_t>(bt) * kData + k) * kBatch + l] = data[static_cast<size_t>(e) * kData + k];
-      }
+  /// The float copy of batch_data, where kept.
+  void refresh_single() {
     if (single) batch_data_single.assign(batch_data.begin(), batch_data.end());
   }
 
@@ -279,7 +285,8 @@ struct ElasticityOperator::Impl {
       }
       const long begin = num_elements * static_cast<long>(tid) / nt;
       const long end = num_elements * static_cast<long>(tid + 1) / nt;
-      detail::apply_elements<P>(free.data(), data.data(), begin, end, x.data(), out, sign);
+      detail::apply_elements<P>(free.data(), batch_data.data(), batch_pos.empty() ? nullptr : batch_pos.data(), begin,
+                                end, x.data(), out, sign);
 #pragma omp barrier
       if (nt > 1) {
 #pragma omp for schedule(static)
@@ -310,7 +317,7 @@ ElasticityOperator::ElasticityOperator(const ElasticityModel& model)
   m.num_free = as.num_free();
   m.num_batches = static_cast<index_t>((ne + kBatch - 1) / kBatch);
   m.choose_order();
-  m.data.assign(ne * kData, 0.0);
+  m.batch_data.assign(static_cast<size_t>(m.num_batches) * kData * kBatch, 0.0);
   // PMG_MATRIX_FREE_KERNEL (auto, generic, avx2, avx512, reference) overrides the automatic
   // choice, e.g. to run the portable path on a machine that has wider vectors.
   MatrixFreeKernel kernel = MatrixFreeKernel::automatic;
@@ -331,33 +338,35 @@ void ElasticityOperator::set_weights(double mass_weight, double stiffness_weight
     throw InputError("matrix-free operator: the weights must be finite, >= 0 and not both zero");
   mass_weight_ = mass_weight;
   stiffness_weight_ = stiffness_weight;
-  const Impl& m = *impl_;
+  Impl& m = *impl_;
   const Material& mat = model_->material();
   const auto& scale = model_->stiffness_scale();
   const double p2 = static_cast<double>(m.p) * m.p;
+  double* data = m.batch_data.data();
 #pragma omp parallel for schedule(static)
-  for (long e = 0; e < static_cast<long>(m.num_elements); ++e) {
-    double* d = impl_->data.data() + kData * static_cast<size_t>(e);
+  for (long pos = 0; pos < static_cast<long>(m.num_elements); ++pos) {
+    const index_t e = m.batch_element(pos);
     const double v6 = 6.0 * model_->geometry(e).volume;
     const double s = scale.empty() ? 1.0 : scale[e];
-    d[12] = v6 * p2 * stiffness_weight * s * mat.lambda();
-    d[13] = v6 * p2 * stiffness_weight * s * mat.mu();
-    d[14] = v6 * mat.density * mass_weight;
+    data[detail::batch_datum(pos, 12)] = v6 * p2 * stiffness_weight * s * mat.lambda();
+    data[detail::batch_datum(pos, 13)] = v6 * p2 * stiffness_weight * s * mat.mu();
+    data[detail::batch_datum(pos, 14)] = v6 * mat.density * mass_weight;
   }
-  impl_->transpose_data();
+  m.refresh_single();
 }
 
 void ElasticityOperator::update(const Rotations* R) {
   Impl& m = *impl_;
   if (R && R->size() != static_cast<size_t>(model_->space().mesh().num_tets()))
     throw InputError("matrix-free operator: one rotation per element expected");
+  double* data = m.batch_data.data();
 #pragma omp parallel for schedule(static)
-  for (long e = 0; e < static_cast<long>(m.num_elements); ++e) {
+  for (long pos = 0; pos < static_cast<long>(m.num_elements); ++pos) {
+    const index_t e = m.batch_element(pos);
     Eigen::Matrix<double, 4, 3> g = model_->geometry(e).grad;
     if (R) g = g * (*R)[e].transpose();
-    double* d = m.data.data() + kData * static_cast<size_t>(e);
     for (int k = 0; k < 4; ++k)
-      for (int j = 0; j < 3; ++j) d[3 * k + j] = g(k, j);
+      for (int j = 0; j < 3; ++j) data[detail::batch_datum(pos, 3 * k + j)] = g(k, j);
   }
   set_weights(mass_weight_, stiffness_weight_);
 }
@@ -414,7 +423,12 @@ MatrixFreeKernel ElasticityOperator::kernel() const { return impl_->resolved; }
 
 ElasticityOperator::ElementArrays ElasticityOperator::element_arrays() const {
   const Impl& m = *impl_;
-  return {m.p, m.n, m.num_elements, m.free.data(), m.data.data()};
+  ElementArrays arr{m.p, m.n, m.num_elements, m.free.data(), {}};
+  arr.data.resize(static_cast<size_t>(m.num_elements) * kData);
+#pragma omp parallel for schedule(static)
+  for (long e = 0; e < static_cast<long>(m.num_elements); ++e)
+    m.gather(static_cast<index_t>(e), arr.data.data() + kData * static_cast<size_t>(e));
+  return arr;
 }
 
 void ElasticityOperator::apply_single(const Eigen::VectorXf& x, Eigen::VectorXf& y) const {
@@ -462,7 +476,8 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const double p2 = static_cast<double>(m.p) * m.p;
   // Element e's diagonal blocks, node by node: add(a, B) for each element node a.
   auto element_blocks = [&](size_t e, auto&& add) {
-    const double* d = m.data.data() + kData * e;
+    double d[kData];
+    m.gather(static_cast<index_t>(e), d);
     Eigen::Matrix<double, 4, 3> g;
     for (int k = 0; k < 4; ++k)
       for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
@@ -580,11 +595,9 @@ void ElasticityOperator::element_force(const Vector& u, const Rotations* Rs, Vec
     return;
   }
   const double total = m.ranges->for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool) {
-    const size_t pos = static_cast<size_t>(e);
     const index_t* nodes = model_->space().element_nodes(e);
     double d[kData];
-    const double* src = m.data.data() + kData * static_cast<size_t>(pos);
-    for (int i = 0; i < kData; ++i) d[i] = src[i];
+    m.gather(e, d);
     // K_R,e alone: the unweighted Lamé factors (the stored ones carry the stiffness weight).
     const double v6p2 = 6.0 * model_->geometry(e).volume * m.p * m.p;
     const double s = model_->stiffness_scale().empty() ? 1.0 : model_->stiffness_scale()[e];

@@ -157,10 +157,11 @@ inline void element_apply(const Tables<P>& t, const double* d, const double (&u)
   }
 }
 
-/// out += sign · (element products of x) over elements [begin, end) (n node indices and kData
-/// doubles per element; a free index < 0 is a fixed node: read as 0, not written).
+/// out += sign · (element products of x) over elements [begin, end) (n node indices per element, a
+/// free index < 0 a fixed node: read as 0, not written; the data in the batch layout, element e at
+/// position pos[e], or e where pos is nullptr).
 template <int P>
-inline void apply_range(const index_t* free, const double* data, long begin, long end,
+inline void apply_range(const index_t* free, const double* batch_data, const index_t* pos, long begin, long end,
                         const double* xp, double* out, double sign) {
   const Tables<P>& t = tables<P>();
   constexpr int N = Tables<P>::N;
@@ -176,7 +177,10 @@ inline void apply_range(const index_t* free, const double* data, long begin, lon
         u[a][0] = u[a][1] = u[a][2] = 0.0;
       }
     }
-    element_apply<P>(t, data + kData * static_cast<size_t>(e), u, r);
+    double d[kData];
+    const long at = pos ? static_cast<long>(pos[e]) : e;
+    for (int k = 0; k < kData; ++k) d[k] = batch_data[detail::batch_datum(at, k)];
+    element_apply<P>(t, d, u, r);
     for (int a = 0; a < N; ++a) {
       const index_t I = f[a];
       if (I < 0) continue;
@@ -552,9 +556,9 @@ void element_product(const double* d, const double (&u)[ElementKernelTables<P>::
 }
 
 template <int P>
-void apply_elements(const index_t* free, const double* data, long begin, long end, const double* xp, double* out,
-                    double sign) {
-  apply_range<P>(free, data, begin, end, xp, out, sign);
+void apply_elements(const index_t* free, const double* batch_data, const index_t* pos, long begin, long end,
+                    const double* xp, double* out, double sign) {
+  apply_range<P>(free, batch_data, pos, begin, end, xp, out, sign);
 }
 
 template <int P, class T>
@@ -585,7 +589,8 @@ MatrixFreeKernel resolve_kernel(MatrixFreeKernel k) { return resolve(k); }
 #define PMG_MF_INSTANTIATE(P)                                                                                  \
   template void element_product<P>(const double*, const double (&)[ElementKernelTables<P>::N][3],             \
                                    double (&)[ElementKernelTables<P>::N][3]);                                  \
-  template void apply_elements<P>(const index_t*, const double*, long, long, const double*, double*, double); \
+  template void apply_elements<P>(const index_t*, const double*, const index_t*, long, long, const double*,      \
+                                  double*, double);                                                           \
   template void apply_element_batches<P, double>(MatrixFreeKernel, const index_t*, const double*, long, long,   \
                                                  const double*, double*, SharedSlots<double>, double, bool);   \
   template void apply_element_batches<P, float>(MatrixFreeKernel, const index_t*, const float*, long, long,     \

@@ -13,16 +13,23 @@ constexpr int kData = kElementData;
 /// Elements per batch of the batched product (one per SIMD lane; the last batch padded).
 constexpr int kBatch = 16;
 
+/// Where datum k of the element at batch position pos sits in the batch layout (kData x kBatch
+/// per batch, datum-major).
+inline size_t batch_datum(long pos, int k) {
+  return (static_cast<size_t>(pos / kBatch) * kData + static_cast<size_t>(k)) * kBatch + static_cast<size_t>(pos % kBatch);
+}
+
 /// r = (m M_e + s K_R,e) u for one element with data d; u[a][i]: component i of node a.
 template <int P>
 void element_product(const double* d, const double (&u)[ElementKernelTables<P>::N][3],
                      double (&r)[ElementKernelTables<P>::N][3]);
 
 /// out += sign · (element products of x) over elements [begin, end), one element at a time (N node
-/// indices and kData doubles per element; a free index < 0 is a fixed node: read as 0, not written).
+/// indices per element; a free index < 0 is a fixed node: read as 0, not written). The data are in
+/// the batch layout (batch_datum()), element e at position pos[e] (pos nullptr: at e).
 template <int P>
-void apply_elements(const index_t* free, const double* data, long begin, long end, const double* xp, double* out,
-                    double sign);
+void apply_elements(const index_t* free, const double* batch_data, const index_t* pos, long begin, long end,
+                    const double* xp, double* out, double sign);
 
 /// The nodes of a thread's batches that other threads' batches hold as well: in the batch index
 /// array, an index <= -2 stands for slot s = -2 - index, gathered from x at free index nodes[s] and

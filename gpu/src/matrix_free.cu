@@ -96,7 +96,7 @@ DeviceElasticityOperator::DeviceElasticityOperator(const fem::ElasticityOperator
   elements_ = arr.elements;
   rows_ = op.rows();
   free_.upload(arr.free, static_cast<std::size_t>(elements_) * nodes_);
-  data_.upload(arr.data, static_cast<std::size_t>(elements_) * kElementData);
+  data_.upload(arr.data);
   std::vector<double> rest(12 * static_cast<std::size_t>(elements_));
   for (index_t e = 0; e < elements_; ++e) {
     const auto& g = model.geometry(e).grad;
@@ -118,7 +118,7 @@ void DeviceElasticityOperator::refresh(const fem::ElasticityOperator& op) {
   const auto arr = op.element_arrays();
   if (arr.degree != degree_ || arr.elements != elements_ || op.rows() != rows_)
     throw InputError("DeviceElasticityOperator::refresh: the operator is not the uploaded one");
-  data_.upload(arr.data, static_cast<std::size_t>(elements_) * kElementData);
+  data_.upload(arr.data);
 }
 
 void DeviceElasticityOperator::update(const fem::Rotations* R) {

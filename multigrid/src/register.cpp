@@ -98,7 +98,8 @@ struct CycleOptions {
     const std::string lowest_help =
         "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
         " unknowns (below " + std::to_string(kAmgCoarseMeshUnknowns) + " on the coarsest of coarse_meshes), "
-        "BoomerAMG (one V-cycle, relax_type 16) from there; CHOLMOD for pmg or when lowest_level "
+        "BoomerAMG (relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
+        " on the coarsest of coarse_meshes) from there; CHOLMOD for pmg or when lowest_level "
         "keys are given (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)";
     v.solver("lowest_level", "auto", lowest_help.c_str());
   }
@@ -281,7 +282,7 @@ void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& l
 /// The lowest level's solver keys: `auto` resolved and written back (so the printed options say
 /// what ran), and the defaults of the method chosen.
 Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mgpcg, const std::vector<double>& xyz,
-                           index_t amg_from) {
+                           index_t amg_from, int amg_cycles) {
   Config lc = c.child("lowest_level");
   // auto: for MGPCG by the lowest level's size, from the measured break-even (docs/scaling.md);
   // CHOLMOD for stationary PMG (one inexact V-cycle slows a stationary cycle far more: 990
@@ -294,7 +295,10 @@ Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mg
         mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz), amg_from) : kDefaultDirectMethod;
     lc.set("method", chosen);
   }
-  if (lc.get_string("method", "") == "boomeramg") set_amg_lowest_level_defaults(lc);
+  if (lc.get_string("method", "") == "boomeramg") {
+    set_amg_lowest_level_defaults(lc);
+    if (amg_cycles > 1) lc.set_default("cycles", std::to_string(amg_cycles));
+  }
   // The linear level solved by CG to a loose tolerance: a usable correction even when the inner
   // solve stops early (the outer iteration judges it); only a broken one is an error.
   const std::string lm = lc.get_string("method", kDefaultDirectMethod);
@@ -325,10 +329,11 @@ std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const S
 
 /// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own: xyz, its
 /// nodes' coordinates (ctx.levels->node_coordinates(0); empty where the levels do not know them),
-/// not the finest level's; `auto` takes AMG from amg_from unknowns.
+/// not the finest level's; `auto` takes AMG from amg_from unknowns, BoomerAMG runs amg_cycles
+/// V-cycles per application unless its keys say otherwise.
 std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg, index_t amg_from,
-                                           const std::vector<double>& xyz) {
-  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_from);
+                                           const std::vector<double>& xyz, int amg_cycles = 1) {
+  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_from, amg_cycles);
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = xyz.empty() ? nullptr : &xyz;
   return build_solver(lc, lowest_ctx, kDefaultDirectMethod);
@@ -365,8 +370,9 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
   hp.cycles = 1;
   auto smoothers = build_smoothers(sc, h);
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
-  return std::make_unique<MultigridCycle>(below, hp, factory,
-                                          build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns, below->node_coordinates(0)));
+  return std::make_unique<MultigridCycle>(
+      below, hp, factory,
+      build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns, below->node_coordinates(0), kAmgCoarseMeshCycles));
 }
 
 /// The matrix-free route's default Chebyshev degree in the mixed solvers' cycle (register_all).

@@ -150,7 +150,7 @@ TEST_CASE("lowest_level=auto: CHOLMOD below the break-even, BoomerAMG from it, t
           "the options", "[multigrid][boomeramg][auto]") {
   CHECK(mg::choose_lowest_level(mg::kAmgLowestLevelUnknowns - 1) == "cholmod");
   CHECK(mg::choose_lowest_level(mg::kAmgLowestLevelUnknowns) == "boomeramg");
-  // The coarsest of a refined mesh's coarser meshes keeps the direct solve further up.
+  // The coarsest of a refined mesh's coarser meshes (its own break-even).
   CHECK(mg::choose_lowest_level(mg::kAmgCoarseMeshUnknowns - 1, mg::kAmgCoarseMeshUnknowns) == "cholmod");
   CHECK(mg::choose_lowest_level(mg::kAmgCoarseMeshUnknowns, mg::kAmgCoarseMeshUnknowns) == "boomeramg");
   Bar bar;  // a linear level of a few hundred unknowns
@@ -184,6 +184,48 @@ TEST_CASE("lowest_level=auto: CHOLMOD below the break-even, BoomerAMG from it, t
   CHECK(chosen({"method=mgpcg", "lowest_level=auto"}).find("lowest_level.method=boomeramg") != std::string::npos);
   CHECK(chosen({"method=pmg"}).find("lowest_level.method=cholmod") != std::string::npos);
   CHECK(chosen({"method=mgpcg", "lowest_level.blas_threads=0"}).find("lowest_level.method=cholmod") != std::string::npos);
+}
+
+TEST_CASE("BoomerAMG on the coarsest of a refined mesh's coarser meshes runs kAmgCoarseMeshCycles V-cycles "
+          "unless told otherwise, and solves as CHOLMOD there does", "[multigrid][boomeramg][auto]") {
+  std::vector<Refinement> record;
+  const TetMesh mesh = refine_uniform(box_mesh_24(3, 1, 1, 1.0, 0.4, 0.4), 1, &record);
+  DegreeHierarchy h{mesh, 2, Material{500e3, 0.3, 1000.0}, [](const Vec3& X) { return X.x() < 1e-12; }};
+  h.set_refinements(record);
+  h.assemble(nullptr);
+  const Vector b = h.finest().restrict_to_free(h.finest().gravity(Vec3(0, 0, -9.81)));
+  SolverContext ctx;
+  ctx.levels = &h;
+  auto run = [&](std::vector<std::string> o, std::string& options, Vector& x) {
+    o.insert(o.end(), {"method=mgpcg", "tol=1e-10", "coarse_meshes=on"});
+    const Config c = Config::from_pairs(o, "test");
+    auto s = make_solver(c, ctx);
+    s->setup(h.matrix(h.num_levels() - 1));
+    x = Vector::Zero(b.size());
+    const SolveResult r = s->solve(b, x);
+    options = c.to_string();
+    return r;
+  };
+  std::string chol_options, amg_options, one_options;
+  Vector x_chol, x_amg, x_one;
+  const SolveResult chol = run({"lowest_level=cholmod"}, chol_options, x_chol);
+  const SolveResult amg = run({"lowest_level=boomeramg"}, amg_options, x_amg);
+  const SolveResult one = run({"lowest_level=boomeramg", "lowest_level.cycles=1"}, one_options, x_one);
+  REQUIRE(chol.status == SolveStatus::converged);
+  REQUIRE(amg.status == SolveStatus::converged);
+  REQUIRE(one.status == SolveStatus::converged);
+  CHECK(amg_options.find("lowest_level.cycles=" + std::to_string(kAmgCoarseMeshCycles)) != std::string::npos);
+  CHECK(one_options.find("lowest_level.cycles=1") != std::string::npos);
+  CHECK((x_amg - x_chol).norm() <= 1e-8 * x_chol.norm());
+  CHECK((x_one - x_chol).norm() <= 1e-8 * x_chol.norm());
+  // More V-cycles per application: no more outer iterations than one.
+  INFO("iterations: CHOLMOD " << chol.iterations << ", BoomerAMG x" << kAmgCoarseMeshCycles << " " << amg.iterations
+                              << ", x1 " << one.iterations);
+  CHECK(amg.iterations <= one.iterations);
+  // On the linear level itself (no coarser meshes) BoomerAMG keeps its one V-cycle.
+  const Config off = Config::from_pairs({"method=mgpcg", "coarse_meshes=off", "lowest_level=boomeramg"}, "test");
+  make_solver(off, ctx);
+  CHECK(off.to_string().find("lowest_level.cycles") == std::string::npos);
 }
 
 TEST_CASE("an AMG lowest level on the matrix-free route: the cube's solution as with CHOLMOD, iterations bounded, "

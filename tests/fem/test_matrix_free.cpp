@@ -513,7 +513,7 @@ Vector lean_product(const ElasticityOperator& op, const Vector& x) {
     auto add = [&](int a, int i, double v) {
       if (f[a] >= 0) y[3 * f[a] + i] += v;
     };
-    element_apply_lean<P>(t, arr.data + static_cast<size_t>(e) * kElementData, load, add);
+    element_apply_lean<P>(t, arr.data.data() + static_cast<size_t>(e) * kElementData, load, add);
   }
   return y;
 }
@@ -527,7 +527,7 @@ std::vector<double> lean_diagonal(const ElasticityOperator& op) {
       const index_t I = arr.free[static_cast<size_t>(e) * arr.nodes + a];
       if (I < 0) continue;
       double B[9];
-      element_diagonal_block<P>(element_kernel_tables<P>(), arr.data + static_cast<size_t>(e) * kElementData, a, B);
+      element_diagonal_block<P>(element_kernel_tables<P>(), arr.data.data() + static_cast<size_t>(e) * kElementData, a, B);
       for (int k = 0; k < 9; ++k) D[9 * static_cast<size_t>(I) + k] += B[k];
     }
   return D;

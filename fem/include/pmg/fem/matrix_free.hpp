@@ -23,9 +23,9 @@
 // Stored per element: the rotated gradients (12 doubles), λ and μ weights and the mass weight (3),
 // one pad, and the n free-node indices — 128 + 4n bytes, 208 at p = 3, about 15 bytes per unknown
 // against about 1.2 KB per unknown for the cubic BCSR matrix — as the product reads them; the
-// operator keeps them once in element order and once in batches, and for each thread count above
-// one that has run a product (at most 4 kept) a copy of the batches' indices with the shared
-// nodes marked (4n bytes each).
+// operator keeps the data once, in batches (the indices in element order and in batches), and for
+// each thread count above one that has run a product (at most 4 kept) a copy of the batches'
+// indices with the shared nodes marked (4n bytes each).
 //
 // Element batches in SIMD lanes: the product runs 16 elements at a time (consecutive in the batch
 // order below), one element
@@ -127,17 +127,18 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// by thread count).
   void element_force(const Vector& u, const Rotations* R, Vector& force, double* energy) const;
 
-  /// The element arrays the product runs on (see element_arrays()).
+  /// The element arrays the product runs on, in element order (see element_arrays()).
   struct ElementArrays {
     int degree = 0;                 ///< the elements' degree p
     int nodes = 0;                  ///< nodes per element, (p+1)(p+2)(p+3)/6
     index_t elements = 0;           ///< number of elements
     const index_t* free = nullptr;  ///< `nodes` free node indices per element (-1: a fixed node)
-    const double* data = nullptr;   ///< kElementData doubles per element (pmg/fem/element_kernel.hpp)
+    std::vector<double> data;       ///< kElementData doubles per element (pmg/fem/element_kernel.hpp)
   };
-  /// The element arrays the product runs on, for a copy on a device (pmg/fem/element_kernel.hpp).
-  /// Pointers into the operator, valid until it is destroyed; the data change with update() and
-  /// set_weights().
+  /// The element arrays the product runs on, in element order, for a copy on a device
+  /// (pmg/fem/element_kernel.hpp). `free` points into the operator (valid until it is destroyed);
+  /// `data` is a copy of the element data as of this call (the operator keeps them only in its
+  /// batch layout; they change with update() and set_weights()).
   ElementArrays element_arrays() const;
 
   /// The cost model of one apply(): floating-point operations and the bytes it must move at least

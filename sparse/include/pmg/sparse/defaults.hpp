@@ -23,12 +23,15 @@ inline constexpr const char* kDefaultDynamicMethod = "pmg";
 /// instead of a direct solve (CHOLMOD serially, MUMPS across ranks): the measured break-even of a
 /// whole MGPCG solve (set-up included) on the quadratic cube (docs/scaling.md, with its command).
 inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
-/// The same for the coarsest mesh under a refined mesh's linear level (coarse_meshes): there the
-/// lowest level is solved once per inner cycle, and an exact solve halves the outer iterations
-/// (20 -> 10, 20 -> 9 on the refined cubes of 2.18M and 4.61M unknowns, coarse meshes of 43,554 and
-/// 91,422 unknowns; t(1e-6) against BoomerAMG's, pair by pair on a noisy VM: 1.11x and 0.75x at
-/// 2.18M, 0.93x and 0.52x at 4.61M), where at 188,922 unknowns CHOLMOD's factorisation cost about
-/// what its 12 fewer iterations saved (docs/scaling.md).
-inline constexpr index_t kAmgCoarseMeshUnknowns = 120000;
+/// The same for the coarsest mesh under a refined mesh's linear level (coarse_meshes), where
+/// BoomerAMG runs kAmgCoarseMeshCycles V-cycles per application: there the lowest level is solved
+/// once per inner cycle, and how exactly decides the outer iterations (the refined cubes of 2.18M,
+/// 4.61M and 9.59M unknowns, coarse meshes of 43,554, 91,422 and 188,922 unknowns: CHOLMOD 10, 10
+/// and 10; BoomerAMG with one V-cycle 19-20, 20 and 22, with three 12, 12 and 13), and CHOLMOD's
+/// factorisation grows faster than the mesh (2.18M: set-up 1.1-2.0 s against 0.8 s with
+/// BoomerAMG; 4.61M: 3.5-4.3 s against 2.1 s; docs/scaling.md).
+inline constexpr index_t kAmgCoarseMeshUnknowns = 40000;
+/// BoomerAMG's V-cycles per application on the coarsest of coarse_meshes (docs/scaling.md).
+inline constexpr int kAmgCoarseMeshCycles = 3;
 
 }  // namespace pmg
