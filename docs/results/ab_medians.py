@@ -1,5 +1,5 @@
-"""Medians of alternating old/new rounds from docs/results/step_update.sh, setup_forces.sh or
-mixed_ratio_ab.sh output.
+"""Medians of alternating old/new rounds from docs/results/step_update.sh, setup_forces.sh,
+mixed_ratio_ab.sh or refined_job_ab.sh output.
 
     /usr/bin/python3 docs/results/ab_medians.py FILE [FILE ...]
 
@@ -16,6 +16,9 @@ FIELDS = {
     "smoother degree 2 s": r"smoother2 ([\d.]+)", "lowest level s": r"lowest ([\d.]+)",
     "forces ms per step": r"forces_ms ([\d.]+)", "steps wall s": r"\| forces_ms [\d.]+ wall ([\d.]+)",
     "mixed total s": r"mixed its \d+ total ([\d.]+)", "mixed/mgpcg": r"\| ratio ([\d.]+)",
+    "iterations": r"\| its (\d+) load", "load s": r" load ([\d.]+) setup", "solve s": r" solve ([\d.]+) t6",
+    "load + t(1e-6) s": r" whole ([\d.]+)", "matrix-free degree 2 s": r" mf2 ([\d.]+)",
+    "lowest level set-up s": r" lowsetup ([\d.]+)", "peak MB": r" peak ([\d.]+)",
 }
 
 

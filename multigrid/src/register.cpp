@@ -95,10 +95,13 @@ struct CycleOptions {
              "mixed-minres and mixed-gmres; not the chebyshev method's own defaults) on the matrix-free route and for mgpcg on user levels (there with "
              "estimate lanczos); gauss-seidel, 2 sweeps, on the assembled route of an FEM hierarchy and for pmg "
              "on user levels");
+    const std::string coarse_from =
+        kAmgCoarseMeshUnknowns == kAmgLowestLevelUnknowns
+            ? std::string()
+            : " (below " + std::to_string(kAmgCoarseMeshUnknowns) + " on the coarsest of coarse_meshes)";
     const std::string lowest_help =
         "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
-        " unknowns (below " + std::to_string(kAmgCoarseMeshUnknowns) + " on the coarsest of coarse_meshes), "
-        "BoomerAMG (relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
+        " unknowns" + coarse_from + ", BoomerAMG (relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
         " on the coarsest of coarse_meshes) from there; CHOLMOD for pmg or when lowest_level "
         "keys are given (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)";
     v.solver("lowest_level", "auto", lowest_help.c_str());
