@@ -11,7 +11,11 @@
 //                        route's default), /1 15 power iterations (its default before)
 //   BM_GalerkinSetup     the coarser mesh's Galerkin product P^T A P: pattern and values
 //   BM_GalerkinUpdate    its values again (a time step's)
-//   BM_BoomerAmgSetup    BoomerAMG's set-up on the coarser mesh's matrix (the default lowest level)
+//   BM_BoomerAmgSetup    BoomerAMG's set-up on the coarser mesh's matrix (the default lowest level
+//                        from 40,000 unknowns there)
+//   BM_CoarseSolve       the coarser mesh's solve, set-up and one application apart (counters
+//                        setup_ms, per application in the time): /0 CHOLMOD, /k BoomerAMG with k
+//                        V-cycles per application (the default k = 3; docs/scaling.md)
 //   BM_MgpcgSetup        the whole default solver's set-up on the assembled hierarchy
 //
 //   bench_setup [--pmg_boxes=9] [google benchmark flags]
@@ -30,6 +34,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -157,6 +162,33 @@ void BM_BoomerAmgSetup(benchmark::State& state) {
   count(state, s);
 }
 
+void BM_CoarseSolve(benchmark::State& state) {
+  Scene& s = scene();
+  const int k = static_cast<int>(state.range(0));
+  const std::vector<std::string> options =
+      k == 0 ? std::vector<std::string>{"method=cholmod", "blas_threads=1", "factor_threads=0"}
+             : std::vector<std::string>{"method=boomeramg", "relax_type=16", "cycles=" + std::to_string(k)};
+  bool available = false;
+  for (const SolverInfo& info : registered_solvers()) available = available || info.name == (k == 0 ? "cholmod" : "boomeramg");
+  if (!available) {
+    state.SkipWithError("built without the lowest level's library");
+    return;
+  }
+  state.SetLabel(k == 0 ? "CHOLMOD" : "BoomerAMG, " + std::to_string(k) + " V-cycle(s)");
+  const Bcsr& A = s.C->matrix();
+  const auto start = std::chrono::steady_clock::now();
+  auto solver = make_solver(Config::from_pairs(options, "bench"), {});
+  solver->setup(A);
+  state.counters["setup_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  Vector b = Vector::Ones(A.rows()), x = Vector::Zero(A.rows());
+  for (auto _ : state) {
+    solver->apply(b, x);
+    benchmark::DoNotOptimize(x.data());
+  }
+  state.counters["coarse_unknowns"] = static_cast<double>(A.rows());
+  count(state, s);
+}
+
 void BM_MgpcgSetup(benchmark::State& state) {
   Scene& s = scene();
   SolverContext ctx;
@@ -182,9 +214,11 @@ int main(int argc, char** argv) {
            {"BM_Refine", BM_Refine}, {"BM_Hierarchy", BM_Hierarchy}, {"BM_AssembleLinear", BM_AssembleLinear},
            {"BM_MatrixFreeSetup", BM_MatrixFreeSetup}, {"BM_ChebyshevSetup", BM_ChebyshevSetup},
            {"BM_GalerkinSetup", BM_GalerkinSetup}, {"BM_GalerkinUpdate", BM_GalerkinUpdate},
-           {"BM_BoomerAmgSetup", BM_BoomerAmgSetup}, {"BM_MgpcgSetup", BM_MgpcgSetup}}) {
+           {"BM_BoomerAmgSetup", BM_BoomerAmgSetup}, {"BM_CoarseSolve", BM_CoarseSolve},
+           {"BM_MgpcgSetup", BM_MgpcgSetup}}) {
     auto* b = benchmark::RegisterBenchmark(name, fn)->UseRealTime()->Unit(benchmark::kMillisecond);
     if (fn == BM_ChebyshevSetup) b->Arg(0)->Arg(1);
+    if (fn == BM_CoarseSolve) b->Arg(0)->Arg(1)->Arg(3);
   }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
