@@ -47,24 +47,26 @@ Vector end_force(const fem::ElasticityModel& m, int axis, double hi, double tol,
   return f / area;  // the traction F/area on each face: total force F
 }
 
-double estimated_memory_bytes(double tets, int degree) {
+double estimated_memory_bytes(double tets, int degree, bool finest_assembled) {
   static constexpr double kBytesPerTet[] = {0.0, 2e3, 10e3, 50e3};
-  return tets * kBytesPerTet[std::clamp(degree, 1, 3)];
+  static constexpr double kMatrixFreeBytesPerTet[] = {0.0, 2e3, 1.5e3, 4e3};  // degree 1 is assembled
+  const int p = std::clamp(degree, 1, 3);
+  return tets * (finest_assembled ? kBytesPerTet[p] : kMatrixFreeBytesPerTet[p]);
 }
 
 namespace {
 /// Refuses, before anything is built, a scene whose element count overflows the index type or
 /// whose memory estimate exceeds the machine's.
-void check_size(double tets, const Scene& s) {
+void check_size(double tets, const Scene& s, bool finest_assembled) {
   char what[160];
   std::snprintf(what, sizeof what, "scene: %.3g tetrahedra of degree %d%s", tets, s.degree,
                 s.refine > 0 ? " (after mesh.refine)" : "");
   if (tets > 2e9) throw InputError(std::string(what) + ": more elements than a 32-bit index can number");
-  require_memory(estimated_memory_bytes(tets, s.degree), what);
+  require_memory(estimated_memory_bytes(tets, s.degree, finest_assembled), what);
 }
 }  // namespace
 
-SceneSetup set_up(const Scene& s) {
+SceneSetup set_up(const Scene& s, bool finest_assembled) {
   SceneSetup b;
   if (!s.formulation_choice.empty()) b.notes.push_back(s.formulation_choice);
   auto t0 = Clock::now();
@@ -74,9 +76,9 @@ SceneSetup set_up(const Scene& s) {
   };
   // The box's size is known before it is generated; a file's once it is read.
   const double refined = std::pow(8.0, s.refine);
-  if (s.mesh_file.empty()) check_size(24.0 * s.box[0] * s.box[1] * s.box[2] * refined, s);
+  if (s.mesh_file.empty()) check_size(24.0 * s.box[0] * s.box[1] * s.box[2] * refined, s, finest_assembled);
   fem::TetMesh loaded = load_mesh_or_box(s.mesh_file, s.box.data(), s.size.data(), &b.warnings, s.mesh_checks);
-  if (!s.mesh_file.empty()) check_size(loaded.num_tets() * refined, s);
+  if (!s.mesh_file.empty()) check_size(loaded.num_tets() * refined, s, finest_assembled);
   stage(s.mesh_file.empty() ? "mesh (box)" : "mesh (read)");
   std::vector<fem::Refinement> refinements;
   b.mesh = std::make_unique<const fem::TetMesh>(fem::refine_uniform(loaded, s.refine, &refinements));

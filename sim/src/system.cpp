@@ -30,7 +30,7 @@ std::vector<double> SceneSystem::free_coordinates() const {
 SceneSystem system_of(const Scene& scene, double dt, bool assemble_finest) {
   if (!(dt >= 0.0)) throw InputError("scene system: the time step must be >= 0 (0: the static system)");
   SceneSystem s;
-  s.setup = set_up(scene);
+  s.setup = set_up(scene, assemble_finest);
   Vector f = s.setup.f_ext;
   if (dt > 0) {
     fem::SimulationParams sp;  // the step system of an undamped implicit-Euler step

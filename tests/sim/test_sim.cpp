@@ -115,6 +115,11 @@ TEST_CASE("scenes refuse impossible times, sizes beyond the machine, and read me
   CHECK_THROWS_WITH(sim::set_up(huge), Catch::Contains("would need an estimated") &&
                                            Catch::Contains("of memory; this machine has"));
   CHECK(sim::estimated_memory_bytes(1000, 3) == Approx(50e6));
+  // Without the finest matrix (matrix-free solvers only) the estimate is lighter, and still refuses.
+  CHECK(sim::estimated_memory_bytes(1000, 2, false) == Approx(1.5e6));
+  CHECK(sim::estimated_memory_bytes(1000, 3, false) == Approx(4e6));
+  CHECK(sim::estimated_memory_bytes(1000, 1, false) == Approx(2e6));
+  CHECK_THROWS_WITH(sim::set_up(huge, false), Catch::Contains("would need an estimated"));
 }
 
 TEST_CASE("a stop flag ends a run after the step in progress with its outputs complete", "[sim]") {

@@ -34,9 +34,12 @@ fem::TetMesh load_mesh_or_box(const std::string& file, const int box[3], const d
 
 /// A lower estimate of the peak memory of a run on `tets` tetrahedra of `degree` (measured peaks of
 /// `pmg simulate` on box bars: about 4, 14 and 70 KB per tetrahedron at p = 1, 2, 3; the estimate
-/// takes 2, 10 and 50 so that it never refuses a run that fits). set_up() refuses a scene whose
-/// estimate exceeds the machine's memory before it builds anything.
-double estimated_memory_bytes(double tets, int degree);
+/// takes 2, 10 and 50 so that it never refuses a run that fits). Where the finest matrix is not
+/// assembled (`finest_assembled` false: matrix-free solvers only) 1.5 and 4 KB at p = 2, 3 (measured
+/// 2.0 KB on the refined cubes of 2.2M and 9.6M quadratic unknowns, 3.1 KB on an unrefined one,
+/// 5.7 and 6.6 KB on cubic cubes of 1.4M unknowns). set_up() refuses a scene whose estimate exceeds
+/// the machine's memory before it builds anything.
+double estimated_memory_bytes(double tets, int degree, bool finest_assembled = true);
 
 /// The point whose displacement a run records: a mesh vertex (node v = vertex v on every degree),
 /// or an element and barycentric coordinates found once.
@@ -94,8 +97,9 @@ struct SceneSetup {
 
 /// Mesh, hierarchy, clamp (refuses a clamp that leaves a rigid motion), inclusion, loads and the
 /// probe (the scene's point, or the vertex with the smallest probe_key()). InputError names the
-/// scene key at fault.
-SceneSetup set_up(const Scene& s);
+/// scene key at fault. `finest_assembled` false: the run will not assemble the finest degree's
+/// matrix (matrix-free solvers only), which the memory estimate then leaves out.
+SceneSetup set_up(const Scene& s, bool finest_assembled = true);
 /// Where a scene without a probe point records: the vertex with the smallest key, compared in
 /// order. Clamped: (distance to the centre of the far face, then the vertex farther along the
 /// clamp axis, then the smaller coordinate on the next axes); nothing clamped: (minus the
