@@ -27,9 +27,8 @@ inline constexpr index_t kAmgLowestLevelUnknowns = 40000;
 /// BoomerAMG runs kAmgCoarseMeshCycles V-cycles per application: there the lowest level is solved
 /// once per inner cycle, and how exactly decides the outer iterations (the refined cubes of 2.18M,
 /// 4.61M and 9.59M unknowns, coarse meshes of 43,554, 91,422 and 188,922 unknowns: CHOLMOD 10, 10
-/// and 10; BoomerAMG with one V-cycle 19-20, 20 and 22, with three 12, 12 and 13), and CHOLMOD's
-/// factorisation grows faster than the mesh (2.18M: set-up 1.1-2.0 s against 0.8 s with
-/// BoomerAMG; 4.61M: 3.5-4.3 s against 2.1 s; docs/scaling.md).
+/// and 10; BoomerAMG with one V-cycle 19-20, 20 and 22, with three 12, 12 and 13), while CHOLMOD's
+/// factorisation grows faster than the mesh; the measured break-even is in docs/scaling.md.
 inline constexpr index_t kAmgCoarseMeshUnknowns = 40000;
 /// BoomerAMG's V-cycles per application on the coarsest of coarse_meshes (docs/scaling.md).
 inline constexpr int kAmgCoarseMeshCycles = 3;
