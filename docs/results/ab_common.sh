@@ -9,4 +9,4 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 docs/results/twisted_homer_scene.py "$work"
 static="compare --mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6 --solvers mgpcg"
-pmg_of() { if [ "$1" = old ]; then echo "$old"; else echo build/tools/pmg; fi; }
+source docs/results/ab_rounds.sh

@@ -8,6 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 old=$1 rounds=${2:-8}
+source docs/results/ab_rounds.sh
 homer=(--mesh models/homer.ele -p 3 --fix z --fix-fraction 0.05 --load gravity --threads 2 --no-reference --tol 1e-6)
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD) against $old; $(nproc) cores"
 echo "# mixed: ${homer[*]} --poisson 0.499 --formulation mixed --solvers mixed-gmres (iterations, set-up + solve s)"
@@ -16,11 +17,8 @@ echo "# mgpcg: ${homer[*]} --solvers mgpcg (iterations, t(1e-6) s); ratio = mixe
 mixed() { "$p" compare "${homer[@]}" --poisson 0.499 --formulation mixed --solvers mixed-gmres 2>&1 | awk '/^mixed-gmres  /{print $2, $5}'; }
 mgpcg() { "$p" compare "${homer[@]}" --solvers mgpcg 2>&1 | awk '/^mgpcg /{print $3, $7}'; }
 for r in $(seq "$rounds"); do
-  order="old new"
-  [ $((r % 2)) -eq 0 ] && order="new old"
-  for who in $order; do
-    p=build/tools/pmg
-    [ "$who" = old ] && p=$old
+  for who in $(ab_order "$r"); do
+    p=$(pmg_of "$who")
     if [ $(((r / 2) % 2)) -eq 0 ]; then m=$(mixed); g=$(mgpcg); else g=$(mgpcg); m=$(mixed); fi
     read -r mi mt <<< "$m"
     read -r gi gt <<< "$g"

@@ -9,6 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 old=$1 box=$2 rounds=${3:-3}
+source docs/results/ab_rounds.sh
 args=(compare --box "$box" "$box" "$box" --size 1 1 1 --refine 1 -p 2 --fix z --load gravity --tol 1e-6 --threads 2
       --solvers mgpcg --no-reference)
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD) against $old; $(nproc) cores; pmg ${args[*]}"
@@ -23,11 +24,7 @@ run() {  # run PMG: one line of figures
                  its, load, setup, solve, t6, load + t6, mf2, low, peak }'
 }
 for r in $(seq "$rounds"); do
-  order="old new"
-  [ $((r % 2)) -eq 0 ] && order="new old"
-  for who in $order; do
-    p=build/tools/pmg
-    [ "$who" = old ] && p=$old
-    echo "$r $who | $(run "$p")"
+  for who in $(ab_order "$r"); do
+    echo "$r $who | $(run "$(pmg_of "$who")")"
   done
 done

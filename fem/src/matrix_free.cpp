@@ -77,11 +77,12 @@ struct ElasticityOperator::Impl {
 
   /// The batch position of element e.
   long position(index_t e) const { return batch_pos.empty() ? static_cast<long>(e) : static_cast<long>(batch_pos[e]); }
-  /// Element e's kData data, gathered from its batch's lane.
-  void gather(index_t e, double* d) const {
-    const long pos = position(e);
+  /// The kData data of the element at batch position pos, gathered from its batch's lane.
+  void gather_at(long pos, double* d) const {
     for (int k = 0; k < kData; ++k) d[k] = batch_data[detail::batch_datum(pos, k)];
   }
+  /// Element e's kData data.
+  void gather(index_t e, double* d) const { gather_at(position(e), d); }
 
   /// batch_free from `free` in the order batch_element() gives.
   void make_batch_free() {
@@ -183,9 +184,11 @@ struct ElasticityOperator::Impl {
     for (index_t pos = 0; pos < num_elements; ++pos) batch_pos[static_cast<size_t>(ranges->element(pos))] = pos;
   }
 
-  /// The float copy of batch_data, where kept.
+  /// The float copy of batch_data.
+  void copy_single() { batch_data_single.assign(batch_data.begin(), batch_data.end()); }
+  /// The float copy refreshed, where kept.
   void refresh_single() {
-    if (single) batch_data_single.assign(batch_data.begin(), batch_data.end());
+    if (single) copy_single();
   }
 
   /// The split for `threads` ranges (found among the kept ones or made).
@@ -455,7 +458,7 @@ void ElasticityOperator::apply_single_checked(const Eigen::VectorXf& x, Eigen::V
   {
     std::lock_guard<std::mutex> lock(m.buffers_mutex);
     if (!m.single) {
-      m.batch_data_single.assign(m.batch_data.begin(), m.batch_data.end());
+      m.copy_single();
       m.single = true;  // after the copy: a failed allocation leaves the next call to try again
     }
   }
@@ -474,10 +477,11 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const size_t nodes = static_cast<size_t>(num_free_);
   blocks.assign(9 * nodes, 0.0);
   const double p2 = static_cast<double>(m.p) * m.p;
-  // Element e's diagonal blocks, node by node: add(a, B) for each element node a.
-  auto element_blocks = [&](size_t e, auto&& add) {
+  // The diagonal blocks of element e at batch position pos, node by node: add(a, B) for each
+  // element node a.
+  auto element_blocks = [&](size_t e, long pos, auto&& add) {
     double d[kData];
-    m.gather(static_cast<index_t>(e), d);
+    m.gather_at(pos, d);
     Eigen::Matrix<double, 4, 3> g;
     for (int k = 0; k < 4; ++k)
       for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
@@ -498,7 +502,8 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const int threads = omp_get_active_level() >= omp_get_max_active_levels() ? 1 : omp_get_max_threads();
   if (threads <= 1 || m.num_batches < 2 * threads) {
     for (size_t e = 0; e < ne; ++e)
-      element_blocks(e, [&](int a, const Mat3& B) { add_to(blocks.data() + 9 * static_cast<size_t>(m.free[e * m.n + a]), B); });
+      element_blocks(e, m.position(static_cast<index_t>(e)),
+                     [&](int a, const Mat3& B) { add_to(blocks.data() + 9 * static_cast<size_t>(m.free[e * m.n + a]), B); });
   } else {
     // The product's ranges of batches (apply()): each range adds the nodes that only it holds in
     // place and the shared ones into its own 9 per slot, added after the ranges in range order.
@@ -517,7 +522,7 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
           const index_t e = m.batch_element(pos);
           if (e < 0) break;  // the last batch's padding
           const index_t* f = split.free.data() + (static_cast<size_t>(pos / kBatch) * m.n) * kBatch + pos % kBatch;
-          element_blocks(static_cast<size_t>(e), [&](int a, const Mat3& B) {
+          element_blocks(static_cast<size_t>(e), pos, [&](int a, const Mat3& B) {
             const index_t I = f[static_cast<size_t>(a) * kBatch];
             add_to(I >= 0 ? blocks.data() + 9 * static_cast<size_t>(I) : out.data() + 9 * static_cast<size_t>(-2 - I), B);
           });

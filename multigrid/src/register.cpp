@@ -95,13 +95,9 @@ struct CycleOptions {
              "mixed-minres and mixed-gmres; not the chebyshev method's own defaults) on the matrix-free route and for mgpcg on user levels (there with "
              "estimate lanczos); gauss-seidel, 2 sweeps, on the assembled route of an FEM hierarchy and for pmg "
              "on user levels");
-    const std::string coarse_from =
-        kAmgCoarseMeshUnknowns == kAmgLowestLevelUnknowns
-            ? std::string()
-            : " (below " + std::to_string(kAmgCoarseMeshUnknowns) + " on the coarsest of coarse_meshes)";
     const std::string lowest_help =
         "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
-        " unknowns" + coarse_from + ", BoomerAMG (relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
+        " unknowns, BoomerAMG (relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
         " on the coarsest of coarse_meshes) from there; CHOLMOD for pmg or when lowest_level "
         "keys are given (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)";
     v.solver("lowest_level", "auto", lowest_help.c_str());
@@ -285,7 +281,7 @@ void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& l
 /// The lowest level's solver keys: `auto` resolved and written back (so the printed options say
 /// what ran), and the defaults of the method chosen.
 Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mgpcg, const std::vector<double>& xyz,
-                           index_t amg_from, int amg_cycles) {
+                           int amg_cycles) {
   Config lc = c.child("lowest_level");
   // auto: for MGPCG by the lowest level's size, from the measured break-even (docs/scaling.md);
   // CHOLMOD for stationary PMG (one inexact V-cycle slows a stationary cycle far more: 990
@@ -295,7 +291,7 @@ Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mg
     bool keys = false;
     for (const auto& kv : lc.items()) keys = keys || kv.first != lc.full_key("method");
     const std::string chosen =
-        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz), amg_from) : kDefaultDirectMethod;
+        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz)) : kDefaultDirectMethod;
     lc.set("method", chosen);
   }
   if (lc.get_string("method", "") == "boomeramg") {
@@ -332,11 +328,11 @@ std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const S
 
 /// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own: xyz, its
 /// nodes' coordinates (ctx.levels->node_coordinates(0); empty where the levels do not know them),
-/// not the finest level's; `auto` takes AMG from amg_from unknowns, BoomerAMG runs amg_cycles
-/// V-cycles per application unless its keys say otherwise.
-std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg, index_t amg_from,
+/// not the finest level's; `auto` takes AMG from kAmgLowestLevelUnknowns unknowns, BoomerAMG runs
+/// amg_cycles V-cycles per application unless its keys say otherwise.
+std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg,
                                            const std::vector<double>& xyz, int amg_cycles = 1) {
-  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_from, amg_cycles);
+  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_cycles);
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = xyz.empty() ? nullptr : &xyz;
   return build_solver(lc, lowest_ctx, kDefaultDirectMethod);
@@ -364,7 +360,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
   if (o.coarse_meshes == "auto")
     use = below && mgpcg && p.coarse_operator == CoarseOperator::geometric &&
           lowest_level_unknowns(levels, xyz) >= kAmgLowestLevelUnknowns;
-  if (!use) return build_level_solver(c, ctx, mgpcg, kAmgLowestLevelUnknowns, xyz);
+  if (!use) return build_level_solver(c, ctx, mgpcg, xyz);
   SolverContext h = ctx;
   h.levels = below.get();
   MultigridParams hp;
@@ -375,7 +371,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
   return std::make_unique<MultigridCycle>(
       below, hp, factory,
-      build_level_solver(c, h, mgpcg, kAmgCoarseMeshUnknowns, below->node_coordinates(0), kAmgCoarseMeshCycles));
+      build_level_solver(c, h, mgpcg, below->node_coordinates(0), kAmgCoarseMeshCycles));
 }
 
 /// The matrix-free route's default Chebyshev degree in the mixed solvers' cycle (register_all).
