@@ -249,9 +249,13 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
                               pass.prescribed->cwiseAbs().maxCoeff() > 0;
   // The element's state enters only through y = x_e - R X_e (zero at rest for R = I).
   const bool need_y = pass.force || pass.energy || (pass.rhs && pass.R);
+  // Degree 1 without the element's state: the 10 blocks a ≤ b in fixed-size storage, no 12x12
+  // element matrix.
+  const bool direct = tables_.p == 1 && !need_y;
   // Per thread: the element matrix, the element's state and force, and its share of the energy.
   struct Scratch {
     Eigen::MatrixXd Ke;
+    Mat3 K1[16];  ///< degree 1 without the state: blocks (a, b), a ≤ b, at 4a + b
     Eigen::VectorXd y, g;
     ElementGeometry geo;
   };
@@ -263,8 +267,19 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
     sc.geo = geometry_[e];
     if (pass.R) sc.geo.grad = sc.geo.grad * (*pass.R)[e].transpose();
     const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
-    element_stiffness(tables_, sc.geo, s * material_.lambda(), s * material_.mu(), sc.Ke);
+    const double lambda = s * material_.lambda(), mu = s * material_.mu();
+    if (direct) {
+      for (int a = 0; a < 4; ++a)
+        for (int b = a; b < 4; ++b) sc.K1[4 * a + b] = linear_element_block(sc.geo, lambda, mu, a, b);
+    } else {
+      element_stiffness(tables_, sc.geo, lambda, mu, sc.Ke);
+    }
     const Eigen::MatrixXd& Ke = sc.Ke;
+    // Block (a, b) of the element matrix.
+    auto Kab = [&](int a, int b) -> Mat3 {
+      if (!direct) return Ke.block<3, 3>(3 * a, 3 * b);
+      return a <= b ? sc.K1[4 * a + b] : Mat3(sc.K1[4 * b + a].transpose());
+    };
     double element_energy = 0.0;
     if (need_y) {
       sc.y.resize(3 * n);
@@ -286,9 +301,9 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
       for (int b = 0; b < n; ++b) {
         const offset_t slot = as.slot(e, a, b);
         if (slot >= 0) {
-          if (pass.stiffness) pass.stiffness->block(slot) += weight * Ke.block<3, 3>(3 * a, 3 * b);
+          if (pass.stiffness) pass.stiffness->block(slot) += weight * Kab(a, b);
         } else if (has_prescribed) {
-          r -= Ke.block<3, 3>(3 * a, 3 * b) * pass.prescribed->segment<3>(3 * nodes[b]);
+          r -= Kab(a, b) * pass.prescribed->segment<3>(3 * nodes[b]);
         }
       }
       if (pass.rhs) {

@@ -138,15 +138,16 @@ void element_stiffness(const ElementTables& t, const ElementGeometry& g, double 
   const int n = t.n;
   K.resize(3 * n, 3 * n);
   const double scale = 6.0 * g.volume;
-  // Degree 1: B_a = λ_a, so G_ab holds its one entry at (a, b) and S = scale G_ab(a, b) ∇λ_a ∇λ_bᵀ
-  // (the same products as the general formula, without the zero terms).
-  const bool linear = t.p == 1;
   for (int a = 0; a < n; ++a)
     for (int b = a; b < n; ++b) {
-      Mat3 S = linear ? Mat3(scale * (g.grad.row(a).transpose() * t.G[a * n + b](a, b)) * g.grad.row(b))
-                      : Mat3(scale * (g.grad.transpose() * t.G[a * n + b] * g.grad));
-      if (a == b) S = 0.5 * (S + S.transpose()).eval();  // symmetric to the last bit
-      const Mat3 Kab = lambda * S + mu * S.transpose() + (mu * S.trace()) * Mat3::Identity();
+      Mat3 Kab;
+      if (t.p == 1) {
+        Kab = linear_element_block(g, lambda, mu, a, b);
+      } else {
+        Mat3 S = scale * (g.grad.transpose() * t.G[a * n + b] * g.grad);
+        if (a == b) S = 0.5 * (S + S.transpose()).eval();  // symmetric to the last bit
+        Kab = lambda * S + mu * S.transpose() + (mu * S.trace()) * Mat3::Identity();
+      }
       K.block<3, 3>(3 * a, 3 * b) = Kab;
       if (b != a) K.block<3, 3>(3 * b, 3 * a) = Kab.transpose();
     }

@@ -46,6 +46,22 @@ Eigen::Vector4d barycentric(const ElementGeometry& g, const Vec3& X0, const Vec3
 void element_stiffness(const ElementTables& t, const ElementGeometry& g, double lambda, double mu,
                        Eigen::MatrixXd& K);
 
+/// Block (a, b), a ≤ b, of the degree-1 element stiffness, the one element_stiffness() stores
+/// there (block (b, a) is its transpose): with S = V ∇λ_a ∇λ_bᵀ, formed as V (∂_i λ_a ∂_j λ_b) so
+/// that it is symmetric to the last bit when a = b, K_ab = λ S + μ Sᵀ + μ tr(S) I. Inline: an
+/// assembly that needs no whole element matrix adds these straight into its slots.
+inline Mat3 linear_element_block(const ElementGeometry& g, double lambda, double mu, int a, int b) {
+  const double V = g.volume;
+  Mat3 S;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) S(i, j) = V * (g.grad(a, i) * g.grad(b, j));
+  const double t = mu * (S(0, 0) + S(1, 1) + S(2, 2));
+  Mat3 K;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) K(i, j) = lambda * S(i, j) + mu * S(j, i) + (i == j ? t : 0.0);
+  return K;
+}
+
 /// Quadrature on the reference tetrahedron in barycentric coordinates (Grundmann–Möller), exact for
 /// polynomials of the given degree; weights sum to 1 (multiply by V).
 struct QuadratureRule {
