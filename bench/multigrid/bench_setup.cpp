@@ -4,6 +4,8 @@
 //   BM_Refine            one uniform refinement with its record (fem::refine_uniform)
 //   BM_Hierarchy         the degree hierarchy: spaces, numbering, geometry, element ranges, transfers,
 //                        and the coarser mesh's levels (set_refinements)
+//   BM_LinearPattern     the linear level's block pattern and element-to-slot map, from a fresh
+//                        assembly plan (the first assembly's share that BM_AssembleLinear leaves out)
 //   BM_AssembleLinear    the linear level's assembly into its matrix (values only)
 //   BM_MatrixFreeSetup   the quadratic level's matrix-free operator from nothing
 //   BM_ChebyshevSetup    the quadratic level's smoother set-up: diagonal blocks and its λmax
@@ -96,6 +98,17 @@ void BM_Hierarchy(benchmark::State& state) {
     fem::DegreeHierarchy h(s.mesh, 2, kMaterial, clamped);
     h.set_refinements(s.record);
     benchmark::DoNotOptimize(h.levels_below().get());
+  }
+  count(state, s);
+}
+
+void BM_LinearPattern(benchmark::State& state) {
+  Scene& s = scene();
+  const fem::ElasticityModel& linear = s.h->model(0);
+  for (auto _ : state) {
+    fem::BlockAssembler plan(linear.space(), linear.assembler().free_index());
+    plan.build_pattern();
+    benchmark::DoNotOptimize(plan.slot(0, 0, 0));
   }
   count(state, s);
 }
@@ -214,7 +227,8 @@ int main(int argc, char** argv) {
   }
   initialize_benchmarks(rest);  // 5 repetitions, medians, unless told otherwise
   for (auto [name, fn] : std::vector<std::pair<const char*, void (*)(benchmark::State&)>>{
-           {"BM_Refine", BM_Refine}, {"BM_Hierarchy", BM_Hierarchy}, {"BM_AssembleLinear", BM_AssembleLinear},
+           {"BM_Refine", BM_Refine}, {"BM_Hierarchy", BM_Hierarchy}, {"BM_LinearPattern", BM_LinearPattern},
+           {"BM_AssembleLinear", BM_AssembleLinear},
            {"BM_MatrixFreeSetup", BM_MatrixFreeSetup}, {"BM_ChebyshevSetup", BM_ChebyshevSetup},
            {"BM_GalerkinSetup", BM_GalerkinSetup}, {"BM_GalerkinUpdate", BM_GalerkinUpdate},
            {"BM_BoomerAmgSetup", BM_BoomerAmgSetup}, {"BM_CoarseSolve", BM_CoarseSolve},

@@ -7,6 +7,10 @@
 
 namespace pmg::fem {
 
+namespace {
+constexpr int kMaxNodes = 20;  ///< nodes of a cubic element, the highest degree a BBSpace takes
+}  // namespace
+
 BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_index)
     : space_(&space), n_(space.nodes_per_element()), free_index_(std::move(free_index)), ranges_(space) {
   if (free_index_.size() != static_cast<size_t>(space.num_nodes()))
@@ -39,16 +43,20 @@ void BlockAssembler::build_pattern() const {
 
     // Slots: the block of every pair of an element's nodes (-1 where either is fixed).
     slots_.resize(static_cast<size_t>(ne) * n_ * n_);
+    const index_t* cols = p->col_idx.data();
 #pragma omp parallel for schedule(static)
     for (index_t e = 0; e < ne; ++e) {
       const index_t* nodes = space.element_nodes(e);
       offset_t* out = slots_.data() + static_cast<size_t>(e) * n_ * n_;
+      index_t J[kMaxNodes];
+      for (int b = 0; b < n_; ++b) J[b] = free_index_[nodes[b]];
       for (int a = 0; a < n_; ++a) {
-        const index_t I = free_index_[nodes[a]];
-        for (int b = 0; b < n_; ++b) {
-          const index_t J = free_index_[nodes[b]];
-          out[a * n_ + b] = I >= 0 && J >= 0 ? p->find(I, J) : -1;
-        }
+        // Row I's sorted columns hold every J of the element (the pattern was built from them).
+        const index_t I = J[a];
+        const index_t* first = I >= 0 ? cols + p->row_ptr[I] : nullptr;
+        const index_t* last = I >= 0 ? cols + p->row_ptr[I + 1] : nullptr;
+        for (int b = 0; b < n_; ++b)
+          out[a * n_ + b] = I >= 0 && J[b] >= 0 ? std::lower_bound(first, last, J[b]) - cols : -1;
       }
     }
   });
