@@ -479,19 +479,48 @@ void ElasticityOperator::diagonal_blocks(std::vector<double>& blocks) const {
   const double p2 = static_cast<double>(m.p) * m.p;
   // The diagonal blocks of element e at batch position pos, node by node: add(a, B) for each
   // element node a.
+  //
+  // With G_aa symmetric, S_a = gᵀ G_aa g = Σ_{k≤l} G_aa(k,l) O_kl, O_kk = g_k g_kᵀ and
+  // O_kl = g_k g_lᵀ + g_l g_kᵀ (k < l): the element's ten symmetric products (six entries each) are
+  // formed once, and each node's S_a sums only the pairs its G_aa holds (G_aa(k,l) ≠ 0 needs
+  // α_a,k and α_a,l > 0: one pair at a vertex node, three at an edge node, six at a face node),
+  // symmetric to the last bit by construction.
+  struct Term {
+    int pair;
+    double weight;
+  };
+  std::vector<std::vector<Term>> terms(static_cast<size_t>(m.n));
+  for (int a = 0; a < m.n; ++a)
+    for (int k = 0, q = 0; k < 4; ++k)
+      for (int l = k; l < 4; ++l, ++q)
+        if (const double w = t.G[a * m.n + a](k, l); w != 0.0) terms[static_cast<size_t>(a)].push_back({q, w});
   auto element_blocks = [&](size_t e, long pos, auto&& add) {
     double d[kData];
     m.gather_at(pos, d);
-    Eigen::Matrix<double, 4, 3> g;
-    for (int k = 0; k < 4; ++k)
-      for (int j = 0; j < 3; ++j) g(k, j) = d[3 * k + j];
+    const double* g = d;  // ∇λ_k at d[3k..3k+2]
+    double O[10][6];      // xx, yy, zz, xy, xz, yz of O_kl, pairs k ≤ l in order
+    for (int k = 0, q = 0; k < 4; ++k)
+      for (int l = k; l < 4; ++l, ++q) {
+        const double *u = g + 3 * k, *v = g + 3 * l;
+        const double f = k == l ? 1.0 : 2.0;
+        O[q][0] = f * (u[0] * v[0]), O[q][1] = f * (u[1] * v[1]), O[q][2] = f * (u[2] * v[2]);
+        O[q][3] = k == l ? u[0] * v[1] : u[0] * v[1] + u[1] * v[0];
+        O[q][4] = k == l ? u[0] * v[2] : u[0] * v[2] + u[2] * v[0];
+        O[q][5] = k == l ? u[1] * v[2] : u[1] * v[2] + u[2] * v[1];
+      }
     // d[12], d[13] carry 6V p² s λ, 6V p² s μ; the G tables carry p² already.
-    const double lambda = d[12] / p2, mu = d[13] / p2;
+    const double lambda = d[12] / p2, mu = d[13] / p2, w = lambda + mu;
     for (int a = 0; a < m.n; ++a) {
       if (m.free[e * m.n + a] < 0) continue;
-      Mat3 S = g.transpose() * t.G[a * m.n + a] * g;
-      S = 0.5 * (S + S.transpose()).eval();
-      add(a, ((lambda + mu) * S + (mu * S.trace() + d[14] * t.mass(a, a)) * Mat3::Identity()).eval());
+      double S[6] = {0, 0, 0, 0, 0, 0};
+      for (const Term& term : terms[static_cast<size_t>(a)])
+        for (int i = 0; i < 6; ++i) S[i] += term.weight * O[term.pair][i];
+      const double diagonal = mu * (S[0] + S[1] + S[2]) + d[14] * t.mass(a, a);
+      Mat3 B;
+      B << w * S[0] + diagonal, w * S[3], w * S[4],  //
+          w * S[3], w * S[1] + diagonal, w * S[5],   //
+          w * S[4], w * S[5], w * S[2] + diagonal;
+      add(a, B);
     }
   };
   auto add_to = [](double* o, const Mat3& B) {

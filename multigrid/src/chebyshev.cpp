@@ -77,22 +77,20 @@ namespace {
 /// λmax of D⁻¹A from `steps` steps of CG on A x = r0 with the block-diagonal preconditioner D:
 /// the largest eigenvalue of the Lanczos tridiagonal matrix (Saad, "Iterative Methods for Sparse
 /// Linear Systems", 6.7.3) built from CG's α_k and β_k.
+/// update(a, w, r, z): r += a w, z = D⁻¹ r, returning rᵀz (a = 0: z = D⁻¹ r only).
 /// r: the start vector (overwritten); z, p, w: work vectors of its size.
-template <typename ApplyInverseDiagonal>
-double lanczos_lambda_max(const LinearOperator& A, const ApplyInverseDiagonal& apply_inverse_diagonal, Vector& r,
-                          Vector& z, Vector& p, Vector& w, int steps) {
-  apply_inverse_diagonal(r, z);
+template <typename Update>
+double lanczos_lambda_max(const LinearOperator& A, const Update& update, Vector& r, Vector& z, Vector& p, Vector& w,
+                          int steps) {
+  double rz = update(0.0, r, r, z);
   p = z;
-  double rz = ops::dot(r, z);
   std::vector<double> alpha, beta;
   for (int k = 0; k < steps && rz > 0 && std::isfinite(rz); ++k) {
     A.apply(p, w);
     const double pAp = ops::dot(p, w);
     if (!(pAp > 0) || !std::isfinite(pAp)) break;
     alpha.push_back(rz / pAp);
-    ops::axpy(-alpha.back(), w, r);
-    apply_inverse_diagonal(r, z);
-    const double rz_new = ops::dot(r, z);
+    const double rz_new = update(-alpha.back(), w, r, z);
     beta.push_back(rz_new / rz);
     ops::xpby(z, beta.back(), p);  // p = z + β p
     rz = rz_new;
@@ -121,9 +119,14 @@ void Chebyshev::estimate_lanczos() {
   // the one more that CG needs.
   Vector w(z_.size());
   start_vector(r_);
-  const double lambda = lanczos_lambda_max(
-      *A_, [this](const Vector& r, Vector& z) { apply_inverse_diagonal(r, z); }, r_, z_, d_, w,
-      params_.power_iterations);
+  // With D's inverted blocks, the residual update, D⁻¹ and the dot product are one pass.
+  auto update = [this](double a, const Vector& w, Vector& r, Vector& z) {
+    if (!M_) return ops::block_diagonal_update_dot(a, w, inv_diag_, r, z);
+    if (a != 0.0) ops::axpy(a, w, r);
+    M_->apply(r, z);
+    return ops::dot(r, z);
+  };
+  const double lambda = lanczos_lambda_max(*A_, update, r_, z_, d_, w, params_.power_iterations);
   if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
   lambda_max_ = 1.1 * lambda;
   steps_ = chebyshev_steps(params_, lambda_max_);

@@ -104,6 +104,29 @@ void block_diagonal_apply(const float* D, const float* r, float* z, index_t bloc
   for (std::ptrdiff_t I = 0; I < nb; ++I) block3_apply(D + 9 * I, r + 3 * I, z + 3 * I);
 }
 
+double block_diagonal_update_dot(double a, const Vector& w, const std::vector<double>& D, Vector& r, Vector& z) {
+  constexpr Eigen::Index kBlock = 3 * 2730;  // entries per block of the sum: whole 3x3 blocks
+  const Eigen::Index n = r.size();
+  z.resize(n);
+  const double* wp = w.data();
+  const double* d = D.data();
+  double* rp = r.data();
+  double* zp = z.data();
+  const Eigen::Index blocks = (n + kBlock - 1) / kBlock;
+  std::vector<double> part(static_cast<size_t>(blocks));
+#pragma omp parallel for schedule(static) if (blocks > 1)
+  for (Eigen::Index q = 0; q < blocks; ++q) {
+    const Eigen::Index k0 = q * kBlock, k1 = std::min(n, k0 + kBlock);
+    if (a != 0.0)
+      for (Eigen::Index k = k0; k < k1; ++k) rp[k] += a * wp[k];
+    for (Eigen::Index I = k0 / 3; I < k1 / 3; ++I) block3_apply(d + 9 * I, rp + 3 * I, zp + 3 * I);
+    part[static_cast<size_t>(q)] = dot_serial(rp + k0, zp + k0, k1 - k0);
+  }
+  double s = 0.0;
+  for (double v : part) s += v;
+  return s;
+}
+
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x) {
   const Eigen::Index nb = r.size() / 3;
   const double* d = D.data();

@@ -33,6 +33,11 @@ void block_diagonal_apply(const std::vector<double>& D, const Vector& r, Vector&
 void block_diagonal_apply(const double* D, const double* r, double* z, index_t blocks);
 /// The same in float (a float cycle's or estimate's D⁻¹).
 void block_diagonal_apply(const float* D, const float* r, float* z, index_t blocks);
+/// r += a w, then z = D r, returning rᵀz, in one pass (a preconditioned CG step's residual update
+/// with a block-diagonal D, as for block_diagonal_apply; a = 0 with w = r: z = D r and rᵀz). The
+/// dot product sums fixed blocks of entries in order: the same bits on any number of threads.
+/// z must not alias r or w.
+double block_diagonal_update_dot(double a, const Vector& w, const std::vector<double>& D, Vector& r, Vector& z);
 /// x += a D r, D as for block_diagonal_apply.
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x);
 
