@@ -61,6 +61,46 @@ TEST_CASE("dot: within rounding of a long double sum, and the same bits on any n
   }
 }
 
+TEST_CASE("block_diagonal_update_dot: r += a w, z = D r and r^T z in one pass, the same bits on any number of threads",
+          "[sparse][krylov]") {
+  // Lengths around its block of 8190 entries (whole 3x3 blocks).
+  for (Eigen::Index nb : {0, 1, 2729, 2730, 2731, 33334}) {
+    const Eigen::Index n = 3 * nb;
+    Vector w(n), r0(n);
+    std::vector<double> D(static_cast<size_t>(9 * nb));
+    for (Eigen::Index i = 0; i < n; ++i) {
+      w[i] = std::cos(0.23 * static_cast<double>(i));
+      r0[i] = std::sin(0.37 * static_cast<double>(i)) + 0.1;
+    }
+    for (size_t k = 0; k < D.size(); ++k) D[k] = (k % 9 == 0 || k % 9 == 4 || k % 9 == 8 ? 2.0 : 0.0) + 0.1 * std::sin(0.5 * k);
+    for (double a : {0.0, -0.75}) {
+      INFO("blocks = " << nb << ", a = " << a);
+      Vector r = r0, z;
+      const double d = ops::block_diagonal_update_dot(a, w, D, r, z);
+      Vector r_ref = r0, z_ref;
+      ops::axpy(a, w, r_ref);
+      ops::block_diagonal_apply(D, r_ref, z_ref);
+      CHECK(r == r_ref);
+      CHECK(z == z_ref);
+      long double exact = 0.0L, magnitude = 0.0L;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        exact += static_cast<long double>(r_ref[i]) * z_ref[i];
+        magnitude += std::abs(static_cast<long double>(r_ref[i]) * z_ref[i]);
+      }
+      CHECK(std::abs(static_cast<long double>(d) - exact) <= 1e-14L * magnitude);
+#ifdef _OPENMP
+      const int before = omp_get_max_threads();
+      for (int threads : {1, 3}) {
+        omp_set_num_threads(threads);
+        Vector rt = r0, zt;
+        CHECK(ops::block_diagonal_update_dot(a, w, D, rt, zt) == d);
+      }
+      omp_set_num_threads(before);
+#endif
+    }
+  }
+}
+
 TEST_CASE("CG and PCG reach the tolerance on the true residual and recover the solution",
           "[sparse][krylov]") {
   const LatticeSystem s;
