@@ -18,28 +18,31 @@ BlockAssembler::BlockAssembler(const BBSpace& space, std::vector<index_t> free_i
   for (index_t f : free_index_) num_free_ = std::max(num_free_, f + 1);
 }
 
-
 void BlockAssembler::build_pattern() const {
   std::call_once(pattern_once_, [&] {
     const BBSpace& space = *space_;
     const index_t ne = space.mesh().num_tets();
 
-    // Each free node's elements (fixed nodes under a row of their own, num_free_, left unread).
-    std::vector<offset_t> start;
-    std::vector<index_t> elements;
+    // Each free node's elements, as e n + a (fixed nodes under a row of their own, num_free_,
+    // dropped after the pattern is built).
+    std::vector<offset_t>& start = row_start_;
+    std::vector<offset_t>& elements = row_entries_;
     detail::group_by_row(num_free_ + 1, ne, n_, [&](index_t e, int a) {
       const index_t I = free_index_[space.element_nodes(e)[a]];
-      return std::pair<index_t, index_t>(I < 0 ? num_free_ : I, e);
+      return std::pair<index_t, offset_t>(I < 0 ? num_free_ : I, static_cast<offset_t>(e) * n_ + a);
     }, start, elements);
     // Pattern: block (I, J) for every pair of free nodes sharing an element.
     const std::shared_ptr<BlockPattern> p = pattern_by_rows(num_free_, num_free_, [&](index_t I, auto&& add) {
       for (offset_t q = start[I]; q < start[I + 1]; ++q) {
-        const index_t* nodes = space.element_nodes(elements[q]);
+        const index_t* nodes = space.element_nodes(static_cast<index_t>(elements[q] / n_));
         for (int b = 0; b < n_; ++b)
           if (const index_t J = free_index_[nodes[b]]; J >= 0) add(J);
       }
     });
     pattern_ = p;
+    elements.resize(static_cast<size_t>(start[num_free_]));
+    elements.shrink_to_fit();
+    start.pop_back();
 
     // Slots: the block of every pair of an element's nodes (-1 where either is fixed).
     slots_.resize(static_cast<size_t>(ne) * n_ * n_);

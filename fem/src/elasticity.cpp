@@ -252,6 +252,34 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
   // Degree 1 without the element's state: the 10 blocks a ≤ b in fixed-size storage, no 12x12
   // element matrix.
   const bool direct = tables_.p == 1 && !need_y;
+  if (direct && pass.stiffness && !pass.rhs && !pass.force && !pass.energy) {
+    // Degree 1, the matrix only: row by row, each free node's block row from its elements
+    // (row_entries(), in element order), so that a row's blocks are written from one thread while
+    // they sit in cache; each element's blocks are formed once per node it holds (its geometry
+    // read four times instead of its 16 blocks' read-modify-write across the matrix).
+    const std::vector<offset_t>& start = as.row_start();
+    const std::vector<offset_t>& entries = as.row_entries();
+    Bcsr& K = *pass.stiffness;
+    const std::ptrdiff_t rows = as.num_free();
+#pragma omp parallel for schedule(dynamic, 512)
+    for (std::ptrdiff_t I = 0; I < rows; ++I)
+      for (offset_t q = start[I]; q < start[I + 1]; ++q) {
+        const index_t e = static_cast<index_t>(entries[q] / 4);
+        const int a = static_cast<int>(entries[q] % 4);
+        ElementGeometry geo = geometry_[e];
+        if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
+        const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
+        const double lambda = s * material_.lambda(), mu = s * material_.mu();
+        for (int b = 0; b < 4; ++b) {
+          const offset_t slot = as.slot(e, a, b);
+          if (slot < 0) continue;
+          K.block(slot) += weight * (a <= b ? linear_element_block(geo, lambda, mu, a, b)
+                                            : Mat3(linear_element_block(geo, lambda, mu, b, a).transpose()));
+        }
+      }
+    constrain(K);
+    return;
+  }
   // Per thread: the element matrix, the element's state and force, and its share of the energy.
   struct Scratch {
     Eigen::MatrixXd Ke;

@@ -2,11 +2,11 @@
 //
 // Built once per mesh, degree and set of fixed nodes (the pattern never changes): the elements'
 // traversal on threads (pmg/fem/element_ranges.hpp: contiguous ranges, each node written by one
-// thread) and on first need (make_matrix(), build_pattern()) the BCSR pattern over the free nodes
-// and a map from (element, local a, local b) to its block slot — 8 n² bytes per element, which a
-// level used only matrix-free (its traversal for the forces) never pays. Assembly writes each
-// block row and right-hand side entry from the thread that owns its node, in place, without
-// locks, and in the same order on any number of threads.
+// thread) and on first need (make_matrix(), build_pattern()) the BCSR pattern over the free nodes,
+// a map from (element, local a, local b) to its block slot and each free node's elements — 8 n² + 8 n
+// bytes per element, which a level used only matrix-free (its traversal for the forces) never
+// pays. Assembly writes each block row and right-hand side entry from the thread that owns its
+// node, in place, without locks, and in the same order on any number of threads.
 #pragma once
 
 #include "pmg/fem/bb_space.hpp"
@@ -44,6 +44,11 @@ class BlockAssembler {
   offset_t slot(index_t e, int a, int b) const {
     return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
   }
+  /// Per free node I, the elements that hold it as e n + a (element e, local node a), in element
+  /// order: row_entries()[row_start()[I] .. row_start()[I + 1]). Valid after build_pattern(). A
+  /// row-by-row assembly reads them: each block row written by one thread, summed in element order.
+  const std::vector<offset_t>& row_start() const { return row_start_; }
+  const std::vector<offset_t>& row_entries() const { return row_entries_; }
   /// The elements' traversal on threads: assembly loops run ranges().for_each().
   const ElementRanges& ranges() const { return ranges_; }
 
@@ -55,6 +60,7 @@ class BlockAssembler {
   mutable std::once_flag pattern_once_;
   mutable std::shared_ptr<const BlockPattern> pattern_;
   mutable std::vector<offset_t> slots_;
+  mutable std::vector<offset_t> row_start_, row_entries_;
   ElementRanges ranges_;
 };
 
