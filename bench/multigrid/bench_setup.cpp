@@ -4,8 +4,9 @@
 //   BM_Refine            one uniform refinement with its record (fem::refine_uniform)
 //   BM_Hierarchy         the degree hierarchy: spaces, numbering, geometry, element ranges, transfers,
 //                        and the coarser mesh's levels (set_refinements)
-//   BM_LinearPattern     the linear level's block pattern and element-to-slot map, from a fresh
-//                        assembly plan (the first assembly's share that BM_AssembleLinear leaves out)
+//   BM_LinearPattern     the linear level's block pattern with each node's elements, from a fresh
+//                        assembly plan (the first assembly's share that BM_AssembleLinear leaves
+//                        out; the degree-1 matrix, assembled row by row, needs no slot map)
 //   BM_AssembleLinear    the linear level's assembly into its matrix (values only)
 //   BM_MatrixFreeSetup   the quadratic level's matrix-free operator from nothing
 //   BM_ChebyshevSetup    the quadratic level's smoother set-up: diagonal blocks and its λmax
@@ -108,7 +109,7 @@ void BM_LinearPattern(benchmark::State& state) {
   for (auto _ : state) {
     fem::BlockAssembler plan(linear.space(), linear.assembler().free_index());
     plan.build_pattern();
-    benchmark::DoNotOptimize(plan.slot(0, 0, 0));
+    benchmark::DoNotOptimize(plan.pattern().get());
   }
   count(state, s);
 }

@@ -43,10 +43,18 @@ void BlockAssembler::build_pattern() const {
     elements.resize(static_cast<size_t>(start[num_free_]));
     elements.shrink_to_fit();
     start.pop_back();
+  });
+}
 
+void BlockAssembler::build_slots() const {
+  build_pattern();
+  std::call_once(slots_once_, [&] {
+    const BBSpace& space = *space_;
+    const index_t ne = space.mesh().num_tets();
+    const BlockPattern& p = *pattern_;
     // Slots: the block of every pair of an element's nodes (-1 where either is fixed).
     slots_.resize(static_cast<size_t>(ne) * n_ * n_);
-    const index_t* cols = p->col_idx.data();
+    const index_t* cols = p.col_idx.data();
 #pragma omp parallel for schedule(static)
     for (index_t e = 0; e < ne; ++e) {
       const index_t* nodes = space.element_nodes(e);
@@ -56,8 +64,8 @@ void BlockAssembler::build_pattern() const {
       for (int a = 0; a < n_; ++a) {
         // Row I's sorted columns hold every J of the element (the pattern was built from them).
         const index_t I = J[a];
-        const index_t* first = I >= 0 ? cols + p->row_ptr[I] : nullptr;
-        const index_t* last = I >= 0 ? cols + p->row_ptr[I + 1] : nullptr;
+        const index_t* first = I >= 0 ? cols + p.row_ptr[I] : nullptr;
+        const index_t* last = I >= 0 ? cols + p.row_ptr[I + 1] : nullptr;
         for (int b = 0; b < n_; ++b)
           out[a * n_ + b] = I >= 0 && J[b] >= 0 ? std::lower_bound(first, last, J[b]) - cols : -1;
       }

@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -228,7 +229,7 @@ void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
 
 void ElasticityModel::evaluate(const ElementPass& pass) const {
   const BlockAssembler& as = assembler();
-  if (pass.stiffness || pass.rhs) as.build_pattern();  // the slots (make_matrix() has built them)
+  if (pass.stiffness || pass.rhs) as.build_pattern();  // make_matrix() has built it
   if (pass.stiffness && (pass.stiffness->shared_pattern().get() == nullptr ||
                          pass.stiffness->block_rows() != as.num_free()))
     throw InputError("assemble: matrix does not have the assembler's pattern");
@@ -257,29 +258,38 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
     // (row_entries(), in element order), so that a row's blocks are written from one thread while
     // they sit in cache; each element's blocks are formed once per node it holds (its geometry
     // read four times instead of its 16 blocks' read-modify-write across the matrix).
+    // A block's slot is found among the row's sorted columns (no slot map is built).
     const std::vector<offset_t>& start = as.row_start();
     const std::vector<offset_t>& entries = as.row_entries();
     Bcsr& K = *pass.stiffness;
+    const BlockPattern& pattern = *as.pattern();
+    const index_t* cols = pattern.col_idx.data();
     const std::ptrdiff_t rows = as.num_free();
 #pragma omp parallel for schedule(dynamic, 512)
-    for (std::ptrdiff_t I = 0; I < rows; ++I)
+    for (std::ptrdiff_t I = 0; I < rows; ++I) {
+      const index_t* first = cols + pattern.row_ptr[I];
+      const index_t* last = cols + pattern.row_ptr[I + 1];
       for (offset_t q = start[I]; q < start[I + 1]; ++q) {
         const index_t e = static_cast<index_t>(entries[q] / 4);
         const int a = static_cast<int>(entries[q] % 4);
+        const index_t* nodes = space_.element_nodes(e);
         ElementGeometry geo = geometry_[e];
         if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
         const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
         const double lambda = s * material_.lambda(), mu = s * material_.mu();
         for (int b = 0; b < 4; ++b) {
-          const offset_t slot = as.slot(e, a, b);
-          if (slot < 0) continue;
+          const index_t J = fi[nodes[b]];
+          if (J < 0) continue;
+          const offset_t slot = std::lower_bound(first, last, J) - cols;
           K.block(slot) += weight * (a <= b ? linear_element_block(geo, lambda, mu, a, b)
                                             : Mat3(linear_element_block(geo, lambda, mu, b, a).transpose()));
         }
       }
+    }
     constrain(K);
     return;
   }
+  if (pass.stiffness || pass.rhs) as.build_slots();
   // Per thread: the element matrix, the element's state and force, and its share of the energy.
   struct Scratch {
     Eigen::MatrixXd Ke;
@@ -379,7 +389,7 @@ double ElasticityModel::elastic_energy(const Vector& u, const Rotations* R) cons
 
 void ElasticityModel::assemble_mass(Bcsr& M) const {
   const BlockAssembler& as = assembler();
-  as.build_pattern();
+  as.build_slots();
   if (M.block_rows() != as.num_free()) throw InputError("assemble_mass: matrix does not have the assembler's pattern");
   std::fill(M.values().begin(), M.values().end(), 0.0);
   const int n = space_.nodes_per_element();

@@ -2,10 +2,11 @@
 //
 // Built once per mesh, degree and set of fixed nodes (the pattern never changes): the elements'
 // traversal on threads (pmg/fem/element_ranges.hpp: contiguous ranges, each node written by one
-// thread) and on first need (make_matrix(), build_pattern()) the BCSR pattern over the free nodes,
-// a map from (element, local a, local b) to its block slot and each free node's elements — 8 n² + 8 n
-// bytes per element, which a level used only matrix-free (its traversal for the forces) never
-// pays. Assembly writes each block row and right-hand side entry from the thread that owns its
+// thread) and on first need the BCSR pattern over the free nodes with each free node's elements
+// (make_matrix(), build_pattern(): 8 n bytes per element) and a map from (element, local a,
+// local b) to its block slot (build_slots(): 8 n² bytes per element), which a level used only
+// matrix-free (its traversal for the forces) never pays, nor the slot map a degree-1 matrix
+// assembled row by row. Assembly writes each block row and right-hand side entry from the thread that owns its
 // node, in place, without locks, and in the same order on any number of threads.
 #pragma once
 
@@ -36,11 +37,15 @@ class BlockAssembler {
     build_pattern();
     return Bcsr(pattern_, std::vector<double>(9 * pattern_->nnz(), 0.0));
   }
-  /// Builds the pattern and the slot map once (thread-safe); make_matrix() calls it, and so does
-  /// every assembly before it reads slot().
+  /// Builds the pattern and each free node's elements once (thread-safe); make_matrix() calls it.
   void build_pattern() const;
+  /// Builds the pattern and the slot map once (thread-safe); every assembly calls it before it
+  /// reads slot() (a row-by-row one, which searches its rows' columns, does not).
+  void build_slots() const;
+  /// The pattern (nullptr before build_pattern()).
+  const std::shared_ptr<const BlockPattern>& pattern() const { return pattern_; }
   /// Block slot of (local a, local b) of element e, or -1 if either node is fixed. Valid after
-  /// build_pattern() (unchecked: it is read in the assembly loops).
+  /// build_slots() (unchecked: it is read in the assembly loops).
   offset_t slot(index_t e, int a, int b) const {
     return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
   }
@@ -57,7 +62,7 @@ class BlockAssembler {
   int n_;
   std::vector<index_t> free_index_;
   index_t num_free_ = 0;
-  mutable std::once_flag pattern_once_;
+  mutable std::once_flag pattern_once_, slots_once_;
   mutable std::shared_ptr<const BlockPattern> pattern_;
   mutable std::vector<offset_t> slots_;
   mutable std::vector<offset_t> row_start_, row_entries_;
