@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace pmg::mg {
@@ -50,9 +51,34 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
   r_.resize(n), d_.resize(n), z_.resize(n);
   if (M_) M_->setup(A);
   else inv_diag_ = inverse_diagonal_blocks(*A_);
+  refresh_single();
   eigenvector_.resize(0);  // a new operator: no warm start
   if (params_.lanczos) estimate_lanczos();
   else estimate_power(params_.power_iterations, false);
+}
+
+void Chebyshev::refresh_single() {
+  // D⁻¹ in float where the operator applies in float and D⁻¹ fits float's range (else empty).
+  if (M_ || !A_->single_precision_source()) {
+    inv_diag_single_.clear();
+    return;
+  }
+  // Out of range: an entry beyond float's largest, or a diagonal entry below its smallest normal
+  // (an off-diagonal one that small is round-off beside its diagonal).
+  constexpr double kMax = 0.5 * static_cast<double>(std::numeric_limits<float>::max());
+  constexpr double kMin = static_cast<double>(std::numeric_limits<float>::min());
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(inv_diag_.size());
+  inv_diag_single_.resize(inv_diag_.size());
+  const double* d = inv_diag_.data();
+  float* f = inv_diag_single_.data();
+  int outside = 0;
+#pragma omp parallel for schedule(static) reduction(| : outside)
+  for (std::ptrdiff_t k = 0; k < n; ++k) {
+    const double v = std::abs(d[k]);
+    outside |= v > kMax || (k % 9 % 4 == 0 && v < kMin);  // the diagonal: k % 9 in {0, 4, 8}
+    f[k] = static_cast<float>(d[k]);
+  }
+  if (outside) inv_diag_single_.clear();
 }
 
 void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
@@ -63,6 +89,7 @@ void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {
 void Chebyshev::update_impl() {
   if (M_) M_->update();
   else inv_diag_ = inverse_diagonal_blocks(*A_);
+  refresh_single();
   if (params_.update_iterations > 0) {
     if (eigenvector_.size() == z_.size()) estimate_power(params_.update_iterations, true);
     else estimate_power(std::max(params_.update_iterations, ChebyshevParams::kColdPowerIterations), false);
@@ -77,18 +104,25 @@ namespace {
 /// λmax of D⁻¹A from `steps` steps of CG on A x = r0 with the block-diagonal preconditioner D:
 /// the largest eigenvalue of the Lanczos tridiagonal matrix (Saad, "Iterative Methods for Sparse
 /// Linear Systems", 6.7.3) built from CG's α_k and β_k.
-/// update(a, w, r, z): r += a w, z = D⁻¹ r, returning rᵀz (a = 0: z = D⁻¹ r only).
-/// r: the start vector (overwritten); z, p, w: work vectors of its size.
-template <typename Update>
-double lanczos_lambda_max(const LinearOperator& A, const Update& update, Vector& r, Vector& z, Vector& p, Vector& w,
-                          int steps) {
+/// apply(p, w): w = A p; update(a, w, r, z): r += a w, z = D⁻¹ r, returning rᵀz (a = 0:
+/// z = D⁻¹ r only). r: the start vector (overwritten); z, p, w: work vectors of its size, in double
+/// or float (α, β and the dot products in double either way). A product or dot product that is
+/// not finite (float's range exceeded) stops the steps and sets *overflow.
+template <class Vec, typename Apply, typename Update>
+double lanczos_lambda_max(const Apply& apply, const Update& update, Vec& r, Vec& z, Vec& p, Vec& w, int steps,
+                          bool* overflow = nullptr) {
+  auto finite = [&](double v) {
+    if (std::isfinite(v)) return true;
+    if (overflow) *overflow = true;
+    return false;
+  };
   double rz = update(0.0, r, r, z);
   p = z;
   std::vector<double> alpha, beta;
-  for (int k = 0; k < steps && rz > 0 && std::isfinite(rz); ++k) {
-    A.apply(p, w);
+  for (int k = 0; k < steps && finite(rz) && rz > 0; ++k) {
+    apply(p, w);
     const double pAp = ops::dot(p, w);
-    if (!(pAp > 0) || !std::isfinite(pAp)) break;
+    if (!finite(pAp) || !(pAp > 0)) break;
     alpha.push_back(rz / pAp);
     const double rz_new = update(-alpha.back(), w, r, z);
     beta.push_back(rz_new / rz);
@@ -106,27 +140,50 @@ double lanczos_lambda_max(const LinearOperator& A, const Update& update, Vector&
 }
 
 /// v_i = 1 + sin(0.7 i) / 2: the estimates' fixed, non-smooth start, on the threads.
-void start_vector(Vector& v) {
+template <class Vec>
+void start_vector(Vec& v) {
+  using T = typename Vec::Scalar;
   const Eigen::Index n = v.size();
-  double* x = v.data();
+  T* x = v.data();
 #pragma omp parallel for schedule(static)
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = 1.0 + 0.5 * std::sin(0.7 * static_cast<double>(i));
+  for (Eigen::Index i = 0; i < n; ++i) x[i] = static_cast<T>(1.0 + 0.5 * std::sin(0.7 * static_cast<double>(i)));
 }
 }  // namespace
 
 void Chebyshev::estimate_lanczos() {
-  // The smoothing's work vectors serve (set-up allocates no more than the smoother keeps); w is
-  // the one more that CG needs.
-  Vector w(z_.size());
-  start_vector(r_);
-  // With D's inverted blocks, the residual update, D⁻¹ and the dot product are one pass.
-  auto update = [this](double a, const Vector& w, Vector& r, Vector& z) {
-    if (!M_) return ops::block_diagonal_update_dot(a, w, inv_diag_, r, z);
-    if (a != 0.0) ops::axpy(a, w, r);
-    M_->apply(r, z);
-    return ops::dot(r, z);
-  };
-  const double lambda = lanczos_lambda_max(*A_, update, r_, z_, d_, w, params_.power_iterations);
+  double lambda = 0.0;
+  bool overflow = false;
+  if (!inv_diag_single_.empty()) {
+    // An operator that applies in float: the estimate runs in float, where its products cost less
+    // and its vectors half the memory traffic; λmax needs a few digits (it is raised by 10%), and
+    // float's rounding moves it by about 1e-7 relative. The double work vectors stay untouched.
+    // Where float's range does not hold the products, it runs again in double.
+    const SinglePrecisionSource& single = *A_->single_precision_source();
+    const Eigen::Index n = z_.size();
+    Eigen::VectorXf r(n), z(n), p(n), w(n);
+    start_vector(r);
+    lambda = lanczos_lambda_max(
+        [&single](const Eigen::VectorXf& x, Eigen::VectorXf& y) { single.apply_single(x, y); },
+        [this](double a, const Eigen::VectorXf& w, Eigen::VectorXf& r, Eigen::VectorXf& z) {
+          return ops::block_diagonal_update_dot(a, w, inv_diag_single_, r, z);
+        },
+        r, z, p, w, params_.power_iterations, &overflow);
+  }
+  if (inv_diag_single_.empty() || overflow) {
+    // The smoothing's work vectors serve (set-up allocates no more than the smoother keeps); w is
+    // the one more that CG needs. With D's inverted blocks, the residual update, D⁻¹ and the dot
+    // product are one pass.
+    Vector w(z_.size());
+    start_vector(r_);
+    auto update = [this](double a, const Vector& w, Vector& r, Vector& z) {
+      if (!M_) return ops::block_diagonal_update_dot(a, w, inv_diag_, r, z);
+      if (a != 0.0) ops::axpy(a, w, r);
+      M_->apply(r, z);
+      return ops::dot(r, z);
+    };
+    lambda = lanczos_lambda_max([this](const Vector& x, Vector& y) { A_->apply(x, y); }, update, r_, z_, d_, w,
+                                params_.power_iterations);
+  }
   if (!(lambda > 0) || !std::isfinite(lambda)) throw InputError("Chebyshev: D^-1 A has no positive spectrum estimate");
   lambda_max_ = 1.1 * lambda;
   steps_ = chebyshev_steps(params_, lambda_max_);

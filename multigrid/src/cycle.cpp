@@ -221,15 +221,15 @@ void MultigridCycle::prepare_single(bool setup) {
     // Why level l cannot run in float ("" if it can).
     auto obstacle = [&](int l) -> std::string {
       if (!params_.matrix_free) return "it needs the matrix-free levels (operator=matrix-free)";
+      const BlockTransfer& T = transfers_[l - 1];
+      if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
+        return "it takes no components constrained on their own (symmetry planes)";
       if (!level_operator(l).single_precision_source())
         return "it needs operators that apply in float; " + levels_.level_name(l) + "'s does not";
       const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
       if (!chebyshev || chebyshev->preconditioner())
         return "it smooths with Chebyshev on the diagonal blocks only; " + levels_.level_name(l) + " has " +
                smoothers_[l - 1]->name();
-      const BlockTransfer& T = transfers_[l - 1];
-      if (!T.fine_constraints().empty() || !T.coarse_constraints().empty())
-        return "it takes no components constrained on their own (symmetry planes)";
       return "";
     };
     for (int l = 1; l < L; ++l)
@@ -290,8 +290,17 @@ std::string MultigridCycle::float_range_obstacle() const {
 }
 
 void MultigridCycle::refresh_single(int l) {
-  const std::vector<double>& d = single_[l].smoother->inverse_diagonal();
-  single_[l].inv_diag.assign(d.begin(), d.end());
+  // The smoother's own float D⁻¹ where it keeps one, else a float copy of its D⁻¹.
+  SingleLevel& s = single_[l];
+  const std::vector<float>& own = s.smoother->inverse_diagonal_single();
+  if (!own.empty()) {
+    s.inv_diag.clear();
+    s.inv = own.data();
+    return;
+  }
+  const std::vector<double>& d = s.smoother->inverse_diagonal();
+  s.inv_diag.assign(d.begin(), d.end());
+  s.inv = s.inv_diag.data();
 }
 
 void MultigridCycle::refresh_galerkin() {
@@ -461,7 +470,7 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
   if (x_is_zero) {  // r = b: the first step reads b and assigns x (no copy, no zeroing pass)
     r.resize(b.size());
     x.resize(b.size());
-    chebyshev_step<float>(steps[0], true, s.inv_diag.data(), b.data(), nullptr, d.data(), x.data(), blocks, true);
+    chebyshev_step<float>(steps[0], true, s.inv, b.data(), nullptr, d.data(), x.data(), blocks, true);
     if (m == 1) return;
     if (first_kind) residual();
     else s.op->residual_single(b, d, r);  // r = b - A d
@@ -470,7 +479,7 @@ void MultigridCycle::smooth_single(int l, const Eigen::VectorXf& b, Eigen::Vecto
     residual();
   }
   for (; k < m; ++k) {
-    chebyshev_step<float>(steps[k], k == 0, s.inv_diag.data(), r.data(), nullptr, d.data(), x.data(), blocks);
+    chebyshev_step<float>(steps[k], k == 0, s.inv, r.data(), nullptr, d.data(), x.data(), blocks);
     if (k == m - 1) break;
     if (first_kind) {
       residual();

@@ -9,13 +9,13 @@ namespace pmg::ops {
 
 namespace {
 
-template <class T>
-double dot_lanes(const T* a, const double* b, std::ptrdiff_t n) {
+template <class T, class U>
+double dot_lanes(const T* a, const U* b, std::ptrdiff_t n) {
   double s[8] = {};
   std::ptrdiff_t k = 0;
   for (; k + 8 <= n; k += 8)
-    for (int l = 0; l < 8; ++l) s[l] += static_cast<double>(a[k + l]) * b[k + l];
-  for (int l = 0; k < n; ++k, ++l) s[l] += static_cast<double>(a[k]) * b[k];
+    for (int l = 0; l < 8; ++l) s[l] += static_cast<double>(a[k + l]) * static_cast<double>(b[k + l]);
+  for (int l = 0; k < n; ++k, ++l) s[l] += static_cast<double>(a[k]) * static_cast<double>(b[k]);
   return ((s[0] + s[4]) + (s[2] + s[6])) + ((s[1] + s[5]) + (s[3] + s[7]));
 }
 
@@ -29,12 +29,12 @@ namespace {
 constexpr Eigen::Index kDotBlock = 8192;  // entries per block of dot(): its sums are added in order
 }  // namespace
 
-double dot(const Vector& x, const Vector& y) {
-  const Eigen::Index n = x.size();
-  const double* a = x.data();
-  const double* b = y.data();
+namespace {
+/// xᵀy over fixed blocks of kDotBlock entries (dot_lanes each), the blocks' sums added in order.
+template <class T>
+double blocked_dot(const T* a, const T* b, Eigen::Index n) {
   const Eigen::Index blocks = (n + kDotBlock - 1) / kDotBlock;
-  if (blocks <= 1) return dot_serial(a, b, n);
+  if (blocks <= 1) return dot_lanes(a, b, n);
   double local[64];
   std::vector<double> heap;
   double* part = local;
@@ -45,12 +45,17 @@ double dot(const Vector& x, const Vector& y) {
 #pragma omp parallel for schedule(static)
   for (Eigen::Index q = 0; q < blocks; ++q) {
     const Eigen::Index k0 = q * kDotBlock;
-    part[q] = dot_serial(a + k0, b + k0, std::min(kDotBlock, n - k0));
+    part[q] = dot_lanes(a + k0, b + k0, std::min(kDotBlock, n - k0));
   }
   double s = 0.0;
   for (Eigen::Index q = 0; q < blocks; ++q) s += part[q];
   return s;
 }
+}  // namespace
+
+double dot(const Vector& x, const Vector& y) { return blocked_dot(x.data(), y.data(), x.size()); }
+
+double dot(const Eigen::VectorXf& x, const Eigen::VectorXf& y) { return blocked_dot(x.data(), y.data(), x.size()); }
 
 double norm2(const Vector& x) {
   // The fast sum of squares is exact enough while it stays in double's normal range; where it
@@ -104,27 +109,45 @@ void block_diagonal_apply(const float* D, const float* r, float* z, index_t bloc
   for (std::ptrdiff_t I = 0; I < nb; ++I) block3_apply(D + 9 * I, r + 3 * I, z + 3 * I);
 }
 
-double block_diagonal_update_dot(double a, const Vector& w, const std::vector<double>& D, Vector& r, Vector& z) {
+namespace {
+template <class T>
+double update_dot(double a, const T* wp, const T* d, T* rp, T* zp, Eigen::Index n) {
   constexpr Eigen::Index kBlock = 3 * 2730;  // entries per block of the sum: whole 3x3 blocks
-  const Eigen::Index n = r.size();
-  z.resize(n);
-  const double* wp = w.data();
-  const double* d = D.data();
-  double* rp = r.data();
-  double* zp = z.data();
+  const T c = static_cast<T>(a);
   const Eigen::Index blocks = (n + kBlock - 1) / kBlock;
   std::vector<double> part(static_cast<size_t>(blocks));
 #pragma omp parallel for schedule(static) if (blocks > 1)
   for (Eigen::Index q = 0; q < blocks; ++q) {
     const Eigen::Index k0 = q * kBlock, k1 = std::min(n, k0 + kBlock);
     if (a != 0.0)
-      for (Eigen::Index k = k0; k < k1; ++k) rp[k] += a * wp[k];
+      for (Eigen::Index k = k0; k < k1; ++k) rp[k] += c * wp[k];
     for (Eigen::Index I = k0 / 3; I < k1 / 3; ++I) block3_apply(d + 9 * I, rp + 3 * I, zp + 3 * I);
-    part[static_cast<size_t>(q)] = dot_serial(rp + k0, zp + k0, k1 - k0);
+    part[static_cast<size_t>(q)] = dot_lanes(rp + k0, zp + k0, k1 - k0);
   }
   double s = 0.0;
   for (double v : part) s += v;
   return s;
+}
+}  // namespace
+
+double block_diagonal_update_dot(double a, const Vector& w, const std::vector<double>& D, Vector& r, Vector& z) {
+  z.resize(r.size());
+  return update_dot(a, w.data(), D.data(), r.data(), z.data(), r.size());
+}
+
+double block_diagonal_update_dot(double a, const Eigen::VectorXf& w, const std::vector<float>& D, Eigen::VectorXf& r,
+                                 Eigen::VectorXf& z) {
+  z.resize(r.size());
+  return update_dot(a, w.data(), D.data(), r.data(), z.data(), r.size());
+}
+
+void xpby(const Eigen::VectorXf& x, double b, Eigen::VectorXf& y) {
+  const Eigen::Index n = x.size();
+  const float c = static_cast<float>(b);
+  const float* xp = x.data();
+  float* yp = y.data();
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index i = 0; i < n; ++i) yp[i] = xp[i] + c * yp[i];
 }
 
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x) {

@@ -89,7 +89,11 @@ class ElasticityOperator final : public LinearOperator, public DiagonalBlocksSou
   /// This operator (LinearOperator's capability query for device kernels).
   const ElasticityOperator* elasticity_operator() const override { return this; }
   const DiagonalBlocksSource* diagonal_blocks_source() const override { return this; }
-  const SinglePrecisionSource* single_precision_source() const override { return this; }
+  /// This operator, where it applies in float: not with components held on their own (symmetry
+  /// planes), which apply_single() does not take.
+  const SinglePrecisionSource* single_precision_source() const override {
+    return model_->constrained_free_dofs().empty() ? this : nullptr;
+  }
 
   index_t rows() const override { return 3 * num_free_; }
   index_t cols() const override { return rows(); }

@@ -100,12 +100,18 @@ class Chebyshev final : public Smoother {
   /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update());
   /// empty with a preconditioner.
   const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
+  /// D⁻¹ rounded to float (9 floats per block, as of the last update()), where the operator
+  /// applies in float (LinearOperator::single_precision_source) and D⁻¹ fits float's range: the λmax
+  /// estimate then runs in float, and a float cycle smooths with it. Empty otherwise.
+  const std::vector<float>& inverse_diagonal_single() const { return inv_diag_single_; }
 
  private:
   void setup_impl(const LinearOperator& A) override;
   void update_impl() override;
   void smooth(const Vector& b, Vector& x, bool x_is_zero) const;
   void apply_inverse_diagonal(const Vector& r, Vector& z) const;
+  /// inv_diag_single_ from inv_diag_ (see inverse_diagonal_single()).
+  void refresh_single();
   /// λmax by Lanczos with power_iterations steps.
   void estimate_lanczos();
   /// λmax by `iterations` power iterations, from the last vector where warm (and one is kept).
@@ -114,6 +120,7 @@ class Chebyshev final : public Smoother {
   ChebyshevParams params_;
   std::unique_ptr<Solver> M_;  ///< M⁻¹ instead of D⁻¹ (nullptr: D⁻¹)
   std::vector<double> inv_diag_;
+  std::vector<float> inv_diag_single_;
   double lambda_max_ = 0.0;
   std::vector<ChebyshevStep> steps_;  ///< chebyshev_steps(params_, lambda_max_), per estimate
   mutable Vector r_, d_, z_;

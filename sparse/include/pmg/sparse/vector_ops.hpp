@@ -18,6 +18,8 @@ double dot_serial(const float* a, const double* b, std::ptrdiff_t n);
 /// xᵀy over fixed blocks of entries (dot_serial each), the blocks' sums added in order: the same
 /// bits on any number of threads.
 double dot(const Vector& x, const Vector& y);
+/// The same in float, each product and sum formed in double.
+double dot(const Eigen::VectorXf& x, const Eigen::VectorXf& y);
 /// ‖x‖₂, without overflow or underflow for any finite x.
 double norm2(const Vector& x);
 /// y += a x
@@ -38,6 +40,11 @@ void block_diagonal_apply(const float* D, const float* r, float* z, index_t bloc
 /// dot product sums fixed blocks of entries in order: the same bits on any number of threads.
 /// z must not alias r or w.
 double block_diagonal_update_dot(double a, const Vector& w, const std::vector<double>& D, Vector& r, Vector& z);
+/// The same in float (D: 9 floats per block; a rounded to float), the sum formed in double.
+double block_diagonal_update_dot(double a, const Eigen::VectorXf& w, const std::vector<float>& D, Eigen::VectorXf& r,
+                                 Eigen::VectorXf& z);
+/// y = x + b y in float (b rounded to float).
+void xpby(const Eigen::VectorXf& x, double b, Eigen::VectorXf& y);
 /// x += a D r, D as for block_diagonal_apply.
 void block_diagonal_axpy(double a, const std::vector<double>& D, const Vector& r, Vector& x);
 
