@@ -253,42 +253,7 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
   // Degree 1 without the element's state: the 10 blocks a ≤ b in fixed-size storage, no 12x12
   // element matrix.
   const bool direct = tables_.p == 1 && !need_y;
-  if (direct && pass.stiffness && !pass.rhs && !pass.force && !pass.energy) {
-    // Degree 1, the matrix only: row by row, each free node's block row from its elements
-    // (row_entries(), in element order), so that a row's blocks are written from one thread while
-    // they sit in cache; each element's blocks are formed once per node it holds (its geometry
-    // read four times instead of its 16 blocks' read-modify-write across the matrix).
-    // A block's slot is found among the row's sorted columns (no slot map is built).
-    const std::vector<offset_t>& start = as.row_start();
-    const std::vector<offset_t>& entries = as.row_entries();
-    Bcsr& K = *pass.stiffness;
-    const BlockPattern& pattern = *as.pattern();
-    const index_t* cols = pattern.col_idx.data();
-    const std::ptrdiff_t rows = as.num_free();
-#pragma omp parallel for schedule(dynamic, 512)
-    for (std::ptrdiff_t I = 0; I < rows; ++I) {
-      const index_t* first = cols + pattern.row_ptr[I];
-      const index_t* last = cols + pattern.row_ptr[I + 1];
-      for (offset_t q = start[I]; q < start[I + 1]; ++q) {
-        const index_t e = static_cast<index_t>(entries[q] / 4);
-        const int a = static_cast<int>(entries[q] % 4);
-        const index_t* nodes = space_.element_nodes(e);
-        ElementGeometry geo = geometry_[e];
-        if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
-        const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
-        const double lambda = s * material_.lambda(), mu = s * material_.mu();
-        for (int b = 0; b < 4; ++b) {
-          const index_t J = fi[nodes[b]];
-          if (J < 0) continue;
-          const offset_t slot = std::lower_bound(first, last, J) - cols;
-          K.block(slot) += weight * (a <= b ? linear_element_block(geo, lambda, mu, a, b)
-                                            : Mat3(linear_element_block(geo, lambda, mu, b, a).transpose()));
-        }
-      }
-    }
-    constrain(K);
-    return;
-  }
+  if (direct && pass.stiffness && !pass.rhs && !pass.force && !pass.energy) return assemble_linear_by_rows(pass);
   if (pass.stiffness || pass.rhs) as.build_slots();
   // Per thread: the element matrix, the element's state and force, and its share of the energy.
   struct Scratch {
@@ -354,6 +319,45 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
   if (pass.energy) *pass.energy = energy;
   if (pass.stiffness) constrain(*pass.stiffness);
   if (pass.rhs) constrain(*pass.rhs);
+}
+
+void ElasticityModel::assemble_linear_by_rows(const ElementPass& pass) const {
+  const BlockAssembler& as = assembler();
+  const auto& fi = as.free_index();
+  const double weight = pass.stiffness_weight;
+  // Degree 1, the matrix only: row by row, each free node's block row from its elements
+  // (row_entries(), in element order), so that a row's blocks are written from one thread while
+  // they sit in cache; each element's blocks are formed once per node it holds (its geometry
+  // read four times instead of its 16 blocks' read-modify-write across the matrix).
+  // A block's slot is found among the row's sorted columns (no slot map is built).
+  const std::vector<offset_t>& start = as.row_start();
+  const std::vector<offset_t>& entries = as.row_entries();
+  Bcsr& K = *pass.stiffness;
+  const BlockPattern& pattern = *as.pattern();
+  const index_t* cols = pattern.col_idx.data();
+  const std::ptrdiff_t rows = as.num_free();
+#pragma omp parallel for schedule(dynamic, 512)
+  for (std::ptrdiff_t I = 0; I < rows; ++I) {
+    const index_t* first = cols + pattern.row_ptr[I];
+    const index_t* last = cols + pattern.row_ptr[I + 1];
+    for (offset_t q = start[I]; q < start[I + 1]; ++q) {
+      const index_t e = static_cast<index_t>(entries[q] / 4);
+      const int a = static_cast<int>(entries[q] % 4);
+      const index_t* nodes = space_.element_nodes(e);
+      ElementGeometry geo = geometry_[e];
+      if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
+      const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
+      const double lambda = s * material_.lambda(), mu = s * material_.mu();
+      for (int b = 0; b < 4; ++b) {
+        const index_t J = fi[nodes[b]];
+        if (J < 0) continue;
+        const offset_t slot = std::lower_bound(first, last, J) - cols;
+        K.block(slot) += weight * (a <= b ? linear_element_block(geo, lambda, mu, a, b)
+                                          : Mat3(linear_element_block(geo, lambda, mu, b, a).transpose()));
+      }
+    }
+  }
+  constrain(K);
 }
 
 void ElasticityModel::assemble(const Rotations* R, const Vector& prescribed, Bcsr& K,

@@ -49,10 +49,12 @@ class BlockAssembler {
   offset_t slot(index_t e, int a, int b) const {
     return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
   }
+  /// Offsets of each free node's elements in row_entries() (num_free() + 1 entries). Valid after
+  /// build_pattern().
+  const std::vector<offset_t>& row_start() const { return row_start_; }
   /// Per free node I, the elements that hold it as e n + a (element e, local node a), in element
   /// order: row_entries()[row_start()[I] .. row_start()[I + 1]). Valid after build_pattern(). A
   /// row-by-row assembly reads them: each block row written by one thread, summed in element order.
-  const std::vector<offset_t>& row_start() const { return row_start_; }
   const std::vector<offset_t>& row_entries() const { return row_entries_; }
   /// The elements' traversal on threads: assembly loops run ranges().for_each().
   const ElementRanges& ranges() const { return ranges_; }

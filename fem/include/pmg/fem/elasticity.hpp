@@ -179,6 +179,9 @@ class ElasticityModel {
   const std::vector<double>& stiffness_scale() const { return stiffness_scale_; }
 
  private:
+  /// evaluate() of a degree-1 pass that asks for the matrix only (no right-hand side, force or
+  /// energy): row by row (BlockAssembler::row_entries), without the slot map.
+  void assemble_linear_by_rows(const ElementPass& pass) const;
 
   const TetMesh& mesh_;
   BBSpace space_;
