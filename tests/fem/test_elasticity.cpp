@@ -282,6 +282,58 @@ TEST_CASE("one pass over the elements: matrix, force and energy equal the serial
   }
 }
 
+TEST_CASE("degree 1, the matrix alone: assembled row by row, exactly symmetric, equal to R K_e Rᵀ summed",
+          "[fem][elasticity][threads]") {
+  // A stiffness-only pass at degree 1 takes the row-by-row route (each free node's block row from
+  // its elements, in element order): block (J, I) sums the transposes of block (I, J)'s terms in the
+  // same order, so the matrix is symmetric to the last bit, and each row is written by one thread.
+  const TetMesh mesh = box_mesh_24(4, 2, 2, 1.0, 0.5, 0.5);
+  ElasticityModel model(mesh, 1, kSteelish);
+  model.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
+  std::vector<double> scale(static_cast<size_t>(mesh.num_tets()));
+  for (size_t e = 0; e < scale.size(); ++e) scale[e] = 1.0 + 0.5 * std::sin(static_cast<double>(e));
+  model.set_stiffness_scale(scale);
+  const Vector u = 0.05 * model.interpolate(sine_field().value);
+  const Rotations R = model.rotations(u);
+  const auto& fi = model.assembler().free_index();
+  for (const Rotations* rot : {static_cast<const Rotations*>(nullptr), &R}) {
+    Eigen::MatrixXd K_ref = Eigen::MatrixXd::Zero(model.num_free_dofs(), model.num_free_dofs());
+    for (index_t e = 0; e < mesh.num_tets(); ++e) {
+      Eigen::MatrixXd Ke;
+      const double s = scale[static_cast<size_t>(e)];
+      element_stiffness(element_tables(1), model.geometry(e), s * kSteelish.lambda(), s * kSteelish.mu(), Ke);
+      const Mat3 Re = rot ? (*rot)[e] : Mat3(Mat3::Identity());
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) {
+          const index_t I = fi[model.space().node(e, a)], J = fi[model.space().node(e, b)];
+          if (I >= 0 && J >= 0) K_ref.block<3, 3>(3 * I, 3 * J) += Re * Ke.block<3, 3>(3 * a, 3 * b) * Re.transpose();
+        }
+    }
+    auto assemble = [&] {
+      Bcsr K = model.assembler().make_matrix();
+      ElasticityModel::ElementPass pass;
+      pass.R = rot;
+      pass.stiffness = &K;
+      pass.stiffness_weight = 0.5;
+      model.evaluate(pass);
+      return K;
+    };
+    const Bcsr K = assemble();
+    INFO((rot ? "rotated" : "unrotated"));
+    CHECK((K.to_csr().to_eigen().toDense() - 0.5 * K_ref).norm() <= 1e-13 * K_ref.norm());
+    CHECK(K.to_csr().is_symmetric(0.0));
+#ifdef _OPENMP
+    const int before = omp_get_max_threads();
+    for (int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      INFO(threads << " threads");
+      CHECK(assemble().values() == K.values());
+    }
+    omp_set_num_threads(before);
+#endif
+  }
+}
+
 TEST_CASE("element ranges: every node written once per element, the same sums on 1, 2 and 3 threads",
           "[fem][elasticity][threads]") {
   // 3072 elements of a slender bar: in the generator's order (contiguous ranges share few nodes:
