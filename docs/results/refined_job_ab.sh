@@ -5,12 +5,13 @@
 # Per run: iterations, load, set-up, solve, t(1e-6) (set-up + solve), the whole job (load +
 # t(1e-6)), the matrix-free degree-2 set-up stage, the lowest level's set-up and the peak memory.
 # Usage: docs/results/refined_job_ab.sh OLD_PMG BOX [ROUNDS] > docs/results/refined_job_ab_$(date +%F).txt
+# REFINE=0 runs the unrefined cube (no coarser meshes: BoomerAMG on the linear level).
 # Medians: /usr/bin/python3 docs/results/ab_medians.py FILE
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-old=$1 box=$2 rounds=${3:-3}
+old=$1 box=$2 rounds=${3:-3} refine=${REFINE:-1}
 source docs/results/ab_rounds.sh
-args=(compare --box "$box" "$box" "$box" --size 1 1 1 --refine 1 -p 2 --fix z --load gravity --tol 1e-6 --threads 2
+args=(compare --box "$box" "$box" "$box" --size 1 1 1 --refine "$refine" -p 2 --fix z --load gravity --tol 1e-6 --threads 2
       --solvers mgpcg --no-reference)
 echo "# $(date -u +%FT%TZ) $(git rev-parse --short HEAD) against $old; $(nproc) cores; pmg ${args[*]}"
 run() {  # run PMG: one line of figures
