@@ -230,9 +230,14 @@ void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
 void ElasticityModel::evaluate(const ElementPass& pass) const {
   const BlockAssembler& as = assembler();
   if (pass.stiffness || pass.rhs) as.build_pattern();  // make_matrix() has built it
-  if (pass.stiffness && (pass.stiffness->shared_pattern().get() == nullptr ||
-                         pass.stiffness->block_rows() != as.num_free()))
-    throw InputError("assemble: matrix does not have the assembler's pattern");
+  if (pass.stiffness) {
+    // The assembly writes blocks by the assembler's pattern: the matrix must share it (make_matrix()
+    // and copies of its matrices do) or hold an equal one.
+    const BlockPattern* p = pass.stiffness->shared_pattern().get();
+    const BlockPattern& q = *as.pattern();
+    if (!p || (p != &q && (p->row_ptr != q.row_ptr || p->col_idx != q.col_idx)))
+      throw InputError("assemble: matrix does not have the assembler's pattern (make it with assembler().make_matrix())");
+  }
   if (pass.R && pass.R->size() != static_cast<size_t>(mesh_.num_tets()))
     throw InputError("assemble: one rotation per element expected");
   if (pass.u && pass.u->size() != num_dofs())
@@ -336,19 +341,20 @@ void ElasticityModel::assemble_linear_by_rows(const ElementPass& pass) const {
   const BlockPattern& pattern = *as.pattern();
   const index_t* cols = pattern.col_idx.data();
   const std::ptrdiff_t rows = as.num_free();
+  constexpr int n = 4;  // degree 1: entries are e n + a
 #pragma omp parallel for schedule(dynamic, 512)
   for (std::ptrdiff_t I = 0; I < rows; ++I) {
     const index_t* first = cols + pattern.row_ptr[I];
     const index_t* last = cols + pattern.row_ptr[I + 1];
     for (offset_t q = start[I]; q < start[I + 1]; ++q) {
-      const index_t e = static_cast<index_t>(entries[q] / 4);
-      const int a = static_cast<int>(entries[q] % 4);
+      const index_t e = static_cast<index_t>(entries[q] / n);
+      const int a = static_cast<int>(entries[q] % n);
       const index_t* nodes = space_.element_nodes(e);
       ElementGeometry geo = geometry_[e];
       if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
       const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
       const double lambda = s * material_.lambda(), mu = s * material_.mu();
-      for (int b = 0; b < 4; ++b) {
+      for (int b = 0; b < n; ++b) {
         const index_t J = fi[nodes[b]];
         if (J < 0) continue;
         const offset_t slot = std::lower_bound(first, last, J) - cols;

@@ -58,25 +58,29 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
 }
 
 void Chebyshev::refresh_single() {
-  // D⁻¹ in float where the operator applies in float and D⁻¹ fits float's range (else empty).
-  if (M_ || !A_->single_precision_source()) {
+  // D⁻¹ in float where a float cycle asked for it (set_single_precision), the operator applies in
+  // float and D⁻¹ lies in the range float holds with margin (else empty).
+  if (M_ || !single_wanted_ || !A_->single_precision_source()) {
     inv_diag_single_.clear();
     return;
   }
-  // Out of range: an entry beyond float's largest, or a diagonal entry below its smallest normal
-  // (an off-diagonal one that small is round-off beside its diagonal).
-  constexpr double kMax = 0.5 * static_cast<double>(std::numeric_limits<float>::max());
-  constexpr double kMin = static_cast<double>(std::numeric_limits<float>::min());
-  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(inv_diag_.size());
+  // Each 3x3 block's scale is its largest entry (off-diagonal ones may be rounding-small); a zero
+  // block is a held node. A NaN counts as out of range.
+  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(inv_diag_.size() / 9);
   inv_diag_single_.resize(inv_diag_.size());
   const double* d = inv_diag_.data();
   float* f = inv_diag_single_.data();
   int outside = 0;
 #pragma omp parallel for schedule(static) reduction(| : outside)
-  for (std::ptrdiff_t k = 0; k < n; ++k) {
-    const double v = std::abs(d[k]);
-    outside |= v > kMax || (k % 9 % 4 == 0 && v < kMin);  // the diagonal: k % 9 in {0, 4, 8}
-    f[k] = static_cast<float>(d[k]);
+  for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+    double a = 0.0;
+    for (int j = 0; j < 9; ++j) {
+      const double v = d[9 * b + j];
+      a = std::isnan(v) ? std::numeric_limits<double>::infinity() : std::max(a, std::abs(v));
+      if (std::isinf(a)) break;
+      f[9 * b + j] = static_cast<float>(v);
+    }
+    outside |= a != 0.0 && !(a >= kSingleLow && a <= kSingleHigh);
   }
   if (outside) inv_diag_single_.clear();
 }
@@ -157,7 +161,8 @@ void Chebyshev::estimate_lanczos() {
     // An operator that applies in float: the estimate runs in float, where its products cost less
     // and its vectors half the memory traffic; λmax needs a few digits (it is raised by 10%), and
     // float's rounding moves it by about 1e-7 relative. The double work vectors stay untouched.
-    // Where float's range does not hold the products, it runs again in double.
+    // Where float's range does not hold the products (or the estimate is not positive), it runs
+    // again in double.
     const SinglePrecisionSource& single = *A_->single_precision_source();
     const Eigen::Index n = z_.size();
     Eigen::VectorXf r(n), z(n), p(n), w(n);
@@ -169,7 +174,7 @@ void Chebyshev::estimate_lanczos() {
         },
         r, z, p, w, params_.power_iterations, &overflow);
   }
-  if (inv_diag_single_.empty() || overflow) {
+  if (inv_diag_single_.empty() || overflow || !(lambda > 0.0 && std::isfinite(lambda))) {
     // The smoothing's work vectors serve (set-up allocates no more than the smoother keeps); w is
     // the one more that CG needs. With D's inverted blocks, the residual update, D⁻¹ and the dot
     // product are one pass.

@@ -198,9 +198,13 @@ void MultigridCycle::setup_impl(const LinearOperator& A) {
                            : ""));
     }
   };
-  for (int l = L - 1; l >= 1; --l)
+  for (int l = L - 1; l >= 1; --l) {
+    // A cycle in float has its Chebyshev smoothers keep D⁻¹ in float (and estimate λmax in float).
+    if (auto* chebyshev = dynamic_cast<Chebyshev*>(smoothers_[l - 1].get()))
+      chebyshev->set_single_precision(params_.single_precision);
     timed_stage("smoother " + levels_.level_name(l),
                 [&] { on_level(l, [&] { smoothers_[l - 1]->setup(level_operator(l)); }); });
+  }
   timed_stage("lowest level (" + lowest_->name() + ")", [&] { on_level(0, [&] { lowest_->setup(level_matrix(0)); }); });
   itemise_lowest();
   work_.assign(L, Work{});
@@ -263,7 +267,7 @@ std::string MultigridCycle::float_range_obstacle() const {
   // float is the operators' scale, read off their inverse diagonal blocks: entries beyond
   // [1e-30, 1e30] (float's normal range is about [1.2e-38, 3.4e38]) would overflow or flush the
   // products to zero (a Young's modulus of 1e45 Pa, or of 1e-40).
-  constexpr double kLow = 1e-30, kHigh = 1e30;
+  constexpr double kLow = Chebyshev::kSingleLow, kHigh = Chebyshev::kSingleHigh;
   for (int l = 1; l < num_levels(); ++l) {
     const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
     if (!chebyshev) continue;

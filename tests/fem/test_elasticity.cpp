@@ -322,6 +322,21 @@ TEST_CASE("degree 1, the matrix alone: assembled row by row, exactly symmetric, 
     INFO((rot ? "rotated" : "unrotated"));
     CHECK((K.to_csr().to_eigen().toDense() - 0.5 * K_ref).norm() <= 1e-13 * K_ref.norm());
     CHECK(K.to_csr().is_symmetric(0.0));
+    // A matrix of the same block rows on another pattern is refused, not written by the wrong slots.
+    {
+      auto other = std::make_shared<BlockPattern>();
+      other->rows = other->cols = K.block_rows();
+      other->row_ptr.resize(static_cast<size_t>(K.block_rows()) + 1);
+      for (index_t I = 0; I < K.block_rows(); ++I) {
+        other->col_idx.push_back(I);
+        other->row_ptr[static_cast<size_t>(I) + 1] = I + 1;
+      }
+      Bcsr D(other, std::vector<double>(9 * static_cast<size_t>(K.block_rows()), 0.0));
+      ElasticityModel::ElementPass pass;
+      pass.R = rot;
+      pass.stiffness = &D;
+      CHECK_THROWS_AS(model.evaluate(pass), InputError);
+    }
 #ifdef _OPENMP
     const int before = omp_get_max_threads();
     for (int threads : {1, 2, 3}) {

@@ -304,25 +304,32 @@ TEST_CASE("the matrix-free route's lmax estimate: 10 Lanczos steps, a Ritz value
 
 TEST_CASE("the matrix-free smoother's lmax estimate runs in float where D^-1 fits float, in double beyond",
           "[fem][matrix_free][smoothers]") {
-  // λmax(D⁻¹A) does not depend on E, so the estimate on the operator (in float where it can) equals
-  // the one on the assembled matrix (always in double) to float's rounding, and where E puts D⁻¹
-  // beyond float's range (above its largest, or its diagonal below its smallest normal) the
-  // operator's estimate runs in double and equals the matrix's to double's.
+  // λmax(D⁻¹A) does not depend on E, so the estimate on the operator (in float where it may and
+  // can) equals the one on the assembled matrix (always in double) to float's rounding. Where E puts
+  // D⁻¹'s block scales beyond [kSingleLow, kSingleHigh] (E = 1e±36: still inside float's range,
+  // but a product's data would be near its subnormals; 1e±45: outside it), or where no float cycle
+  // asked for float (set_single_precision), the operator's estimate runs in double and equals the
+  // matrix's to double's rounding.
   const TetMesh mesh = jittered_box(2, 1, 1);
-  for (const double young : {1.0e5, 1.0e-45, 1.0e45}) {
-    ElasticityModel model(mesh, 2, Material{young, 0.3, 1.0});
-    model.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
-    const ElasticityOperator op(model);
-    const Bcsr A = assembled(model, nullptr, 0.0, 1.0);
-    mg::ChebyshevParams lanczos;
-    lanczos.lanczos = true;
-    lanczos.power_iterations = 10;
-    const mg::Chebyshev on_operator(op, lanczos), on_matrix(A, lanczos);
-    const bool in_float = young == 1.0e5;
-    INFO("E = " << young << ": operator " << on_operator.lambda_max() << ", matrix " << on_matrix.lambda_max());
-    CHECK(on_operator.inverse_diagonal_single().empty() == !in_float);
-    CHECK(on_matrix.inverse_diagonal_single().empty());  // an assembled matrix applies in double only
-    CHECK(on_operator.lambda_max() == Approx(on_matrix.lambda_max()).epsilon(in_float ? 1e-5 : 1e-12));
+  for (const double young : {1.0e5, 1.0e-36, 1.0e36, 1.0e-45, 1.0e45}) {
+    for (const bool wanted : {true, false}) {
+      ElasticityModel model(mesh, 2, Material{young, 0.3, 1.0});
+      model.fix_where([](const Vec3& X) { return X.x() < 1e-12; });
+      const ElasticityOperator op(model);
+      const Bcsr A = assembled(model, nullptr, 0.0, 1.0);
+      mg::ChebyshevParams lanczos;
+      lanczos.lanczos = true;
+      lanczos.power_iterations = 10;
+      mg::Chebyshev on_operator(lanczos), on_matrix(lanczos);
+      on_operator.set_single_precision(wanted), on_matrix.set_single_precision(wanted);
+      on_operator.setup(op), on_matrix.setup(A);
+      const bool in_float = wanted && young == 1.0e5;
+      INFO("E = " << young << (wanted ? ", float wanted" : "") << ": operator " << on_operator.lambda_max()
+                  << ", matrix " << on_matrix.lambda_max());
+      CHECK(on_operator.inverse_diagonal_single().empty() == !in_float);
+      CHECK(on_matrix.inverse_diagonal_single().empty());  // an assembled matrix applies in double only
+      CHECK(on_operator.lambda_max() == Approx(on_matrix.lambda_max()).epsilon(in_float ? 1e-5 : 1e-12));
+    }
   }
 }
 

@@ -42,20 +42,30 @@ class BlockAssembler {
   /// Builds the pattern and the slot map once (thread-safe); every assembly calls it before it
   /// reads slot() (a row-by-row one, which searches its rows' columns, does not).
   void build_slots() const;
-  /// The pattern (nullptr before build_pattern()).
-  const std::shared_ptr<const BlockPattern>& pattern() const { return pattern_; }
+  /// The pattern (built on first use).
+  const std::shared_ptr<const BlockPattern>& pattern() const {
+    build_pattern();
+    return pattern_;
+  }
   /// Block slot of (local a, local b) of element e, or -1 if either node is fixed. Valid after
   /// build_slots() (unchecked: it is read in the assembly loops).
   offset_t slot(index_t e, int a, int b) const {
     return slots_[(static_cast<size_t>(e) * n_ + a) * n_ + b];
   }
-  /// Offsets of each free node's elements in row_entries() (num_free() + 1 entries). Valid after
-  /// build_pattern().
-  const std::vector<offset_t>& row_start() const { return row_start_; }
+  /// Offsets of each free node's elements in row_entries() (num_free() + 1 entries; built with the
+  /// pattern on first use).
+  const std::vector<offset_t>& row_start() const {
+    build_pattern();
+    return row_start_;
+  }
   /// Per free node I, the elements that hold it as e n + a (element e, local node a), in element
-  /// order: row_entries()[row_start()[I] .. row_start()[I + 1]). Valid after build_pattern(). A
-  /// row-by-row assembly reads them: each block row written by one thread, summed in element order.
-  const std::vector<offset_t>& row_entries() const { return row_entries_; }
+  /// order: row_entries()[row_start()[I] .. row_start()[I + 1]) (built with the pattern on first
+  /// use). A row-by-row assembly reads them: each block row written by one thread, summed in
+  /// element order.
+  const std::vector<offset_t>& row_entries() const {
+    build_pattern();
+    return row_entries_;
+  }
   /// The elements' traversal on threads: assembly loops run ranges().for_each().
   const ElementRanges& ranges() const { return ranges_; }
 

@@ -100,10 +100,23 @@ class Chebyshev final : public Smoother {
   /// D⁻¹: the inverted 3x3 diagonal blocks, 9 doubles each, row-major (as of the last update());
   /// empty with a preconditioner.
   const std::vector<double>& inverse_diagonal() const { return inv_diag_; }
-  /// D⁻¹ rounded to float (9 floats per block, as of the last update()), where the operator
-  /// applies in float (LinearOperator::single_precision_source) and D⁻¹ fits float's range: the λmax
-  /// estimate then runs in float, and a float cycle smooths with it. Empty otherwise.
+  /// D⁻¹ rounded to float (9 floats per block, as of the last update()), where set_single_precision
+  /// asked for it, the operator applies in float (LinearOperator::single_precision_source) and each
+  /// block's largest entry lies in [kSingleLow, kSingleHigh]: the λmax estimate then runs in float,
+  /// and a float cycle smooths with it. Empty otherwise.
   const std::vector<float>& inverse_diagonal_single() const { return inv_diag_single_; }
+  /// Whether setup() and update() keep D⁻¹ in float and estimate λmax in float where they can
+  /// (inverse_diagonal_single()); a multigrid cycle that runs its levels in float sets it before its
+  /// setup(). Off by default: a smoother in double keeps no float copy, and its operator makes
+  /// none for float products.
+  void set_single_precision(bool on) { single_wanted_ = on; }
+  /// The smallest block scale (largest entry of a 3x3 block) of D⁻¹ that float holds with margin
+  /// (float's normal range is about [1.2e-38, 3.4e38]): below it a product in float would overflow
+  /// (a Young's modulus of 1e45 Pa).
+  static constexpr double kSingleLow = 1e-30;
+  /// The largest block scale of D⁻¹ that float holds with margin: beyond it a product's data in
+  /// float would lose its digits to subnormals (a Young's modulus of 1e-40 Pa).
+  static constexpr double kSingleHigh = 1e30;
 
  private:
   void setup_impl(const LinearOperator& A) override;
@@ -121,6 +134,7 @@ class Chebyshev final : public Smoother {
   std::unique_ptr<Solver> M_;  ///< M⁻¹ instead of D⁻¹ (nullptr: D⁻¹)
   std::vector<double> inv_diag_;
   std::vector<float> inv_diag_single_;
+  bool single_wanted_ = false;  ///< set_single_precision
   double lambda_max_ = 0.0;
   std::vector<ChebyshevStep> steps_;  ///< chebyshev_steps(params_, lambda_max_), per estimate
   mutable Vector r_, d_, z_;
