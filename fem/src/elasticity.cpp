@@ -227,17 +227,21 @@ void ElasticityModel::set_stiffness_scale(std::vector<double> scale) {
   stiffness_scale_ = std::move(scale);
 }
 
+namespace {
+/// Assembly writes blocks by the assembler's pattern: the matrix must share it (make_matrix() and
+/// copies of its matrices do) or hold an equal one. Builds the pattern on first use.
+void check_pattern(const BlockAssembler& as, const Bcsr& K, const char* who) {
+  const BlockPattern* p = K.shared_pattern().get();
+  const BlockPattern& q = *as.pattern();
+  if (!p || (p != &q && (p->row_ptr != q.row_ptr || p->col_idx != q.col_idx)))
+    throw InputError(std::string(who) +
+                     ": matrix does not have the assembler's pattern (make it with assembler().make_matrix())");
+}
+}  // namespace
+
 void ElasticityModel::evaluate(const ElementPass& pass) const {
   const BlockAssembler& as = assembler();
-  if (pass.stiffness || pass.rhs) as.build_pattern();  // make_matrix() has built it
-  if (pass.stiffness) {
-    // The assembly writes blocks by the assembler's pattern: the matrix must share it (make_matrix()
-    // and copies of its matrices do) or hold an equal one.
-    const BlockPattern* p = pass.stiffness->shared_pattern().get();
-    const BlockPattern& q = *as.pattern();
-    if (!p || (p != &q && (p->row_ptr != q.row_ptr || p->col_idx != q.col_idx)))
-      throw InputError("assemble: matrix does not have the assembler's pattern (make it with assembler().make_matrix())");
-  }
+  if (pass.stiffness) check_pattern(as, *pass.stiffness, "assemble");
   if (pass.R && pass.R->size() != static_cast<size_t>(mesh_.num_tets()))
     throw InputError("assemble: one rotation per element expected");
   if (pass.u && pass.u->size() != num_dofs())
@@ -399,8 +403,8 @@ double ElasticityModel::elastic_energy(const Vector& u, const Rotations* R) cons
 
 void ElasticityModel::assemble_mass(Bcsr& M) const {
   const BlockAssembler& as = assembler();
+  check_pattern(as, M, "assemble_mass");
   as.build_slots();
-  if (M.block_rows() != as.num_free()) throw InputError("assemble_mass: matrix does not have the assembler's pattern");
   std::fill(M.values().begin(), M.values().end(), 0.0);
   const int n = space_.nodes_per_element();
   as.ranges().for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool) {

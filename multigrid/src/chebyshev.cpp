@@ -57,32 +57,34 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
   else estimate_power(params_.power_iterations, false);
 }
 
-void Chebyshev::refresh_single() {
-  // D⁻¹ in float where a float cycle asked for it (set_single_precision), the operator applies in
-  // float and D⁻¹ lies in the range float holds with margin (else empty).
-  if (M_ || !single_wanted_ || !A_->single_precision_source()) {
-    inv_diag_single_.clear();
-    return;
-  }
-  // Each 3x3 block's scale is its largest entry (off-diagonal ones may be rounding-small); a zero
-  // block is a held node. A NaN counts as out of range.
-  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(inv_diag_.size() / 9);
-  inv_diag_single_.resize(inv_diag_.size());
-  const double* d = inv_diag_.data();
-  float* f = inv_diag_single_.data();
-  int outside = 0;
-#pragma omp parallel for schedule(static) reduction(| : outside)
+double Chebyshev::single_range_violation(const std::vector<double>& inv_diag) {
+  // Each 3x3 block's scale is its largest entry (off-diagonal ones may be rounding-small).
+  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(inv_diag.size() / 9);
+  const double* d = inv_diag.data();
+  double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
+#pragma omp parallel for schedule(static) reduction(max : largest) reduction(min : smallest)
   for (std::ptrdiff_t b = 0; b < blocks; ++b) {
     double a = 0.0;
     for (int j = 0; j < 9; ++j) {
-      const double v = d[9 * b + j];
-      a = std::isnan(v) ? std::numeric_limits<double>::infinity() : std::max(a, std::abs(v));
-      if (std::isinf(a)) break;
-      f[9 * b + j] = static_cast<float>(v);
+      const double v = std::abs(d[9 * b + j]);
+      a = std::isnan(v) ? std::numeric_limits<double>::infinity() : std::max(a, v);
     }
-    outside |= a != 0.0 && !(a >= kSingleLow && a <= kSingleHigh);
+    if (a == 0.0) continue;  // a held node
+    largest = std::max(largest, a);
+    smallest = std::min(smallest, a);
   }
-  if (outside) inv_diag_single_.clear();
+  if (largest > kSingleHigh) return largest;
+  return smallest < kSingleLow ? smallest : 0.0;
+}
+
+void Chebyshev::refresh_single() {
+  // D⁻¹ in float where a float cycle asked for it (set_single_precision), the operator applies in
+  // float and D⁻¹ lies in the range float holds with margin (else empty).
+  if (M_ || !single_wanted_ || !A_->single_precision_source() || single_range_violation(inv_diag_) != 0.0) {
+    inv_diag_single_.clear();
+    return;
+  }
+  inv_diag_single_.assign(inv_diag_.begin(), inv_diag_.end());
 }
 
 void Chebyshev::apply_inverse_diagonal(const Vector& r, Vector& z) const {

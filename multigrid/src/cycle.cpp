@@ -267,26 +267,16 @@ std::string MultigridCycle::float_range_obstacle() const {
   // float is the operators' scale, read off their inverse diagonal blocks: entries beyond
   // [1e-30, 1e30] (float's normal range is about [1.2e-38, 3.4e38]) would overflow or flush the
   // products to zero (a Young's modulus of 1e45 Pa, or of 1e-40).
-  constexpr double kLow = Chebyshev::kSingleLow, kHigh = Chebyshev::kSingleHigh;
+  static_assert(Chebyshev::kSingleLow == 1e-30 && Chebyshev::kSingleHigh == 1e30, "the message below names the range");
   for (int l = 1; l < num_levels(); ++l) {
     const auto* chebyshev = dynamic_cast<const Chebyshev*>(smoothers_[l - 1].get());
     if (!chebyshev) continue;
-    // Each 3x3 block's scale is its largest entry (off-diagonal ones may be rounding-small).
-    double largest = 0.0, smallest = std::numeric_limits<double>::infinity();
-    const std::vector<double>& inv = chebyshev->inverse_diagonal();
-    for (size_t k = 0; k + 9 <= inv.size(); k += 9) {
-      double a = 0.0;
-      for (size_t j = 0; j < 9; ++j) a = std::max(a, std::abs(inv[k + j]));
-      if (a == 0.0) continue;  // a held node
-      largest = std::max(largest, a);
-      smallest = std::min(smallest, a);
-    }
-    if (largest > kHigh || smallest < kLow) {
+    if (const double scale = Chebyshev::single_range_violation(chebyshev->inverse_diagonal()); scale != 0.0) {
       char text[200];
       std::snprintf(text, sizeof text,
                     "%s's inverse diagonal blocks reach %.3g, beyond what float holds with margin ([1e-30, 1e30]): "
                     "the operator's scale (its Young's modulus) is outside float's range",
-                    levels_.level_name(l).c_str(), largest > kHigh ? largest : smallest);
+                    levels_.level_name(l).c_str(), scale);
       return text;
     }
   }
@@ -294,17 +284,12 @@ std::string MultigridCycle::float_range_obstacle() const {
 }
 
 void MultigridCycle::refresh_single(int l) {
-  // The smoother's own float D⁻¹ where it keeps one, else a float copy of its D⁻¹.
+  // The smoother's own float D⁻¹: a cycle in float asked its Chebyshev smoothers for one
+  // (set_single_precision), and float_range_obstacle() refuses the levels where they keep none.
   SingleLevel& s = single_[l];
   const std::vector<float>& own = s.smoother->inverse_diagonal_single();
-  if (!own.empty()) {
-    s.inv_diag.clear();
-    s.inv = own.data();
-    return;
-  }
-  const std::vector<double>& d = s.smoother->inverse_diagonal();
-  s.inv_diag.assign(d.begin(), d.end());
-  s.inv = s.inv_diag.data();
+  if (own.empty()) throw Error("multigrid: " + levels_.level_name(l) + "'s smoother keeps no float D^-1");
+  s.inv = own.data();
 }
 
 void MultigridCycle::refresh_galerkin() {

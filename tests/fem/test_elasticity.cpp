@@ -322,7 +322,8 @@ TEST_CASE("degree 1, the matrix alone: assembled row by row, exactly symmetric, 
     INFO((rot ? "rotated" : "unrotated"));
     CHECK((K.to_csr().to_eigen().toDense() - 0.5 * K_ref).norm() <= 1e-13 * K_ref.norm());
     CHECK(K.to_csr().is_symmetric(0.0));
-    // A matrix of the same block rows on another pattern is refused, not written by the wrong slots.
+    // A matrix of the same block rows on another pattern is refused (the stiffness and the mass),
+    // not written by the wrong slots.
     {
       auto other = std::make_shared<BlockPattern>();
       other->rows = other->cols = K.block_rows();
@@ -336,6 +337,7 @@ TEST_CASE("degree 1, the matrix alone: assembled row by row, exactly symmetric, 
       pass.R = rot;
       pass.stiffness = &D;
       CHECK_THROWS_AS(model.evaluate(pass), InputError);
+      CHECK_THROWS_AS(model.assemble_mass(D), InputError);
     }
 #ifdef _OPENMP
     const int before = omp_get_max_threads();

@@ -117,6 +117,10 @@ class Chebyshev final : public Smoother {
   /// The largest block scale of D⁻¹ that float holds with margin: beyond it a product's data in
   /// float would lose its digits to subnormals (a Young's modulus of 1e-40 Pa).
   static constexpr double kSingleHigh = 1e30;
+  /// Where a D⁻¹ (9 entries per block, as inverse_diagonal()) leaves that range: its largest block
+  /// scale if above kSingleHigh (infinity for a NaN or an infinite entry), else its smallest nonzero
+  /// one if below kSingleLow, else 0 (a zero block is a held node).
+  static double single_range_violation(const std::vector<double>& inv_diag);
 
  private:
   void setup_impl(const LinearOperator& A) override;

@@ -171,8 +171,8 @@ class MultigridCycle final : public Solver {
   struct SingleLevel {
     const SinglePrecisionSource* op = nullptr;
     const Chebyshev* smoother = nullptr;
-    std::vector<float> inv_diag, p_values, r_values;  ///< inv_diag: D⁻¹'s float copy, where needed
-    const float* inv = nullptr;  ///< float D⁻¹: the smoother's own (inverse_diagonal_single) or inv_diag
+    std::vector<float> p_values, r_values;
+    const float* inv = nullptr;  ///< float D⁻¹: the smoother's own (inverse_diagonal_single)
     mutable Eigen::VectorXf r, rc, xc, d;
   };
   std::vector<SingleLevel> single_;  ///< [l]: level l >= 1 (precision=single only)
