@@ -6,8 +6,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <type_traits>
+
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 namespace pmg::fem {
 
@@ -258,18 +263,25 @@ inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
   // 1. E_β = H_β + H_βᵀ with H_β = Σ_k u_{β+e_k} g_kᵀ, its 6 components (00 11 22 01 02 12; the
   //    diagonal stored halved, i.e. H_ii): the stress needs only the symmetric part, and
   //    step 2 commutes with taking it, so the moments run on 6 components instead of 9.
+  //    Every product is accumulated on its own (one fused multiply-add each), and the loops are
+  //    unrolled so that the node table's entries become fixed offsets.
   V E[Q][6];
+#pragma GCC unroll 20
   for (int b = 0; b < Q; ++b) {
     V h[6];
     for (int c = 0; c < 6; ++c) h[c] = V{};
+#pragma GCC unroll 4
     for (int k = 0; k < 4; ++k) {
       const V* ua = u[up.v[b][k]];
       h[0] += ua[0] * g[k][0];
       h[1] += ua[1] * g[k][1];
       h[2] += ua[2] * g[k][2];
-      h[3] += ua[0] * g[k][1] + ua[1] * g[k][0];
-      h[4] += ua[0] * g[k][2] + ua[2] * g[k][0];
-      h[5] += ua[1] * g[k][2] + ua[2] * g[k][1];
+      h[3] += ua[0] * g[k][1];
+      h[3] += ua[1] * g[k][0];
+      h[4] += ua[0] * g[k][2];
+      h[4] += ua[2] * g[k][0];
+      h[5] += ua[1] * g[k][2];
+      h[5] += ua[2] * g[k][1];
     }
     for (int c = 0; c < 6; ++c) E[b][c] = h[c];
   }
@@ -302,11 +314,18 @@ inline void batch_apply(const TablesIn<P, T>& t, const T* d, int o, bool mass,
     const V t00 = tr + cm2 * h[0], t11 = tr + cm2 * h[1], t22 = tr + cm2 * h[2];
     const V t01 = cm * h[3], t02 = cm * h[4], t12 = cm * h[5];
     // 4. r_{γ+e_k} += T g_k
+#pragma GCC unroll 4
     for (int k = 0; k < 4; ++k) {
       V* ra = r[up.v[c][k]];
-      ra[0] += t00 * g[k][0] + t01 * g[k][1] + t02 * g[k][2];
-      ra[1] += t01 * g[k][0] + t11 * g[k][1] + t12 * g[k][2];
-      ra[2] += t02 * g[k][0] + t12 * g[k][1] + t22 * g[k][2];
+      ra[0] += t00 * g[k][0];
+      ra[0] += t01 * g[k][1];
+      ra[0] += t02 * g[k][2];
+      ra[1] += t01 * g[k][0];
+      ra[1] += t11 * g[k][1];
+      ra[1] += t12 * g[k][2];
+      ra[2] += t02 * g[k][0];
+      ra[2] += t12 * g[k][1];
+      ra[2] += t22 * g[k][2];
     }
   }
 }
@@ -330,9 +349,10 @@ inline void scatter_lanes(const index_t* f, int o, const typename Lanes<T, L>::t
 
 /// out += sign · (element products of x) over batches [begin, end), L lanes at a time; an index
 /// <= -2 is shared slot -2 - index (detail::SharedSlots).
-template <int P, class T, int L>
+template <int P, class T, int L, class Io = void>
 inline void apply_batches(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
                           const index_t* shared, T* shared_out, T sign, bool mass) {
+  constexpr bool Wide = !std::is_same_v<Io, void>;
   using V = typename Lanes<T, L>::type;
   constexpr int N = Tables<P>::N;
   const TablesIn<P, T>& t = tables_in<P, T>();
@@ -352,7 +372,9 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
                    : I == -1                   ? kZeros<T>
                                                : xp + 3 * static_cast<size_t>(shared[-2 - I]);
         }
-        if constexpr (L <= 8) {
+        if constexpr (Wide) {
+          Io::gather(src, u[a]);
+        } else if constexpr (L <= 8) {
           for (int i = 0; i < 3; ++i) {
             V v;
             for (int l = 0; l < L; ++l) v[l] = src[l][i];
@@ -461,10 +483,70 @@ PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long beg
                                     const index_t* shared, T* shared_out, T sign, bool mass) {
   apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
+/// Gathers and scatters of 8 lanes of doubles by 256-bit masked loads and stores of each lane's
+/// three components and an in-register transposition (AVX-512).
+struct Avx512Lanes8 {
+  using V = Lanes<double, 8>::type;
+  /// The address 4 doubles below p, for a load whose mask selects entries 4-6 (masked-off
+  /// entries are neither read nor faulted on).
+  static const double* below(const double* p) {
+    return reinterpret_cast<const double*>(reinterpret_cast<std::uintptr_t>(p) - 4 * sizeof(double));
+  }
+  /// u[i][l] = src[l][i], i < 3: a masked load of src[l][0..2] per lane, transposed.
+  PMG_MF_AVX512 static inline void gather(const double* const (&src)[8], V (&u)[3]) {
+    const __m512d z0 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[0]), 0x70, below(src[4]));
+    const __m512d z1 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[1]), 0x70, below(src[5]));
+    const __m512d z2 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[2]), 0x70, below(src[6]));
+    const __m512d z3 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[3]), 0x70, below(src[7]));
+    // z_j = [lane j | lane j + 4], each (x, y, z, 0)
+    const V v0 = (V)z0, v1 = (V)z1, v2 = (V)z2, v3 = (V)z3;
+    const V t0 = __builtin_shufflevector(v0, v1, 0, 8, 2, 10, 4, 12, 6, 14);  // x0 x1 z0 z1 | x4 x5 z4 z5
+    const V t1 = __builtin_shufflevector(v0, v1, 1, 9, 3, 11, 5, 13, 7, 15);  // y0 y1 0 0 | y4 y5 0 0
+    const V t2 = __builtin_shufflevector(v2, v3, 0, 8, 2, 10, 4, 12, 6, 14);  // x2 x3 z2 z3 | x6 x7 z6 z7
+    const V t3 = __builtin_shufflevector(v2, v3, 1, 9, 3, 11, 5, 13, 7, 15);
+    u[0] = __builtin_shufflevector(t0, t2, 0, 1, 8, 9, 4, 5, 12, 13);
+    u[1] = __builtin_shufflevector(t1, t3, 0, 1, 8, 9, 4, 5, 12, 13);
+    u[2] = __builtin_shufflevector(t0, t2, 2, 3, 10, 11, 6, 7, 14, 15);
+  }
+};
+
+/// The same for 16 lanes of floats: 128-bit masked loads of each lane's three components into
+/// the four 128-bit quarters of four vectors, transposed quarter by quarter.
+struct Avx512Lanes16 {
+  using V = Lanes<float, 16>::type;
+  /// The address 4 k floats below p, for a load whose mask selects entries 4k..4k+2.
+  static const float* below(const float* p, int k) {
+    return reinterpret_cast<const float*>(reinterpret_cast<std::uintptr_t>(p) - 4 * k * sizeof(float));
+  }
+  /// Lanes j, j + 4, j + 8, j + 12 into the quarters of one vector, each (x, y, z, 0).
+  PMG_MF_AVX512 static inline V quarters(const float* const (&src)[16], int j) {
+    __m512 z = _mm512_maskz_loadu_ps(0x0007, src[j]);
+    z = _mm512_mask_loadu_ps(z, 0x0070, below(src[j + 4], 1));
+    z = _mm512_mask_loadu_ps(z, 0x0700, below(src[j + 8], 2));
+    z = _mm512_mask_loadu_ps(z, 0x7000, below(src[j + 12], 3));
+    return (V)z;
+  }
+  /// u[i][l] = src[l][i], i < 3.
+  PMG_MF_AVX512 static inline void gather(const float* const (&src)[16], V (&u)[3]) {
+    const V z0 = quarters(src, 0), z1 = quarters(src, 1), z2 = quarters(src, 2), z3 = quarters(src, 3);
+    // Per quarter q (lanes 4q..4q+3): the 4x4 transposition of (z0, z1, z2, z3).
+    const V a = __builtin_shufflevector(z0, z1, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28, 13, 29);  // x0 x1 y0 y1
+    const V b = __builtin_shufflevector(z2, z3, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28, 13, 29);  // x2 x3 y2 y3
+    const V c = __builtin_shufflevector(z0, z1, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30, 15, 31);  // z0 z1 0 0
+    const V d = __builtin_shufflevector(z2, z3, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30, 15, 31);  // z2 z3 0 0
+    u[0] = __builtin_shufflevector(a, b, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29);
+    u[1] = __builtin_shufflevector(a, b, 2, 3, 18, 19, 6, 7, 22, 23, 10, 11, 26, 27, 14, 15, 30, 31);
+    u[2] = __builtin_shufflevector(c, d, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29);
+  }
+};
+
 template <int P, class T>
 PMG_MF_AVX512 void apply_batches_avx512(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
                                         const index_t* shared, T* shared_out, T sign, bool mass) {
-  apply_batches<P, T, 64 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
+  if constexpr (std::is_same_v<T, double>)
+    apply_batches<P, T, 8, Avx512Lanes8>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
+  else
+    apply_batches<P, T, 16, Avx512Lanes16>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 template <int P>
 PMG_MF_AVX2 double force_batches_avx2(const index_t* nodes, const index_t* elements, const double* data,
