@@ -478,10 +478,53 @@ void apply_batches_generic(const index_t* free, const T* data, long begin, long 
 // One attribute per instruction set, for the product's and the force's copies alike.
 #define PMG_MF_AVX2 __attribute__((target("avx2,fma"), flatten))
 #define PMG_MF_AVX512 __attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten))
+/// The gathers of the AVX2 copies: each lane's three components by one masked load (AVX's
+/// vmaskmov: masked-off entries neither read nor faulted on), transposed in registers.
+struct Avx2Lanes4 {
+  using V = Lanes<double, 4>::type;
+  /// u[i][l] = src[l][i], i < 3, for 4 lanes of doubles.
+  PMG_MF_AVX2 static inline void gather(const double* const (&src)[4], V (&u)[3]) {
+    const __m256i m = _mm256_set_epi64x(0, -1, -1, -1);
+    const V a0 = (V)_mm256_maskload_pd(src[0], m), a1 = (V)_mm256_maskload_pd(src[1], m),
+            a2 = (V)_mm256_maskload_pd(src[2], m), a3 = (V)_mm256_maskload_pd(src[3], m);
+    const V t0 = __builtin_shufflevector(a0, a1, 0, 4, 2, 6);  // x0 x1 z0 z1
+    const V t1 = __builtin_shufflevector(a0, a1, 1, 5, 3, 7);  // y0 y1 0 0
+    const V t2 = __builtin_shufflevector(a2, a3, 0, 4, 2, 6);  // x2 x3 z2 z3
+    const V t3 = __builtin_shufflevector(a2, a3, 1, 5, 3, 7);
+    u[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+    u[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+    u[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  }
+};
+struct Avx2Lanes8 {
+  using V = Lanes<float, 8>::type;
+  using Q = Lanes<float, 4>::type;
+  /// u[i][l] = src[l][i], i < 3, for 8 lanes of floats: lanes j and j + 4 in the halves of one
+  /// vector, transposed half by half.
+  PMG_MF_AVX2 static inline void gather(const float* const (&src)[8], V (&u)[3]) {
+    const __m128i m = _mm_set_epi32(0, -1, -1, -1);
+    V z[4];
+    for (int j = 0; j < 4; ++j) {
+      const Q lo = (Q)_mm_maskload_ps(src[j], m), hi = (Q)_mm_maskload_ps(src[j + 4], m);
+      z[j] = __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7);
+    }
+    const V a = __builtin_shufflevector(z[0], z[1], 0, 8, 1, 9, 4, 12, 5, 13);   // x0 x1 y0 y1 | x4 x5 y4 y5
+    const V b = __builtin_shufflevector(z[2], z[3], 0, 8, 1, 9, 4, 12, 5, 13);   // x2 x3 y2 y3 | ...
+    const V c = __builtin_shufflevector(z[0], z[1], 2, 10, 3, 11, 6, 14, 7, 15);  // z0 z1 0 0 | ...
+    const V d = __builtin_shufflevector(z[2], z[3], 2, 10, 3, 11, 6, 14, 7, 15);
+    u[0] = __builtin_shufflevector(a, b, 0, 1, 8, 9, 4, 5, 12, 13);
+    u[1] = __builtin_shufflevector(a, b, 2, 3, 10, 11, 6, 7, 14, 15);
+    u[2] = __builtin_shufflevector(c, d, 0, 1, 8, 9, 4, 5, 12, 13);
+  }
+};
+
 template <int P, class T>
 PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
                                     const index_t* shared, T* shared_out, T sign, bool mass) {
-  apply_batches<P, T, 32 / sizeof(T)>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
+  if constexpr (std::is_same_v<T, double>)
+    apply_batches<P, T, 4, Avx2Lanes4>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
+  else
+    apply_batches<P, T, 8, Avx2Lanes8>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 /// Gathers and scatters of 8 lanes of doubles by 256-bit masked loads and stores of each lane's
 /// three components and an in-register transposition (AVX-512).
