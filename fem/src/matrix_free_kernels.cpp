@@ -349,6 +349,7 @@ inline void scatter_lanes(const index_t* f, int o, const typename Lanes<T, L>::t
 
 /// out += sign · (element products of x) over batches [begin, end), L lanes at a time; an index
 /// <= -2 is shared slot -2 - index (detail::SharedSlots).
+/// Io (void: none) gathers one node of all L lanes: Io::gather(src, u) sets u[i][l] = src[l][i].
 template <int P, class T, int L, class Io = void>
 inline void apply_batches(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
                           const index_t* shared, T* shared_out, T sign, bool mass) {
@@ -360,9 +361,9 @@ inline void apply_batches(const index_t* free, const T* data, long begin, long e
     const index_t* f = free + static_cast<size_t>(bt) * N * kBatch;
     const T* d = data + static_cast<size_t>(bt) * kData * kBatch;
     for (int o = 0; o < kBatch; o += L) {
-      // Gathered lane by lane into vectors (up to 8 lanes, as one masked broadcast per lane where
-      // the instruction set has them): a fixed node or padding lane reads zeros, a shared slot
-      // its node.
+      // Gathered lane by lane into vectors: by Io (one masked load per lane and a transposition:
+      // the AVX2 and AVX-512 copies), else by inserts (up to 8 lanes) or through memory (16). A
+      // fixed node or padding lane reads zeros, a shared slot its node.
       V u[N][3], r[N][3];
       for (int a = 0; a < N; ++a) {
         const T* src[L];
@@ -526,8 +527,10 @@ PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long beg
   else
     apply_batches<P, T, 8, Avx2Lanes8>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
-/// Gathers and scatters of 8 lanes of doubles by 256-bit masked loads and stores of each lane's
-/// three components and an in-register transposition (AVX-512).
+/// The gathers of the AVX-512 copies, 8 lanes of doubles: each lane's three components by one
+/// masked load (lanes j and j + 4 into the halves of one vector), transposed in registers. (The
+/// scatter stays scalar: a masked store does not forward to a load of the same entries right
+/// after it, and lanes of a batch share nodes; docs/performance.md.)
 struct Avx512Lanes8 {
   using V = Lanes<double, 8>::type;
   /// The address 4 doubles below p, for a load whose mask selects entries 4-6 (masked-off
