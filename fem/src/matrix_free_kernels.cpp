@@ -479,6 +479,12 @@ void apply_batches_generic(const index_t* free, const T* data, long begin, long 
 // One attribute per instruction set, for the product's and the force's copies alike.
 #define PMG_MF_AVX2 __attribute__((target("avx2,fma"), flatten))
 #define PMG_MF_AVX512 __attribute__((target("avx512f,avx512vl,avx512dq,avx2,fma"), flatten))
+// The masked-load gathers below transpose with __builtin_shufflevector (Clang, GCC from 12); an
+// older GCC builds the copies with the inserts instead (Io = void).
+#if defined(__clang__) || __GNUC__ >= 12
+#define PMG_MF_MASKED_GATHER 1
+#endif
+#ifdef PMG_MF_MASKED_GATHER
 /// The gathers of the AVX2 copies: each lane's three components by one masked load (AVX's
 /// vmaskmov: masked-off entries neither read nor faulted on), transposed in registers.
 struct Avx2Lanes4 {
@@ -518,6 +524,10 @@ struct Avx2Lanes8 {
     u[2] = __builtin_shufflevector(c, d, 0, 1, 8, 9, 4, 5, 12, 13);
   }
 };
+#else
+using Avx2Lanes4 = void;
+using Avx2Lanes8 = void;
+#endif
 
 template <int P, class T>
 PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
@@ -527,6 +537,7 @@ PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long beg
   else
     apply_batches<P, T, 8, Avx2Lanes8>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
+#ifdef PMG_MF_MASKED_GATHER
 /// The gathers of the AVX-512 copies, 8 lanes of doubles: each lane's three components by one
 /// masked load (lanes j and j + 4 into the halves of one vector), transposed in registers. (The
 /// scatter stays scalar: a masked store does not forward to a load of the same entries right
@@ -585,6 +596,10 @@ struct Avx512Lanes16 {
     u[2] = __builtin_shufflevector(c, d, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29);
   }
 };
+#else
+using Avx512Lanes8 = void;
+using Avx512Lanes16 = void;
+#endif
 
 template <int P, class T>
 PMG_MF_AVX512 void apply_batches_avx512(const index_t* free, const T* data, long begin, long end, const T* xp, T* out,
@@ -612,6 +627,7 @@ PMG_MF_AVX512 double force_batches_avx512(const index_t* nodes, const index_t* e
 }
 #undef PMG_MF_AVX2
 #undef PMG_MF_AVX512
+#undef PMG_MF_MASKED_GATHER
 #endif
 
 }  // namespace
