@@ -57,7 +57,9 @@ void Chebyshev::setup_impl(const LinearOperator& A) {
   else estimate_power(params_.power_iterations, false);
 }
 
-double Chebyshev::single_range_violation(const std::vector<double>& inv_diag) {
+namespace {
+/// Chebyshev::single_range_violation() of a D⁻¹ (9 entries per block).
+double range_violation(const std::vector<double>& inv_diag) {
   // Each 3x3 block's scale is its largest entry (off-diagonal ones may be rounding-small).
   const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>(inv_diag.size() / 9);
   const double* d = inv_diag.data();
@@ -73,14 +75,17 @@ double Chebyshev::single_range_violation(const std::vector<double>& inv_diag) {
     largest = std::max(largest, a);
     smallest = std::min(smallest, a);
   }
-  if (largest > kSingleHigh) return largest;
-  return smallest < kSingleLow ? smallest : 0.0;
+  if (largest > Chebyshev::kSingleHigh) return largest;
+  return smallest < Chebyshev::kSingleLow ? smallest : 0.0;
 }
+}  // namespace
 
 void Chebyshev::refresh_single() {
   // D⁻¹ in float where a float cycle asked for it (set_single_precision), the operator applies in
   // float and D⁻¹ lies in the range float holds with margin (else empty).
-  if (M_ || !single_wanted_ || !A_->single_precision_source() || single_range_violation(inv_diag_) != 0.0) {
+  const bool wanted = !M_ && single_wanted_ && A_->single_precision_source();
+  single_violation_ = wanted ? range_violation(inv_diag_) : 0.0;
+  if (!wanted || single_violation_ != 0.0) {
     inv_diag_single_.clear();
     return;
   }

@@ -117,10 +117,11 @@ class Chebyshev final : public Smoother {
   /// The largest block scale of D⁻¹ that float holds with margin: beyond it a product's data in
   /// float would lose its digits to subnormals (a Young's modulus of 1e-40 Pa).
   static constexpr double kSingleHigh = 1e30;
-  /// Where a D⁻¹ (9 entries per block, as inverse_diagonal()) leaves that range: its largest block
-  /// scale if above kSingleHigh (infinity for a NaN or an infinite entry), else its smallest nonzero
-  /// one if below kSingleLow, else 0 (a zero block is a held node).
-  static double single_range_violation(const std::vector<double>& inv_diag);
+  /// Where the last setup() or update() found D⁻¹ outside that range (checked where
+  /// set_single_precision asked for float and the operator applies in float; else 0): its largest
+  /// block scale if above kSingleHigh (infinity for a NaN or an infinite entry), else its smallest
+  /// nonzero one if below kSingleLow, else 0 (a zero block is a held node).
+  double single_range_violation() const { return single_violation_; }
 
  private:
   void setup_impl(const LinearOperator& A) override;
@@ -138,7 +139,8 @@ class Chebyshev final : public Smoother {
   std::unique_ptr<Solver> M_;  ///< M⁻¹ instead of D⁻¹ (nullptr: D⁻¹)
   std::vector<double> inv_diag_;
   std::vector<float> inv_diag_single_;
-  bool single_wanted_ = false;  ///< set_single_precision
+  bool single_wanted_ = false;    ///< set_single_precision
+  double single_violation_ = 0.0;  ///< single_range_violation()
   double lambda_max_ = 0.0;
   std::vector<ChebyshevStep> steps_;  ///< chebyshev_steps(params_, lambda_max_), per estimate
   mutable Vector r_, d_, z_;
