@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <string>
 #include <type_traits>
+#include <utility>
 
 #if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
 #include <immintrin.h>
@@ -485,29 +486,71 @@ void apply_batches_generic(const index_t* free, const T* data, long begin, long 
 #define PMG_MF_MASKED_GATHER 1
 #endif
 #ifdef PMG_MF_MASKED_GATHER
-/// The gathers of the AVX2 copies: each lane's three components by one masked load (AVX's
-/// vmaskmov: masked-off entries neither read nor faulted on), transposed in registers.
+// The masked-load gathers: each lane's three components by one masked load (masked-off entries
+// are neither read nor faulted on, so a node at the end of x needs no padding), lane j + 4 g into
+// group g (4 entries) of vector j < 4, then per group the 4 x 4 transposition into the components'
+// vectors. (The scatter stays scalar: a masked store does not forward to a load of the same
+// entries right after it, and lanes of a batch share nodes; docs/performance.md.)
+
+/// Entry k of a two-vector shuffle of W-entry vectors (W a multiple of 4), within k's group of 4
+/// (base 4 (k / 4); b: the second vector, W on): the interleavings of the transposition.
+template <int W>
+struct Pick {
+  static constexpr int base(int k) { return 4 * (k / 4); }
+  struct Low {  // a0 b0 a1 b1
+    static constexpr int at(int k) { return base(k) + (k % 2) * W + (k % 4) / 2; }
+  };
+  struct High {  // a2 b2 a3 b3
+    static constexpr int at(int k) { return base(k) + (k % 2) * W + 2 + (k % 4) / 2; }
+  };
+  struct PairLow {  // a0 a1 b0 b1
+    static constexpr int at(int k) { return base(k) + (k % 4) / 2 * W + k % 2; }
+  };
+  struct PairHigh {  // a2 a3 b2 b3
+    static constexpr int at(int k) { return base(k) + (k % 4) / 2 * W + 2 + k % 2; }
+  };
+};
+/// out = the shuffle of a and b by F (by reference: vector values cross no function boundary).
+template <class F, class V, std::size_t... K>
+inline void shuffle(const V& a, const V& b, V& out, std::index_sequence<K...>) {
+  out = __builtin_shufflevector(a, b, F::at(static_cast<int>(K))...);
+}
+/// u[i] = the components i < 3 of z's groups: z[j]'s group g holds lane j + 4 g as (x, y, z, ·);
+/// u[i]'s entry j + 4 g is its component i.
+template <int W, class V>
+inline void transpose_groups(const V (&z)[4], V (&u)[3]) {
+  using S = std::make_index_sequence<W>;
+  using K = Pick<W>;
+  V a, b, c, d;
+  shuffle<typename K::Low>(z[0], z[1], a, S{});
+  shuffle<typename K::Low>(z[2], z[3], b, S{});
+  shuffle<typename K::High>(z[0], z[1], c, S{});
+  shuffle<typename K::High>(z[2], z[3], d, S{});
+  shuffle<typename K::PairLow>(a, b, u[0], S{});
+  shuffle<typename K::PairHigh>(a, b, u[1], S{});
+  shuffle<typename K::PairLow>(c, d, u[2], S{});
+}
+/// The address 4 g entries below p: a masked load from it whose mask selects entries 4g..4g+2
+/// reads p[0..2] into group g.
+template <class T>
+const T* below(const T* p, int g) {
+  return reinterpret_cast<const T*>(reinterpret_cast<std::uintptr_t>(p) - 4 * g * sizeof(T));
+}
+
+/// AVX2, 4 lanes of doubles: one group per vector.
 struct Avx2Lanes4 {
   using V = Lanes<double, 4>::type;
-  /// u[i][l] = src[l][i], i < 3, for 4 lanes of doubles.
   PMG_MF_AVX2 static inline void gather(const double* const (&src)[4], V (&u)[3]) {
     const __m256i m = _mm256_set_epi64x(0, -1, -1, -1);
-    const V a0 = (V)_mm256_maskload_pd(src[0], m), a1 = (V)_mm256_maskload_pd(src[1], m),
-            a2 = (V)_mm256_maskload_pd(src[2], m), a3 = (V)_mm256_maskload_pd(src[3], m);
-    const V t0 = __builtin_shufflevector(a0, a1, 0, 4, 2, 6);  // x0 x1 z0 z1
-    const V t1 = __builtin_shufflevector(a0, a1, 1, 5, 3, 7);  // y0 y1 0 0
-    const V t2 = __builtin_shufflevector(a2, a3, 0, 4, 2, 6);  // x2 x3 z2 z3
-    const V t3 = __builtin_shufflevector(a2, a3, 1, 5, 3, 7);
-    u[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
-    u[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
-    u[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+    const V z[4] = {(V)_mm256_maskload_pd(src[0], m), (V)_mm256_maskload_pd(src[1], m),
+                    (V)_mm256_maskload_pd(src[2], m), (V)_mm256_maskload_pd(src[3], m)};
+    transpose_groups<4>(z, u);
   }
 };
+/// AVX2, 8 lanes of floats: two 128-bit loads per vector.
 struct Avx2Lanes8 {
   using V = Lanes<float, 8>::type;
   using Q = Lanes<float, 4>::type;
-  /// u[i][l] = src[l][i], i < 3, for 8 lanes of floats: lanes j and j + 4 in the halves of one
-  /// vector, transposed half by half.
   PMG_MF_AVX2 static inline void gather(const float* const (&src)[8], V (&u)[3]) {
     const __m128i m = _mm_set_epi32(0, -1, -1, -1);
     V z[4];
@@ -515,13 +558,7 @@ struct Avx2Lanes8 {
       const Q lo = (Q)_mm_maskload_ps(src[j], m), hi = (Q)_mm_maskload_ps(src[j + 4], m);
       z[j] = __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7);
     }
-    const V a = __builtin_shufflevector(z[0], z[1], 0, 8, 1, 9, 4, 12, 5, 13);   // x0 x1 y0 y1 | x4 x5 y4 y5
-    const V b = __builtin_shufflevector(z[2], z[3], 0, 8, 1, 9, 4, 12, 5, 13);   // x2 x3 y2 y3 | ...
-    const V c = __builtin_shufflevector(z[0], z[1], 2, 10, 3, 11, 6, 14, 7, 15);  // z0 z1 0 0 | ...
-    const V d = __builtin_shufflevector(z[2], z[3], 2, 10, 3, 11, 6, 14, 7, 15);
-    u[0] = __builtin_shufflevector(a, b, 0, 1, 8, 9, 4, 5, 12, 13);
-    u[1] = __builtin_shufflevector(a, b, 2, 3, 10, 11, 6, 7, 14, 15);
-    u[2] = __builtin_shufflevector(c, d, 0, 1, 8, 9, 4, 5, 12, 13);
+    transpose_groups<8>(z, u);
   }
 };
 #else
@@ -538,62 +575,28 @@ PMG_MF_AVX2 void apply_batches_avx2(const index_t* free, const T* data, long beg
     apply_batches<P, T, 8, Avx2Lanes8>(free, data, begin, end, xp, out, shared, shared_out, sign, mass);
 }
 #ifdef PMG_MF_MASKED_GATHER
-/// The gathers of the AVX-512 copies, 8 lanes of doubles: each lane's three components by one
-/// masked load (lanes j and j + 4 into the halves of one vector), transposed in registers. (The
-/// scatter stays scalar: a masked store does not forward to a load of the same entries right
-/// after it, and lanes of a batch share nodes; docs/performance.md.)
+/// AVX-512, 8 lanes of doubles: two masked loads per vector (groups 0 and 1).
 struct Avx512Lanes8 {
   using V = Lanes<double, 8>::type;
-  /// The address 4 doubles below p, for a load whose mask selects entries 4-6 (masked-off
-  /// entries are neither read nor faulted on).
-  static const double* below(const double* p) {
-    return reinterpret_cast<const double*>(reinterpret_cast<std::uintptr_t>(p) - 4 * sizeof(double));
-  }
-  /// u[i][l] = src[l][i], i < 3: a masked load of src[l][0..2] per lane, transposed.
   PMG_MF_AVX512 static inline void gather(const double* const (&src)[8], V (&u)[3]) {
-    const __m512d z0 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[0]), 0x70, below(src[4]));
-    const __m512d z1 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[1]), 0x70, below(src[5]));
-    const __m512d z2 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[2]), 0x70, below(src[6]));
-    const __m512d z3 = _mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[3]), 0x70, below(src[7]));
-    // z_j = [lane j | lane j + 4], each (x, y, z, 0)
-    const V v0 = (V)z0, v1 = (V)z1, v2 = (V)z2, v3 = (V)z3;
-    const V t0 = __builtin_shufflevector(v0, v1, 0, 8, 2, 10, 4, 12, 6, 14);  // x0 x1 z0 z1 | x4 x5 z4 z5
-    const V t1 = __builtin_shufflevector(v0, v1, 1, 9, 3, 11, 5, 13, 7, 15);  // y0 y1 0 0 | y4 y5 0 0
-    const V t2 = __builtin_shufflevector(v2, v3, 0, 8, 2, 10, 4, 12, 6, 14);  // x2 x3 z2 z3 | x6 x7 z6 z7
-    const V t3 = __builtin_shufflevector(v2, v3, 1, 9, 3, 11, 5, 13, 7, 15);
-    u[0] = __builtin_shufflevector(t0, t2, 0, 1, 8, 9, 4, 5, 12, 13);
-    u[1] = __builtin_shufflevector(t1, t3, 0, 1, 8, 9, 4, 5, 12, 13);
-    u[2] = __builtin_shufflevector(t0, t2, 2, 3, 10, 11, 6, 7, 14, 15);
+    V z[4];
+    for (int j = 0; j < 4; ++j)
+      z[j] = (V)_mm512_mask_loadu_pd(_mm512_maskz_loadu_pd(0x07, src[j]), 0x70, below(src[j + 4], 1));
+    transpose_groups<8>(z, u);
   }
 };
-
-/// The same for 16 lanes of floats: 128-bit masked loads of each lane's three components into
-/// the four 128-bit quarters of four vectors, transposed quarter by quarter.
+/// AVX-512, 16 lanes of floats: four masked loads per vector (groups 0-3).
 struct Avx512Lanes16 {
   using V = Lanes<float, 16>::type;
-  /// The address 4 k floats below p, for a load whose mask selects entries 4k..4k+2.
-  static const float* below(const float* p, int k) {
-    return reinterpret_cast<const float*>(reinterpret_cast<std::uintptr_t>(p) - 4 * k * sizeof(float));
-  }
-  /// Lanes j, j + 4, j + 8, j + 12 into the quarters of one vector, each (x, y, z, 0).
-  PMG_MF_AVX512 static inline V quarters(const float* const (&src)[16], int j) {
-    __m512 z = _mm512_maskz_loadu_ps(0x0007, src[j]);
-    z = _mm512_mask_loadu_ps(z, 0x0070, below(src[j + 4], 1));
-    z = _mm512_mask_loadu_ps(z, 0x0700, below(src[j + 8], 2));
-    z = _mm512_mask_loadu_ps(z, 0x7000, below(src[j + 12], 3));
-    return (V)z;
-  }
-  /// u[i][l] = src[l][i], i < 3.
   PMG_MF_AVX512 static inline void gather(const float* const (&src)[16], V (&u)[3]) {
-    const V z0 = quarters(src, 0), z1 = quarters(src, 1), z2 = quarters(src, 2), z3 = quarters(src, 3);
-    // Per quarter q (lanes 4q..4q+3): the 4x4 transposition of (z0, z1, z2, z3).
-    const V a = __builtin_shufflevector(z0, z1, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28, 13, 29);  // x0 x1 y0 y1
-    const V b = __builtin_shufflevector(z2, z3, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28, 13, 29);  // x2 x3 y2 y3
-    const V c = __builtin_shufflevector(z0, z1, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30, 15, 31);  // z0 z1 0 0
-    const V d = __builtin_shufflevector(z2, z3, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30, 15, 31);  // z2 z3 0 0
-    u[0] = __builtin_shufflevector(a, b, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29);
-    u[1] = __builtin_shufflevector(a, b, 2, 3, 18, 19, 6, 7, 22, 23, 10, 11, 26, 27, 14, 15, 30, 31);
-    u[2] = __builtin_shufflevector(c, d, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29);
+    V z[4];
+    for (int j = 0; j < 4; ++j) {
+      __m512 v = _mm512_maskz_loadu_ps(0x0007, src[j]);
+      v = _mm512_mask_loadu_ps(v, 0x0070, below(src[j + 4], 1));
+      v = _mm512_mask_loadu_ps(v, 0x0700, below(src[j + 8], 2));
+      z[j] = (V)_mm512_mask_loadu_ps(v, 0x7000, below(src[j + 12], 3));
+    }
+    transpose_groups<16>(z, u);
   }
 };
 #else
