@@ -1,4 +1,5 @@
 #include "pmg/hypre/boomeramg.hpp"
+#include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/layout.hpp"
 
 #include "pmg/mpi/session.hpp"
@@ -6,10 +7,12 @@
 
 #include <HYPRE.h>
 #include <HYPRE_parcsr_ls.h>
-#include <_hypre_parcsr_ls.h>  // hypre_ParAMGData: the hierarchy, for the complexities
+#include <_hypre_parcsr_ls.h>  // hypre_ParAMGData (the complexities); hypre_ParCSRMatrix, built here
 #include <mpi.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -31,10 +34,51 @@ void check(HYPRE_Int err, const char* what) {
 
 }  // namespace
 
+/// The rows of the system as hypre reads them: scalar row r's (column, value) pairs, in column
+/// order, from a Csr or straight from a Bcsr's block row r / 3 (no scalar copy is made).
+struct RowSource {
+  const Csr* csr = nullptr;
+  const Bcsr* bcsr = nullptr;
+
+  index_t rows() const { return csr ? csr->rows() : bcsr->rows(); }
+  /// Entries in scalar row r.
+  offset_t length(index_t r) const {
+    if (csr) return csr->pattern().row_ptr[r + 1] - csr->pattern().row_ptr[r];
+    const BlockPattern& p = bcsr->pattern();
+    return Bcsr::kBlock * (p.row_ptr[r / Bcsr::kBlock + 1] - p.row_ptr[r / Bcsr::kBlock]);
+  }
+  /// f(column, value) for each entry of scalar row r, in column order.
+  template <class F>
+  void for_each(index_t r, F&& f) const {
+    if (csr) {
+      const CsrPattern& p = csr->pattern();
+      const double* v = csr->values().data();
+      for (offset_t k = p.row_ptr[r]; k < p.row_ptr[r + 1]; ++k) f(p.col_idx[k], v[k]);
+      return;
+    }
+    constexpr int B = Bcsr::kBlock;
+    const BlockPattern& p = bcsr->pattern();
+    const double* v = bcsr->values().data();
+    const index_t I = r / B;
+    const int rr = static_cast<int>(r % B);
+    for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k)
+      for (int c = 0; c < B; ++c) f(B * p.col_idx[k] + c, v[Bcsr::kBlockSize * k + B * rr + c]);
+  }
+  /// Whether any stored value is NaN or infinite.
+  bool has_non_finite() const {
+    const std::vector<double>& v = csr ? csr->values() : bcsr->values();
+    bool bad = false;
+#pragma omp parallel for schedule(static) reduction(|| : bad)
+    for (std::int64_t k = 0; k < static_cast<std::int64_t>(v.size()); ++k) bad = bad || !std::isfinite(v[k]);
+    return bad;
+  }
+};
+
 struct BoomerAMG::Impl {
   BoomerAMGParams params;  // num_functions as resolved by the last build (requested_functions: as given)
   int requested_functions = 0;
-  HYPRE_IJMatrix ij = nullptr;
+  RowSource source;          // the matrix set up on (a reference: it outlives the set-up)
+  hypre_ParCSRMatrix* A = nullptr;  // this rank's rows, built here (no IJ copy); owned
   HYPRE_IJVector b = nullptr, x = nullptr;
   HYPRE_Solver solver = nullptr;
   std::vector<double> coordinates;          // x, y, z per node
@@ -46,15 +90,20 @@ struct BoomerAMG::Impl {
   std::vector<int> counts, displs;  // rows per rank, for gathering results
   std::vector<HYPRE_Int> local_rows;
 
-  void destroy() {
+  /// The solver and the rigid-body vectors (the matrix and the vectors b, x stay for an update).
+  void destroy_solver() {
     if (solver) HYPRE_BoomerAMGDestroy(solver);
-    if (ij) HYPRE_IJMatrixDestroy(ij);
-    if (b) HYPRE_IJVectorDestroy(b);
-    if (x) HYPRE_IJVectorDestroy(x);
     for (HYPRE_IJVector v : rigid) HYPRE_IJVectorDestroy(v);
     rigid.clear();
     rigid_par.clear();
-    solver = nullptr, ij = nullptr, b = nullptr, x = nullptr;
+    solver = nullptr;
+  }
+  void destroy() {
+    destroy_solver();
+    if (A) hypre_ParCSRMatrixDestroy(A);
+    if (b) HYPRE_IJVectorDestroy(b);
+    if (x) HYPRE_IJVectorDestroy(x);
+    A = nullptr, b = nullptr, x = nullptr;
   }
   ~Impl() {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
@@ -63,12 +112,18 @@ struct BoomerAMG::Impl {
   // The steps of BoomerAMG::build, in order.
   /// Contiguous row blocks of whole nodes per rank (counts, displs, lower, upper).
   void distribute_rows(index_t n);
-  /// The rank's rows of A into the IJ matrix, and the IJ vectors b and x; returns the rows.
-  std::vector<HYPRE_Int> set_matrix(const Csr& A);
+  /// The rank's rows of the source as a ParCSR matrix (the diagonal first in each row of its
+  /// diagonal part, as hypre's relaxations read it), filled on the threads; the IJ vectors b and
+  /// x. Throws InputError for a row without a diagonal entry.
+  void set_matrix();
+  /// The source's current values into A (same pattern: the entries' order is the set-up's).
+  void refill_values();
   /// The BoomerAMG keys onto the solver.
   void set_parameters(HYPRE_Solver s) const;
   /// The rigid-body rotations e_k x (X - c) as interpolation vectors (interp_vectors=3).
-  void set_rigid_body_vectors(HYPRE_Solver s, index_t n, const std::vector<HYPRE_Int>& rows);
+  void set_rigid_body_vectors(HYPRE_Solver s, index_t n);
+  /// BoomerAMG's set-up on A (the solver made anew).
+  void setup_solver(index_t n);
   /// Levels and complexities of the set-up hierarchy, from hypre's AMG data.
   void record_hierarchy(HYPRE_Solver s);
 };
@@ -145,14 +200,41 @@ const BoomerAMGParams& BoomerAMG::params() const { return impl_->params; }
 
 void BoomerAMG::setup_impl(const LinearOperator& A) {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  scalar_.setup(A, "BoomerAMG");
-  build(scalar_.csr());
+  RowSource src{A.csr_matrix(), A.bcsr_matrix()};
+  if (!src.csr && !src.bcsr)
+    throw InputError("BoomerAMG needs the matrix entries as CSR or BCSR (convert BIN-BCSR or a "
+                     "matrix-free operator first)");
+  if (src.csr) src.bcsr = nullptr;
+  Impl& d = *impl_;
+  const int requested = d.requested_functions;
+  const int functions = requested > 0 ? requested : src.bcsr || reads_as_blocks(*src.csr) ? 3 : 1;
+  const index_t n = src.rows();
+  if (n % functions != 0)
+    throw InputError("BoomerAMG: the size " + std::to_string(n) + " is not a multiple of num_functions=" +
+                     std::to_string(functions));
+  if (d.params.interp_vectors > 0 && functions != 3)
+    throw InputError("BoomerAMG: rigid-body interpolation vectors need 3x3 blocks (num_functions=3); this matrix "
+                     "reads as a scalar system");
+  if (src.has_non_finite()) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
+  d.params.num_functions = functions;
+  d.destroy();
+  d.source = src;
+  // hypre's error flag is global: clear what an earlier object's calls left (a Destroy of a nodal
+  // hierarchy can flag an argument), so that this set-up reports only its own errors.
+  HYPRE_ClearAllErrors();
+  d.distribute_rows(n);
+  d.set_matrix();
+  d.setup_solver(n);
 }
 
 void BoomerAMG::update_impl() {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  scalar_.refresh();
-  build(scalar_.csr());
+  Impl& d = *impl_;
+  if (d.source.has_non_finite()) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
+  d.destroy_solver();
+  HYPRE_ClearAllErrors();
+  d.refill_values();
+  d.setup_solver(d.source.rows());
 }
 
 void BoomerAMG::Impl::distribute_rows(index_t n) {
@@ -172,35 +254,101 @@ void BoomerAMG::Impl::distribute_rows(index_t n) {
   d.upper = d.displs[rank] + d.counts[rank] - 1;
 }
 
-std::vector<HYPRE_Int> BoomerAMG::Impl::set_matrix(const Csr& A) {
+void BoomerAMG::Impl::set_matrix() {
   Impl& d = *this;
-  const CsrPattern& p = A.pattern();
-
-  check(HYPRE_IJMatrixCreate(MPI_COMM_WORLD, d.lower, d.upper, d.lower, d.upper, &d.ij), "IJMatrixCreate");
-  check(HYPRE_IJMatrixSetObjectType(d.ij, HYPRE_PARCSR), "IJMatrixSetObjectType");
-  check(HYPRE_IJMatrixInitialize(d.ij), "IJMatrixInitialize");
+  const RowSource& src = d.source;
+  const index_t n = src.rows();
   const HYPRE_Int nlocal = d.upper - d.lower + 1;
-  std::vector<HYPRE_Int> ncols(nlocal), rows(nlocal), cols;
-  std::vector<double> vals;
+  const HYPRE_Int lo = d.lower, hi = d.upper;
+  // Entries per local row in the diagonal part (columns lower..upper) and the off-diagonal part.
+  std::vector<offset_t> diag_len(nlocal), offd_len(nlocal);
+  std::int64_t no_diagonal = -1;
+#pragma omp parallel for schedule(static) reduction(max : no_diagonal)
   for (HYPRE_Int i = 0; i < nlocal; ++i) {
-    const index_t row = d.lower + i;
-    rows[i] = row;
-    ncols[i] = static_cast<HYPRE_Int>(p.row_ptr[row + 1] - p.row_ptr[row]);
-    cols.insert(cols.end(), p.col_idx.begin() + p.row_ptr[row], p.col_idx.begin() + p.row_ptr[row + 1]);
-    vals.insert(vals.end(), A.values().begin() + p.row_ptr[row], A.values().begin() + p.row_ptr[row + 1]);
+    offset_t in = 0, out = 0;
+    bool has_diagonal = false;
+    src.for_each(lo + i, [&](index_t j, double) {
+      if (j >= lo && j <= hi) ++in; else ++out;
+      has_diagonal = has_diagonal || j == lo + i;
+    });
+    diag_len[i] = in, offd_len[i] = out;
+    if (!has_diagonal) no_diagonal = std::max<std::int64_t>(no_diagonal, lo + i);
   }
-  if (nlocal > 0)
-    check(HYPRE_IJMatrixSetValues(d.ij, nlocal, ncols.data(), rows.data(), cols.data(), vals.data()),
-          "IJMatrixSetValues");
-  check(HYPRE_IJMatrixAssemble(d.ij), "IJMatrixAssemble");
-  d.local_rows = rows;
+  // Every rank throws, or none does (the construction below is collective).
+  if (mpi::size() > 1) MPI_Allreduce(MPI_IN_PLACE, &no_diagonal, 1, MPI_INT64_T, MPI_MAX, MPI_COMM_WORLD);
+  if (no_diagonal >= 0)
+    throw InputError("BoomerAMG: row " + std::to_string(no_diagonal) +
+                     " has no diagonal entry (its relaxations divide by the diagonal)");
+  offset_t nnz_diag = 0, nnz_offd = 0;
+  for (HYPRE_Int i = 0; i < nlocal; ++i) nnz_diag += diag_len[i], nnz_offd += offd_len[i];
+  if (nnz_diag > std::numeric_limits<HYPRE_Int>::max() || nnz_offd > std::numeric_limits<HYPRE_Int>::max())
+    throw InputError("BoomerAMG: " + std::to_string(nnz_diag + nnz_offd) +
+                     " entries on one rank exceed hypre's 32-bit index (this build has no HYPRE_BIGINT)");
+  // The off-diagonal part's columns, sorted (hypre's col_map_offd).
+  std::vector<HYPRE_BigInt> col_map;
+  if (nnz_offd > 0) {
+    col_map.reserve(nnz_offd);
+    for (HYPRE_Int i = 0; i < nlocal; ++i)
+      src.for_each(lo + i, [&](index_t j, double) { if (j < lo || j > hi) col_map.push_back(j); });
+    std::sort(col_map.begin(), col_map.end());
+    col_map.erase(std::unique(col_map.begin(), col_map.end()), col_map.end());
+  }
+  HYPRE_BigInt starts[2] = {lo, hi + 1};
+  d.A = hypre_ParCSRMatrixCreate(MPI_COMM_WORLD, n, n, starts, starts, static_cast<HYPRE_Int>(col_map.size()),
+                                 static_cast<HYPRE_Int>(nnz_diag), static_cast<HYPRE_Int>(nnz_offd));
+  check(hypre_ParCSRMatrixInitialize(d.A), "ParCSRMatrixInitialize");
+  std::copy(col_map.begin(), col_map.end(), hypre_ParCSRMatrixColMapOffd(d.A));
+  HYPRE_Int* di = hypre_CSRMatrixI(hypre_ParCSRMatrixDiag(d.A));
+  HYPRE_Int* oi = hypre_CSRMatrixI(hypre_ParCSRMatrixOffd(d.A));
+  di[0] = 0, oi[0] = 0;
+  for (HYPRE_Int i = 0; i < nlocal; ++i) {
+    di[i + 1] = di[i] + static_cast<HYPRE_Int>(diag_len[i]);
+    oi[i + 1] = oi[i] + static_cast<HYPRE_Int>(offd_len[i]);
+  }
+  refill_values();
+  hypre_ParCSRMatrixSetNumNonzeros(d.A);
+  check(hypre_MatvecCommPkgCreate(d.A), "MatvecCommPkgCreate");
+  d.local_rows.resize(nlocal);
+  for (HYPRE_Int i = 0; i < nlocal; ++i) d.local_rows[i] = lo + i;
   for (HYPRE_IJVector* v : {&d.b, &d.x}) {
     check(HYPRE_IJVectorCreate(MPI_COMM_WORLD, d.lower, d.upper, v), "IJVectorCreate");
     check(HYPRE_IJVectorSetObjectType(*v, HYPRE_PARCSR), "IJVectorSetObjectType");
     check(HYPRE_IJVectorInitialize(*v), "IJVectorInitialize");
     check(HYPRE_IJVectorAssemble(*v), "IJVectorAssemble");
   }
-  return rows;
+}
+
+void BoomerAMG::Impl::refill_values() {
+  Impl& d = *this;
+  const RowSource& src = d.source;
+  const HYPRE_Int nlocal = d.upper - d.lower + 1;
+  const HYPRE_Int lo = d.lower, hi = d.upper;
+  hypre_CSRMatrix* diag = hypre_ParCSRMatrixDiag(d.A);
+  hypre_CSRMatrix* offd = hypre_ParCSRMatrixOffd(d.A);
+  const HYPRE_Int* di = hypre_CSRMatrixI(diag);
+  HYPRE_Int* dj = hypre_CSRMatrixJ(diag);
+  HYPRE_Complex* dv = hypre_CSRMatrixData(diag);
+  const HYPRE_Int* oi = hypre_CSRMatrixI(offd);
+  HYPRE_Int* oj = hypre_CSRMatrixJ(offd);
+  HYPRE_Complex* ov = hypre_CSRMatrixData(offd);
+  const HYPRE_BigInt* map = hypre_ParCSRMatrixColMapOffd(d.A);
+  const HYPRE_Int nmap = hypre_CSRMatrixNumCols(offd);
+  // Each row: the diagonal at its first position, the other columns after it in column order;
+  // written on the threads (first touch of hypre's arrays where they will be read).
+#pragma omp parallel for schedule(static)
+  for (HYPRE_Int i = 0; i < nlocal; ++i) {
+    HYPRE_Int pd = di[i] + 1, po = oi[i];
+    src.for_each(lo + i, [&](index_t j, double v) {
+      if (j == lo + i) {
+        dj[di[i]] = i, dv[di[i]] = v;
+      } else if (j >= lo && j <= hi) {
+        dj[pd] = j - lo, dv[pd] = v, ++pd;
+      } else {
+        oj[po] = static_cast<HYPRE_Int>(std::lower_bound(map, map + nmap, static_cast<HYPRE_BigInt>(j)) - map);
+        ov[po] = v, ++po;
+      }
+    });
+  }
 }
 
 void BoomerAMG::Impl::set_parameters(HYPRE_Solver s) const {
@@ -229,7 +377,7 @@ void BoomerAMG::Impl::set_parameters(HYPRE_Solver s) const {
   HYPRE_BoomerAMGSetTol(s, 0.0);
 }
 
-void BoomerAMG::Impl::set_rigid_body_vectors(HYPRE_Solver s, index_t n, const std::vector<HYPRE_Int>& rows) {
+void BoomerAMG::Impl::set_rigid_body_vectors(HYPRE_Solver s, index_t n) {
   Impl& d = *this;
   const BoomerAMGParams& q = d.params;
   const HYPRE_Int nlocal = d.upper - d.lower + 1;
@@ -258,7 +406,7 @@ void BoomerAMG::Impl::set_rigid_body_vectors(HYPRE_Solver s, index_t n, const st
       const int a = (k + 1) % 3, b = (k + 2) % 3;
       values[i] = comp == a ? -x[b] : comp == b ? x[a] : 0.0;
     }
-    if (nlocal > 0) check(HYPRE_IJVectorSetValues(v, nlocal, rows.data(), values.data()), "IJVectorSetValues");
+    if (nlocal > 0) check(HYPRE_IJVectorSetValues(v, nlocal, d.local_rows.data(), values.data()), "IJVectorSetValues");
     check(HYPRE_IJVectorAssemble(v), "IJVectorAssemble");
     HYPRE_ParVector pv;
     HYPRE_IJVectorGetObject(v, reinterpret_cast<void**>(&pv));
@@ -288,39 +436,19 @@ void BoomerAMG::Impl::record_hierarchy(HYPRE_Solver s) {
   d.operator_complexity = nnz0 > 0 ? nnz_sum / nnz0 : 0;
 }
 
-void BoomerAMG::build(const Csr& A) {
-  const int requested = impl_->requested_functions;
-  const int functions = requested > 0 ? requested : reads_as_blocks(A) ? 3 : 1;
-  if (A.rows() % functions != 0)
-    throw InputError("BoomerAMG: the size " + std::to_string(A.rows()) + " is not a multiple of num_functions=" +
-                     std::to_string(functions));
-  if (impl_->params.interp_vectors > 0 && functions != 3)
-    throw InputError("BoomerAMG: rigid-body interpolation vectors need 3x3 blocks (num_functions=3); this matrix "
-                     "reads as a scalar system");
-  impl_->params.num_functions = functions;
-  for (double v : A.values())
-    if (!std::isfinite(v)) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
-  Impl& d = *impl_;
-  d.destroy();
-  // hypre's error flag is global: clear what an earlier object's calls left (a Destroy of a nodal
-  // hierarchy can flag an argument), so that this set-up reports only its own errors.
-  HYPRE_ClearAllErrors();
-  const index_t n = A.rows();
-  d.distribute_rows(n);
-  const std::vector<HYPRE_Int> rows = d.set_matrix(A);
-  HYPRE_ParCSRMatrix parA;
+void BoomerAMG::Impl::setup_solver(index_t n) {
+  Impl& d = *this;
   HYPRE_ParVector parb, parx;
-  HYPRE_IJMatrixGetObject(d.ij, reinterpret_cast<void**>(&parA));
   HYPRE_IJVectorGetObject(d.b, reinterpret_cast<void**>(&parb));
   HYPRE_IJVectorGetObject(d.x, reinterpret_cast<void**>(&parx));
-
   HYPRE_Solver s;
   check(HYPRE_BoomerAMGCreate(&s), "BoomerAMGCreate");
   d.solver = s;
   d.set_parameters(s);
   const BoomerAMGParams& q = d.params;
-  if (q.interp_vectors > 0) d.set_rigid_body_vectors(s, n, rows);
-  const HYPRE_Int setup_error = HYPRE_BoomerAMGSetup(s, parA, parb, parx);
+  if (q.interp_vectors > 0) d.set_rigid_body_vectors(s, n);
+  const HYPRE_Int setup_error =
+      HYPRE_BoomerAMGSetup(s, reinterpret_cast<HYPRE_ParCSRMatrix>(d.A), parb, parx);
   if (setup_error && q.interp_vectors > 0 && q.interp_vec_variant > 1) {
     HYPRE_ClearAllErrors();
     // Measured with hypre 2.26: the GM-2 and LN variants fail ("Error in argument 1") on the
@@ -344,12 +472,10 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   }
   HYPRE_IJVectorAssemble(d.b);
   HYPRE_IJVectorAssemble(d.x);
-  HYPRE_ParCSRMatrix parA;
   HYPRE_ParVector parb, parx;
-  HYPRE_IJMatrixGetObject(d.ij, reinterpret_cast<void**>(&parA));
   HYPRE_IJVectorGetObject(d.b, reinterpret_cast<void**>(&parb));
   HYPRE_IJVectorGetObject(d.x, reinterpret_cast<void**>(&parx));
-  check(HYPRE_BoomerAMGSolve(d.solver, parA, parb, parx), "BoomerAMGSolve");
+  check(HYPRE_BoomerAMGSolve(d.solver, reinterpret_cast<HYPRE_ParCSRMatrix>(d.A), parb, parx), "BoomerAMGSolve");
   std::vector<double> local(nlocal);
   if (nlocal > 0) HYPRE_IJVectorGetValues(d.x, nlocal, d.local_rows.data(), local.data());
   if (mpi::size() == 1) {

@@ -90,15 +90,14 @@ class BoomerAMG final : public Solver {
   double operator_complexity() const;
 
  private:
-  /// A: Csr, or Bcsr (its scalar copy's pattern is built once; update() copies values only).
+  /// A: Csr, or Bcsr (read block row by block row: no scalar copy). hypre's matrix is built
+  /// directly from A's rows, once; update() rewrites its values.
   void setup_impl(const LinearOperator& A) override;
   /// BoomerAMG's set-up depends on the values (coarsening, interpolation), so it is redone.
   void update_impl() override;
   void apply_impl(const Vector& r, Vector& z) const override;
-  void build(const Csr& A);
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  ScalarMatrix scalar_;
 };
 
 /// Registers the methods boomeramg and boomeramg-pcg (idempotent; a name the user registered is kept); their
