@@ -465,24 +465,19 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   Impl& d = *impl_;
   const HYPRE_Int nlocal = d.upper - d.lower + 1;
-  std::vector<double> zeros(nlocal, 0.0);
-  if (nlocal > 0) {
-    HYPRE_IJVectorSetValues(d.b, nlocal, d.local_rows.data(), r.data() + d.lower);
-    HYPRE_IJVectorSetValues(d.x, nlocal, d.local_rows.data(), zeros.data());
-  }
-  HYPRE_IJVectorAssemble(d.b);
-  HYPRE_IJVectorAssemble(d.x);
   HYPRE_ParVector parb, parx;
   HYPRE_IJVectorGetObject(d.b, reinterpret_cast<void**>(&parb));
   HYPRE_IJVectorGetObject(d.x, reinterpret_cast<void**>(&parx));
+  // This rank's entries are written and read in place (hypre's local vectors are contiguous).
+  double* b = hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(parb)));
+  double* x = hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(parx)));
+  std::copy(r.data() + d.lower, r.data() + d.lower + nlocal, b);
+  std::fill(x, x + nlocal, 0.0);
   check(HYPRE_BoomerAMGSolve(d.solver, reinterpret_cast<HYPRE_ParCSRMatrix>(d.A), parb, parx), "BoomerAMGSolve");
-  std::vector<double> local(nlocal);
-  if (nlocal > 0) HYPRE_IJVectorGetValues(d.x, nlocal, d.local_rows.data(), local.data());
   if (mpi::size() == 1) {
-    std::copy(local.begin(), local.end(), z.data());
+    std::copy(x, x + nlocal, z.data());
   } else {
-    MPI_Allgatherv(local.data(), nlocal, MPI_DOUBLE, z.data(), d.counts.data(), d.displs.data(),
-                   MPI_DOUBLE, MPI_COMM_WORLD);
+    MPI_Allgatherv(x, nlocal, MPI_DOUBLE, z.data(), d.counts.data(), d.displs.data(), MPI_DOUBLE, MPI_COMM_WORLD);
   }
 }
 
