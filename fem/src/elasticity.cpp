@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -30,19 +32,45 @@ Mat3 polar_rotation(const Mat3& F) {
   return U * V.transpose();
 }
 
-ElasticityModel::ElasticityModel(const TetMesh& mesh, int degree, const Material& material)
-    : mesh_(mesh), space_(mesh, degree), material_(material), tables_(element_tables(degree)) {
-  material_.check();
-  geometry_.resize(mesh.num_tets());
+namespace {
+/// Every element's rest geometry, on the threads; MeshError names the first bad element.
+std::shared_ptr<const std::vector<ElementGeometry>> rest_geometry(const TetMesh& mesh) {
+  auto geometry = std::make_shared<std::vector<ElementGeometry>>(mesh.num_tets());
+  constexpr std::int64_t none = std::numeric_limits<std::int64_t>::max();
+  std::int64_t first_bad = none;
+#pragma omp parallel for schedule(static) reduction(min : first_bad)
   for (index_t e = 0; e < mesh.num_tets(); ++e) {
     const Tet& t = mesh.tets[e];
     try {
-      geometry_[e] = element_geometry(mesh.vertices[t[0]], mesh.vertices[t[1]],
-                                      mesh.vertices[t[2]], mesh.vertices[t[3]]);
-    } catch (const MeshError& err) {
-      throw MeshError("element " + std::to_string(e) + ": " + err.what());
+      (*geometry)[e] = element_geometry(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]],
+                                        mesh.vertices[t[3]]);
+    } catch (const MeshError&) {
+      first_bad = std::min<std::int64_t>(first_bad, e);
     }
   }
+  if (first_bad != none) {  // again, alone, for its message
+    const Tet& t = mesh.tets[first_bad];
+    try {
+      element_geometry(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], mesh.vertices[t[3]]);
+    } catch (const MeshError& err) {
+      throw MeshError("element " + std::to_string(first_bad) + ": " + err.what());
+    }
+  }
+  return geometry;
+}
+}  // namespace
+
+ElasticityModel::ElasticityModel(const TetMesh& mesh, int degree, const Material& material)
+    : ElasticityModel(mesh, degree, material, nullptr) {}
+
+ElasticityModel::ElasticityModel(const TetMesh& mesh, int degree, const Material& material,
+                                 std::shared_ptr<const std::vector<ElementGeometry>> geometry)
+    : mesh_(mesh), space_(mesh, degree), material_(material), tables_(element_tables(degree)) {
+  material_.check();
+  if (geometry && static_cast<index_t>(geometry->size()) != mesh.num_tets())
+    throw InputError("ElasticityModel: a shared geometry of " + std::to_string(geometry->size()) +
+                     " elements for a mesh of " + std::to_string(mesh.num_tets()));
+  geometry_ = geometry ? std::move(geometry) : rest_geometry(mesh);
   fixed_.assign(space_.num_nodes(), 0);
 }
 
@@ -210,7 +238,7 @@ Rotations ElasticityModel::rotations(const Vector& u) const {
     const Tet& t = mesh_.tets[e];
     Mat3 F = Mat3::Zero();
     for (int i = 0; i < 4; ++i)
-      F += (mesh_.vertices[t[i]] + u.segment<3>(3 * t[i])) * geometry_[e].grad.row(i);
+      F += (mesh_.vertices[t[i]] + u.segment<3>(3 * t[i])) * (*geometry_)[e].grad.row(i);
     R[e] = polar_rotation(F);
   }
   return R;
@@ -276,7 +304,7 @@ void ElasticityModel::evaluate(const ElementPass& pass) const {
     Scratch& sc = scratch[static_cast<size_t>(thread)];
     const index_t* nodes = space_.element_nodes(e);
     // R K_e Rᵀ is the stiffness of the element with rotated gradients ∇λ_k → R ∇λ_k.
-    sc.geo = geometry_[e];
+    sc.geo = (*geometry_)[e];
     if (pass.R) sc.geo.grad = sc.geo.grad * (*pass.R)[e].transpose();
     const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
     const double lambda = s * material_.lambda(), mu = s * material_.mu();
@@ -354,7 +382,7 @@ void ElasticityModel::assemble_linear_by_rows(const ElementPass& pass) const {
       const index_t e = static_cast<index_t>(entries[q] / n);
       const int a = static_cast<int>(entries[q] % n);
       const index_t* nodes = space_.element_nodes(e);
-      ElementGeometry geo = geometry_[e];
+      ElementGeometry geo = (*geometry_)[e];
       if (pass.R) geo.grad = geo.grad * (*pass.R)[e].transpose();
       const double s = stiffness_scale_.empty() ? 1.0 : stiffness_scale_[e];
       const double lambda = s * material_.lambda(), mu = s * material_.mu();
@@ -408,7 +436,7 @@ void ElasticityModel::assemble_mass(Bcsr& M) const {
   std::fill(M.values().begin(), M.values().end(), 0.0);
   const int n = space_.nodes_per_element();
   as.ranges().for_each([&](int, index_t e, const ElementRanges::Writes& writes, bool) {
-    const double scale = material_.density * 6.0 * geometry_[e].volume;
+    const double scale = material_.density * 6.0 * (*geometry_)[e].volume;
     const index_t* nodes = space_.element_nodes(e);
     for (int a = 0; a < n; ++a) {
       if (!writes(nodes[a])) continue;
@@ -430,7 +458,7 @@ void ElasticityModel::assemble_mass(Bcsr& M) const {
 Vector ElasticityModel::lumped_mass() const {
   Vector m = Vector::Zero(space_.num_nodes());
   for (index_t e = 0; e < mesh_.num_tets(); ++e) {
-    const double me = material_.density * 6.0 * geometry_[e].volume * tables_.load;
+    const double me = material_.density * 6.0 * (*geometry_)[e].volume * tables_.load;
     for (int a = 0; a < space_.nodes_per_element(); ++a) m[space_.node(e, a)] += me;
   }
   return m;
@@ -440,7 +468,7 @@ Vector ElasticityModel::gravity(const Vec3& g) const {
   Vector f = Vector::Zero(num_dofs());
   const int n = space_.nodes_per_element();
   for (index_t e = 0; e < mesh_.num_tets(); ++e) {
-    const Vec3 fa = material_.density * 6.0 * geometry_[e].volume * tables_.load * g;
+    const Vec3 fa = material_.density * 6.0 * (*geometry_)[e].volume * tables_.load * g;
     for (int a = 0; a < n; ++a) f.segment<3>(3 * space_.node(e, a)) += fa;
   }
   return f;
@@ -452,7 +480,7 @@ std::pair<index_t, Eigen::Vector4d> ElasticityModel::locate(const Vec3& X) const
   double best_min = -1e300;
   Eigen::Vector4d best_l;
   for (index_t e = 0; e < mesh_.num_tets(); ++e) {
-    const Eigen::Vector4d l = barycentric(geometry_[e], mesh_.vertices[mesh_.tets[e][0]], X);
+    const Eigen::Vector4d l = barycentric((*geometry_)[e], mesh_.vertices[mesh_.tets[e][0]], X);
     if (l.minCoeff() > best_min) {
       best_min = l.minCoeff();
       best = e;
@@ -513,7 +541,7 @@ Vector ElasticityModel::body_force(const std::function<Vec3(const Vec3&)>& b,
       const Eigen::Vector4d& l = q.points[k];
       Vec3 x = Vec3::Zero();
       for (int i = 0; i < 4; ++i) x += l[i] * mesh_.vertices[t[i]];
-      const Vec3 bx = q.weights[k] * geometry_[e].volume * b(x);
+      const Vec3 bx = q.weights[k] * (*geometry_)[e].volume * b(x);
       for (int a = 0; a < space_.nodes_per_element(); ++a)
         f.segment<3>(3 * space_.node(e, a)) += bernstein(alpha[a], l) * bx;
     }

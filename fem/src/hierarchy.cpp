@@ -108,7 +108,10 @@ DegreeHierarchy::DegreeHierarchy(const TetMesh& mesh, int degree, const Material
     throw InputError("hierarchy: " + std::to_string(clamped_.size()) + " clamp flags for " +
                      std::to_string(mesh.vertices.size()) + " vertices");
   for (int p = 1; p <= degree; ++p) {
-    models_.push_back(std::make_unique<ElasticityModel>(mesh, p, material));
+    // The degrees share the mesh's rest geometry (computed once, by the first).
+    models_.push_back(models_.empty() ? std::make_unique<ElasticityModel>(mesh, p, material)
+                                      : std::make_unique<ElasticityModel>(mesh, p, material,
+                                                                          models_.front()->shared_geometry()));
     models_.back()->fix_vertices(clamped_);
     if (!components_.empty()) models_.back()->constrain_components(components_);
     matrices_.emplace_back();

@@ -444,3 +444,26 @@ TEST_CASE("element ranges: every node written once per element, the same sums on
     }
   }
 }
+
+TEST_CASE("a hierarchy's degrees share one rest geometry; a bad element or a foreign geometry is named",
+          "[fem][elasticity][errors]") {
+  const TetMesh mesh = box_mesh_24(3, 2, 2, 1.0, 0.5, 0.5);
+  const Material steel{200e9, 0.3, 7800.0};
+  const DegreeHierarchy h(mesh, 3, steel, [](const Vec3& X) { return X.x() < 1e-12; });
+  for (int l = 1; l < h.num_levels(); ++l)
+    CHECK(h.model(l).shared_geometry().get() == h.model(0).shared_geometry().get());
+  // The shared geometry is the geometry each element has on its own.
+  const ElasticityModel alone(mesh, 2, steel);
+  for (index_t e = 0; e < mesh.num_tets(); ++e) {
+    CHECK(alone.geometry(e).volume == h.model(1).geometry(e).volume);
+    CHECK(alone.geometry(e).grad == h.model(1).geometry(e).grad);
+  }
+  const TetMesh other = box_mesh_24(2, 2, 2, 1.0, 0.5, 0.5);
+  CHECK_THROWS_WITH(ElasticityModel(other, 2, steel, alone.shared_geometry()), Catch::Contains("shared geometry"));
+  // The first inverted element is named, also when the geometry is computed on the threads.
+  TetMesh bad = mesh;
+  const index_t e = mesh.num_tets() / 2;
+  std::swap(bad.tets[e][1], bad.tets[e][2]);
+  std::swap(bad.tets[e + 7][1], bad.tets[e + 7][2]);
+  CHECK_THROWS_WITH(ElasticityModel(bad, 1, steel), Catch::Contains("element " + std::to_string(e) + ":"));
+}

@@ -262,8 +262,9 @@ void BoomerAMG::Impl::set_matrix() {
   const HYPRE_Int lo = d.lower, hi = d.upper;
   // Entries per local row in the diagonal part (columns lower..upper) and the off-diagonal part.
   std::vector<offset_t> diag_len(nlocal), offd_len(nlocal);
-  std::int64_t no_diagonal = -1;
-#pragma omp parallel for schedule(static) reduction(max : no_diagonal)
+  constexpr std::int64_t none = std::numeric_limits<std::int64_t>::max();
+  std::int64_t no_diagonal = none;  // the first row without one
+#pragma omp parallel for schedule(static) reduction(min : no_diagonal)
   for (HYPRE_Int i = 0; i < nlocal; ++i) {
     offset_t in = 0, out = 0;
     bool has_diagonal = false;
@@ -272,11 +273,11 @@ void BoomerAMG::Impl::set_matrix() {
       has_diagonal = has_diagonal || j == lo + i;
     });
     diag_len[i] = in, offd_len[i] = out;
-    if (!has_diagonal) no_diagonal = std::max<std::int64_t>(no_diagonal, lo + i);
+    if (!has_diagonal) no_diagonal = std::min<std::int64_t>(no_diagonal, lo + i);
   }
   // Every rank throws, or none does (the construction below is collective).
-  if (mpi::size() > 1) MPI_Allreduce(MPI_IN_PLACE, &no_diagonal, 1, MPI_INT64_T, MPI_MAX, MPI_COMM_WORLD);
-  if (no_diagonal >= 0)
+  if (mpi::size() > 1) MPI_Allreduce(MPI_IN_PLACE, &no_diagonal, 1, MPI_INT64_T, MPI_MIN, MPI_COMM_WORLD);
+  if (no_diagonal != none)
     throw InputError("BoomerAMG: row " + std::to_string(no_diagonal) +
                      " has no diagonal entry (its relaxations divide by the diagonal)");
   offset_t nnz_diag = 0, nnz_offd = 0;

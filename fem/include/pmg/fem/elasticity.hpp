@@ -49,6 +49,11 @@ class ElasticityModel {
  public:
   /// Checks material and element geometry (MeshError names a degenerate or inverted element).
   ElasticityModel(const TetMesh& mesh, int degree, const Material& material);
+  /// The same on the rest geometry of another model of this mesh (shared_geometry()), which is
+  /// not computed again: the degrees of a hierarchy keep one copy. Throws InputError when its
+  /// size is not the mesh's number of elements.
+  ElasticityModel(const TetMesh& mesh, int degree, const Material& material,
+                  std::shared_ptr<const std::vector<ElementGeometry>> geometry);
 
   /// The BB space (nodes, positions, element-to-node map).
   const BBSpace& space() const { return space_; }
@@ -170,7 +175,9 @@ class ElasticityModel {
   Vector interpolate(const std::function<Vec3(const Vec3&)>& u) const;
 
   /// Rest geometry of element e (volume, barycentric gradients); e is not range-checked.
-  const ElementGeometry& geometry(index_t e) const { return geometry_[e]; }
+  const ElementGeometry& geometry(index_t e) const { return (*geometry_)[e]; }
+  /// Every element's rest geometry, shareable with another model of the same mesh.
+  const std::shared_ptr<const std::vector<ElementGeometry>>& shared_geometry() const { return geometry_; }
 
   /// Heterogeneous stiffness: element e's Young's modulus is material().young * scale[e] (ν and ρ
   /// stay). One positive finite factor per element; an empty vector restores the homogeneous body.
@@ -187,7 +194,7 @@ class ElasticityModel {
   BBSpace space_;
   Material material_;
   const ElementTables& tables_;
-  std::vector<ElementGeometry> geometry_;
+  std::shared_ptr<const std::vector<ElementGeometry>> geometry_;  ///< per element; shared by a hierarchy's degrees
   std::vector<char> fixed_;
   std::vector<char> components_;                     ///< per node: bits of held components (empty: none)
   mutable std::vector<char> constrained_free_;       ///< per free dof, built with the assembler
