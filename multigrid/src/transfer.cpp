@@ -6,10 +6,6 @@
 namespace pmg::mg {
 
 namespace {
-Csr transpose(const Csr& A) {
-  Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> T = A.to_eigen().transpose();
-  return Csr::from_eigen(T);
-}
 
 /// y[3i+c] (+)= Σ_j M_ij x[3j+c]; with masks (1 per unknown, empty: none) x's masked entries
 /// read as 0 and y's masked entries are set to 0 (not added to).
@@ -64,7 +60,7 @@ Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> kron_i3(const Csr& M) {
 }
 }  // namespace
 
-BlockTransfer::BlockTransfer(Csr P) : P_(std::move(P)), R_(transpose(P_)), transpose_(true) {}
+BlockTransfer::BlockTransfer(Csr P) : P_(std::move(P)), R_(P_.transposed()), transpose_(true) {}
 
 BlockTransfer::BlockTransfer(Csr P, Csr R) : P_(std::move(P)), R_(std::move(R)), transpose_(false) {
   if (R_.rows() != P_.cols() || R_.cols() != P_.rows())

@@ -72,6 +72,26 @@ Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> Csr::to_eigen() const {
   return A;
 }
 
+Csr Csr::transposed() const {
+  const CsrPattern& a = *pattern_;
+  auto t = std::make_shared<CsrPattern>();
+  t->rows = a.cols;
+  t->cols = a.rows;
+  t->row_ptr.assign(static_cast<size_t>(a.cols) + 1, 0);
+  for (offset_t k = 0; k < a.nnz(); ++k) ++t->row_ptr[a.col_idx[k] + 1];
+  for (index_t j = 0; j < a.cols; ++j) t->row_ptr[j + 1] += t->row_ptr[j];
+  t->col_idx.resize(a.nnz());
+  std::vector<double> v(a.nnz());
+  std::vector<offset_t> next(t->row_ptr.begin(), t->row_ptr.end() - 1);
+  for (index_t i = 0; i < a.rows; ++i)  // rows in order: each column's entries come out sorted
+    for (offset_t k = a.row_ptr[i]; k < a.row_ptr[i + 1]; ++k) {
+      const offset_t dst = next[a.col_idx[k]]++;
+      t->col_idx[dst] = i;
+      v[dst] = values_[k];
+    }
+  return Csr(std::move(t), std::move(v));
+}
+
 void Csr::set_values(const Csr& A) {
   if (A.rows() != rows() || A.cols() != cols())
     throw InputError("CSR set_values: size mismatch");

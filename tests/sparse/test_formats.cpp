@@ -18,6 +18,24 @@ TEST_CASE("CSR from triplets sums duplicates and matches the dense reference", "
   CHECK_THROWS_AS(Csr::from_triplets(3, 3, {{3, 0, 1.0}}), InputError);
 }
 
+TEST_CASE("CSR transposed keeps every entry, explicit zeros included, and equals Eigen's transpose",
+          "[sparse][csr]") {
+  // 4 x 6: an empty row (2), empty columns (1, 5), an explicit zero at (3, 0).
+  const Csr A = Csr::from_triplets(4, 6, {{0, 0, 1.0}, {0, 3, 2.0}, {1, 2, -3.0}, {1, 4, 4.0},
+                                          {3, 0, 0.0}, {3, 2, 5.0}, {3, 4, 6.0}});
+  const Csr T = A.transposed();
+  REQUIRE(T.rows() == 6);
+  REQUIRE(T.cols() == 4);
+  CHECK(T.nnz() == A.nnz());  // the explicit zero stays
+  T.pattern().validate();     // sorted, unique columns per row
+  CHECK(Eigen::MatrixXd(T.to_eigen()) == Eigen::MatrixXd(A.to_eigen()).transpose());
+  CHECK(T.pattern().find(0, 3) >= 0);
+  CHECK(T.transposed().pattern().col_idx == A.pattern().col_idx);
+  CHECK(T.transposed().values() == A.values());
+  const Csr lattice = spring_lattice(4).to_csr();
+  CHECK(Eigen::MatrixXd(lattice.transposed().to_eigen()) == Eigen::MatrixXd(lattice.to_eigen()).transpose());
+}
+
 TEST_CASE("CSR pattern validation names what is wrong", "[sparse][csr]") {
   auto p = std::make_shared<CsrPattern>();
   p->rows = 2;

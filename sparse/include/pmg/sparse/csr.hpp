@@ -53,6 +53,9 @@ class Csr final : public LinearOperator {
   static Csr from_eigen(const Eigen::SparseMatrix<double, Options, Index>& A);
   /// A copy as an Eigen row-major sparse matrix.
   Eigen::SparseMatrix<double, Eigen::RowMajor, index_t> to_eigen() const;
+  /// Aᵀ, every stored entry kept (explicit zeros too), columns sorted in each row: a counting
+  /// sort by column, O(nnz + cols), with no triplets.
+  Csr transposed() const;
 
   index_t rows() const override { return pattern_->rows; }
   index_t cols() const override { return pattern_->cols; }
