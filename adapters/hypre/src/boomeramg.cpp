@@ -64,6 +64,15 @@ struct RowSource {
     for (offset_t k = p.row_ptr[I]; k < p.row_ptr[I + 1]; ++k)
       for (int c = 0; c < B; ++c) f(B * p.col_idx[k] + c, v[Bcsr::kBlockSize * k + B * rr + c]);
   }
+  /// f(column, value) for each entry of scalar row r that hypre keeps, in column order: the
+  /// diagonal and the nonzeros (the exact zeros inside a matrix's 3x3 blocks, which an
+  /// axis-aligned mesh has many of, are left out: they cost hypre's products and add nothing).
+  template <class F>
+  void for_each_kept(index_t r, F&& f) const {
+    for_each(r, [&](index_t j, double v) {
+      if (v != 0.0 || j == r) f(j, v);
+    });
+  }
   /// Whether any stored value is NaN or infinite.
   bool has_non_finite() const {
     const std::vector<double>& v = csr ? csr->values() : bcsr->values();
@@ -116,8 +125,8 @@ struct BoomerAMG::Impl {
   /// diagonal part, as hypre's relaxations read it), filled on the threads; the IJ vectors b and
   /// x. Throws InputError for a row without a diagonal entry.
   void set_matrix();
-  /// The source's current values into A (same pattern: the entries' order is the set-up's).
-  void refill_values();
+  /// The kept entries' columns and values into A's arrays, sized by set_matrix().
+  void fill_entries();
   /// The BoomerAMG keys onto the solver.
   void set_parameters(HYPRE_Solver s) const;
   /// The rigid-body rotations e_k x (X - c) as interpolation vectors (interp_vectors=3).
@@ -231,9 +240,11 @@ void BoomerAMG::update_impl() {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
   Impl& d = *impl_;
   if (d.source.has_non_finite()) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
-  d.destroy_solver();
+  // New values may have new zeros (or lose them), so hypre's matrix is built again, then
+  // BoomerAMG's set-up, which depends on the values, is redone.
+  d.destroy();
   HYPRE_ClearAllErrors();
-  d.refill_values();
+  d.set_matrix();
   d.setup_solver(d.source.rows());
 }
 
@@ -268,7 +279,7 @@ void BoomerAMG::Impl::set_matrix() {
   for (HYPRE_Int i = 0; i < nlocal; ++i) {
     offset_t in = 0, out = 0;
     bool has_diagonal = false;
-    src.for_each(lo + i, [&](index_t j, double) {
+    src.for_each_kept(lo + i, [&](index_t j, double) {
       if (j >= lo && j <= hi) ++in; else ++out;
       has_diagonal = has_diagonal || j == lo + i;
     });
@@ -290,7 +301,7 @@ void BoomerAMG::Impl::set_matrix() {
   if (nnz_offd > 0) {
     col_map.reserve(nnz_offd);
     for (HYPRE_Int i = 0; i < nlocal; ++i)
-      src.for_each(lo + i, [&](index_t j, double) { if (j < lo || j > hi) col_map.push_back(j); });
+      src.for_each_kept(lo + i, [&](index_t j, double) { if (j < lo || j > hi) col_map.push_back(j); });
     std::sort(col_map.begin(), col_map.end());
     col_map.erase(std::unique(col_map.begin(), col_map.end()), col_map.end());
   }
@@ -306,7 +317,7 @@ void BoomerAMG::Impl::set_matrix() {
     di[i + 1] = di[i] + static_cast<HYPRE_Int>(diag_len[i]);
     oi[i + 1] = oi[i] + static_cast<HYPRE_Int>(offd_len[i]);
   }
-  refill_values();
+  fill_entries();
   hypre_ParCSRMatrixSetNumNonzeros(d.A);
   check(hypre_MatvecCommPkgCreate(d.A), "MatvecCommPkgCreate");
   d.local_rows.resize(nlocal);
@@ -319,7 +330,7 @@ void BoomerAMG::Impl::set_matrix() {
   }
 }
 
-void BoomerAMG::Impl::refill_values() {
+void BoomerAMG::Impl::fill_entries() {
   Impl& d = *this;
   const RowSource& src = d.source;
   const HYPRE_Int nlocal = d.upper - d.lower + 1;
@@ -339,7 +350,7 @@ void BoomerAMG::Impl::refill_values() {
 #pragma omp parallel for schedule(static)
   for (HYPRE_Int i = 0; i < nlocal; ++i) {
     HYPRE_Int pd = di[i] + 1, po = oi[i];
-    src.for_each(lo + i, [&](index_t j, double v) {
+    src.for_each_kept(lo + i, [&](index_t j, double v) {
       if (j == lo + i) {
         dj[di[i]] = i, dv[di[i]] = v;
       } else if (j >= lo && j <= hi) {

@@ -91,7 +91,7 @@ class BoomerAMG final : public Solver {
 
  private:
   /// A: Csr, or Bcsr (read block row by block row: no scalar copy). hypre's matrix is built
-  /// directly from A's rows, once; update() rewrites its values.
+  /// directly from A's rows, its exact zeros off the diagonal left out; update() builds it again.
   void setup_impl(const LinearOperator& A) override;
   /// BoomerAMG's set-up depends on the values (coarsening, interpolation), so it is redone.
   void update_impl() override;
