@@ -156,6 +156,7 @@ BBSpace::BBSpace(const TetMesh& mesh, int degree)
   // a face (p = 3) one.
   std::vector<index_t> edge_node(static_cast<size_t>(num_edges_) * std::max(p_ - 1, 0), -1);
   std::vector<index_t> face_node(p_ == 3 ? num_faces_ : 0, -1);
+  positions_.reserve(static_cast<size_t>(nv) + edge_node.size() + face_node.size());  // every node once
   for (index_t e = 0; e < ne; ++e) {
     const Tet& t = mesh.tets[e];
     for (int a = 0; a < n_; ++a) {
