@@ -21,7 +21,7 @@ void DistributedMgpcgParams::visit(ParamVisitor& v) {
   visit_stopping_keys(v, tol, rhs_floor, max_iterations, throw_on_failure);  // the common keys
   v.integer("smoothing_steps", smoothing_steps, 1, 100, "Chebyshev steps per pre- and post-smoothing");
   v.choice("lowest_level", lowest_level, {"auto", "mumps", "gamg", "boomeramg", "hypre", "cholmod"},
-           ("the lowest level's method by mgpcg's names: auto: MUMPS below " + std::to_string(kAmgLowestLevelUnknowns) +
+           ("the lowest level's method by mgpcg's names: auto: MUMPS below " + std::to_string(kAmgAcrossRanksUnknowns) +
             " unknowns on the linear level, BoomerAMG (one V-cycle through PETSc's PCHYPRE) from there; mumps: "
             "Cholesky; gamg: one GAMG V-cycle with the rigid-body near-null space; boomeramg (alias hypre); "
             "cholmod (mgpcg's) factors on one process and is refused: mumps is the Cholesky across ranks")

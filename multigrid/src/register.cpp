@@ -87,7 +87,7 @@ struct CycleOptions {
              "on: where the mesh was made by uniform refinement (a scene's mesh.refine, --refine k), the lowest "
              "level is solved by a cycle of its own over the linear spaces of the coarser meshes (Galerkin "
              "products, the smoother's keys), with lowest_level on the coarsest mesh; auto: on for mgpcg where "
-             "the linear level has " + std::to_string(kAmgLowestLevelUnknowns) + " unknowns or more; off: "
+             "the linear level has " + std::to_string(kAmgCoarseMeshUnknowns) + " unknowns or more; off: "
              "lowest_level on the linear level itself";
     v.choice("coarse_meshes", coarse_meshes, {"auto", "on", "off"}, coarse_meshes_help.c_str());
     v.solver("smoother", "chebyshev",
@@ -97,7 +97,8 @@ struct CycleOptions {
              "on user levels");
     const std::string lowest_help =
         "the lowest level's solver; auto: for mgpcg CHOLMOD below " + std::to_string(kAmgLowestLevelUnknowns) +
-        " unknowns, BoomerAMG (relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
+        " unknowns (" + std::to_string(kAmgCoarseMeshUnknowns) + " on the coarsest of coarse_meshes), BoomerAMG "
+        "(relax_type 16; one V-cycle, " + std::to_string(kAmgCoarseMeshCycles) +
         " on the coarsest of coarse_meshes) from there; CHOLMOD for pmg or when lowest_level "
         "keys are given (cg and boomeramg-pcg: tol 0.1, max_iterations 500, no throw; mgpcg then flexible)";
     v.solver("lowest_level", "auto", lowest_help.c_str());
@@ -281,7 +282,7 @@ void check_matrix_free_route(const Config& c, Config& sc, const LevelProvider& l
 /// The lowest level's solver keys: `auto` resolved and written back (so the printed options say
 /// what ran), and the defaults of the method chosen.
 Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mgpcg, const std::vector<double>& xyz,
-                           int amg_cycles) {
+                           int amg_cycles, index_t amg_from) {
   Config lc = c.child("lowest_level");
   // auto: for MGPCG by the lowest level's size, from the measured break-even (docs/scaling.md);
   // CHOLMOD for stationary PMG (one inexact V-cycle slows a stationary cycle far more: 990
@@ -291,7 +292,7 @@ Config lowest_level_config(const Config& c, const LevelProvider& levels, bool mg
     bool keys = false;
     for (const auto& kv : lc.items()) keys = keys || kv.first != lc.full_key("method");
     const std::string chosen =
-        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz)) : kDefaultDirectMethod;
+        mgpcg && !keys ? choose_lowest_level(lowest_level_unknowns(levels, xyz), amg_from) : kDefaultDirectMethod;
     lc.set("method", chosen);
   }
   if (lc.get_string("method", "") == "boomeramg") {
@@ -328,11 +329,12 @@ std::vector<std::unique_ptr<Smoother>> build_smoothers(const Config& sc, const S
 
 /// The lowest_level keys' solver on level 0 of ctx.levels, set up as a system of its own: xyz, its
 /// nodes' coordinates (ctx.levels->node_coordinates(0); empty where the levels do not know them),
-/// not the finest level's; `auto` takes AMG from kAmgLowestLevelUnknowns unknowns, BoomerAMG runs
-/// amg_cycles V-cycles per application unless its keys say otherwise.
+/// not the finest level's; `auto` takes AMG from amg_from unknowns, BoomerAMG runs amg_cycles
+/// V-cycles per application unless its keys say otherwise.
 std::unique_ptr<Solver> build_level_solver(const Config& c, const SolverContext& ctx, bool mgpcg,
-                                           const std::vector<double>& xyz, int amg_cycles = 1) {
-  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_cycles);
+                                           const std::vector<double>& xyz, int amg_cycles = 1,
+                                           index_t amg_from = kAmgLowestLevelUnknowns) {
+  const Config lc = lowest_level_config(c, *ctx.levels, mgpcg, xyz, amg_cycles, amg_from);
   SolverContext lowest_ctx = ctx;
   lowest_ctx.coordinates = xyz.empty() ? nullptr : &xyz;
   return build_solver(lc, lowest_ctx, kDefaultDirectMethod);
@@ -359,7 +361,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
                             "hierarchy's own linear level, not under a Galerkin product)");
   if (o.coarse_meshes == "auto")
     use = below && mgpcg && p.coarse_operator == CoarseOperator::geometric &&
-          lowest_level_unknowns(levels, xyz) >= kAmgLowestLevelUnknowns;
+          lowest_level_unknowns(levels, xyz) >= kAmgCoarseMeshUnknowns;
   if (!use) return build_level_solver(c, ctx, mgpcg, xyz);
   SolverContext h = ctx;
   h.levels = below.get();
@@ -371,7 +373,7 @@ std::unique_ptr<Solver> build_lowest(const Config& c, const CycleOptions& o, con
   auto factory = [&](int l) { return std::move(smoothers[l - 1]); };
   return std::make_unique<MultigridCycle>(
       below, hp, factory,
-      build_level_solver(c, h, mgpcg, below->node_coordinates(0), kAmgCoarseMeshCycles));
+      build_level_solver(c, h, mgpcg, below->node_coordinates(0), kAmgCoarseMeshCycles, kAmgCoarseMeshUnknowns));
 }
 
 /// The matrix-free route's default Chebyshev degree in the mixed solvers' cycle (register_all).

@@ -32,6 +32,7 @@ std::unique_ptr<MultigridCycle> make_cycle(const Config& config, const SolverCon
 /// mgpcg (levels without node coordinates or a lowest matrix of their own count as 0); its one
 /// home is pmg/sparse/defaults.hpp.
 using pmg::kAmgLowestLevelUnknowns;
+using pmg::kAmgCoarseMeshUnknowns;
 using pmg::kAmgCoarseMeshCycles;
 
 /// λ/μ (LevelProvider::lame_ratio()) from which the stationary `pmg` smooths with Chebyshev on
@@ -43,8 +44,8 @@ using pmg::kAmgCoarseMeshCycles;
 inline constexpr double kPatchLameRatio = 99.0;
 
 /// What `lowest_level=auto` takes for a lowest level of this many unknowns: "boomeramg" from
-/// `amg_from` (kAmgLowestLevelUnknowns, also on the coarsest of the coarser meshes under a linear
-/// level) where a method of that name is registered, "cholmod" otherwise.
+/// `amg_from` (kAmgLowestLevelUnknowns on a linear level, kAmgCoarseMeshUnknowns on the coarsest of
+/// the coarser meshes under one) where a method of that name is registered, "cholmod" otherwise.
 std::string choose_lowest_level(index_t unknowns, index_t amg_from = kAmgLowestLevelUnknowns);
 
 /// The BoomerAMG settings of a lowest level `lowest_level=boomeramg` (chosen or by auto), set as

@@ -87,7 +87,7 @@ struct PcmgParams {
   /// BoomerAMG from there. "cholmod" (one process only) is refused with a pointer to "mumps".
   std::string lowest_level = "auto";
   /// "auto" takes BoomerAMG from this many global unknowns on the lowest level.
-  long amg_threshold = kAmgLowestLevelUnknowns;
+  long amg_threshold = kAmgAcrossRanksUnknowns;
   /// Further PETSc options, under this solver's prefix, applied after the defaults.
   std::string options;
   /// Accept options PETSc does not read (else setup() throws InputError naming them).
