@@ -331,9 +331,8 @@ void MixedElasticity::assemble_divergence() const {
   const MixedTables& t = mixed_tables(u.space().degree());
   const std::vector<index_t>& free = u.assembler().free_index();
   const std::vector<char>& held = u.constrained_free_dofs();
-  std::vector<Triplet> b, bt;
+  std::vector<Triplet> b;
   b.reserve(static_cast<size_t>(u.space().mesh().num_tets()) * t.np * 3 * t.nu);
-  bt.reserve(b.capacity());
   Eigen::MatrixXd Be;
   for (index_t e = 0; e < u.space().mesh().num_tets(); ++e) {
     element_divergence(t, u.geometry(e), Be);
@@ -346,13 +345,12 @@ void MixedElasticity::assemble_divergence() const {
           const index_t col = 3 * f + c;
           if (!held.empty() && held[col]) continue;
           b.emplace_back(row, col, Be(q, 3 * a + c));
-          bt.emplace_back(col, row, Be(q, 3 * a + c));
         }
       }
     }
   }
   B_ = Csr::from_triplets(num_pressure(), num_displacement(), b);
-  Bt_ = Csr::from_triplets(num_displacement(), num_pressure(), bt);
+  Bt_ = B_.transposed();
 }
 
 const Csr& MixedElasticity::divergence() const {

@@ -82,13 +82,13 @@ void xpby(const Vector& x, double b, Vector& y) {
   for (Eigen::Index i = 0; i < n; ++i) yp[i] = xp[i] + b * yp[i];
 }
 
-bool all_finite(const Vector& x) {
+bool all_finite(const Vector& x) { return all_finite(x.data(), x.size()); }
+
+bool all_finite(const double* x, std::int64_t n) {
   // NaN and Inf propagate into the sum (Inf - Inf = NaN): one pass, no branches.
   double s = 0.0;
-  const Eigen::Index n = x.size();
-  const double* xp = x.data();
 #pragma omp parallel for schedule(static) reduction(+ : s)
-  for (Eigen::Index i = 0; i < n; ++i) s += xp[i] * 0.0;
+  for (std::int64_t i = 0; i < n; ++i) s += x[i] * 0.0;
   return std::isfinite(s) || n == 0;
 }
 

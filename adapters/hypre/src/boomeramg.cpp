@@ -1,6 +1,7 @@
 #include "pmg/hypre/boomeramg.hpp"
 #include "pmg/sparse/bcsr.hpp"
 #include "pmg/sparse/layout.hpp"
+#include "pmg/sparse/vector_ops.hpp"
 
 #include "pmg/mpi/session.hpp"
 #include "pmg/sparse/factory.hpp"
@@ -11,7 +12,6 @@
 #include <mpi.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdint>
 #include <cmath>
 #include <limits>
@@ -32,6 +32,14 @@ void check(HYPRE_Int err, const char* what) {
   }
 }
 
+/// The rank's entries of an initialised IJ vector, written and read in place (hypre keeps them
+/// contiguous, rows lower..upper).
+double* local_data(HYPRE_IJVector v) {
+  HYPRE_ParVector p;
+  HYPRE_IJVectorGetObject(v, reinterpret_cast<void**>(&p));
+  return hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(p)));
+}
+
 }  // namespace
 
 /// The rows of the system as hypre reads them: scalar row r's (column, value) pairs, in column
@@ -41,12 +49,6 @@ struct RowSource {
   const Bcsr* bcsr = nullptr;
 
   index_t rows() const { return csr ? csr->rows() : bcsr->rows(); }
-  /// Entries in scalar row r.
-  offset_t length(index_t r) const {
-    if (csr) return csr->pattern().row_ptr[r + 1] - csr->pattern().row_ptr[r];
-    const BlockPattern& p = bcsr->pattern();
-    return Bcsr::kBlock * (p.row_ptr[r / Bcsr::kBlock + 1] - p.row_ptr[r / Bcsr::kBlock]);
-  }
   /// f(column, value) for each entry of scalar row r, in column order.
   template <class F>
   void for_each(index_t r, F&& f) const {
@@ -73,13 +75,10 @@ struct RowSource {
       if (v != 0.0 || j == r) f(j, v);
     });
   }
-  /// Whether any stored value is NaN or infinite.
-  bool has_non_finite() const {
+  /// Whether every stored value is finite.
+  bool all_finite() const {
     const std::vector<double>& v = csr ? csr->values() : bcsr->values();
-    bool bad = false;
-#pragma omp parallel for schedule(static) reduction(|| : bad)
-    for (std::int64_t k = 0; k < static_cast<std::int64_t>(v.size()); ++k) bad = bad || !std::isfinite(v[k]);
-    return bad;
+    return ops::all_finite(v.data(), static_cast<std::int64_t>(v.size()));
   }
 };
 
@@ -97,18 +96,13 @@ struct BoomerAMG::Impl {
   double grid_complexity = 0, operator_complexity = 0;
   HYPRE_Int lower = 0, upper = -1;
   std::vector<int> counts, displs;  // rows per rank, for gathering results
-  std::vector<HYPRE_Int> local_rows;
 
-  /// The solver and the rigid-body vectors (the matrix and the vectors b, x stay for an update).
-  void destroy_solver() {
+  void destroy() {
     if (solver) HYPRE_BoomerAMGDestroy(solver);
     for (HYPRE_IJVector v : rigid) HYPRE_IJVectorDestroy(v);
     rigid.clear();
     rigid_par.clear();
     solver = nullptr;
-  }
-  void destroy() {
-    destroy_solver();
     if (A) hypre_ParCSRMatrixDestroy(A);
     if (b) HYPRE_IJVectorDestroy(b);
     if (x) HYPRE_IJVectorDestroy(x);
@@ -118,7 +112,9 @@ struct BoomerAMG::Impl {
     std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
     destroy();
   }
-  // The steps of BoomerAMG::build, in order.
+  /// Everything from the source's current values: hypre's matrix and vectors, then BoomerAMG's
+  /// set-up (the steps below, in order). Throws InputError for NaN/Inf entries.
+  void build();
   /// Contiguous row blocks of whole nodes per rank (counts, displs, lower, upper).
   void distribute_rows(index_t n);
   /// The rank's rows of the source as a ParCSR matrix (the diagonal first in each row of its
@@ -224,28 +220,27 @@ void BoomerAMG::setup_impl(const LinearOperator& A) {
   if (d.params.interp_vectors > 0 && functions != 3)
     throw InputError("BoomerAMG: rigid-body interpolation vectors need 3x3 blocks (num_functions=3); this matrix "
                      "reads as a scalar system");
-  if (src.has_non_finite()) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
   d.params.num_functions = functions;
-  d.destroy();
   d.source = src;
-  // hypre's error flag is global: clear what an earlier object's calls left (a Destroy of a nodal
-  // hierarchy can flag an argument), so that this set-up reports only its own errors.
-  HYPRE_ClearAllErrors();
-  d.distribute_rows(n);
-  d.set_matrix();
-  d.setup_solver(n);
+  d.build();
 }
 
 void BoomerAMG::update_impl() {
   std::lock_guard<std::recursive_mutex> lock(mpi::library_lock());
-  Impl& d = *impl_;
-  if (d.source.has_non_finite()) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
-  // New values may have new zeros (or lose them), so hypre's matrix is built again, then
-  // BoomerAMG's set-up, which depends on the values, is redone.
-  d.destroy();
+  // New values may have new zeros (or lose them) and BoomerAMG's set-up depends on the values:
+  // everything is built again.
+  impl_->build();
+}
+
+void BoomerAMG::Impl::build() {
+  if (!source.all_finite()) throw InputError("BoomerAMG: matrix has NaN/Inf entries");
+  destroy();
+  // hypre's error flag is global: clear what an earlier object's calls left (a Destroy of a nodal
+  // hierarchy can flag an argument), so that this set-up reports only its own errors.
   HYPRE_ClearAllErrors();
-  d.set_matrix();
-  d.setup_solver(d.source.rows());
+  distribute_rows(source.rows());
+  set_matrix();
+  setup_solver(source.rows());
 }
 
 void BoomerAMG::Impl::distribute_rows(index_t n) {
@@ -320,8 +315,6 @@ void BoomerAMG::Impl::set_matrix() {
   fill_entries();
   hypre_ParCSRMatrixSetNumNonzeros(d.A);
   check(hypre_MatvecCommPkgCreate(d.A), "MatvecCommPkgCreate");
-  d.local_rows.resize(nlocal);
-  for (HYPRE_Int i = 0; i < nlocal; ++i) d.local_rows[i] = lo + i;
   for (HYPRE_IJVector* v : {&d.b, &d.x}) {
     check(HYPRE_IJVectorCreate(MPI_COMM_WORLD, d.lower, d.upper, v), "IJVectorCreate");
     check(HYPRE_IJVectorSetObjectType(*v, HYPRE_PARCSR), "IJVectorSetObjectType");
@@ -402,13 +395,13 @@ void BoomerAMG::Impl::set_rigid_body_vectors(HYPRE_Solver s, index_t n) {
                                             : std::to_string(d.coordinates.size() / 3)));
   double c[3] = {0, 0, 0};
   for (index_t i = 0; i < n; ++i) c[i % 3] += d.coordinates[i] / static_cast<double>(n / 3);
-  std::vector<double> values(nlocal);
   for (int k = 0; k < 3; ++k) {
     HYPRE_IJVector v;
     check(HYPRE_IJVectorCreate(MPI_COMM_WORLD, d.lower, d.upper, &v), "IJVectorCreate");
     d.rigid.push_back(v);
     check(HYPRE_IJVectorSetObjectType(v, HYPRE_PARCSR), "IJVectorSetObjectType");
     check(HYPRE_IJVectorInitialize(v), "IJVectorInitialize");
+    double* values = local_data(v);
     for (HYPRE_Int i = 0; i < nlocal; ++i) {
       const index_t row = d.lower + i, node = row / 3;
       const int comp = static_cast<int>(row % 3);
@@ -418,7 +411,6 @@ void BoomerAMG::Impl::set_rigid_body_vectors(HYPRE_Solver s, index_t n) {
       const int a = (k + 1) % 3, b = (k + 2) % 3;
       values[i] = comp == a ? -x[b] : comp == b ? x[a] : 0.0;
     }
-    if (nlocal > 0) check(HYPRE_IJVectorSetValues(v, nlocal, d.local_rows.data(), values.data()), "IJVectorSetValues");
     check(HYPRE_IJVectorAssemble(v), "IJVectorAssemble");
     HYPRE_ParVector pv;
     HYPRE_IJVectorGetObject(v, reinterpret_cast<void**>(&pv));
@@ -480,9 +472,8 @@ void BoomerAMG::apply_impl(const Vector& r, Vector& z) const {
   HYPRE_ParVector parb, parx;
   HYPRE_IJVectorGetObject(d.b, reinterpret_cast<void**>(&parb));
   HYPRE_IJVectorGetObject(d.x, reinterpret_cast<void**>(&parx));
-  // This rank's entries are written and read in place (hypre's local vectors are contiguous).
-  double* b = hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(parb)));
-  double* x = hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(parx)));
+  double* b = local_data(d.b);
+  double* x = local_data(d.x);
   std::copy(r.data() + d.lower, r.data() + d.lower + nlocal, b);
   std::fill(x, x + nlocal, 0.0);
   check(HYPRE_BoomerAMGSolve(d.solver, reinterpret_cast<HYPRE_ParCSRMatrix>(d.A), parb, parx), "BoomerAMGSolve");

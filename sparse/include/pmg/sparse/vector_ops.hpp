@@ -28,6 +28,8 @@ void axpy(double a, const Vector& x, Vector& y);
 void xpby(const Vector& x, double b, Vector& y);
 /// True if every entry is finite.
 bool all_finite(const Vector& x);
+/// True if each of the n entries from x is finite (a matrix's values, say).
+bool all_finite(const double* x, std::int64_t n);
 /// z = D r, D block diagonal: 3x3 row-major blocks (9 doubles each), one per 3 entries of r.
 void block_diagonal_apply(const std::vector<double>& D, const Vector& r, Vector& z);
 /// z = D r for `blocks` 3x3 blocks on raw arrays (D: 9 doubles per block, r and z: 3 per block; z
